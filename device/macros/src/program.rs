@@ -1,0 +1,321 @@
+//! Parsing a program function and emitting its entry point.
+
+use proc_macro2::{Span, TokenStream};
+use quote::{format_ident, quote, quote_spanned};
+use syn::spanned::Spanned;
+use syn::{FnArg, Ident, ItemFn, Pat, Type};
+
+/// The program kinds these macros handle.
+#[derive(Copy, Clone, PartialEq, Eq)]
+pub enum Stage {
+    Raygen,
+    Miss,
+    ClosestHit,
+}
+
+impl Stage {
+    fn prefix(self) -> &'static str {
+        match self {
+            Stage::Raygen => "__raygen__",
+            Stage::Miss => "__miss__",
+            Stage::ClosestHit => "__closesthit__",
+        }
+    }
+    fn macro_name(self) -> &'static str {
+        match self {
+            Stage::Raygen => "raygen",
+            Stage::Miss => "miss",
+            Stage::ClosestHit => "closest_hit",
+        }
+    }
+    fn spirv_execution_model(self) -> Ident {
+        let name = match self {
+            Stage::Raygen => "ray_generation",
+            Stage::Miss => "miss",
+            Stage::ClosestHit => "closest_hit",
+        };
+        Ident::new(name, Span::call_site())
+    }
+    fn kind(self) -> TokenStream {
+        match self {
+            Stage::Raygen => quote!(::raykit_device::ProgramKind::Raygen),
+            Stage::Miss => quote!(::raykit_device::ProgramKind::Miss),
+            Stage::ClosestHit => quote!(::raykit_device::ProgramKind::ClosestHit),
+        }
+    }
+    fn context_type(self) -> &'static str {
+        match self {
+            Stage::Raygen => "Raygen",
+            Stage::Miss => "Miss",
+            Stage::ClosestHit => "ClosestHit",
+        }
+    }
+}
+
+/// The role of one parameter of the user's function.
+enum Role {
+    Context { by_ref: bool },
+    Params(Type),
+    Record(Type),
+    Payload(Type),
+}
+
+struct Param {
+    name: Ident,
+    role: Role,
+}
+
+/// `ray = Type` in the macro's arguments.
+struct Args {
+    ray: Option<syn::Path>,
+}
+
+fn parse_args(stage: Stage, attr: TokenStream) -> syn::Result<Args> {
+    let mut args = Args { ray: None };
+    if attr.is_empty() {
+        return Ok(args);
+    }
+    let parser = syn::meta::parser(|meta| {
+        if meta.path.is_ident("ray") && stage != Stage::Raygen {
+            let value: syn::Path = meta.value()?.parse()?;
+            args.ray = Some(value);
+            Ok(())
+        } else if meta.path.is_ident("ray") {
+            Err(meta.error("`ray = …` belongs on miss and closest-hit programs; raygen names the ray type at each `trace::<R>` call"))
+        } else {
+            Err(meta.error(format!(
+                "unknown argument of #[{}]; expected `ray = RayType` or nothing",
+                stage.macro_name()
+            )))
+        }
+    });
+    syn::parse::Parser::parse2(parser, attr)?;
+    Ok(args)
+}
+
+/// `&T` (shared) or `&mut T` (exclusive) → `T`.
+fn referent(ty: &Type, mutable: bool, what: &str) -> syn::Result<Type> {
+    match ty {
+        Type::Reference(r) if r.mutability.is_some() == mutable => Ok((*r.elem).clone()),
+        _ => Err(syn::Error::new(
+            ty.span(),
+            format!("{what} must be taken as `{}T`", if mutable { "&mut " } else { "&" }),
+        )),
+    }
+}
+
+fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
+    let mut params = Vec::new();
+    let mut errors: Option<syn::Error> = None;
+    let mut push_error = |e: syn::Error| match &mut errors {
+        Some(all) => all.combine(e),
+        None => errors = Some(e),
+    };
+    for input in func.sig.inputs.iter_mut() {
+        let FnArg::Typed(arg) = input else {
+            push_error(syn::Error::new(input.span(), "device programs are free functions, not methods"));
+            continue;
+        };
+        let name = match &*arg.pat {
+            Pat::Ident(p) => p.ident.clone(),
+            Pat::Wild(w) => Ident::new("__raykit_unused", w.span()),
+            other => {
+                push_error(syn::Error::new(other.span(), "use a plain name for program parameters"));
+                continue;
+            }
+        };
+        let mut role_attr: Option<(String, Span)> = None;
+        let mut kept = Vec::new();
+        for attr in arg.attrs.drain(..) {
+            let path = attr.path();
+            let known = ["params", "record", "payload"].iter().find(|k| path.is_ident(k));
+            match known {
+                Some(k) => {
+                    if role_attr.is_some() {
+                        push_error(syn::Error::new(attr.span(), "a parameter has at most one role attribute"));
+                    }
+                    role_attr = Some(((*k).to_owned(), attr.span()));
+                }
+                None => kept.push(attr),
+            }
+        }
+        arg.attrs = kept;
+        let ty = &*arg.ty;
+        let role = match role_attr.as_ref().map(|(s, _)| s.as_str()) {
+            None => {
+                let by_ref = matches!(ty, Type::Reference(_));
+                Ok(Role::Context { by_ref })
+            }
+            Some("params") => referent(ty, false, "#[params]").map(Role::Params),
+            Some("record") => referent(ty, false, "#[record]").map(Role::Record),
+            Some(_) => referent(ty, true, "#[payload]").map(Role::Payload),
+        };
+        match role {
+            Ok(role) => params.push(Param { name, role }),
+            Err(e) => push_error(e),
+        }
+    }
+    let count = |f: fn(&Role) -> bool| params.iter().filter(|p| f(&p.role)).count();
+    if count(|r| matches!(r, Role::Context { .. })) > 1 {
+        push_error(syn::Error::new(
+            func.sig.inputs.span(),
+            format!(
+                "only one parameter may be the stage context (`&mut {}`); mark the others #[params], #[record] or #[payload]",
+                stage.context_type()
+            ),
+        ));
+    }
+    for (what, n) in [
+        ("#[params]", count(|r| matches!(r, Role::Params(_)))),
+        ("#[record]", count(|r| matches!(r, Role::Record(_)))),
+    ] {
+        if n > 1 {
+            push_error(syn::Error::new(func.sig.inputs.span(), format!("at most one {what} parameter")));
+        }
+    }
+    if stage != Stage::Raygen && count(|r| matches!(r, Role::Payload(_))) > 1 {
+        push_error(syn::Error::new(
+            func.sig.inputs.span(),
+            "a miss or closest-hit program has one incoming payload; only raygen may declare several",
+        ));
+    }
+    match errors {
+        Some(e) => Err(e),
+        None => Ok(params),
+    }
+}
+
+fn check_signature(stage: Stage, func: &ItemFn) -> syn::Result<()> {
+    let sig = &func.sig;
+    if !sig.generics.params.is_empty() {
+        return Err(syn::Error::new(sig.generics.span(), "device programs cannot be generic (each is one SPIR-V entry point)"));
+    }
+    if let Some(a) = &sig.asyncness {
+        return Err(syn::Error::new(a.span(), "device programs cannot be async"));
+    }
+    if let syn::ReturnType::Type(_, ty) = &sig.output {
+        return Err(syn::Error::new(
+            ty.span(),
+            format!("a #[{}] program returns nothing; write results through the payload or a buffer", stage.macro_name()),
+        ));
+    }
+    Ok(())
+}
+
+pub fn expand(stage: Stage, attr: TokenStream, item: TokenStream) -> TokenStream {
+    match try_expand(stage, attr, item) {
+        Ok(tokens) => tokens,
+        Err(e) => e.to_compile_error(),
+    }
+}
+
+fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result<TokenStream> {
+    let args = parse_args(stage, attr)?;
+    let mut func: ItemFn = syn::parse2(item)?;
+    check_signature(stage, &func)?;
+    let params = parse_params(stage, &mut func)?;
+
+    let fn_name = func.sig.ident.clone();
+    let entry_name = format!("{}{}", stage.prefix(), fn_name);
+    let entry_const = format_ident!("{}", fn_name.to_string().to_uppercase(), span = fn_name.span());
+    let wrapper = format_ident!("{}", entry_name);
+    let kind = stage.kind();
+    let model = stage.spirv_execution_model();
+    let ctx_ty = format_ident!("{}", stage.context_type());
+
+    // Built-ins each stage's context is made of.
+    let (builtin_params, ctx_args) = match stage {
+        Stage::Raygen => (
+            quote! {
+                #[spirv(launch_id)] __launch_id: ::raykit_device::glam::UVec3,
+                #[spirv(launch_size)] __launch_size: ::raykit_device::glam::UVec3,
+            },
+            quote! { __launch_id, __launch_size },
+        ),
+        Stage::Miss => (
+            quote! {
+                #[spirv(launch_id)] __launch_id: ::raykit_device::glam::UVec3,
+                #[spirv(launch_size)] __launch_size: ::raykit_device::glam::UVec3,
+                #[spirv(world_ray_origin)] __world_ray_origin: ::raykit_device::glam::Vec3,
+                #[spirv(world_ray_direction)] __world_ray_direction: ::raykit_device::glam::Vec3,
+            },
+            quote! { __launch_id, __launch_size, __world_ray_origin, __world_ray_direction },
+        ),
+        Stage::ClosestHit => (
+            quote! {
+                #[spirv(launch_id)] __launch_id: ::raykit_device::glam::UVec3,
+                #[spirv(launch_size)] __launch_size: ::raykit_device::glam::UVec3,
+                #[spirv(world_ray_origin)] __world_ray_origin: ::raykit_device::glam::Vec3,
+                #[spirv(world_ray_direction)] __world_ray_direction: ::raykit_device::glam::Vec3,
+                #[spirv(ray_tmax)] __ray_tmax: f32,
+                #[spirv(primitive_id)] __primitive_id: u32,
+                #[spirv(hit_attribute)] __barycentrics: &mut ::raykit_device::glam::Vec2,
+            },
+            quote! { __launch_id, __launch_size, __world_ray_origin, __world_ray_direction,
+                     __ray_tmax, __primitive_id, *__barycentrics },
+        ),
+    };
+
+    let mut wrapper_params = Vec::new();
+    let mut call_args = Vec::new();
+    let mut checks = Vec::new();
+    for p in &params {
+        let name = &p.name;
+        match &p.role {
+            Role::Context { by_ref } => {
+                call_args.push(if *by_ref { quote!(&mut __ctx) } else { quote!(__ctx) });
+            }
+            Role::Params(ty) => {
+                wrapper_params.push(quote! { #[spirv(push_constant)] #name: &#ty });
+                call_args.push(quote!(#name));
+            }
+            Role::Record(ty) => {
+                wrapper_params.push(quote! { #[spirv(shader_record_buffer)] #name: &#ty });
+                call_args.push(quote!(#name));
+            }
+            Role::Payload(ty) => {
+                let storage = if stage == Stage::Raygen { quote!(ray_payload) } else { quote!(incoming_ray_payload) };
+                wrapper_params.push(quote! { #[spirv(#storage)] #name: &mut #ty });
+                call_args.push(quote!(#name));
+                if let Some(ray) = &args.ray {
+                    checks.push(quote_spanned! {ty.span()=>
+                        const _: () = {
+                            #[allow(dead_code)]
+                            fn __raykit_payload_matches_ray_type(
+                                payload: &mut <#ray as ::raykit_device::RayType>::Payload,
+                            ) -> &mut #ty {
+                                payload
+                            }
+                        };
+                    });
+                }
+            }
+        }
+    }
+
+    let doc = format!("The entry point `{entry_name}` (a {} program), for the host.", stage.context_type());
+    Ok(quote! {
+        #func
+
+        #[doc = #doc]
+        pub const #entry_const: ::raykit_device::EntryPoint = ::raykit_device::EntryPoint {
+            name: #entry_name,
+            kind: #kind,
+        };
+
+        #(#checks)*
+
+        #[doc(hidden)]
+        #[allow(non_snake_case, clippy::too_many_arguments)]
+        #[::raykit_device::__private::spirv(#model(entry_point_name = #entry_name))]
+        pub fn #wrapper(
+            #builtin_params
+            #[spirv(descriptor_set = 0, binding = 0, storage_buffer)] __buffers: &mut ::raykit_device::BufferTable,
+            #(#wrapper_params,)*
+        ) {
+            #[allow(unused_mut)]
+            let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers);
+            #fn_name(#(#call_args),*);
+        }
+    })
+}

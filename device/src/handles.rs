@@ -1,0 +1,158 @@
+//! Resources reached through launch params, as OptiX programs reach everything
+//! through `Params`.
+//!
+//! * [`Traversable`] is the TLAS, a 64-bit device address (OptiX's
+//!   `OptixTraversableHandle`); the device turns it into an acceleration structure
+//!   with `OpConvertUToAccelerationStructureKHR`.
+//! * [`Buffer<T>`] is a typed handle to a storage buffer: an index into the bindless
+//!   table ([`crate::BufferTable`]) that raykit binds for every launch. The host gets
+//!   one from `raykit::DeviceBuffer::handle`; the device reads and writes it through
+//!   its stage context (`ctx.load`, `ctx.store`).
+
+use core::marker::PhantomData;
+
+/// A top-level acceleration structure (or any traversable), as a device address.
+///
+/// Only raykit's host side creates non-null values (from a built `Ias`); a
+/// zeroed value is the null handle, and tracing against it is undefined on the
+/// device, as in OptiX.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Traversable {
+    address: u64,
+}
+
+impl Traversable {
+    /// The null traversable.
+    pub const NULL: Traversable = Traversable { address: 0 };
+
+    /// Wraps a device address of an acceleration structure. Host-side code should use
+    /// `raykit::Ias::handle` instead.
+    pub const fn from_device_address(address: u64) -> Self {
+        Traversable { address }
+    }
+
+    /// The device address.
+    pub const fn device_address(self) -> u64 {
+        self.address
+    }
+
+    /// The acceleration structure this handle names, for `OpTraceRayKHR`.
+    #[cfg(target_arch = "spirv")]
+    pub(crate) fn acceleration_structure(self) -> spirv_std::ray_tracing::AccelerationStructure {
+        // SAFETY: a non-null `Traversable` is only made by the host from a live,
+        // built acceleration structure's device address.
+        unsafe { spirv_std::ray_tracing::AccelerationStructure::from_u64(self.address) }
+    }
+}
+
+/// A typed handle to a storage buffer of `T`s in the bindless buffer table.
+#[repr(C)]
+pub struct Buffer<T> {
+    index: u32,
+    _element: PhantomData<T>,
+}
+
+impl<T> Buffer<T> {
+    /// A handle to slot `index` of the buffer table. Host-side code should use
+    /// `raykit::DeviceBuffer::handle`, which keeps the slot and the type right.
+    pub const fn from_table_index(index: u32) -> Self {
+        Buffer { index, _element: PhantomData }
+    }
+
+    /// The slot of the buffer table this handle names.
+    pub const fn table_index(self) -> u32 {
+        self.index
+    }
+}
+
+impl<T> Clone for Buffer<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for Buffer<T> {}
+impl<T> core::fmt::Debug for Buffer<T> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_tuple("Buffer").field(&self.index).finish()
+    }
+}
+impl<T> PartialEq for Buffer<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.index == other.index
+    }
+}
+impl<T> Eq for Buffer<T> {}
+// SAFETY: `Buffer<T>` is `repr(C)` over a `u32` and a zero-sized `PhantomData`:
+// no padding, every bit pattern valid, all-zero valid.
+unsafe impl<T: 'static> bytemuck::Zeroable for Buffer<T> {}
+// SAFETY: as above; `T` is only a marker and never stored.
+unsafe impl<T: 'static> bytemuck::Pod for Buffer<T> {}
+
+/// A value that a [`Buffer`] can hold: a fixed number of 32-bit words.
+///
+/// Buffers are tables of 32-bit words on the device (SPIR-V cannot reinterpret
+/// bytes), so each element type says how it is laid out in words. The host side
+/// uses the same layout through `bytemuck`.
+pub trait Element: Copy + bytemuck::Pod {
+    /// The number of 32-bit words one element takes.
+    const WORDS: u32;
+    /// Reads the element that starts at word `base`.
+    fn read(words: &[u32], base: usize) -> Self;
+    /// Writes the element at word `base`.
+    fn write(self, words: &mut [u32], base: usize);
+}
+
+impl Element for u32 {
+    const WORDS: u32 = 1;
+    fn read(words: &[u32], base: usize) -> Self {
+        words[base]
+    }
+    fn write(self, words: &mut [u32], base: usize) {
+        words[base] = self;
+    }
+}
+
+impl Element for i32 {
+    const WORDS: u32 = 1;
+    fn read(words: &[u32], base: usize) -> Self {
+        words[base] as i32
+    }
+    fn write(self, words: &mut [u32], base: usize) {
+        words[base] = self as u32;
+    }
+}
+
+impl Element for f32 {
+    const WORDS: u32 = 1;
+    fn read(words: &[u32], base: usize) -> Self {
+        f32::from_bits(words[base])
+    }
+    fn write(self, words: &mut [u32], base: usize) {
+        words[base] = self.to_bits();
+    }
+}
+
+macro_rules! float_vector_element {
+    ($ty:ty, $n:literal, [$($c:ident),+]) => {
+        impl Element for $ty {
+            const WORDS: u32 = $n;
+            fn read(words: &[u32], base: usize) -> Self {
+                let mut i = base;
+                $(let $c = f32::from_bits(words[i]); i += 1;)+
+                let _ = i;
+                <$ty>::new($($c),+)
+            }
+            fn write(self, words: &mut [u32], base: usize) {
+                let mut i = base;
+                $(words[i] = self.$c.to_bits(); i += 1;)+
+                let _ = i;
+            }
+        }
+    };
+}
+float_vector_element!(glam::Vec2, 2, [x, y]);
+float_vector_element!(glam::Vec3, 3, [x, y, z]);
+float_vector_element!(glam::Vec4, 4, [x, y, z, w]);
+
+use spirv_std::glam;

@@ -1,0 +1,61 @@
+//! # raykit-device
+//!
+//! The device side of raykit: OptiX 7's programs (`__raygen__`, `__miss__`,
+//! `__closesthit__`, …) written as plain Rust functions and compiled to SPIR-V by
+//! rust-gpu. The attribute macros [`raygen`], [`miss`] and [`closest_hit`] wrap a
+//! function and emit the Vulkan entry point with the OptiX-prefixed name.
+//!
+//! A program receives a *stage context* ([`Raygen`], [`Miss`], [`ClosestHit`]) that
+//! offers exactly what that stage may use (launch index, tracing, barycentrics, …),
+//! plus, marked by parameter attributes:
+//!
+//! * `#[params] p: &P` — the launch params (push constants), one `#[repr(C)]` struct
+//!   shared with the host;
+//! * `#[record] r: &R` — the program's own SBT record data, typed;
+//! * `#[payload] p: &mut T` — the ray payload (outgoing in raygen, incoming in miss
+//!   and closest-hit).
+//!
+//! ```ignore
+//! #[raygen]
+//! fn rg(ctx: &mut Raygen, #[params] params: &Params, #[payload] color: &mut Vec3) {
+//!     let ray = camera_ray(ctx.launch_index(), ctx.launch_dimensions(), params);
+//!     ctx.trace::<Radiance>(params.scene, ray, color);
+//!     ctx.store(params.image, ctx.launch_linear_index(), make_color(*color));
+//! }
+//! ```
+//!
+//! This crate also compiles for the host target: launch-params structs, record data
+//! types, [`Buffer`] and [`Traversable`] handles and the [`EntryPoint`] constants the
+//! macros generate are shared between the two sides.
+#![cfg_attr(target_arch = "spirv", no_std)]
+#![deny(missing_docs)]
+
+pub mod entry;
+pub mod handles;
+pub mod ray;
+pub mod stage;
+
+pub use bytemuck;
+pub use entry::{EntryPoint, ProgramKind};
+pub use handles::{Buffer, Element, Traversable};
+pub use ray::{Ray, RayFlags, RayType};
+pub use raykit_macros::{closest_hit, miss, raygen};
+pub use spirv_std;
+pub use spirv_std::glam;
+pub use stage::{ClosestHit, Miss, Raygen};
+
+/// The bindless storage-buffer table every program sees at descriptor set 0,
+/// binding 0. [`Buffer`] handles in launch params index it. Part of raykit's ABI
+/// with the host; user code never names it.
+pub type BufferTable = spirv_std::RuntimeArray<spirv_std::TypedBuffer<[u32]>>;
+
+/// Descriptor set and binding of [`BufferTable`].
+pub const BUFFER_TABLE_SET: u32 = 0;
+/// Binding of [`BufferTable`] in its set.
+pub const BUFFER_TABLE_BINDING: u32 = 0;
+
+#[doc(hidden)]
+pub mod __private {
+    //! Used by the code the macros generate; not a stable API.
+    pub use spirv_std::spirv;
+}

@@ -1,0 +1,57 @@
+//! The miss stage (`__miss__`).
+
+use spirv_std::glam::{UVec3, Vec3};
+
+use crate::{Buffer, BufferTable, Element};
+
+/// What a miss program may use: launch index and size, the ray, buffers.
+pub struct Miss<'a> {
+    launch_index: UVec3,
+    launch_dimensions: UVec3,
+    world_ray_origin: Vec3,
+    world_ray_direction: Vec3,
+    buffers: &'a mut BufferTable,
+}
+
+impl<'a> Miss<'a> {
+    #[doc(hidden)]
+    pub fn __new(
+        launch_index: UVec3,
+        launch_dimensions: UVec3,
+        world_ray_origin: Vec3,
+        world_ray_direction: Vec3,
+        buffers: &'a mut BufferTable,
+    ) -> Self {
+        Miss { launch_index, launch_dimensions, world_ray_origin, world_ray_direction, buffers }
+    }
+
+    /// This invocation's index in the launch grid.
+    pub fn launch_index(&self) -> UVec3 {
+        self.launch_index
+    }
+
+    /// The launch grid's size.
+    pub fn launch_dimensions(&self) -> UVec3 {
+        self.launch_dimensions
+    }
+
+    /// The ray's origin in world space (`optixGetWorldRayOrigin`).
+    pub fn world_ray_origin(&self) -> Vec3 {
+        self.world_ray_origin
+    }
+
+    /// The ray's direction in world space (`optixGetWorldRayDirection`).
+    pub fn world_ray_direction(&self) -> Vec3 {
+        self.world_ray_direction
+    }
+
+    /// Reads element `index` of `buffer`.
+    pub fn load<T: Element>(&self, buffer: Buffer<T>, index: u32) -> T {
+        super::load(self.buffers, buffer, index)
+    }
+
+    /// Writes element `index` of `buffer`.
+    pub fn store<T: Element>(&mut self, buffer: Buffer<T>, index: u32, value: T) {
+        super::store(self.buffers, buffer, index, value)
+    }
+}

@@ -1,0 +1,63 @@
+//! The ray-generation stage (`__raygen__`).
+
+use spirv_std::glam::{UVec3, Vec3};
+
+use crate::{Buffer, BufferTable, Element, Ray, RayType, Traversable};
+
+/// What a raygen program may use: launch index and size, tracing, buffers.
+pub struct Raygen<'a> {
+    launch_index: UVec3,
+    launch_dimensions: UVec3,
+    buffers: &'a mut BufferTable,
+}
+
+impl<'a> Raygen<'a> {
+    #[doc(hidden)]
+    pub fn __new(launch_index: UVec3, launch_dimensions: UVec3, buffers: &'a mut BufferTable) -> Self {
+        Raygen { launch_index, launch_dimensions, buffers }
+    }
+
+    /// This invocation's index in the launch grid (`optixGetLaunchIndex`).
+    pub fn launch_index(&self) -> UVec3 {
+        self.launch_index
+    }
+
+    /// The launch grid's size (`optixGetLaunchDimensions`).
+    pub fn launch_dimensions(&self) -> UVec3 {
+        self.launch_dimensions
+    }
+
+    /// `x + y * width + z * width * height`: the index of this invocation's pixel in
+    /// a row-major image.
+    pub fn launch_linear_index(&self) -> u32 {
+        let (i, d) = (self.launch_index, self.launch_dimensions);
+        i.x + d.x * (i.y + d.y * i.z)
+    }
+
+    /// Traces `ray` of ray type `R` into `scene`; the miss or closest-hit program
+    /// writes the result into `payload` (`optixTrace`).
+    pub fn trace<R: RayType>(&mut self, scene: Traversable, ray: Ray, payload: &mut R::Payload) {
+        super::trace::<R>(scene, ray, payload)
+    }
+
+    /// Shorthand for a ray from `origin` along `direction` over `[0, 1e16]`.
+    pub fn trace_from<R: RayType>(
+        &mut self,
+        scene: Traversable,
+        origin: Vec3,
+        direction: Vec3,
+        payload: &mut R::Payload,
+    ) {
+        self.trace::<R>(scene, Ray::new(origin, direction), payload)
+    }
+
+    /// Reads element `index` of `buffer`.
+    pub fn load<T: Element>(&self, buffer: Buffer<T>, index: u32) -> T {
+        super::load(self.buffers, buffer, index)
+    }
+
+    /// Writes element `index` of `buffer`.
+    pub fn store<T: Element>(&mut self, buffer: Buffer<T>, index: u32, value: T) {
+        super::store(self.buffers, buffer, index, value)
+    }
+}

@@ -1,0 +1,147 @@
+//! optixTriangle in Rust: one triangle, a pinhole camera, a miss program that
+//! returns the background colour from its SBT record, a closest-hit program that
+//! colours by barycentrics.
+//!
+//! This crate is compiled twice: to SPIR-V by `cargo xtask build-shaders`, and for
+//! the host, where [`Params`], [`MissData`], the entry-point constants ([`RG`],
+//! [`MS`], [`CH`]) and the colour helpers are shared with the host program and
+//! the CPU reference of the tests.
+#![cfg_attr(target_arch = "spirv", no_std)]
+
+use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
+use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, Miss, RayType, Raygen, Traversable};
+
+/// Launch params, as in the seed's `Params`: output image, its size, the camera
+/// basis (`cam_u`, `cam_v`, `cam_w` scaled to the image plane) and the scene.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Params {
+    /// RGBA8 pixels, row-major, row 0 at the top.
+    pub image: Buffer<u32>,
+    /// Image width and height in pixels.
+    pub size: UVec2,
+    /// Camera position.
+    pub cam_eye: Vec3,
+    /// Camera right vector, scaled to half the image plane width.
+    pub cam_u: Vec3,
+    /// Camera up vector, scaled to half the image plane height.
+    pub cam_v: Vec3,
+    /// Camera forward vector, from the eye to the image plane centre.
+    pub cam_w: Vec3,
+    /// Padding so `handle` sits on its 8-byte alignment on every target.
+    pub _pad: u32,
+    /// The scene's top-level acceleration structure.
+    pub handle: Traversable,
+}
+
+/// The miss program's SBT record data.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct MissData {
+    /// Background colour (linear RGB).
+    pub bg_color: Vec3,
+}
+
+/// The one ray type: radiance, payload = linear RGB colour.
+pub struct Radiance;
+impl RayType for Radiance {
+    type Payload = Vec3;
+    const SBT_OFFSET: u32 = 0;
+    const SBT_STRIDE: u32 = 1;
+    const MISS_INDEX: u32 = 0;
+}
+
+/// Where on the image plane the centre of pixel `index` of a `dims`-sized image
+/// lies, in `[-1, 1]²` with +y up (row 0 is the top row).
+pub fn pixel_to_ndc(index: UVec2, dims: UVec2) -> Vec2 {
+    let x = (index.x as f32 + 0.5) / dims.x as f32;
+    let y = (index.y as f32 + 0.5) / dims.y as f32;
+    Vec2::new(2.0 * x - 1.0, 1.0 - 2.0 * y)
+}
+
+/// The camera ray through the centre of pixel `index` (optixTriangle's `computeRay`).
+pub fn camera_ray(index: UVec2, dims: UVec2, params: &Params) -> (Vec3, Vec3) {
+    let d = pixel_to_ndc(index, dims);
+    let direction = (d.x * params.cam_u + d.y * params.cam_v + params.cam_w).normalize();
+    (params.cam_eye, direction)
+}
+
+/// Linear → sRGB transfer function of one channel in `[0, 1]`.
+pub fn linear_to_srgb(c: f32) -> f32 {
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * powf(c, 1.0 / 2.4) - 0.055
+    }
+}
+
+fn powf(x: f32, y: f32) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    {
+        use raykit_device::spirv_std::num_traits::Float;
+        x.powf(y)
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        x.powf(y)
+    }
+}
+
+/// sutil's `make_color`: clamp, sRGB-encode, quantise to 8 bits, pack as RGBA8
+/// (red in the lowest byte, alpha 255).
+pub fn make_color(c: Vec3) -> u32 {
+    let q = |v: f32| -> u32 { (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0 + 0.5) as u32 };
+    q(c.x) | (q(c.y) << 8) | (q(c.z) << 16) | (255 << 24)
+}
+
+/// The closest-hit colour: `(1 - u - v, u, v)` from the barycentrics.
+pub fn barycentric_color(b: Vec2) -> Vec3 {
+    Vec3::new(1.0 - b.x - b.y, b.x, b.y)
+}
+
+#[raygen]
+fn rg(ctx: &mut Raygen, #[params] params: &Params, #[payload] color: &mut Vec3) {
+    let index: UVec3 = ctx.launch_index();
+    let (origin, direction) = camera_ray(index.truncate(), ctx.launch_dimensions().truncate(), params);
+    *color = Vec3::ZERO;
+    ctx.trace_from::<Radiance>(params.handle, origin, direction, color);
+    let pixel = ctx.launch_linear_index();
+    ctx.store(params.image, pixel, make_color(*color));
+}
+
+#[miss(ray = Radiance)]
+fn ms(_ctx: &mut Miss, #[record] data: &MissData, #[payload] color: &mut Vec3) {
+    *color = data.bg_color;
+}
+
+#[closest_hit(ray = Radiance)]
+fn ch(ctx: &mut ClosestHit, #[payload] color: &mut Vec3) {
+    *color = barycentric_color(ctx.barycentrics());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn entry_points_carry_optix_prefixes() {
+        assert_eq!(RG.name, "__raygen__rg");
+        assert_eq!(MS.name, "__miss__ms");
+        assert_eq!(CH.name, "__closesthit__ch");
+        assert_eq!(CH.kind, raykit_device::ProgramKind::ClosestHit);
+    }
+
+    #[test]
+    fn params_layout_is_the_same_on_every_target() {
+        assert_eq!(core::mem::size_of::<Params>(), 72);
+        assert_eq!(core::mem::offset_of!(Params, handle), 64);
+        assert_eq!(core::mem::offset_of!(Params, cam_w), 48);
+    }
+
+    #[test]
+    fn make_color_quantises_like_sutil() {
+        assert_eq!(make_color(Vec3::ZERO), 0xff00_0000);
+        assert_eq!(make_color(Vec3::ONE), 0xffff_ffff);
+        assert_eq!(make_color(Vec3::new(2.0, -1.0, 0.0)), 0xff00_00ff);
+    }
+}

@@ -1,0 +1,89 @@
+//! optixTriangle on raykit: the host half. [`render`] sets up the scene of the
+//! seed (one triangle, camera at `(0, 0, 2)` looking at the origin, 45° vertical
+//! field of view), launches, and returns RGBA8 pixels. The device half, and the
+//! types both halves share, are in the `triangle-device` crate.
+
+use raykit::glam::{UVec2, Vec3};
+use raykit::{Context, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt};
+use triangle_device::{MissData, Params};
+
+/// The triangle's vertices, as in the seed.
+pub const VERTICES: [Vec3; 3] = [Vec3::new(-0.5, -0.5, 0.0), Vec3::new(0.5, -0.5, 0.0), Vec3::new(0.0, 0.5, 0.0)];
+
+/// The miss program's background colour, as in the seed.
+pub const BG_COLOR: Vec3 = Vec3::new(0.3, 0.1, 0.2);
+
+/// A pinhole camera (sutil's `Camera`).
+#[derive(Copy, Clone, Debug)]
+pub struct Camera {
+    /// Position.
+    pub eye: Vec3,
+    /// Point looked at.
+    pub look_at: Vec3,
+    /// Up direction.
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub fov_y_degrees: f32,
+}
+
+impl Camera {
+    /// optixTriangle's camera.
+    pub const OPTIX_TRIANGLE: Camera =
+        Camera { eye: Vec3::new(0.0, 0.0, 2.0), look_at: Vec3::ZERO, up: Vec3::new(0.0, 1.0, 0.0), fov_y_degrees: 45.0 };
+
+    /// The `(u, v, w)` basis of sutil's `Camera::UVWFrame` for an image of `aspect`
+    /// = width / height: `w` from eye to the look-at point, `u` and `v` scaled to
+    /// half the image plane.
+    pub fn uvw(&self, aspect: f32) -> (Vec3, Vec3, Vec3) {
+        let w = self.look_at - self.eye;
+        let w_len = w.length();
+        let u = w.cross(self.up).normalize();
+        let v = u.cross(w).normalize();
+        let v_len = w_len * (0.5 * self.fov_y_degrees.to_radians()).tan();
+        let u_len = v_len * aspect;
+        (u * u_len, v * v_len, w)
+    }
+}
+
+/// The launch params for a `width × height` image written to `image`.
+pub fn params(width: u32, height: u32, image: raykit::Buffer<u32>, scene: raykit::Traversable) -> Params {
+    let (u, v, w) = Camera::OPTIX_TRIANGLE.uvw(width as f32 / height as f32);
+    Params {
+        image,
+        size: UVec2::new(width, height),
+        cam_eye: Camera::OPTIX_TRIANGLE.eye,
+        cam_u: u,
+        cam_v: v,
+        cam_w: w,
+        _pad: 0,
+        handle: scene,
+    }
+}
+
+/// Renders optixTriangle at `width × height`; returns RGBA8 pixels, row 0 at the top.
+pub fn render(ctx: &Context, width: u32, height: u32) -> raykit::Result<Vec<u32>> {
+    let module = Module::from_device_crate(ctx, "triangle-device")?;
+    let raygen = ProgramGroup::raygen(&module, triangle_device::RG)?;
+    let miss = ProgramGroup::miss(&module, triangle_device::MS)?;
+    let hit = ProgramGroup::hit_group(&module).closest_hit(triangle_device::CH).build()?;
+    let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
+    let sbt = Sbt::builder(&pipeline)
+        .raygen(&raygen, ())
+        .miss(&miss, MissData { bg_color: BG_COLOR })
+        .hit(&hit, ())
+        .build()?;
+
+    let gas = Gas::triangles(ctx, &VERTICES, None)?;
+    let scene = Ias::single(ctx, &gas)?;
+    let pixel_count = width as usize * height as usize;
+    let image = ctx.buffer::<u32>(pixel_count)?;
+    pipeline.launch(&sbt, &params(width, height, image.handle(), scene.handle()), [width, height, 1])?;
+    image.read()
+}
+
+/// Writes RGBA8 pixels to a PNG file.
+pub fn write_png(path: &std::path::Path, width: u32, height: u32, pixels: &[u32]) -> anyhow::Result<()> {
+    let bytes: Vec<u8> = pixels.iter().flat_map(|p| p.to_le_bytes()).collect();
+    image::save_buffer(path, &bytes, width, height, image::ExtendedColorType::Rgba8)?;
+    Ok(())
+}

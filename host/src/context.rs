@@ -1,0 +1,581 @@
+//! The device context: one Vulkan device with ray-tracing pipelines, like OptiX's
+//! `OptixDeviceContext`.
+//!
+//! [`Context::new`] picks the first physical device that has
+//! [`VK_KHR_ray_tracing_pipeline`](https://registry.khronos.org/vulkan/specs/latest/man/html/VK_KHR_ray_tracing_pipeline.html)
+//! and the features raykit needs; when none has, the error lists every device seen
+//! and what each lacks. The context owns the logical device, the queue, the memory
+//! allocator (gpu-allocator) and the bindless buffer table; every other raykit
+//! object keeps it alive through an `Arc`, so no handle outlives its device.
+
+use std::ffi::{c_void, CStr};
+use std::mem::ManuallyDrop;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use ash::vk;
+
+use crate::buffer_table::BufferTable;
+use crate::error::{DeviceReport, Error, Result};
+use crate::log::{MessageLog, Severity, ValidationMessage};
+
+/// Device extensions raykit needs.
+const REQUIRED_EXTENSIONS: [&CStr; 3] = [
+    ash::khr::ray_tracing_pipeline::NAME,
+    ash::khr::acceleration_structure::NAME,
+    ash::khr::deferred_host_operations::NAME,
+];
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// How to create a [`Context`].
+#[derive(Clone, Debug, Default)]
+pub struct ContextOptions {
+    /// Enable the Khronos validation layer and collect its messages in
+    /// [`Context::messages`]. `None` means: on when the environment variable
+    /// `RAYKIT_VALIDATION` is `1`.
+    pub validation: Option<bool>,
+    /// Use the first ray-tracing device whose name contains this string.
+    pub device_name_contains: Option<String>,
+}
+
+/// Ray-tracing limits and SBT layout constants of the device.
+#[derive(Copy, Clone, Debug)]
+pub struct DeviceLimits {
+    /// `shaderGroupHandleSize`.
+    pub shader_group_handle_size: u32,
+    /// `shaderGroupHandleAlignment`.
+    pub shader_group_handle_alignment: u32,
+    /// `shaderGroupBaseAlignment`.
+    pub shader_group_base_alignment: u32,
+    /// `maxShaderGroupStride`.
+    pub max_shader_group_stride: u32,
+    /// `maxRayRecursionDepth`.
+    pub max_ray_recursion_depth: u32,
+    /// `maxRayDispatchInvocationCount`.
+    pub max_ray_dispatch_invocation_count: u32,
+    /// `maxPushConstantsSize`.
+    pub max_push_constants_size: u32,
+    /// `minAccelerationStructureScratchOffsetAlignment`.
+    pub min_scratch_alignment: u32,
+    /// `maxGeometryCount` of acceleration structures.
+    pub max_geometry_count: u64,
+    /// `maxPrimitiveCount` of acceleration structures.
+    pub max_primitive_count: u64,
+    /// `maxInstanceCount` of acceleration structures.
+    pub max_instance_count: u64,
+}
+
+/// A Vulkan device with ray tracing, and what every raykit object shares.
+#[derive(Clone)]
+pub struct Context {
+    pub(crate) inner: Arc<ContextInner>,
+}
+
+pub(crate) struct ContextInner {
+    _entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    /// Owned by the messenger callback's user data; freed after the messenger.
+    log_ptr: *const MessageLog,
+    pub(crate) log: MessageLog,
+    pub(crate) device: ash::Device,
+    pub(crate) rt: ash::khr::ray_tracing_pipeline::Device,
+    pub(crate) accel: ash::khr::acceleration_structure::Device,
+    queue: Mutex<vk::Queue>,
+    queue_family: u32,
+    command_pool: Mutex<vk::CommandPool>,
+    pub(crate) allocator: ManuallyDrop<Mutex<gpu_allocator::vulkan::Allocator>>,
+    pub(crate) buffer_table: ManuallyDrop<BufferTable>,
+    pub(crate) limits: DeviceLimits,
+    device_name: String,
+}
+
+// SAFETY: the raw `log_ptr` points at a `MessageLog` (itself Send + Sync) that lives
+// as long as the context; every other field is Send + Sync, and Vulkan objects that
+// need external synchronisation (queue, command pool, allocator) sit behind mutexes.
+unsafe impl Send for ContextInner {}
+// SAFETY: as above.
+unsafe impl Sync for ContextInner {}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user_data: *mut c_void,
+) -> vk::Bool32 {
+    // SAFETY: `user_data` is the `MessageLog` box installed with the messenger, alive
+    // until after the messenger is destroyed; `data` is valid for this call.
+    unsafe {
+        if user_data.is_null() || data.is_null() {
+            return vk::FALSE;
+        }
+        let log = &*(user_data as *const MessageLog);
+        let data = &*data;
+        let text = if data.p_message.is_null() {
+            String::new()
+        } else {
+            CStr::from_ptr(data.p_message).to_string_lossy().into_owned()
+        };
+        let id = if data.p_message_id_name.is_null() {
+            String::new()
+        } else {
+            CStr::from_ptr(data.p_message_id_name).to_string_lossy().into_owned()
+        };
+        let severity = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+            Severity::Error
+        } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
+            Severity::Warning
+        } else {
+            Severity::Info
+        };
+        log.push(ValidationMessage { severity, id, text });
+    }
+    vk::FALSE
+}
+
+fn version_string(v: u32) -> String {
+    format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v))
+}
+
+/// The feature structs raykit enables, chained for query or creation.
+#[derive(Default)]
+struct Features {
+    rt: vk::PhysicalDeviceRayTracingPipelineFeaturesKHR<'static>,
+    accel: vk::PhysicalDeviceAccelerationStructureFeaturesKHR<'static>,
+    v12: vk::PhysicalDeviceVulkan12Features<'static>,
+    base: vk::PhysicalDeviceFeatures,
+}
+
+impl Features {
+    /// Queries what `physical` supports.
+    fn query(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Features {
+        let mut f = Features::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default()
+            .push_next(&mut f.rt)
+            .push_next(&mut f.accel)
+            .push_next(&mut f.v12);
+        // SAFETY: `physical` came from this instance; the chain is well formed.
+        unsafe { instance.get_physical_device_features2(physical, &mut features2) };
+        f.base = features2.features;
+        f.rt.p_next = std::ptr::null_mut();
+        f.accel.p_next = std::ptr::null_mut();
+        f.v12.p_next = std::ptr::null_mut();
+        f
+    }
+
+    /// The subset raykit turns on.
+    fn required() -> Features {
+        Features {
+            rt: vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true),
+            accel: vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true),
+            v12: vk::PhysicalDeviceVulkan12Features::default()
+                .buffer_device_address(true)
+                .scalar_block_layout(true)
+                .runtime_descriptor_array(true)
+                .descriptor_binding_partially_bound(true)
+                .descriptor_binding_storage_buffer_update_after_bind(true)
+                .descriptor_indexing(true),
+            base: vk::PhysicalDeviceFeatures::default().shader_int64(true),
+        }
+    }
+
+    /// Names of required features `self` lacks.
+    fn missing(&self) -> Vec<String> {
+        let checks: [(&str, vk::Bool32); 8] = [
+            ("rayTracingPipeline", self.rt.ray_tracing_pipeline),
+            ("accelerationStructure", self.accel.acceleration_structure),
+            ("bufferDeviceAddress", self.v12.buffer_device_address),
+            ("scalarBlockLayout", self.v12.scalar_block_layout),
+            ("runtimeDescriptorArray", self.v12.runtime_descriptor_array),
+            ("descriptorBindingPartiallyBound", self.v12.descriptor_binding_partially_bound),
+            ("descriptorBindingStorageBufferUpdateAfterBind", self.v12.descriptor_binding_storage_buffer_update_after_bind),
+            ("shaderInt64", self.base.shader_int64),
+        ];
+        checks.iter().filter(|(_, on)| *on == vk::FALSE).map(|(n, _)| format!("feature {n}")).collect()
+    }
+}
+
+/// Checks one physical device; returns its report (empty `missing` = usable).
+fn inspect_device(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Result<(DeviceReport, Option<u32>)> {
+    // SAFETY: `physical` came from this instance.
+    let props = unsafe { instance.get_physical_device_properties(physical) };
+    let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut missing = Vec::new();
+    if props.api_version < vk::API_VERSION_1_2 {
+        missing.push("Vulkan 1.2".to_owned());
+    }
+    // SAFETY: as above.
+    let extensions = unsafe { instance.enumerate_device_extension_properties(physical) }
+        .map_err(Error::vk("vkEnumerateDeviceExtensionProperties"))?;
+    for required in REQUIRED_EXTENSIONS {
+        let has = extensions.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == required));
+        if !has {
+            missing.push(format!("extension {}", required.to_string_lossy()));
+        }
+    }
+    if props.api_version >= vk::API_VERSION_1_2 {
+        missing.extend(Features::query(instance, physical).missing());
+    }
+    // SAFETY: as above.
+    let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+    let queue_family = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)).map(|i| i as u32);
+    if queue_family.is_none() {
+        missing.push("a compute queue".to_owned());
+    }
+    let report = DeviceReport {
+        name,
+        device_type: format!("{:?}", props.device_type),
+        api_version: version_string(props.api_version),
+        missing,
+    };
+    Ok((report, queue_family))
+}
+
+impl Context {
+    /// Creates a context on the first device with ray-tracing pipelines.
+    pub fn new(options: ContextOptions) -> Result<Context> {
+        let validation = options
+            .validation
+            .unwrap_or_else(|| std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1"));
+        // SAFETY: loading the system Vulkan loader runs its initialisation code; we
+        // trust the installed loader as every Vulkan program does.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::LoaderMissing(e.to_string()))?;
+
+        let mut layers: Vec<*const std::ffi::c_char> = Vec::new();
+        let mut instance_extensions: Vec<*const std::ffi::c_char> = Vec::new();
+        if validation {
+            // SAFETY: plain enumeration call.
+            let available = unsafe { entry.enumerate_instance_layer_properties() }
+                .map_err(Error::vk("vkEnumerateInstanceLayerProperties"))?;
+            if !available.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER)) {
+                return Err(Error::ValidationLayerMissing);
+            }
+            layers.push(VALIDATION_LAYER.as_ptr());
+            instance_extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        let app_info = vk::ApplicationInfo::default()
+            .application_name(c"raykit")
+            .engine_name(c"raykit")
+            .api_version(vk::API_VERSION_1_2);
+        let log = MessageLog::default();
+        let log_ptr = Box::into_raw(Box::new(log.clone())) as *const MessageLog;
+        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(
+                vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+            )
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+            )
+            .pfn_user_callback(Some(debug_callback))
+            .user_data(log_ptr as *mut c_void);
+        let mut instance_info = vk::InstanceCreateInfo::default()
+            .application_info(&app_info)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&instance_extensions);
+        if validation {
+            // Also catches messages of instance creation and destruction.
+            instance_info = instance_info.push_next(&mut messenger_info);
+        }
+        // SAFETY: the create info and everything it points to live across the call.
+        let instance = match unsafe { entry.create_instance(&instance_info, None) } {
+            Ok(i) => i,
+            Err(e) => {
+                // SAFETY: the box was made above and is not shared yet.
+                drop(unsafe { Box::from_raw(log_ptr as *mut MessageLog) });
+                return Err(Error::vk("vkCreateInstance")(e));
+            }
+        };
+        // From here on, `Partial` destroys what was made if a later step fails.
+        let mut partial = Partial { entry: Some(entry), instance: Some(instance), debug: None, log_ptr };
+        let instance = partial.instance();
+        let entry = partial.entry();
+        if validation {
+            let debug_utils = ash::ext::debug_utils::Instance::new(entry, instance);
+            // SAFETY: the create info is valid; the callback's user data outlives the messenger.
+            let messenger = unsafe { debug_utils.create_debug_utils_messenger(&messenger_info, None) }
+                .map_err(Error::vk("vkCreateDebugUtilsMessengerEXT"))?;
+            partial.debug = Some((debug_utils, messenger));
+        }
+        let instance = partial.instance();
+
+        // SAFETY: plain enumeration call on a live instance.
+        let physical_devices =
+            unsafe { instance.enumerate_physical_devices() }.map_err(Error::vk("vkEnumeratePhysicalDevices"))?;
+        let mut reports = Vec::new();
+        let mut chosen = None;
+        for &physical in &physical_devices {
+            let (report, family) = inspect_device(instance, physical)?;
+            let name_ok = options.device_name_contains.as_ref().is_none_or(|want| report.name.contains(want.as_str()));
+            if chosen.is_none() && report.missing.is_empty() && name_ok {
+                if let Some(family) = family {
+                    chosen = Some((physical, family, report.name.clone()));
+                }
+            }
+            reports.push(report);
+        }
+        let Some((physical_device, queue_family, device_name)) = chosen else {
+            if let Some(want) = &options.device_name_contains {
+                for r in &mut reports {
+                    if !r.name.contains(want.as_str()) {
+                        r.missing.push(format!("a name containing {want:?}"));
+                    }
+                }
+            }
+            return Err(Error::NoRayTracingDevice { devices: reports });
+        };
+
+        let mut features = Features::required();
+        let priorities = [1.0f32];
+        let queue_infos = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let extension_ptrs: Vec<_> = REQUIRED_EXTENSIONS.iter().map(|e| e.as_ptr()).collect();
+        let device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_infos)
+            .enabled_extension_names(&extension_ptrs)
+            .enabled_features(&features.base)
+            .push_next(&mut features.rt)
+            .push_next(&mut features.accel)
+            .push_next(&mut features.v12);
+        // SAFETY: the physical device supports every extension and feature enabled
+        // (checked by `inspect_device`); the create info lives across the call.
+        let device = unsafe { instance.create_device(physical_device, &device_info, None) }
+            .map_err(Error::vk("vkCreateDevice"))?;
+        let device_guard = DeviceGuard(Some(device.clone()));
+
+        let limits = query_limits(instance, physical_device);
+        let rt = ash::khr::ray_tracing_pipeline::Device::new(instance, &device);
+        let accel = ash::khr::acceleration_structure::Device::new(instance, &device);
+        // SAFETY: queue family and index 0 were requested at device creation.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER | vk::CommandPoolCreateFlags::TRANSIENT);
+        // SAFETY: valid device and create info.
+        let command_pool =
+            unsafe { device.create_command_pool(&pool_info, None) }.map_err(Error::vk("vkCreateCommandPool"))?;
+        let pool_guard = PoolGuard(&device, command_pool);
+        let allocator = gpu_allocator::vulkan::Allocator::new(&gpu_allocator::vulkan::AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device,
+            debug_settings: Default::default(),
+            buffer_device_address: true,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|source| Error::Allocation { what: "the memory allocator", source })?;
+        let buffer_table = BufferTable::new(&device, instance, physical_device)?;
+        std::mem::forget(pool_guard);
+
+        let device = device_guard.take();
+        let (entry, instance, debug) = partial.take();
+        Ok(Context {
+            inner: Arc::new(ContextInner {
+                _entry: entry,
+                instance,
+                debug,
+                log_ptr,
+                log,
+                device,
+                rt,
+                accel,
+                queue: Mutex::new(queue),
+                queue_family,
+                command_pool: Mutex::new(command_pool),
+                allocator: ManuallyDrop::new(Mutex::new(allocator)),
+                buffer_table: ManuallyDrop::new(buffer_table),
+                limits,
+                device_name,
+            }),
+        })
+    }
+
+    /// The name of the device in use.
+    pub fn device_name(&self) -> &str {
+        &self.inner.device_name
+    }
+
+    /// The device's ray-tracing limits.
+    pub fn limits(&self) -> &DeviceLimits {
+        &self.inner.limits
+    }
+
+    /// Validation messages collected so far (empty when validation is off). The
+    /// returned log is shared: it keeps collecting, also while the context is
+    /// destroyed, so a test can check for leaks reported at destruction.
+    pub fn messages(&self) -> MessageLog {
+        self.inner.log.clone()
+    }
+
+    /// The queue family used for all work.
+    pub fn queue_family(&self) -> u32 {
+        self.inner.queue_family
+    }
+}
+
+impl ContextInner {
+    pub(crate) fn allocator(&self) -> MutexGuard<'_, gpu_allocator::vulkan::Allocator> {
+        // A panic while holding the lock cannot leave the allocator half-updated in a
+        // way that matters more than losing the allocation; keep going.
+        self.allocator.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Records commands with `record`, submits them and waits for completion.
+    pub(crate) fn submit_and_wait(
+        &self,
+        during: &'static str,
+        record: impl FnOnce(vk::CommandBuffer),
+    ) -> Result<()> {
+        let device = &self.device;
+        let pool = self.command_pool.lock().unwrap_or_else(|p| p.into_inner());
+        let alloc_info = vk::CommandBufferAllocateInfo::default()
+            .command_pool(*pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: the pool is externally synchronised by the mutex held.
+        let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }
+            .map_err(Error::vk("vkAllocateCommandBuffers"))?[0];
+        let result = (|| {
+            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            // SAFETY: freshly allocated command buffer, recorded on this thread only.
+            unsafe { device.begin_command_buffer(cmd, &begin) }.map_err(Error::vk("vkBeginCommandBuffer"))?;
+            record(cmd);
+            // SAFETY: as above.
+            unsafe { device.end_command_buffer(cmd) }.map_err(Error::vk("vkEndCommandBuffer"))?;
+            // SAFETY: valid device.
+            let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+                .map_err(Error::vk("vkCreateFence"))?;
+            let cmds = [cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            let submitted = {
+                let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
+                // SAFETY: the queue is externally synchronised by its mutex; the
+                // command buffer is fully recorded.
+                unsafe { device.queue_submit(*queue, &submit, fence) }
+            };
+            let waited = submitted.and_then(|()| {
+                // SAFETY: the fence belongs to this device.
+                unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }
+            });
+            // SAFETY: the fence is signalled (or never submitted) and no longer used.
+            unsafe { device.destroy_fence(fence, None) };
+            waited.map_err(|e| match e {
+                vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during },
+                other => Error::Vulkan { call: "vkQueueSubmit/vkWaitForFences", result: other },
+            })
+        })();
+        // SAFETY: the command buffer is no longer executing (waited, or never submitted).
+        unsafe { device.free_command_buffers(*pool, &[cmd]) };
+        result
+    }
+}
+
+fn query_limits(instance: &ash::Instance, physical: vk::PhysicalDevice) -> DeviceLimits {
+    let mut rt = vk::PhysicalDeviceRayTracingPipelinePropertiesKHR::default();
+    let mut accel = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut rt).push_next(&mut accel);
+    // SAFETY: the chain is well formed; `physical` belongs to `instance`.
+    unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+    let limits = props2.properties.limits;
+    DeviceLimits {
+        shader_group_handle_size: rt.shader_group_handle_size,
+        shader_group_handle_alignment: rt.shader_group_handle_alignment,
+        shader_group_base_alignment: rt.shader_group_base_alignment,
+        max_shader_group_stride: rt.max_shader_group_stride,
+        max_ray_recursion_depth: rt.max_ray_recursion_depth,
+        max_ray_dispatch_invocation_count: rt.max_ray_dispatch_invocation_count,
+        max_push_constants_size: limits.max_push_constants_size,
+        min_scratch_alignment: accel.min_acceleration_structure_scratch_offset_alignment,
+        max_geometry_count: accel.max_geometry_count,
+        max_primitive_count: accel.max_primitive_count,
+        max_instance_count: accel.max_instance_count,
+    }
+}
+
+impl Drop for ContextInner {
+    fn drop(&mut self) {
+        // SAFETY: every child object holds an `Arc` to this context, so none is
+        // alive now; the device is idle after the wait; objects are destroyed in
+        // reverse order of creation, the messenger last so it reports leaks.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            ManuallyDrop::take(&mut self.buffer_table).destroy(&self.device);
+            ManuallyDrop::drop(&mut self.allocator);
+            let pool = self.command_pool.get_mut().unwrap_or_else(|p| p.into_inner());
+            self.device.destroy_command_pool(*pool, None);
+            self.device.destroy_device(None);
+            if let Some((debug_utils, messenger)) = self.debug.take() {
+                debug_utils.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.instance.destroy_instance(None);
+            drop(Box::from_raw(self.log_ptr as *mut MessageLog));
+        }
+    }
+}
+
+/// Destroys the instance (and messenger) if context creation fails part-way.
+struct Partial {
+    entry: Option<ash::Entry>,
+    instance: Option<ash::Instance>,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    log_ptr: *const MessageLog,
+}
+
+impl Partial {
+    fn instance(&self) -> &ash::Instance {
+        // Both are `Some` from construction until `take`.
+        self.instance.as_ref().unwrap_or_else(|| unreachable!())
+    }
+    fn entry(&self) -> &ash::Entry {
+        self.entry.as_ref().unwrap_or_else(|| unreachable!())
+    }
+    fn take(&mut self) -> (ash::Entry, ash::Instance, Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>) {
+        let entry = self.entry.take().unwrap_or_else(|| unreachable!());
+        let instance = self.instance.take().unwrap_or_else(|| unreachable!());
+        self.log_ptr = std::ptr::null();
+        (entry, instance, self.debug.take())
+    }
+}
+
+impl Drop for Partial {
+    fn drop(&mut self) {
+        // SAFETY: only objects created above and not handed to a context remain.
+        unsafe {
+            if let Some((debug_utils, messenger)) = self.debug.take() {
+                debug_utils.destroy_debug_utils_messenger(messenger, None);
+            }
+            if let Some(instance) = self.instance.take() {
+                instance.destroy_instance(None);
+            }
+            if !self.log_ptr.is_null() {
+                drop(Box::from_raw(self.log_ptr as *mut MessageLog));
+            }
+        }
+    }
+}
+
+/// Destroys the device if context creation fails after it was made.
+struct DeviceGuard(Option<ash::Device>);
+impl DeviceGuard {
+    fn take(mut self) -> ash::Device {
+        self.0.take().unwrap_or_else(|| unreachable!())
+    }
+}
+impl Drop for DeviceGuard {
+    fn drop(&mut self) {
+        if let Some(device) = self.0.take() {
+            // SAFETY: nothing else uses the device yet.
+            unsafe { device.destroy_device(None) };
+        }
+    }
+}
+
+/// Destroys the command pool if context creation fails after it was made.
+struct PoolGuard<'a>(&'a ash::Device, vk::CommandPool);
+impl Drop for PoolGuard<'_> {
+    fn drop(&mut self) {
+        // SAFETY: the pool has no command buffers yet.
+        unsafe { self.0.destroy_command_pool(self.1, None) };
+    }
+}
+

@@ -1,0 +1,251 @@
+//! raykit's error type: every failure names what went wrong and, where there is
+//! one, the fix.
+
+use ash::vk;
+use raykit_device::ProgramKind;
+
+/// Result with raykit's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Why a physical device cannot run raykit.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DeviceReport {
+    /// The device's name as the driver reports it.
+    pub name: String,
+    /// Device type (discrete GPU, CPU, …).
+    pub device_type: String,
+    /// The Vulkan version it supports, `major.minor.patch`.
+    pub api_version: String,
+    /// Extensions and features it lacks; empty when the device is usable.
+    pub missing: Vec<String>,
+}
+
+impl std::fmt::Display for DeviceReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({}, Vulkan {})", self.name, self.device_type, self.api_version)?;
+        if self.missing.is_empty() {
+            write!(f, ": usable")
+        } else {
+            write!(f, ": lacks {}", self.missing.join(", "))
+        }
+    }
+}
+
+fn list_devices(devices: &[DeviceReport]) -> String {
+    if devices.is_empty() {
+        return "no Vulkan devices at all".to_owned();
+    }
+    devices.iter().map(|d| format!("\n  - {d}")).collect()
+}
+
+fn list_entry_points(entries: &[(String, Option<ProgramKind>)]) -> String {
+    if entries.is_empty() {
+        return "none".to_owned();
+    }
+    entries
+        .iter()
+        .map(|(name, kind)| match kind {
+            Some(kind) => format!("`{name}` ({kind})"),
+            None => format!("`{name}` (not a ray-tracing stage)"),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Everything that can go wrong in raykit.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The Vulkan loader (`libvulkan.so.1`) could not be loaded.
+    #[error("cannot load the Vulkan loader: {0}. Install it (Debian: `apt-get install libvulkan1`) or run `cargo xtask test`, which installs what is missing")]
+    LoaderMissing(String),
+
+    /// No physical device supports Vulkan ray-tracing pipelines.
+    #[error("no Vulkan device with ray-tracing pipelines; devices seen:{}\nOn a machine without a GPU, install Mesa ≥ 25 lavapipe (Debian bookworm: `mesa-vulkan-drivers` from bookworm-backports) — `cargo xtask test` does this when run as root", list_devices(.devices))]
+    NoRayTracingDevice {
+        /// Each device seen, with what it lacks.
+        devices: Vec<DeviceReport>,
+    },
+
+    /// A Vulkan call failed.
+    #[error("Vulkan call {call} failed: {result}")]
+    Vulkan {
+        /// The function that failed.
+        call: &'static str,
+        /// Its result code.
+        result: vk::Result,
+    },
+
+    /// Device memory could not be allocated.
+    #[error("allocating {what}: {source}")]
+    Allocation {
+        /// What the memory was for.
+        what: &'static str,
+        /// The allocator's error.
+        #[source]
+        source: gpu_allocator::AllocationError,
+    },
+
+    /// The bytes given as a module are not a SPIR-V module.
+    #[error("not a SPIR-V module: {reason}. Give the `.spv` file that `cargo xtask build-shaders` writes under target/spirv/")]
+    InvalidSpirv {
+        /// What is wrong with them.
+        reason: String,
+    },
+
+    /// A SPIR-V file could not be read.
+    #[error("reading SPIR-V file {path}: {source}. Run `cargo xtask build-shaders` to build the device crates")]
+    SpirvFile {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// Validation was asked for but the Khronos validation layer is not installed.
+    #[error("validation requested but VK_LAYER_KHRONOS_validation is not installed (Debian: `apt-get install vulkan-validationlayers`)")]
+    ValidationLayerMissing,
+
+    /// The module has no ray-tracing entry point at all.
+    #[error("the SPIR-V module has no ray-tracing entry points (raygen, miss, closest-hit, any-hit, intersection, callable); it has: {}", list_entry_points(.available))]
+    NoRayTracingEntryPoints {
+        /// The entry points it has.
+        available: Vec<(String, Option<ProgramKind>)>,
+    },
+
+    /// The module has no entry point of that name.
+    #[error("module has no entry point `{name}`; it has: {}", list_entry_points(.available))]
+    EntryPointNotFound {
+        /// The name asked for.
+        name: String,
+        /// The entry points the module has, with their kinds.
+        available: Vec<(String, Option<ProgramKind>)>,
+    },
+
+    /// An entry point was used as a program of the wrong kind.
+    #[error("entry point `{name}` is a {actual} program, not a {expected} program (asked for by {context}); the module's entry points: {}", list_entry_points(.available))]
+    ProgramKindMismatch {
+        /// The entry point.
+        name: String,
+        /// The kind the group needs.
+        expected: ProgramKind,
+        /// The kind the module (or the name's OptiX prefix) says.
+        actual: String,
+        /// Which program-group slot asked for it.
+        context: &'static str,
+        /// The entry points the module has, with their kinds.
+        available: Vec<(String, Option<ProgramKind>)>,
+    },
+
+    /// A hit group was built with no program at all.
+    #[error("a hit group needs at least one of closest-hit, any-hit or intersection")]
+    EmptyHitGroup,
+
+    /// A pipeline's program groups belong to different contexts.
+    #[error("program groups of one pipeline must come from the same Context")]
+    ContextMismatch,
+
+    /// `max_trace_depth` is over the device's limit.
+    #[error("max_trace_depth {requested} is over this device's maxRayRecursionDepth {limit}; restructure recursive tracing as a loop in raygen, or lower the depth")]
+    TraceDepthTooLarge {
+        /// What was asked for.
+        requested: u32,
+        /// `maxRayRecursionDepth`.
+        limit: u32,
+    },
+
+    /// The pipeline has no raygen program group.
+    #[error("a pipeline needs a raygen program group")]
+    NoRaygen,
+
+    /// The launch params do not fit in push constants.
+    #[error("launch params of {size} bytes exceed this device's maxPushConstantsSize {limit}")]
+    ParamsTooLarge {
+        /// `size_of::<P>()`.
+        size: usize,
+        /// `maxPushConstantsSize`.
+        limit: u32,
+    },
+
+    /// A program group given to the SBT is not part of its pipeline.
+    #[error("{kind} program group is not part of the pipeline the SBT is built for; add it to Pipeline::new")]
+    GroupNotInPipeline {
+        /// The group's kind.
+        kind: &'static str,
+    },
+
+    /// An SBT record of the wrong kind of group was given.
+    #[error("SBT {region} record needs a {expected} program group, got a {actual} group")]
+    SbtGroupKind {
+        /// Region being filled.
+        region: &'static str,
+        /// Kind the region needs.
+        expected: &'static str,
+        /// Kind given.
+        actual: &'static str,
+    },
+
+    /// An SBT region that must be present is missing.
+    #[error("the SBT has no {region} record; add one with Sbt::builder(..).{region}(..)")]
+    SbtMissing {
+        /// The region.
+        region: &'static str,
+    },
+
+    /// A record's data is too large for the device.
+    #[error("SBT record data of {size} bytes: record stride {stride} exceeds this device's maxShaderGroupStride {limit}")]
+    SbtRecordTooLarge {
+        /// Data size.
+        size: usize,
+        /// Resulting stride.
+        stride: u64,
+        /// `maxShaderGroupStride`.
+        limit: u32,
+    },
+
+    /// Launch dimensions are zero or too large.
+    #[error("launch dimensions {dims:?}: {reason}")]
+    LaunchDimensions {
+        /// What was asked for.
+        dims: [u32; 3],
+        /// Why they cannot be launched.
+        reason: String,
+    },
+
+    /// A geometry input is invalid.
+    #[error("geometry input: {0}")]
+    Geometry(String),
+
+    /// The bindless buffer table is full.
+    #[error("the buffer table is full ({capacity} live buffers); drop buffers that are no longer needed")]
+    BufferTableFull {
+        /// Its size.
+        capacity: u32,
+    },
+
+    /// A buffer of that size cannot be made.
+    #[error("buffer of {len} elements of {element_size} bytes: {reason}")]
+    BufferSize {
+        /// Elements asked for.
+        len: usize,
+        /// Size of one element.
+        element_size: usize,
+        /// Why not.
+        reason: &'static str,
+    },
+
+    /// The GPU stopped responding.
+    #[error("the device was lost during {during}; the Context is no longer usable — create a new one")]
+    DeviceLost {
+        /// What was running.
+        during: &'static str,
+    },
+}
+
+impl Error {
+    /// Wraps a failed Vulkan call.
+    pub(crate) fn vk(call: &'static str) -> impl FnOnce(vk::Result) -> Error {
+        move |result| Error::Vulkan { call, result }
+    }
+}

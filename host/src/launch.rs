@@ -1,0 +1,72 @@
+//! Launches: `optixLaunch` as `vkCmdTraceRaysKHR`.
+//!
+//! A launch pushes the params as push constants, binds the bindless buffer table,
+//! traces a `width × height × depth` grid with the SBT's regions and waits for it,
+//! so buffers read afterwards hold the results. See
+//! [`vkCmdTraceRaysKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCmdTraceRaysKHR.html).
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use crate::buffer_table::RT_STAGES;
+use crate::error::{Error, Result};
+use crate::pipeline::Pipeline;
+use crate::sbt::Sbt;
+
+impl<P: bytemuck::Pod> Pipeline<P> {
+    /// Traces a `dims = [width, height, depth]` grid with `params`, using `sbt`,
+    /// and waits until it is done.
+    pub fn launch(&self, sbt: &Sbt, params: &P, dims: [u32; 3]) -> Result<()> {
+        let inner = &self.inner;
+        let ctx = &inner.ctx;
+        if !Arc::ptr_eq(&sbt.pipeline, inner) {
+            return Err(Error::GroupNotInPipeline { kind: "the SBT's" });
+        }
+        let invocations = dims.iter().map(|&d| d as u64).product::<u64>();
+        if invocations == 0 {
+            return Err(Error::LaunchDimensions { dims, reason: "every dimension must be at least 1".to_owned() });
+        }
+        let limit = ctx.limits.max_ray_dispatch_invocation_count as u64;
+        if invocations > limit {
+            return Err(Error::LaunchDimensions {
+                dims,
+                reason: format!("{invocations} invocations exceed maxRayDispatchInvocationCount {limit}; split the launch into tiles"),
+            });
+        }
+        let device = &ctx.device;
+        let params_bytes = bytemuck::bytes_of(params);
+        ctx.submit_and_wait("a launch", |cmd| {
+            // SAFETY: the pipeline, layout, descriptor set and SBT buffer are alive
+            // for the whole submission (held by `self` and `sbt`, and waited on).
+            unsafe {
+                device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, inner.pipeline);
+                device.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::RAY_TRACING_KHR,
+                    inner.layout,
+                    0,
+                    &[ctx.buffer_table.set],
+                    &[],
+                );
+                if inner.push_constant_size > 0 {
+                    device.cmd_push_constants(cmd, inner.layout, RT_STAGES, 0, params_bytes);
+                }
+                ctx.rt.cmd_trace_rays(cmd, &sbt.raygen, &sbt.miss, &sbt.hit, &sbt.callable, dims[0], dims[1], dims[2]);
+                // Make the programs' writes visible to the host once the fence signals.
+                let barrier = vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::HOST_READ);
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                    vk::PipelineStageFlags::HOST,
+                    vk::DependencyFlags::empty(),
+                    &[barrier],
+                    &[],
+                    &[],
+                );
+            }
+        })
+    }
+}

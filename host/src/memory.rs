@@ -1,0 +1,219 @@
+//! Device memory: buffers allocated through gpu-allocator.
+//!
+//! [`DeviceBuffer<T>`] is what users see: a typed array in device memory that the
+//! host can write and read, and that device programs reach through its
+//! [`Buffer<T>`] handle (a slot in the context's bindless table). `RawBuffer` is
+//! the untyped building block raykit uses for SBTs, acceleration structures and
+//! scratch memory.
+
+use std::marker::PhantomData;
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+use raykit_device::{Buffer, Element};
+
+use crate::context::{Context, ContextInner};
+use crate::error::{Error, Result};
+
+/// A Vulkan buffer with its memory, freed on drop.
+pub(crate) struct RawBuffer {
+    ctx: Arc<ContextInner>,
+    pub(crate) buffer: vk::Buffer,
+    allocation: Option<Allocation>,
+    pub(crate) size: u64,
+    pub(crate) address: u64,
+}
+
+impl RawBuffer {
+    /// Allocates `size` bytes with `usage` (device addresses are always on) at
+    /// `location`, with at least `alignment` for its device address.
+    pub(crate) fn new(
+        ctx: &Arc<ContextInner>,
+        what: &'static str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+        alignment: u64,
+    ) -> Result<RawBuffer> {
+        let device = &ctx.device;
+        let info = vk::BufferCreateInfo::default()
+            .size(size.max(1))
+            .usage(usage | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid create info on a live device.
+        let buffer = unsafe { device.create_buffer(&info, None) }.map_err(Error::vk("vkCreateBuffer"))?;
+        // Wrapped at once, so an early return frees it.
+        let mut raw = RawBuffer { ctx: ctx.clone(), buffer, allocation: None, size, address: 0 };
+        // SAFETY: `buffer` is a live buffer of this device.
+        let mut requirements = unsafe { device.get_buffer_memory_requirements(buffer) };
+        requirements.alignment = requirements.alignment.max(alignment);
+        let allocation = ctx
+            .allocator()
+            .allocate(&AllocationCreateDesc {
+                name: what,
+                requirements,
+                location,
+                linear: true,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })
+            .map_err(|source| Error::Allocation { what, source })?;
+        // SAFETY: the allocation satisfies the buffer's requirements and is unbound.
+        let bound = unsafe { device.bind_buffer_memory(buffer, allocation.memory(), allocation.offset()) };
+        raw.allocation = Some(allocation);
+        bound.map_err(Error::vk("vkBindBufferMemory"))?;
+        let address_info = vk::BufferDeviceAddressInfo::default().buffer(buffer);
+        // SAFETY: the buffer was created with SHADER_DEVICE_ADDRESS and is bound.
+        raw.address = unsafe { device.get_buffer_device_address(&address_info) };
+        Ok(raw)
+    }
+
+    /// The mapped bytes of a host-visible buffer.
+    pub(crate) fn mapped(&self) -> Option<&[u8]> {
+        let a = self.allocation.as_ref()?;
+        a.mapped_slice().map(|s| &s[..self.size as usize])
+    }
+
+    /// The mapped bytes of a host-visible buffer, writable.
+    pub(crate) fn mapped_mut(&mut self) -> Option<&mut [u8]> {
+        let size = self.size as usize;
+        let a = self.allocation.as_mut()?;
+        a.mapped_slice_mut().map(|s| &mut s[..size])
+    }
+
+    /// Copies `bytes` into a host-visible buffer, from its start.
+    pub(crate) fn write_bytes(&mut self, bytes: &[u8]) -> Result<()> {
+        let mapped = self.mapped_mut().ok_or(Error::BufferSize {
+            len: bytes.len(),
+            element_size: 1,
+            reason: "the buffer is not host-visible",
+        })?;
+        let n = bytes.len().min(mapped.len());
+        mapped[..n].copy_from_slice(&bytes[..n]);
+        Ok(())
+    }
+}
+
+impl Drop for RawBuffer {
+    fn drop(&mut self) {
+        // SAFETY: raykit waits for all work using a buffer before its owner can be
+        // dropped (launches and builds are blocking), so the buffer is idle.
+        unsafe { self.ctx.device.destroy_buffer(self.buffer, None) };
+        if let Some(allocation) = self.allocation.take() {
+            let _ = self.ctx.allocator().free(allocation);
+        }
+    }
+}
+
+/// A typed array of `T` in device memory, visible to device programs through
+/// [`DeviceBuffer::handle`] and readable and writable from the host.
+pub struct DeviceBuffer<T: Element> {
+    raw: RawBuffer,
+    slot: u32,
+    len: usize,
+    _element: PhantomData<T>,
+}
+
+impl<T: Element> DeviceBuffer<T> {
+    fn new(ctx: &Context, len: usize, location: MemoryLocation) -> Result<Self> {
+        let element_size = std::mem::size_of::<T>();
+        if len == 0 {
+            return Err(Error::BufferSize { len, element_size, reason: "a buffer needs at least one element" });
+        }
+        if element_size != T::WORDS as usize * 4 {
+            return Err(Error::BufferSize {
+                len,
+                element_size,
+                reason: "the element's host size differs from its device size (WORDS × 4); use a type without SIMD padding",
+            });
+        }
+        let size = (len as u64).checked_mul(element_size as u64).ok_or(Error::BufferSize {
+            len,
+            element_size,
+            reason: "the size overflows 64 bits",
+        })?;
+        let raw = RawBuffer::new(
+            &ctx.inner,
+            "DeviceBuffer",
+            size,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            location,
+            16,
+        )?;
+        let slot = ctx.inner.buffer_table.insert(&ctx.inner.device, raw.buffer)?;
+        Ok(DeviceBuffer { raw, slot, len, _element: PhantomData })
+    }
+
+    /// A zero-filled buffer of `len` elements, for results the host reads back.
+    pub fn zeroed(ctx: &Context, len: usize) -> Result<Self> {
+        let mut buffer = Self::new(ctx, len, MemoryLocation::GpuToCpu)?;
+        if let Some(bytes) = buffer.raw.mapped_mut() {
+            bytes.fill(0);
+        }
+        Ok(buffer)
+    }
+
+    /// A buffer holding a copy of `data`, for inputs of device programs.
+    pub fn from_slice(ctx: &Context, data: &[T]) -> Result<Self> {
+        let mut buffer = Self::new(ctx, data.len(), MemoryLocation::CpuToGpu)?;
+        buffer.raw.write_bytes(bytemuck::cast_slice(data))?;
+        Ok(buffer)
+    }
+
+    /// The handle device programs use (put it in the launch params).
+    pub fn handle(&self) -> Buffer<T> {
+        Buffer::from_table_index(self.slot)
+    }
+
+    /// Number of elements.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the buffer has no elements (never: a buffer has at least one).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Copies the buffer's contents to the host. Call after the launch that wrote
+    /// them returned.
+    pub fn read(&self) -> Result<Vec<T>> {
+        let bytes = self.raw.mapped().ok_or(Error::BufferSize {
+            len: self.len,
+            element_size: std::mem::size_of::<T>(),
+            reason: "the buffer is not host-visible",
+        })?;
+        Ok(bytemuck::pod_collect_to_vec(bytes))
+    }
+
+    /// Overwrites the buffer's first `data.len()` elements.
+    pub fn write(&mut self, data: &[T]) -> Result<()> {
+        if data.len() > self.len {
+            return Err(Error::BufferSize {
+                len: data.len(),
+                element_size: std::mem::size_of::<T>(),
+                reason: "more elements than the buffer holds",
+            });
+        }
+        self.raw.write_bytes(bytemuck::cast_slice(data))
+    }
+}
+
+impl<T: Element> Drop for DeviceBuffer<T> {
+    fn drop(&mut self) {
+        self.raw.ctx.buffer_table.remove(self.slot);
+    }
+}
+
+impl Context {
+    /// A zero-filled [`DeviceBuffer`] of `len` elements.
+    pub fn buffer<T: Element>(&self, len: usize) -> Result<DeviceBuffer<T>> {
+        DeviceBuffer::zeroed(self, len)
+    }
+
+    /// A [`DeviceBuffer`] holding a copy of `data`.
+    pub fn buffer_from<T: Element>(&self, data: &[T]) -> Result<DeviceBuffer<T>> {
+        DeviceBuffer::from_slice(self, data)
+    }
+}

@@ -1,0 +1,198 @@
+//! Program groups: OptiX's raygen, miss and hit groups, checked against the module.
+//!
+//! A group names entry points of a [`Module`]. Each is checked when the group is
+//! made: it must exist, its SPIR-V execution model must be the group's stage, and,
+//! where the name has an OptiX prefix (`__raygen__`, `__miss__`, …), the prefix
+//! must agree too — modules compiled from GLSL, whose entry is `main`, load as
+//! well. A group becomes a
+//! [`VkRayTracingShaderGroupCreateInfoKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkRayTracingShaderGroupCreateInfoKHR.html)
+//! when a [`crate::Pipeline`] is linked.
+
+use std::ffi::CString;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+use raykit_device::{EntryPoint, ProgramKind};
+
+use crate::context::ContextInner;
+use crate::error::{Error, Result};
+use crate::module::{Module, ModuleInner};
+
+/// Names an entry point: a macro-generated [`EntryPoint`] constant (preferred) or
+/// a name such as `"main"`.
+pub trait EntryName {
+    /// The entry-point name.
+    fn entry_name(&self) -> &str;
+    /// The kind the caller claims, if it knows it.
+    fn claimed_kind(&self) -> Option<ProgramKind> {
+        None
+    }
+}
+
+impl EntryName for EntryPoint {
+    fn entry_name(&self) -> &str {
+        self.name
+    }
+    fn claimed_kind(&self) -> Option<ProgramKind> {
+        Some(self.kind)
+    }
+}
+impl EntryName for &str {
+    fn entry_name(&self) -> &str {
+        self
+    }
+}
+impl EntryName for String {
+    fn entry_name(&self) -> &str {
+        self
+    }
+}
+
+/// One checked entry point inside a group.
+#[derive(Clone)]
+pub(crate) struct Program {
+    pub(crate) module: Arc<ModuleInner>,
+    pub(crate) name: CString,
+    pub(crate) kind: ProgramKind,
+}
+
+impl Program {
+    fn resolve(module: &Module, entry: &dyn EntryName, expected: ProgramKind, context: &'static str) -> Result<Program> {
+        let name = entry.entry_name();
+        let available = module.entry_list();
+        let mismatch = |actual: String| Error::ProgramKindMismatch {
+            name: name.to_owned(),
+            expected,
+            actual,
+            context,
+            available: available.clone(),
+        };
+        let Some(info) = module.entry_points().iter().find(|e| e.name == name) else {
+            return Err(Error::EntryPointNotFound { name: name.to_owned(), available });
+        };
+        match info.kind {
+            Some(kind) if kind == expected => {}
+            Some(kind) => return Err(mismatch(kind.to_string())),
+            None => return Err(mismatch(format!("{} (not ray tracing)", info.execution_model))),
+        }
+        if let Some(kind) = ProgramKind::from_prefixed_name(name) {
+            if kind != expected {
+                return Err(mismatch(format!("{kind} (by its `{}` prefix)", kind.prefixes()[0])));
+            }
+        }
+        if let Some(kind) = entry.claimed_kind() {
+            if kind != expected {
+                return Err(mismatch(format!("{kind} (by its EntryPoint constant)")));
+            }
+        }
+        let name = CString::new(name).map_err(|_| Error::EntryPointNotFound { name: name.to_owned(), available: module.entry_list() })?;
+        Ok(Program { module: module.inner.clone(), name, kind: expected })
+    }
+}
+
+/// What a group holds.
+#[derive(Clone)]
+pub(crate) enum GroupPrograms {
+    Raygen(Program),
+    Miss(Program),
+    Hit { closest_hit: Option<Program>, any_hit: Option<Program>, intersection: Option<Program> },
+}
+
+/// A program group: a raygen, a miss, or a hit group (closest-hit, any-hit,
+/// intersection), ready to be linked into a [`crate::Pipeline`].
+#[derive(Clone)]
+pub struct ProgramGroup {
+    pub(crate) id: u64,
+    pub(crate) ctx: Arc<ContextInner>,
+    pub(crate) programs: GroupPrograms,
+}
+
+static NEXT_GROUP_ID: AtomicU64 = AtomicU64::new(1);
+
+impl ProgramGroup {
+    fn from_programs(module: &Module, programs: GroupPrograms) -> ProgramGroup {
+        ProgramGroup { id: NEXT_GROUP_ID.fetch_add(1, Ordering::Relaxed), ctx: module.inner.ctx.clone(), programs }
+    }
+
+    /// A raygen group from `entry` of `module`.
+    pub fn raygen(module: &Module, entry: impl EntryName) -> Result<ProgramGroup> {
+        let program = Program::resolve(module, &entry, ProgramKind::Raygen, "ProgramGroup::raygen")?;
+        Ok(Self::from_programs(module, GroupPrograms::Raygen(program)))
+    }
+
+    /// A miss group from `entry` of `module`.
+    pub fn miss(module: &Module, entry: impl EntryName) -> Result<ProgramGroup> {
+        let program = Program::resolve(module, &entry, ProgramKind::Miss, "ProgramGroup::miss")?;
+        Ok(Self::from_programs(module, GroupPrograms::Miss(program)))
+    }
+
+    /// Starts a hit group whose programs come from `module`.
+    pub fn hit_group(module: &Module) -> HitGroupBuilder<'_> {
+        HitGroupBuilder { module, closest_hit: None, any_hit: None, intersection: None, error: None }
+    }
+
+    /// The group's kind: `"raygen"`, `"miss"` or `"hit"`.
+    pub fn kind_name(&self) -> &'static str {
+        match self.programs {
+            GroupPrograms::Raygen(_) => "raygen",
+            GroupPrograms::Miss(_) => "miss",
+            GroupPrograms::Hit { .. } => "hit",
+        }
+    }
+}
+
+/// Builds a hit group; each program is checked as it is added.
+#[must_use]
+pub struct HitGroupBuilder<'m> {
+    module: &'m Module,
+    closest_hit: Option<Program>,
+    any_hit: Option<Program>,
+    intersection: Option<Program>,
+    error: Option<Error>,
+}
+
+impl HitGroupBuilder<'_> {
+    fn add(mut self, entry: &dyn EntryName, kind: ProgramKind, context: &'static str) -> Self {
+        if self.error.is_some() {
+            return self;
+        }
+        match Program::resolve(self.module, entry, kind, context) {
+            Ok(p) => match kind {
+                ProgramKind::ClosestHit => self.closest_hit = Some(p),
+                ProgramKind::AnyHit => self.any_hit = Some(p),
+                _ => self.intersection = Some(p),
+            },
+            Err(e) => self.error = Some(e),
+        }
+        self
+    }
+
+    /// The closest-hit program.
+    pub fn closest_hit(self, entry: impl EntryName) -> Self {
+        self.add(&entry, ProgramKind::ClosestHit, "HitGroupBuilder::closest_hit")
+    }
+
+    /// The any-hit program.
+    pub fn any_hit(self, entry: impl EntryName) -> Self {
+        self.add(&entry, ProgramKind::AnyHit, "HitGroupBuilder::any_hit")
+    }
+
+    /// The intersection program (makes this a procedural hit group).
+    pub fn intersection(self, entry: impl EntryName) -> Self {
+        self.add(&entry, ProgramKind::Intersection, "HitGroupBuilder::intersection")
+    }
+
+    /// Finishes the group.
+    pub fn build(self) -> Result<ProgramGroup> {
+        if let Some(e) = self.error {
+            return Err(e);
+        }
+        if self.closest_hit.is_none() && self.any_hit.is_none() && self.intersection.is_none() {
+            return Err(Error::EmptyHitGroup);
+        }
+        Ok(ProgramGroup::from_programs(
+            self.module,
+            GroupPrograms::Hit { closest_hit: self.closest_hit, any_hit: self.any_hit, intersection: self.intersection },
+        ))
+    }
+}

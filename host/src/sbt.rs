@@ -1,0 +1,252 @@
+//! The shader binding table: typed records, OptiX's `SbtRecord<T>`.
+//!
+//! Each record is a program group's handle (`shaderGroupHandleSize` bytes, read
+//! from the pipeline) followed by the group's data `T: Pod`, which the device
+//! program reads with `#[record] data: &T`. Strides and region offsets follow the
+//! device's `shaderGroupHandleAlignment` and `shaderGroupBaseAlignment`; a region's
+//! stride fits its largest record. See
+//! [the SBT chapter of the Vulkan spec](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#shader-binding-table).
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::context::DeviceLimits;
+use crate::error::{Error, Result};
+use crate::memory::RawBuffer;
+use crate::pipeline::{Pipeline, PipelineInner};
+use crate::program_group::{GroupPrograms, ProgramGroup};
+
+/// One SBT record before packing: a group and its data.
+pub struct SbtRecord<'g, T: bytemuck::Pod> {
+    /// The program group whose handle heads the record.
+    pub group: &'g ProgramGroup,
+    /// The record's data.
+    pub data: T,
+}
+
+impl<'g, T: bytemuck::Pod> SbtRecord<'g, T> {
+    /// A record of `group` carrying `data`.
+    pub fn new(group: &'g ProgramGroup, data: T) -> Self {
+        SbtRecord { group, data }
+    }
+}
+
+/// A record in type-erased form.
+struct PackedRecord {
+    group_index: usize,
+    data: Vec<u8>,
+}
+
+/// Byte layout of one region.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct RegionLayout {
+    /// Offset of the region from the start of the SBT buffer.
+    pub offset: u64,
+    /// Distance between consecutive records.
+    pub stride: u64,
+    /// Size of the region.
+    pub size: u64,
+}
+
+/// Computes a region's layout for records with the largest data `max_data`,
+/// starting at or after `start`. Pure, so it is unit-tested.
+pub fn region_layout(limits: &DeviceLimits, start: u64, count: usize, max_data: usize) -> RegionLayout {
+    if count == 0 {
+        return RegionLayout { offset: start, stride: 0, size: 0 };
+    }
+    let stride = align_up(limits.shader_group_handle_size as u64 + max_data as u64, limits.shader_group_handle_alignment as u64);
+    let offset = align_up(start, limits.shader_group_base_alignment as u64);
+    RegionLayout { offset, stride, size: stride * count as u64 }
+}
+
+fn align_up(x: u64, a: u64) -> u64 {
+    if a <= 1 {
+        x
+    } else {
+        x.div_ceil(a) * a
+    }
+}
+
+/// Builds an [`Sbt`] for one pipeline.
+#[must_use]
+pub struct SbtBuilder<'p, P: bytemuck::Pod> {
+    pipeline: &'p Pipeline<P>,
+    raygen: Option<PackedRecord>,
+    miss: Vec<PackedRecord>,
+    hit: Vec<PackedRecord>,
+    error: Option<Error>,
+}
+
+impl<'p, P: bytemuck::Pod> SbtBuilder<'p, P> {
+    fn pack<T: bytemuck::Pod>(&mut self, group: &ProgramGroup, data: &T, region: &'static str, expected: &'static str) -> Option<PackedRecord> {
+        if self.error.is_some() {
+            return None;
+        }
+        let kind_ok = matches!(
+            (&group.programs, region),
+            (GroupPrograms::Raygen(_), "raygen") | (GroupPrograms::Miss(_), "miss") | (GroupPrograms::Hit { .. }, "hit")
+        );
+        if !kind_ok {
+            self.error = Some(Error::SbtGroupKind { region, expected, actual: group.kind_name() });
+            return None;
+        }
+        let Some(group_index) = self.pipeline.group_index(group) else {
+            self.error = Some(Error::GroupNotInPipeline { kind: group.kind_name() });
+            return None;
+        };
+        Some(PackedRecord { group_index, data: bytemuck::bytes_of(data).to_vec() })
+    }
+
+    /// The raygen record (exactly one; a second replaces the first).
+    pub fn raygen<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+        if let Some(r) = self.pack(group, &data, "raygen", "raygen") {
+            self.raygen = Some(r);
+        }
+        self
+    }
+
+    /// Appends a miss record; the n-th call is miss index n.
+    pub fn miss<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+        if let Some(r) = self.pack(group, &data, "miss", "miss") {
+            self.miss.push(r);
+        }
+        self
+    }
+
+    /// Appends a hit record; the n-th call is hit record n.
+    pub fn hit<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+        if let Some(r) = self.pack(group, &data, "hit", "hit") {
+            self.hit.push(r);
+        }
+        self
+    }
+
+    /// Appends an [`SbtRecord`] to the region its group's kind belongs to.
+    pub fn record<T: bytemuck::Pod>(self, record: SbtRecord<'_, T>) -> Self {
+        match record.group.programs {
+            GroupPrograms::Raygen(_) => self.raygen(record.group, record.data),
+            GroupPrograms::Miss(_) => self.miss(record.group, record.data),
+            GroupPrograms::Hit { .. } => self.hit(record.group, record.data),
+        }
+    }
+
+    /// Packs the records into a buffer on the device.
+    pub fn build(self) -> Result<Sbt> {
+        if let Some(e) = self.error {
+            return Err(e);
+        }
+        let raygen = self.raygen.ok_or(Error::SbtMissing { region: "raygen" })?;
+        let pipeline = &self.pipeline.inner;
+        let limits = pipeline.ctx.limits;
+        let max_data = |records: &[PackedRecord]| records.iter().map(|r| r.data.len()).max().unwrap_or(0);
+        let check = |layout: RegionLayout, data: usize| -> Result<RegionLayout> {
+            if layout.stride > limits.max_shader_group_stride as u64 {
+                return Err(Error::SbtRecordTooLarge { size: data, stride: layout.stride, limit: limits.max_shader_group_stride });
+            }
+            Ok(layout)
+        };
+        let raygen_records = std::slice::from_ref(&raygen);
+        let rg = check(region_layout(&limits, 0, 1, raygen.data.len()), raygen.data.len())?;
+        let ms = check(region_layout(&limits, rg.offset + rg.size, self.miss.len(), max_data(&self.miss)), max_data(&self.miss))?;
+        let ht = check(region_layout(&limits, ms.offset + ms.size, self.hit.len(), max_data(&self.hit)), max_data(&self.hit))?;
+        let total = ht.offset + ht.size;
+
+        let mut bytes = vec![0u8; total as usize];
+        let handle_size = limits.shader_group_handle_size as usize;
+        for (layout, records) in [(rg, raygen_records), (ms, &self.miss[..]), (ht, &self.hit[..])] {
+            for (i, record) in records.iter().enumerate() {
+                let at = (layout.offset + layout.stride * i as u64) as usize;
+                let handle = &pipeline.handles[record.group_index * handle_size..][..handle_size];
+                bytes[at..at + handle_size].copy_from_slice(handle);
+                bytes[at + handle_size..at + handle_size + record.data.len()].copy_from_slice(&record.data);
+            }
+        }
+        let mut buffer = RawBuffer::new(
+            &pipeline.ctx,
+            "shader binding table",
+            total,
+            vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR,
+            MemoryLocation::CpuToGpu,
+            limits.shader_group_base_alignment as u64,
+        )?;
+        buffer.write_bytes(&bytes)?;
+        let region = |l: RegionLayout| vk::StridedDeviceAddressRegionKHR {
+            device_address: if l.size == 0 { 0 } else { buffer.address + l.offset },
+            stride: l.stride,
+            size: l.size,
+        };
+        Ok(Sbt {
+            pipeline: pipeline.clone(),
+            raygen: region(rg),
+            miss: region(ms),
+            hit: region(ht),
+            callable: vk::StridedDeviceAddressRegionKHR::default(),
+            layouts: [rg, ms, ht],
+            _buffer: buffer,
+        })
+    }
+}
+
+/// A shader binding table on the device, made for one pipeline.
+pub struct Sbt {
+    pub(crate) pipeline: Arc<PipelineInner>,
+    pub(crate) raygen: vk::StridedDeviceAddressRegionKHR,
+    pub(crate) miss: vk::StridedDeviceAddressRegionKHR,
+    pub(crate) hit: vk::StridedDeviceAddressRegionKHR,
+    pub(crate) callable: vk::StridedDeviceAddressRegionKHR,
+    layouts: [RegionLayout; 3],
+    _buffer: RawBuffer,
+}
+
+impl Sbt {
+    /// Starts an SBT for `pipeline`.
+    pub fn builder<P: bytemuck::Pod>(pipeline: &Pipeline<P>) -> SbtBuilder<'_, P> {
+        SbtBuilder { pipeline, raygen: None, miss: Vec::new(), hit: Vec::new(), error: None }
+    }
+
+    /// Layouts of the raygen, miss and hit regions.
+    pub fn region_layouts(&self) -> [RegionLayout; 3] {
+        self.layouts
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn limits(handle: u32, handle_align: u32, base_align: u32) -> DeviceLimits {
+        DeviceLimits {
+            shader_group_handle_size: handle,
+            shader_group_handle_alignment: handle_align,
+            shader_group_base_alignment: base_align,
+            max_shader_group_stride: 4096,
+            max_ray_recursion_depth: 31,
+            max_ray_dispatch_invocation_count: 1 << 30,
+            max_push_constants_size: 128,
+            min_scratch_alignment: 128,
+            max_geometry_count: 1 << 24,
+            max_primitive_count: 1 << 29,
+            max_instance_count: 1 << 24,
+        }
+    }
+
+    #[test]
+    fn strides_fit_the_largest_record_and_the_handle_alignment() {
+        let l = limits(32, 32, 64);
+        assert_eq!(region_layout(&l, 0, 1, 0), RegionLayout { offset: 0, stride: 32, size: 32 });
+        // 32-byte handle + 12-byte Vec3 → 44 → 64 with 32-byte handle alignment.
+        assert_eq!(region_layout(&l, 32, 2, 12), RegionLayout { offset: 64, stride: 64, size: 128 });
+        assert_eq!(region_layout(&l, 192, 0, 100).size, 0);
+    }
+
+    #[test]
+    fn regions_start_on_the_base_alignment() {
+        let l = limits(32, 16, 256);
+        let r = region_layout(&l, 1, 3, 4);
+        assert_eq!(r.offset, 256);
+        assert_eq!(r.stride, 48);
+        assert_eq!(r.size, 144);
+    }
+}

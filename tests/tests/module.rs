@@ -1,0 +1,109 @@
+//! Modules and program groups: reflection of entry points, and the checks that
+//! turn a wrong program kind into an error instead of a broken pipeline.
+
+use raykit::{Error, LinkOptions, Module, Pipeline, ProgramGroup, ProgramKind};
+use raykit_tests::with_context;
+
+#[test]
+fn lists_the_entry_points_with_their_stages() -> anyhow::Result<()> {
+    with_context("lists_the_entry_points_with_their_stages", |ctx| {
+        let module = Module::from_device_crate(ctx, "triangle-device")?;
+        let mut entries: Vec<(String, Option<ProgramKind>)> =
+            module.entry_points().iter().map(|e| (e.name.clone(), e.kind)).collect();
+        entries.sort_by(|a, b| a.0.cmp(&b.0));
+        assert_eq!(
+            entries,
+            vec![
+                ("__closesthit__ch".to_owned(), Some(ProgramKind::ClosestHit)),
+                ("__miss__ms".to_owned(), Some(ProgramKind::Miss)),
+                ("__raygen__rg".to_owned(), Some(ProgramKind::Raygen)),
+            ]
+        );
+        let models: Vec<&str> = module.entry_points().iter().map(|e| e.execution_model.as_str()).collect();
+        assert!(models.contains(&"RayGenerationKHR") && models.contains(&"MissKHR") && models.contains(&"ClosestHitKHR"));
+        Ok(())
+    })
+}
+
+#[test]
+fn wrong_program_kinds_are_errors_that_name_the_entry_points() -> anyhow::Result<()> {
+    with_context("wrong_program_kinds_are_errors_that_name_the_entry_points", |ctx| {
+        let module = Module::from_device_crate(ctx, "triangle-device")?;
+
+        let err = ProgramGroup::raygen(&module, "__miss__ms").err().ok_or_else(|| anyhow::anyhow!("raygen from a miss entry was accepted"))?;
+        assert!(matches!(err, Error::ProgramKindMismatch { expected: ProgramKind::Raygen, .. }), "{err:?}");
+        let text = err.to_string();
+        for name in ["__raygen__rg", "__miss__ms", "__closesthit__ch"] {
+            assert!(text.contains(name), "message does not list {name}: {text}");
+        }
+
+        // The typed constant of another kind is refused as well.
+        let err = ProgramGroup::miss(&module, triangle_device::CH).err().ok_or_else(|| anyhow::anyhow!("accepted"))?;
+        assert!(matches!(err, Error::ProgramKindMismatch { expected: ProgramKind::Miss, .. }), "{err:?}");
+
+        let err = ProgramGroup::hit_group(&module).closest_hit(triangle_device::RG).build().err();
+        assert!(matches!(err, Some(Error::ProgramKindMismatch { expected: ProgramKind::ClosestHit, .. })), "{err:?}");
+
+        let err = ProgramGroup::raygen(&module, "__raygen__nope").err();
+        assert!(matches!(&err, Some(Error::EntryPointNotFound { name, .. }) if name == "__raygen__nope"), "{err:?}");
+
+        assert!(matches!(ProgramGroup::hit_group(&module).build(), Err(Error::EmptyHitGroup)));
+
+        // The context is still usable after the errors.
+        let pixels = triangle::render(ctx, 16, 16)?;
+        assert_eq!(pixels.len(), 256);
+        Ok(())
+    })
+}
+
+#[test]
+fn glsl_modules_with_entry_main_load() -> anyhow::Result<()> {
+    with_context("glsl_modules_with_entry_main_load", |ctx| {
+        let bytes = include_bytes!("../data/raygen_main.rgen.spv");
+        let module = Module::new(ctx, bytes)?;
+        assert_eq!(module.entry_points().len(), 1);
+        assert_eq!(module.entry_points()[0].name, "main");
+        assert_eq!(module.entry_points()[0].kind, Some(ProgramKind::Raygen));
+        let raygen = ProgramGroup::raygen(&module, "main")?;
+        assert!(matches!(ProgramGroup::miss(&module, "main"), Err(Error::ProgramKindMismatch { .. })));
+        let pipeline = Pipeline::<()>::new(ctx, &[&raygen], LinkOptions::default())?;
+        drop(pipeline);
+        Ok(())
+    })
+}
+
+#[test]
+fn bad_modules_and_link_options_are_typed_errors() -> anyhow::Result<()> {
+    with_context("bad_modules_and_link_options_are_typed_errors", |ctx| {
+        assert!(matches!(Module::new(ctx, b"definitely not SPIR-V"), Err(Error::InvalidSpirv { .. })));
+        let bytes = include_bytes!("../data/raygen_main.rgen.spv");
+        assert!(matches!(Module::new(ctx, &bytes[..bytes.len() - 2]), Err(Error::InvalidSpirv { .. })));
+        assert!(matches!(Module::new(ctx, &bytes[..bytes.len() / 2 & !3]), Err(Error::InvalidSpirv { .. })));
+        let missing = Module::from_file(ctx, "no/such/file.spv");
+        assert!(matches!(missing, Err(Error::SpirvFile { .. })));
+
+        let module = Module::from_device_crate(ctx, "triangle-device")?;
+        let raygen = ProgramGroup::raygen(&module, triangle_device::RG)?;
+        let miss = ProgramGroup::miss(&module, triangle_device::MS)?;
+        let limit = ctx.limits().max_ray_recursion_depth;
+        let err = Pipeline::<triangle_device::Params>::new(ctx, &[&raygen], LinkOptions { max_trace_depth: limit + 1 }).err();
+        assert!(matches!(err, Some(Error::TraceDepthTooLarge { .. })), "{err:?}");
+        let err = Pipeline::<triangle_device::Params>::new(ctx, &[&miss], LinkOptions::default()).err();
+        assert!(matches!(err, Some(Error::NoRaygen)), "{err:?}");
+
+        let pipeline = Pipeline::<triangle_device::Params>::new(ctx, &[&raygen, &miss], LinkOptions::default())?;
+        let err = raykit::Sbt::builder(&pipeline).miss(&miss, ()).build().err();
+        assert!(matches!(err, Some(Error::SbtMissing { region: "raygen" })), "{err:?}");
+        let err = raykit::Sbt::builder(&pipeline).raygen(&miss, ()).build().err();
+        assert!(matches!(err, Some(Error::SbtGroupKind { .. })), "{err:?}");
+        let sbt = raykit::Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).build()?;
+        let params: triangle_device::Params = bytemuck_zeroed();
+        let err = pipeline.launch(&sbt, &params, [0, 1, 1]).err();
+        assert!(matches!(err, Some(Error::LaunchDimensions { .. })), "{err:?}");
+        Ok(())
+    })
+}
+
+fn bytemuck_zeroed<T: raykit::device::bytemuck::Zeroable>() -> T {
+    T::zeroed()
+}

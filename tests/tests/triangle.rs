@@ -1,0 +1,86 @@
+//! optixTriangle rendered on the device against a CPU reference of the same scene.
+
+use raykit::glam::{UVec2, Vec2, Vec3};
+use raykit_tests::{channel_distance, with_context};
+use triangle::{BG_COLOR, VERTICES};
+use triangle_device::{barycentric_color, camera_ray, make_color, Params};
+
+/// Möller–Trumbore: `(t, u, v)` of the hit of the ray with triangle `tri`, with
+/// OptiX's barycentric convention (hit = (1-u-v)·v0 + u·v1 + v·v2).
+fn intersect(origin: Vec3, dir: Vec3, tri: [Vec3; 3]) -> Option<(f32, Vec2)> {
+    let e1 = tri[1] - tri[0];
+    let e2 = tri[2] - tri[0];
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let s = origin - tri[0];
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = dir.dot(q) / det;
+    let t = e2.dot(q) / det;
+    (t > 0.0 && u >= 0.0 && v >= 0.0 && u + v <= 1.0).then_some((t, Vec2::new(u, v)))
+}
+
+/// Distance of barycentrics `(u, v)` from the triangle's edges (negative outside).
+fn edge_margin(origin: Vec3, dir: Vec3, tri: [Vec3; 3]) -> f32 {
+    let e1 = tri[1] - tri[0];
+    let e2 = tri[2] - tri[0];
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    let s = origin - tri[0];
+    let u = s.dot(p) / det;
+    let v = dir.dot(s.cross(e1)) / det;
+    u.min(v).min(1.0 - u - v)
+}
+
+#[test]
+fn triangle_matches_the_cpu_reference() -> anyhow::Result<()> {
+    with_context("triangle_matches_the_cpu_reference", |ctx| {
+        let (width, height) = (320u32, 240u32);
+        let pixels = triangle::render(ctx, width, height)?;
+        assert_eq!(pixels.len(), (width * height) as usize);
+
+        let params: Params = triangle::params(width, height, raykit::Buffer::from_table_index(0), raykit::Traversable::NULL);
+        let bg = make_color(BG_COLOR);
+        let (mut bg_pixels, mut tri_pixels, mut tri_close) = (0usize, 0usize, 0usize);
+        let mut bg_wrong = Vec::new();
+        for y in 0..height {
+            for x in 0..width {
+                let got = pixels[(y * width + x) as usize];
+                let (origin, dir) = camera_ray(UVec2::new(x, y), UVec2::new(width, height), &params);
+                match intersect(origin, dir, VERTICES) {
+                    Some((_, bary)) => {
+                        tri_pixels += 1;
+                        if channel_distance(got, make_color(barycentric_color(bary))) <= 2 {
+                            tri_close += 1;
+                        }
+                    }
+                    None => {
+                        // Rays grazing an edge may legitimately go either way.
+                        if edge_margin(origin, dir, VERTICES) < -1e-3 {
+                            bg_pixels += 1;
+                            if got != bg {
+                                bg_wrong.push((x, y, got));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let total = (width * height) as usize;
+        assert!(tri_pixels > total / 10, "the triangle covers only {tri_pixels} of {total} pixels");
+        assert!(bg_pixels > total / 10, "only {bg_pixels} background pixels");
+        assert!(bg_wrong.is_empty(), "{} background pixels differ from bg_color {bg:#010x}, e.g. {:?}", bg_wrong.len(), &bg_wrong[..bg_wrong.len().min(5)]);
+        let ratio = tri_close as f64 / tri_pixels as f64;
+        assert!(ratio >= 0.995, "only {tri_close} of {tri_pixels} triangle pixels ({:.3}%) within 2/255", ratio * 100.0);
+        Ok(())
+    })
+}
+
+#[test]
+fn background_is_the_miss_records_colour_after_srgb_quantisation() {
+    // (0.3, 0.1, 0.2) linear → sRGB 8-bit (149, 89, 124).
+    assert_eq!(raykit_tests::rgba(make_color(BG_COLOR)), [149, 89, 124, 255]);
+}

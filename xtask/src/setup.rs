@@ -1,0 +1,206 @@
+//! Installing what raykit needs on a fresh machine: the pinned nightly for
+//! rust-gpu, a Vulkan driver with ray tracing (Mesa ≥ 25 lavapipe on Debian
+//! bookworm, from bookworm-backports), and the validation layers for tests.
+//! Everything installed is announced; what cannot be installed is explained with
+//! the exact commands to run.
+
+use std::ffi::CStr;
+use std::path::Path;
+use std::process::Command;
+
+use anyhow::{bail, Context as _};
+
+/// The nightly rust-gpu 0.11 requires.
+pub const TOOLCHAIN: &str = "nightly-2026-08-15";
+/// Its components.
+pub const COMPONENTS: [&str; 3] = ["rust-src", "rustc-dev", "llvm-tools"];
+
+fn output(cmd: &mut Command) -> Option<String> {
+    let out = cmd.output().ok()?;
+    out.status.success().then(|| String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// `rustup`, with the toolchain override variables that cargo's proxy sets removed.
+pub fn rustup() -> Command {
+    let mut cmd = Command::new("rustup");
+    cmd.env_remove("RUSTUP_TOOLCHAIN");
+    cmd
+}
+
+/// Installs the pinned nightly and its components when missing.
+pub fn ensure_toolchain() -> anyhow::Result<()> {
+    let Some(list) = output(rustup().args(["toolchain", "list"])) else {
+        bail!(
+            "rustup is not available. raykit's shader builds need rustup to install {TOOLCHAIN}; install rustup \
+             (https://rustup.rs) or run: rustup toolchain install {TOOLCHAIN} --profile minimal --component {}",
+            COMPONENTS.join(",")
+        );
+    };
+    let installed = list.lines().any(|l| l.starts_with(TOOLCHAIN));
+    let missing_components: Vec<&str> = if installed {
+        let have = output(rustup().args(["component", "list", "--installed", "--toolchain", TOOLCHAIN])).unwrap_or_default();
+        COMPONENTS.iter().copied().filter(|c| !have.lines().any(|l| l.starts_with(c))).collect()
+    } else {
+        COMPONENTS.to_vec()
+    };
+    if installed && missing_components.is_empty() {
+        return Ok(());
+    }
+    if !installed {
+        println!("xtask: installing the Rust toolchain {TOOLCHAIN} with {} (needed by rust-gpu 0.11 for shader builds)", COMPONENTS.join(", "));
+        crate::run(
+            rustup().args(["toolchain", "install", TOOLCHAIN, "--profile", "minimal", "--component", &COMPONENTS.join(",")]),
+            &format!("rustup toolchain install {TOOLCHAIN}"),
+        )?;
+    } else {
+        println!("xtask: adding components {} to {TOOLCHAIN}", missing_components.join(", "));
+        crate::run(
+            rustup().args(["component", "add", "--toolchain", TOOLCHAIN]).args(&missing_components),
+            "rustup component add",
+        )?;
+    }
+    Ok(())
+}
+
+/// What the Vulkan probe found.
+struct Probe {
+    loader: bool,
+    devices: Vec<(String, bool)>,
+    validation_layer: bool,
+}
+
+impl Probe {
+    fn has_ray_tracing(&self) -> bool {
+        self.devices.iter().any(|(_, rt)| *rt)
+    }
+}
+
+fn probe() -> Probe {
+    // SAFETY: loads the system Vulkan loader, as any Vulkan program does.
+    let Ok(entry) = (unsafe { ash::Entry::load() }) else {
+        return Probe { loader: false, devices: Vec::new(), validation_layer: false };
+    };
+    // SAFETY: plain enumeration.
+    let validation_layer = unsafe { entry.enumerate_instance_layer_properties() }.is_ok_and(|layers| {
+        layers.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == c"VK_LAYER_KHRONOS_validation"))
+    });
+    let app = ash::vk::ApplicationInfo::default().api_version(ash::vk::API_VERSION_1_2);
+    let info = ash::vk::InstanceCreateInfo::default().application_info(&app);
+    // SAFETY: valid create info; the instance is destroyed below.
+    let Ok(instance) = (unsafe { entry.create_instance(&info, None) }) else {
+        return Probe { loader: true, devices: Vec::new(), validation_layer };
+    };
+    let mut devices = Vec::new();
+    // SAFETY: queries on a live instance, destroyed at the end.
+    unsafe {
+        for physical in instance.enumerate_physical_devices().unwrap_or_default() {
+            let props = instance.get_physical_device_properties(physical);
+            let name = props.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            let rt_name: &CStr = ash::khr::ray_tracing_pipeline::NAME;
+            let rt = instance
+                .enumerate_device_extension_properties(physical)
+                .unwrap_or_default()
+                .iter()
+                .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == rt_name));
+            devices.push((name, rt));
+        }
+        instance.destroy_instance(None);
+    }
+    Probe { loader: true, devices, validation_layer }
+}
+
+fn is_root() -> bool {
+    output(Command::new("id").arg("-u")).is_some_and(|s| s.trim() == "0")
+}
+
+fn debian_codename() -> Option<String> {
+    let text = std::fs::read_to_string("/etc/os-release").ok()?;
+    text.lines().find_map(|l| l.strip_prefix("VERSION_CODENAME=")).map(|s| s.trim_matches('"').to_owned())
+}
+
+const BACKPORTS_LIST: &str = "/etc/apt/sources.list.d/raykit-bookworm-backports.sources";
+
+fn backports_configured() -> bool {
+    let mut texts = Vec::new();
+    if let Ok(t) = std::fs::read_to_string("/etc/apt/sources.list") {
+        texts.push(t);
+    }
+    if let Ok(dir) = std::fs::read_dir("/etc/apt/sources.list.d") {
+        for entry in dir.flatten() {
+            if let Ok(t) = std::fs::read_to_string(entry.path()) {
+                texts.push(t);
+            }
+        }
+    }
+    texts.iter().any(|t| t.contains("bookworm-backports"))
+}
+
+fn apt_get(args: &[&str]) -> anyhow::Result<()> {
+    let mut cmd = Command::new("apt-get");
+    cmd.args(args).env("DEBIAN_FRONTEND", "noninteractive");
+    crate::run(&mut cmd, &format!("apt-get {}", args.join(" ")))
+}
+
+fn manual_driver_help() -> String {
+    format!(
+        "On Debian bookworm, as root:\n  \
+         printf 'Types: deb\\nURIs: http://deb.debian.org/debian\\nSuites: bookworm-backports\\nComponents: main\\nSigned-By: /usr/share/keyrings/debian-archive-keyring.gpg\\n' > {BACKPORTS_LIST}\n  \
+         apt-get update\n  \
+         apt-get install -y -t bookworm-backports mesa-vulkan-drivers libvulkan1\n\
+         Elsewhere: install a Vulkan driver with VK_KHR_ray_tracing_pipeline (Mesa ≥ 25 lavapipe, or a GPU driver)."
+    )
+}
+
+/// Makes sure a Vulkan device with ray-tracing pipelines exists (installing
+/// lavapipe when it can), and, for tests, the Khronos validation layer.
+pub fn ensure_vulkan(validation: bool) -> anyhow::Result<()> {
+    let mut found = probe();
+    if !found.loader || !found.has_ray_tracing() {
+        let seen = if found.devices.is_empty() {
+            "no Vulkan devices".to_owned()
+        } else {
+            found.devices.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(", ")
+        };
+        let apt = Path::new("/usr/bin/apt-get").exists();
+        let bookworm = debian_codename().as_deref() == Some("bookworm");
+        if !(is_root() && apt && bookworm) {
+            bail!(
+                "no Vulkan device with ray-tracing pipelines (seen: {seen}), and this machine is not Debian bookworm \
+                 with root and apt, so xtask cannot install one.\n{}",
+                manual_driver_help()
+            );
+        }
+        println!("xtask: no Vulkan device with ray tracing (seen: {seen}); installing Mesa's lavapipe from bookworm-backports");
+        if !backports_configured() {
+            println!("xtask: adding bookworm-backports to apt's sources ({BACKPORTS_LIST})");
+            std::fs::write(
+                BACKPORTS_LIST,
+                "Types: deb\nURIs: http://deb.debian.org/debian\nSuites: bookworm-backports\nComponents: main\n\
+                 Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg\n",
+            )
+            .with_context(|| format!("writing {BACKPORTS_LIST}"))?;
+        }
+        apt_get(&["update"])?;
+        apt_get(&["install", "-y", "-t", "bookworm-backports", "mesa-vulkan-drivers", "libvulkan1"])?;
+        found = probe();
+        if !found.has_ray_tracing() {
+            bail!("installed mesa-vulkan-drivers from bookworm-backports, but still no device with VK_KHR_ray_tracing_pipeline");
+        }
+        println!("xtask: lavapipe installed");
+    }
+    if validation && !found.validation_layer {
+        if is_root() && Path::new("/usr/bin/apt-get").exists() {
+            println!("xtask: installing the Vulkan validation layers (vulkan-validationlayers) for the tests");
+            if apt_get(&["install", "-y", "vulkan-validationlayers"]).is_err() {
+                apt_get(&["update"])?;
+                apt_get(&["install", "-y", "vulkan-validationlayers"])?;
+            }
+        } else {
+            bail!(
+                "the tests run with the Khronos validation layer, which is not installed. \
+                 On Debian, as root: apt-get install -y vulkan-validationlayers"
+            );
+        }
+    }
+    Ok(())
+}
