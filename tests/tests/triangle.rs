@@ -84,3 +84,31 @@ fn background_is_the_miss_records_colour_after_srgb_quantisation() {
     // (0.3, 0.1, 0.2) linear → sRGB 8-bit (149, 89, 124).
     assert_eq!(raykit_tests::rgba(make_color(BG_COLOR)), [149, 89, 124, 255]);
 }
+
+#[test]
+fn glsl_twin_draws_the_same_picture() -> anyhow::Result<()> {
+    with_context("glsl_twin_draws_the_same_picture", |ctx| {
+        let (width, height) = (160u32, 120u32);
+        let glsl = triangle::render_with(ctx, &triangle::Programs::glsl(ctx)?, width, height)?;
+        let rust = triangle::render(ctx, width, height)?;
+        let differing = glsl.iter().zip(&rust).filter(|(a, b)| channel_distance(**a, **b) > 1).count();
+        assert!(differing <= (width * height / 1000) as usize, "{differing} pixels differ between the GLSL and Rust programs");
+        assert!(glsl.iter().any(|&p| p != make_color(BG_COLOR)), "the GLSL picture is all background");
+        Ok(())
+    })
+}
+
+#[test]
+fn glsl_twin_alone_matches_background() -> anyhow::Result<()> {
+    with_context("glsl_twin_alone_matches_background", |ctx| {
+        let pixels = triangle::render_with(ctx, &triangle::Programs::glsl(ctx)?, 64, 48)?;
+        // The corners are background.
+        for p in [pixels[0], pixels[63], pixels[64 * 47]] {
+            assert_eq!(p, make_color(BG_COLOR));
+        }
+        // The centre column just above the bottom edge is inside the triangle.
+        let centre = pixels[(30 * 64 + 32) as usize];
+        assert_ne!(centre, make_color(BG_COLOR));
+        Ok(())
+    })
+}

@@ -60,17 +60,54 @@ pub fn params(width: u32, height: u32, image: raykit::Buffer<u32>, scene: raykit
     }
 }
 
-/// Renders optixTriangle at `width × height`; returns RGBA8 pixels, row 0 at the top.
+/// The three program groups of optixTriangle.
+pub struct Programs {
+    /// `__raygen__rg`.
+    pub raygen: ProgramGroup,
+    /// `__miss__ms`.
+    pub miss: ProgramGroup,
+    /// A hit group with `__closesthit__ch`.
+    pub hit: ProgramGroup,
+}
+
+impl Programs {
+    /// The Rust programs of `triangle-device`.
+    pub fn rust(ctx: &Context) -> raykit::Result<Programs> {
+        let module = Module::from_device_crate(ctx, "triangle-device")?;
+        Ok(Programs {
+            raygen: ProgramGroup::raygen(&module, triangle_device::RG)?,
+            miss: ProgramGroup::miss(&module, triangle_device::MS)?,
+            hit: ProgramGroup::hit_group(&module).closest_hit(triangle_device::CH).build()?,
+        })
+    }
+
+    /// The GLSL twin (`glsl/`), three modules whose entry points are `main`.
+    pub fn glsl(ctx: &Context) -> raykit::Result<Programs> {
+        let raygen = Module::new(ctx, include_bytes!("../glsl/triangle.rgen.spv"))?;
+        let miss = Module::new(ctx, include_bytes!("../glsl/triangle.rmiss.spv"))?;
+        let hit = Module::new(ctx, include_bytes!("../glsl/triangle.rchit.spv"))?;
+        Ok(Programs {
+            raygen: ProgramGroup::raygen(&raygen, "main")?,
+            miss: ProgramGroup::miss(&miss, "main")?,
+            hit: ProgramGroup::hit_group(&hit).closest_hit("main").build()?,
+        })
+    }
+}
+
+/// Renders optixTriangle at `width × height` with the Rust programs; returns
+/// RGBA8 pixels, row 0 at the top.
 pub fn render(ctx: &Context, width: u32, height: u32) -> raykit::Result<Vec<u32>> {
-    let module = Module::from_device_crate(ctx, "triangle-device")?;
-    let raygen = ProgramGroup::raygen(&module, triangle_device::RG)?;
-    let miss = ProgramGroup::miss(&module, triangle_device::MS)?;
-    let hit = ProgramGroup::hit_group(&module).closest_hit(triangle_device::CH).build()?;
-    let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
+    render_with(ctx, &Programs::rust(ctx)?, width, height)
+}
+
+/// Renders optixTriangle at `width × height` with `programs`.
+pub fn render_with(ctx: &Context, programs: &Programs, width: u32, height: u32) -> raykit::Result<Vec<u32>> {
+    let Programs { raygen, miss, hit } = programs;
+    let pipeline = Pipeline::<Params>::new(ctx, &[raygen, miss, hit], LinkOptions { max_trace_depth: 1 })?;
     let sbt = Sbt::builder(&pipeline)
-        .raygen(&raygen, ())
-        .miss(&miss, MissData { bg_color: BG_COLOR })
-        .hit(&hit, ())
+        .raygen(raygen, ())
+        .miss(miss, MissData { bg_color: BG_COLOR })
+        .hit(hit, ())
         .build()?;
 
     let gas = Gas::triangles(ctx, &VERTICES, None)?;
