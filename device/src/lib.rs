@@ -32,6 +32,7 @@
 
 pub mod entry;
 pub mod handles;
+pub mod params;
 pub mod ray;
 pub mod stage;
 
@@ -39,7 +40,8 @@ pub use bytemuck;
 pub use entry::{EntryPoint, ProgramKind};
 pub use handles::{Buffer, Element, Traversable};
 pub use ray::{Ray, RayFlags, RayType};
-pub use raykit_macros::{closest_hit, miss, raygen};
+pub use params::{FieldLayout, LaunchParams, ParamsLayout};
+pub use raykit_macros::{closest_hit, miss, raygen, LaunchParams};
 pub use spirv_std;
 pub use spirv_std::glam;
 pub use stage::{ClosestHit, Miss, Raygen};

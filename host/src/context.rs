@@ -171,6 +171,7 @@ impl Features {
             v12: vk::PhysicalDeviceVulkan12Features::default()
                 .buffer_device_address(true)
                 .scalar_block_layout(true)
+                .vulkan_memory_model(true)
                 .runtime_descriptor_array(true)
                 .descriptor_binding_partially_bound(true)
                 .descriptor_binding_storage_buffer_update_after_bind(true)
@@ -181,7 +182,8 @@ impl Features {
 
     /// Names of required features `self` lacks.
     fn missing(&self) -> Vec<String> {
-        let checks: [(&str, vk::Bool32); 8] = [
+        let checks: [(&str, vk::Bool32); 9] = [
+            ("vulkanMemoryModel", self.v12.vulkan_memory_model),
             ("rayTracingPipeline", self.rt.ray_tracing_pipeline),
             ("accelerationStructure", self.accel.acceleration_structure),
             ("bufferDeviceAddress", self.v12.buffer_device_address),

@@ -70,10 +70,90 @@ pub(crate) fn words_of(bytes: &[u8]) -> Result<Vec<u32>> {
     Ok(words)
 }
 
+const OP_ENTRY_POINT: u32 = 15;
+const OP_FUNCTION: u32 = 54;
+const OP_FUNCTION_END: u32 = 56;
+
+/// Checks the module's structure before anything else reads it: instructions that
+/// fit in the module, the ID bound, functions that are closed, and entry points
+/// that name defined functions. This catches truncated and many corrupted modules,
+/// which a driver must never see. (It is not a full validator: that is spirv-val.)
+fn check_structure(words: &[u32]) -> Result<()> {
+    let invalid = |reason: String| Err(Error::InvalidSpirv { reason });
+    let version = words[1];
+    if !(0x0001_0000..=0x0001_0600).contains(&version) || version & 0xff != 0 {
+        return invalid(format!("unknown SPIR-V version word {version:#010x}"));
+    }
+    let bound = words[3];
+    if bound == 0 || bound > 1 << 22 {
+        return invalid(format!("ID bound {bound} is out of range"));
+    }
+    let mut functions = std::collections::HashSet::new();
+    let mut entry_functions = Vec::new();
+    let mut open_function: Option<usize> = None;
+    let mut at = 5;
+    while at < words.len() {
+        let word_count = (words[at] >> 16) as usize;
+        let opcode = words[at] & 0xffff;
+        if word_count == 0 || at + word_count > words.len() {
+            return invalid(format!(
+                "instruction at word {at} (opcode {opcode}) claims {word_count} words but the module ends at word {} — truncated?",
+                words.len()
+            ));
+        }
+        let operand = |i: usize| if i < word_count { Some(words[at + i]) } else { None };
+        match opcode {
+            OP_ENTRY_POINT => match operand(2) {
+                Some(id) => entry_functions.push(id),
+                None => return invalid(format!("OpEntryPoint at word {at} is too short")),
+            },
+            OP_FUNCTION => {
+                if open_function.is_some() {
+                    return invalid(format!("OpFunction at word {at} inside another function"));
+                }
+                match operand(2) {
+                    Some(id) if id < bound => {
+                        functions.insert(id);
+                    }
+                    _ => return invalid(format!("OpFunction at word {at} has no valid result id")),
+                }
+                open_function = Some(at);
+            }
+            OP_FUNCTION_END => {
+                if open_function.take().is_none() {
+                    return invalid(format!("OpFunctionEnd at word {at} without OpFunction"));
+                }
+            }
+            _ => {}
+        }
+        at += word_count;
+    }
+    if let Some(start) = open_function {
+        return invalid(format!("the function starting at word {start} is never closed — truncated module?"));
+    }
+    if let Some(id) = entry_functions.iter().find(|id| !functions.contains(id)) {
+        return invalid(format!("an entry point names function %{id}, which the module does not define — truncated module?"));
+    }
+    Ok(())
+}
+
+/// Parses a structurally checked module with rspirv. rspirv can panic on some
+/// malformed input; such a panic is turned into an error rather than crossing
+/// raykit's API.
+fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
+    check_structure(words)?;
+    let parsed = std::panic::catch_unwind(|| rspirv::dr::load_words(words));
+    match parsed {
+        Ok(Ok(module)) => Ok(module),
+        Ok(Err(e)) => Err(Error::InvalidSpirv { reason: e.to_string() }),
+        Err(_) => Err(Error::InvalidSpirv { reason: "malformed operands (the SPIR-V parser gave up)".to_owned() }),
+    }
+}
+
 /// Lists the entry points of a SPIR-V module.
 pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
     let words = words_of(bytes)?;
-    let module = rspirv::dr::load_words(&words).map_err(|e| Error::InvalidSpirv { reason: e.to_string() })?;
+    let module = parse(&words)?;
     let mut entries = Vec::new();
     for inst in &module.entry_points {
         let (Some(rspirv::dr::Operand::ExecutionModel(model)), Some(rspirv::dr::Operand::LiteralString(name))) =
@@ -164,5 +244,32 @@ mod tests {
         assert!(matches!(reflect_entry_points(&[0u8; 21]), Err(Error::InvalidSpirv { .. })));
         let err = reflect_entry_points(&[0u8; 24]).unwrap_err().to_string();
         assert!(err.contains("magic number"), "{err}");
+    }
+
+    /// A minimal module: header, `OpEntryPoint RayGenerationKHR %1 "main"`,
+    /// and (optionally) the function %1.
+    fn tiny_module(with_function: bool) -> Vec<u32> {
+        let mut w = vec![SPIRV_MAGIC, 0x0001_0400, 0, 10, 0];
+        // OpEntryPoint: 4 words + "main\0" (2 words).
+        w.extend([(5 << 16) | OP_ENTRY_POINT, 5313, 1, u32::from_le_bytes(*b"main"), 0]);
+        if with_function {
+            w.extend([(5 << 16) | OP_FUNCTION, 2, 1, 0, 3, (1 << 16) | OP_FUNCTION_END]);
+        }
+        w
+    }
+
+    #[test]
+    fn truncated_modules_are_refused_without_reaching_the_parser() {
+        let words = tiny_module(true);
+        assert!(check_structure(&words).is_ok());
+        // Cut inside the function: never closed.
+        let err = check_structure(&words[..words.len() - 1]).unwrap_err().to_string();
+        assert!(err.contains("never closed") || err.contains("claims"), "{err}");
+        // Cut before the function: the entry point names nothing.
+        let err = check_structure(&tiny_module(false)).unwrap_err().to_string();
+        assert!(err.contains("does not define"), "{err}");
+        // Cut mid-instruction.
+        let err = check_structure(&words[..7]).unwrap_err().to_string();
+        assert!(err.contains("truncated"), "{err}");
     }
 }

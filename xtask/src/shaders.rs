@@ -51,10 +51,78 @@ fn nightly(program: &str) -> Command {
     cmd
 }
 
+/// The rust-gpu codegen crate raykit builds with its fix applied.
+const CODEGEN_CRATE: &str = "rustc_codegen_spirv-0.11.0";
+
+/// raykit's fix to rust-gpu 0.11 (to be upstreamed): its linker erases the
+/// `Offset`/`ArrayStride` decorations of every type reached through a storage
+/// class other than push-constant, uniform, storage or physical-storage buffers.
+/// `ShaderRecordBufferKHR` needs them too (Vulkan requires an explicit layout
+/// for shader records), or programs read their SBT data from undefined offsets.
+const CODEGEN_PATCH: (&str, &str, &str) = (
+    "src/linker/spirt_passes/explicit_layout.rs",
+    "        .map(AddrSpace::SpvStorageClass)\n        .contains(&addr_space)\n    }",
+    "        .map(AddrSpace::SpvStorageClass)\n        .contains(&addr_space)\n            // raykit: ShaderRecordBufferKHR (5343) needs explicit layout too.\n            || addr_space == AddrSpace::SpvStorageClass(5343)\n    }",
+);
+
+fn copy_tree(from: &Path, to: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(to)?;
+    for entry in std::fs::read_dir(from)? {
+        let entry = entry?;
+        let target = to.join(entry.file_name());
+        if entry.file_type()?.is_dir() {
+            if entry.file_name() != "target" {
+                copy_tree(&entry.path(), &target)?;
+            }
+        } else {
+            let bytes = std::fs::read(entry.path())?;
+            if std::fs::read(&target).ok().as_deref() != Some(&bytes[..]) {
+                std::fs::write(&target, bytes)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Copies the codegen crate's source from cargo's registry into `dest` and
+/// applies [`CODEGEN_PATCH`]; leaves an already patched copy untouched.
+fn patched_codegen(builder_src: &Path, dest: &Path) -> anyhow::Result<()> {
+    let (file, from, to) = CODEGEN_PATCH;
+    if std::fs::read_to_string(dest.join(file)).is_ok_and(|t| t.contains(to)) {
+        return Ok(());
+    }
+    // Download the pinned dependencies (the codegen crate's source among them).
+    crate::run(
+        nightly("cargo").args(["fetch", "--locked", "--quiet", "--manifest-path"]).arg(builder_src.join("Cargo.toml")),
+        "cargo fetch (shader builder)",
+    )?;
+    let cargo_home = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")))
+        .context("neither CARGO_HOME nor HOME is set")?;
+    let registry = cargo_home.join("registry").join("src");
+    let source = std::fs::read_dir(&registry)
+        .with_context(|| format!("reading {}", registry.display()))?
+        .flatten()
+        .map(|index| index.path().join(CODEGEN_CRATE))
+        .find(|p| p.join("Cargo.toml").exists())
+        .with_context(|| format!("{CODEGEN_CRATE} not found under {} after cargo fetch", registry.display()))?;
+    copy_tree(&source, dest)?;
+    let path = dest.join(file);
+    let text = std::fs::read_to_string(&path)?;
+    if !text.contains(from) {
+        bail!("cannot apply raykit's fix to {}: the code it patches changed", path.display());
+    }
+    std::fs::write(&path, text.replacen(from, to, 1))?;
+    println!("xtask: applied raykit's shader-record layout fix to {CODEGEN_CRATE} ({})", dest.display());
+    Ok(())
+}
+
 /// Builds (or finds up to date) the shader-builder; returns its path and the
 /// library path it needs.
 fn shader_builder(root: &Path) -> anyhow::Result<(PathBuf, String)> {
-    let target = cache_dir().join("shader-builder");
+    let cache = cache_dir();
+    let target = cache.join("shader-builder");
     let binary = target.join("release").join("raykit-shader-builder");
     if !binary.exists() {
         println!(
@@ -63,20 +131,29 @@ fn shader_builder(root: &Path) -> anyhow::Result<(PathBuf, String)> {
         );
     }
     let started = Instant::now();
-    let manifest = root.join("xtask").join("shader-builder").join("Cargo.toml");
+    // Build from a copy at a fixed place in the cache, so every clone of the
+    // repository shares one build, with the patched codegen crate beside it.
+    let builder_src = cache.join("shader-builder-src");
+    copy_tree(&root.join("xtask").join("shader-builder"), &builder_src)?;
+    let codegen = cache.join("patched").join(CODEGEN_CRATE);
+    patched_codegen(&builder_src, &codegen)?;
+    let manifest = builder_src.join("Cargo.toml");
     crate::run(
         nightly("cargo")
-            .args(["build", "--release", "--locked", "--quiet", "--manifest-path"])
+            .args(["build", "--release", "--quiet", "--manifest-path"])
             .arg(&manifest)
             .arg("--target-dir")
-            .arg(&target),
+            .arg(&target)
+            .arg("--config")
+            .arg(format!("patch.crates-io.rustc_codegen_spirv.path={:?}", codegen.display().to_string())),
         "building the shader builder",
     )?;
     if started.elapsed().as_secs() > 20 {
         println!("xtask: codegen backend built in {:.0} s", started.elapsed().as_secs_f64());
     }
     let sysroot = String::from_utf8(nightly("rustc").args(["--print", "sysroot"]).output()?.stdout)?;
-    let lib_path = format!("{}:{}/lib", target.join("release").join("deps").display(), sysroot.trim());
+    let release = target.join("release");
+    let lib_path = format!("{}:{}:{}/lib", release.display(), release.join("deps").display(), sysroot.trim());
     Ok((binary, lib_path))
 }
 

@@ -17,6 +17,7 @@
 //! `#[miss(ray = R)]` and `#[closest_hit(ray = R)]` check at compile time that the
 //! payload is `<R as RayType>::Payload`.
 
+mod launch_params;
 mod program;
 
 use proc_macro::TokenStream;
@@ -37,4 +38,13 @@ pub fn miss(attr: TokenStream, item: TokenStream) -> TokenStream {
 #[proc_macro_attribute]
 pub fn closest_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
     program::expand(program::Stage::ClosestHit, attr.into(), item.into()).into()
+}
+
+/// Records the layout of a launch-params struct (`#[repr(C)]`, `Copy`,
+/// `bytemuck::Pod`) so the host can check it against the SPIR-V. Fields that
+/// cannot cross to the device (references, pointers, `bool`, `usize`) are
+/// compile errors.
+#[proc_macro_derive(LaunchParams)]
+pub fn derive_launch_params(item: TokenStream) -> TokenStream {
+    launch_params::derive(item.into()).into()
 }

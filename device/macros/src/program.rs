@@ -270,8 +270,13 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 call_args.push(quote!(#name));
             }
             Role::Record(ty) => {
-                wrapper_params.push(quote! { #[spirv(shader_record_buffer)] #name: &#ty });
-                call_args.push(quote!(#name));
+                // rust-gpu 0.11 does not wrap `ShaderRecordBufferKHR` variables in a
+                // `Block` struct (as Vulkan requires, and as it does for push
+                // constants); a `TypedBuffer` is such a block, laid out explicitly.
+                wrapper_params.push(quote! {
+                    #[spirv(shader_record_buffer)] #name: &::raykit_device::spirv_std::TypedBuffer<#ty>
+                });
+                call_args.push(quote!(::core::ops::Deref::deref(#name)));
             }
             Role::Payload(ty) => {
                 let storage = if stage == Stage::Raygen { quote!(ray_payload) } else { quote!(incoming_ray_payload) };

@@ -9,12 +9,12 @@
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
-use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, Miss, RayType, Raygen, Traversable};
+use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, RayType, Raygen, Traversable};
 
 /// Launch params, as in the seed's `Params`: output image, its size, the camera
 /// basis (`cam_u`, `cam_v`, `cam_w` scaled to the image plane) and the scene.
 #[repr(C)]
-#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
 pub struct Params {
     /// RGBA8 pixels, row-major, row 0 at the top.
     pub image: Buffer<u32>,
@@ -136,6 +136,17 @@ mod tests {
         assert_eq!(core::mem::size_of::<Params>(), 72);
         assert_eq!(core::mem::offset_of!(Params, handle), 64);
         assert_eq!(core::mem::offset_of!(Params, cam_w), 48);
+    }
+
+    #[test]
+    fn derive_records_the_params_layout() {
+        let layout = <Params as LaunchParams>::LAYOUT;
+        assert_eq!(layout.name, "Params");
+        assert_eq!(layout.size, 72);
+        let names: Vec<&str> = layout.fields.iter().map(|f| f.name).collect();
+        assert_eq!(names, ["image", "size", "cam_eye", "cam_u", "cam_v", "cam_w", "_pad", "handle"]);
+        let handle = layout.fields[7];
+        assert_eq!((handle.offset, handle.size, handle.type_name), (64, 8, "Traversable"));
     }
 
     #[test]

@@ -1,0 +1,112 @@
+//! `#[derive(LaunchParams)]`: records a params struct's layout and refuses
+//! fields that cannot cross to the device.
+
+use proc_macro2::TokenStream;
+use quote::quote;
+use syn::spanned::Spanned;
+use syn::{Data, DeriveInput, Fields, Type};
+
+pub fn derive(input: TokenStream) -> TokenStream {
+    match try_derive(input) {
+        Ok(t) => t,
+        Err(e) => e.to_compile_error(),
+    }
+}
+
+fn has_repr_c(input: &DeriveInput) -> bool {
+    input.attrs.iter().filter(|a| a.path().is_ident("repr")).any(|a| {
+        let mut c = false;
+        let _ = a.parse_nested_meta(|meta| {
+            if meta.path.is_ident("C") {
+                c = true;
+            }
+            // Accept and skip `align(N)` / `packed` arguments.
+            if meta.input.peek(syn::token::Paren) {
+                let _content;
+                syn::parenthesized!(_content in meta.input);
+            }
+            Ok(())
+        });
+        c
+    })
+}
+
+/// Why a field type cannot be part of launch params, if it cannot.
+fn refuse(ty: &Type) -> Option<String> {
+    match ty {
+        Type::Reference(_) => Some("references cannot cross to the device; use a `Buffer<T>` handle".to_owned()),
+        Type::Ptr(_) => Some("pointers cannot cross to the device; use a `Buffer<T>` handle".to_owned()),
+        Type::Path(p) if p.qself.is_none() => {
+            let last = p.path.segments.last()?.ident.to_string();
+            match last.as_str() {
+                "bool" => Some("`bool` has no defined layout on the device; use `u32` (0 or 1)".to_owned()),
+                "usize" | "isize" => Some(format!(
+                    "`{last}` is 8 bytes on the host and 4 on SPIR-V; use `u32`/`i32` or `u64`/`i64`"
+                )),
+                "char" => Some("`char` cannot cross to the device; use `u32`".to_owned()),
+                _ => None,
+            }
+        }
+        Type::Array(a) => refuse(&a.elem),
+        Type::Tuple(t) if !t.elems.is_empty() => Some("tuples have no defined layout; use a `#[repr(C)]` struct".to_owned()),
+        Type::Slice(_) | Type::TraitObject(_) | Type::ImplTrait(_) => Some("unsized types cannot be params fields".to_owned()),
+        _ => None,
+    }
+}
+
+fn try_derive(input: TokenStream) -> syn::Result<TokenStream> {
+    let input: DeriveInput = syn::parse2(input)?;
+    let name = &input.ident;
+    if !input.generics.params.is_empty() {
+        return Err(syn::Error::new(input.generics.span(), "launch params cannot be generic"));
+    }
+    let Data::Struct(data) = &input.data else {
+        return Err(syn::Error::new(input.span(), "launch params must be a struct"));
+    };
+    if !has_repr_c(&input) {
+        return Err(syn::Error::new(
+            name.span(),
+            "launch params need `#[repr(C)]`, so host and device lay the fields out by the same rules",
+        ));
+    }
+    let Fields::Named(fields) = &data.fields else {
+        return Err(syn::Error::new(data.fields.span(), "launch params need named fields"));
+    };
+    let mut errors: Option<syn::Error> = None;
+    let mut entries = Vec::new();
+    for field in &fields.named {
+        let Some(ident) = &field.ident else { continue };
+        if let Some(reason) = refuse(&field.ty) {
+            let e = syn::Error::new(field.ty.span(), format!("field `{ident}`: {reason}"));
+            match &mut errors {
+                Some(all) => all.combine(e),
+                None => errors = Some(e),
+            }
+            continue;
+        }
+        let ty = &field.ty;
+        let field_name = ident.to_string();
+        let type_name = quote!(#ty).to_string().replace(' ', "");
+        entries.push(quote! {
+            ::raykit_device::FieldLayout {
+                name: #field_name,
+                type_name: #type_name,
+                offset: ::core::mem::offset_of!(#name, #ident) as u32,
+                size: ::core::mem::size_of::<#ty>() as u32,
+            }
+        });
+    }
+    if let Some(e) = errors {
+        return Err(e);
+    }
+    let struct_name = name.to_string();
+    Ok(quote! {
+        impl ::raykit_device::LaunchParams for #name {
+            const LAYOUT: ::raykit_device::ParamsLayout = ::raykit_device::ParamsLayout {
+                name: #struct_name,
+                size: ::core::mem::size_of::<#name>() as u32,
+                fields: &[#(#entries),*],
+            };
+        }
+    })
+}
