@@ -159,8 +159,8 @@ pub enum Error {
     #[error("a pipeline needs a raygen program group")]
     NoRaygen,
 
-    /// The launch params do not fit in push constants.
-    #[error("launch params of {size} bytes exceed this device's maxPushConstantsSize {limit}")]
+    /// The launch params do not fit in a uniform buffer.
+    #[error("launch params of {size} bytes exceed this device's maxUniformBufferRange {limit}; move large data into a `Buffer<T>` and put its handle in the params")]
     ParamsTooLarge {
         /// `size_of::<P>()`.
         size: usize,
@@ -233,6 +233,38 @@ pub enum Error {
         element_size: usize,
         /// Why not.
         reason: &'static str,
+    },
+
+    /// A program's params block differs from the host's launch-params struct.
+    #[error("launch params `{struct_name}` do not match the SPIR-V of `{entry}`: field `{field}` is at {host} on the host but at {device} in the SPIR-V. Likely cause: {cause}")]
+    ParamsLayoutMismatch {
+        /// The host struct's name.
+        struct_name: &'static str,
+        /// The entry point whose block differs.
+        entry: String,
+        /// The first field that differs (dotted path for nested structs).
+        field: String,
+        /// Its offset and size on the host.
+        host: String,
+        /// Its offset and size in the SPIR-V.
+        device: String,
+        /// What usually causes this, and the fix.
+        cause: String,
+    },
+
+    /// A program declares its params differently from how raykit delivers them.
+    #[error("`{entry}` reads its params from {found}, but raykit delivers `{struct_name}` ({size} bytes) in {expected}: params of at most {budget} bytes go in push constants, larger ones in a uniform buffer at set {set}, binding {binding}. Use `#[params]` in Rust programs; in GLSL declare the block accordingly (`layout(push_constant)` or `layout(set = {set}, binding = {binding}, scalar) uniform`)", budget = raykit_device::PUSH_CONSTANT_BUDGET, set = raykit_device::PARAMS_SET, binding = raykit_device::PARAMS_BINDING)]
+    ParamsDelivery {
+        /// The host struct's name.
+        struct_name: &'static str,
+        /// Its size.
+        size: u32,
+        /// The entry point.
+        entry: String,
+        /// How raykit delivers the struct.
+        expected: String,
+        /// How the program reads it.
+        found: String,
     },
 
     /// The GPU stopped responding.

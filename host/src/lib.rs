@@ -6,6 +6,7 @@ mod buffer_table;
 pub mod context;
 pub mod error;
 pub mod launch;
+pub mod layout;
 pub mod log;
 pub mod memory;
 pub mod module;
@@ -16,6 +17,7 @@ pub mod sbt;
 pub use accel::{Gas, Ias, Instance};
 pub use context::{Context, ContextOptions, DeviceLimits};
 pub use error::{DeviceReport, Error, Result};
+pub use layout::{BlockMember, BlockType, ParamsBlock, ParamsDelivery};
 pub use log::{MessageLog, Severity, ValidationMessage};
 pub use memory::DeviceBuffer;
 pub use module::{spirv_path, EntryPointInfo, Module};
@@ -25,4 +27,4 @@ pub use sbt::{Sbt, SbtBuilder, SbtRecord};
 
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
-pub use raykit_device::{self as device, Buffer, EntryPoint, ProgramKind, Traversable};
+pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, Traversable};

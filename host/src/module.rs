@@ -16,6 +16,7 @@ use rspirv::spirv::ExecutionModel;
 
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
+use crate::layout::ParamsBlock;
 
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
@@ -29,6 +30,9 @@ pub struct EntryPointInfo {
     pub kind: Option<ProgramKind>,
     /// The SPIR-V execution model, as text (`RayGenerationKHR`, …).
     pub execution_model: String,
+    /// The launch-params blocks it declares (push constants, or the uniform
+    /// buffer at set 1), with their layouts; empty when it takes no params.
+    pub params: Vec<ParamsBlock>,
 }
 
 /// A SPIR-V module on the device, with its entry points.
@@ -150,10 +154,11 @@ fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
     }
 }
 
-/// Lists the entry points of a SPIR-V module.
+/// Lists the entry points of a SPIR-V module, with their stages and params blocks.
 pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
     let words = words_of(bytes)?;
     let module = parse(&words)?;
+    let mut params = crate::layout::reflect_params(&module)?;
     let mut entries = Vec::new();
     for inst in &module.entry_points {
         let (Some(rspirv::dr::Operand::ExecutionModel(model)), Some(rspirv::dr::Operand::LiteralString(name))) =
@@ -161,7 +166,12 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
         else {
             return Err(Error::InvalidSpirv { reason: "malformed OpEntryPoint".to_owned() });
         };
-        entries.push(EntryPointInfo { name: name.clone(), kind: kind_of(*model), execution_model: format!("{model:?}") });
+        entries.push(EntryPointInfo {
+            name: name.clone(),
+            kind: kind_of(*model),
+            execution_model: format!("{model:?}"),
+            params: params.remove(name).unwrap_or_default(),
+        });
     }
     Ok(entries)
 }

@@ -259,6 +259,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
     let mut wrapper_params = Vec::new();
     let mut call_args = Vec::new();
     let mut checks = Vec::new();
+    let mut prelude = Vec::new();
     for p in &params {
         let name = &p.name;
         match &p.role {
@@ -266,7 +267,26 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 call_args.push(if *by_ref { quote!(&mut __ctx) } else { quote!(__ctx) });
             }
             Role::Params(ty) => {
-                wrapper_params.push(quote! { #[spirv(push_constant)] #name: &#ty });
+                // Push constants for small params, a uniform buffer for large ones:
+                // the same rule the host applies (`uses_push_constants`), decided
+                // by a constant, so only one of the two variables is used.
+                let pc = format_ident!("__{}_push_constants", name);
+                let ubo = format_ident!("__{}_uniform", name);
+                wrapper_params.push(quote! { #[spirv(push_constant)] #pc: &#ty });
+                wrapper_params.push(quote! {
+                    #[spirv(uniform, descriptor_set = 1, binding = 0)] #ubo: &#ty
+                });
+                prelude.push(quote! {
+                    let #name: &#ty = if ::raykit_device::uses_push_constants::<#ty>() { #pc } else { #ubo };
+                });
+                checks.push(quote_spanned! {ty.span()=>
+                    const _: () = {
+                        #[allow(dead_code)]
+                        fn __raykit_params_derive_launch_params<P: ::raykit_device::LaunchParams>() {}
+                        #[allow(dead_code)]
+                        fn __raykit_check() { __raykit_params_derive_launch_params::<#ty>() }
+                    };
+                });
                 call_args.push(quote!(#name));
             }
             Role::Record(ty) => {
@@ -318,6 +338,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
             #[spirv(descriptor_set = 0, binding = 0, storage_buffer)] __buffers: &mut ::raykit_device::BufferTable,
             #(#wrapper_params,)*
         ) {
+            #(#prelude)*
             #[allow(unused_mut)]
             let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers);
             #fn_name(#(#call_args),*);
