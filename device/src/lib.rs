@@ -32,6 +32,8 @@
 
 pub mod entry;
 pub mod handles;
+#[cfg(not(target_arch = "spirv"))]
+pub mod layout;
 pub mod params;
 pub mod ray;
 pub mod stage;

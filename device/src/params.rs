@@ -73,6 +73,12 @@ pub struct ParamsLayout {
 
 /// A struct that can be a pipeline's launch params. Derive it with
 /// `#[derive(LaunchParams)]`; implemented for `()` (no params).
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` is not a launch-params struct",
+    label = "needs `#[derive(LaunchParams)]`",
+    note = "add `#[repr(C)]` and `#[derive(Copy, Clone, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]` to `{Self}`, \
+            so raykit can check its layout against the SPIR-V"
+)]
 pub trait LaunchParams: Copy + bytemuck::Pod {
     /// The layout the compiler gave the struct.
     const LAYOUT: ParamsLayout;

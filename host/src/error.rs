@@ -235,37 +235,10 @@ pub enum Error {
         reason: &'static str,
     },
 
-    /// A program's params block differs from the host's launch-params struct.
-    #[error("launch params `{struct_name}` do not match the SPIR-V of `{entry}`: field `{field}` is at {host} on the host but at {device} in the SPIR-V. Likely cause: {cause}")]
-    ParamsLayoutMismatch {
-        /// The host struct's name.
-        struct_name: &'static str,
-        /// The entry point whose block differs.
-        entry: String,
-        /// The first field that differs (dotted path for nested structs).
-        field: String,
-        /// Its offset and size on the host.
-        host: String,
-        /// Its offset and size in the SPIR-V.
-        device: String,
-        /// What usually causes this, and the fix.
-        cause: String,
-    },
-
-    /// A program declares its params differently from how raykit delivers them.
-    #[error("`{entry}` reads its params from {found}, but raykit delivers `{struct_name}` ({size} bytes) in {expected}: params of at most {budget} bytes go in push constants, larger ones in a uniform buffer at set {set}, binding {binding}. Use `#[params]` in Rust programs; in GLSL declare the block accordingly (`layout(push_constant)` or `layout(set = {set}, binding = {binding}, scalar) uniform`)", budget = raykit_device::PUSH_CONSTANT_BUDGET, set = raykit_device::PARAMS_SET, binding = raykit_device::PARAMS_BINDING)]
-    ParamsDelivery {
-        /// The host struct's name.
-        struct_name: &'static str,
-        /// Its size.
-        size: u32,
-        /// The entry point.
-        entry: String,
-        /// How raykit delivers the struct.
-        expected: String,
-        /// How the program reads it.
-        found: String,
-    },
+    /// A program's params block differs from the host's launch-params struct, or
+    /// the program reads its params another way than raykit delivers them.
+    #[error(transparent)]
+    ParamsLayout(raykit_device::layout::LayoutError),
 
     /// The GPU stopped responding.
     #[error("the device was lost during {during}; the Context is no longer usable — create a new one")]
@@ -273,6 +246,15 @@ pub enum Error {
         /// What was running.
         during: &'static str,
     },
+}
+
+impl From<raykit_device::layout::LayoutError> for Error {
+    fn from(e: raykit_device::layout::LayoutError) -> Self {
+        match e {
+            raykit_device::layout::LayoutError::InvalidSpirv(reason) => Error::InvalidSpirv { reason },
+            other => Error::ParamsLayout(other),
+        }
+    }
 }
 
 impl Error {

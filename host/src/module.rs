@@ -16,7 +16,7 @@ use rspirv::spirv::ExecutionModel;
 
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use crate::layout::ParamsBlock;
+use raykit_device::layout::ParamsBlock;
 
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
@@ -141,24 +141,18 @@ fn check_structure(words: &[u32]) -> Result<()> {
     Ok(())
 }
 
-/// Parses a structurally checked module with rspirv. rspirv can panic on some
-/// malformed input; such a panic is turned into an error rather than crossing
-/// raykit's API.
+/// Parses a structurally checked module with rspirv (whose panics on malformed
+/// operands become errors).
 fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
     check_structure(words)?;
-    let parsed = std::panic::catch_unwind(|| rspirv::dr::load_words(words));
-    match parsed {
-        Ok(Ok(module)) => Ok(module),
-        Ok(Err(e)) => Err(Error::InvalidSpirv { reason: e.to_string() }),
-        Err(_) => Err(Error::InvalidSpirv { reason: "malformed operands (the SPIR-V parser gave up)".to_owned() }),
-    }
+    Ok(raykit_device::layout::parse(words)?)
 }
 
 /// Lists the entry points of a SPIR-V module, with their stages and params blocks.
 pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
     let words = words_of(bytes)?;
     let module = parse(&words)?;
-    let mut params = crate::layout::reflect_params(&module)?;
+    let mut params = raykit_device::layout::reflect_params(&module)?;
     let mut entries = Vec::new();
     for inst in &module.entry_points {
         let (Some(rspirv::dr::Operand::ExecutionModel(model)), Some(rspirv::dr::Operand::LiteralString(name))) =

@@ -4,7 +4,7 @@
 //! A [`Pipeline<P>`] is typed by its launch params `P` (a struct that derives
 //! `LaunchParams`), and [`Pipeline::launch`] takes a `&P`. Linking checks every
 //! program's params block in the SPIR-V against `P`'s layout (see
-//! [`crate::layout`]), as OptiX requires every module of a pipeline to agree on
+//! [`raykit_device::layout`]), as OptiX requires every module of a pipeline to agree on
 //! its `PipelineCompileOptions`. `P` travels as push constants when it is at most
 //! [`PUSH_CONSTANT_BUDGET`](raykit_device::PUSH_CONSTANT_BUDGET) bytes, otherwise
 //! in a uniform buffer the pipeline owns (set 1, binding 0); `#[params]` in device
@@ -20,7 +20,7 @@ use ash::vk;
 use crate::buffer_table::RT_STAGES;
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use crate::layout::ParamsDelivery;
+use raykit_device::layout::ParamsDelivery;
 use crate::memory::RawBuffer;
 use crate::program_group::{GroupPrograms, Program, ProgramGroup};
 use raykit_device::LaunchParams;
@@ -166,7 +166,7 @@ impl<P: LaunchParams> Pipeline<P> {
                 let name = program.name.to_string_lossy();
                 let Some(info) = program.module.entry_points.iter().find(|e| e.name == name) else { continue };
                 if !info.params.is_empty() {
-                    crate::layout::check(&P::LAYOUT, &name, &info.params, delivery)?;
+                    raykit_device::layout::check(&P::LAYOUT, &name, &info.params, delivery)?;
                 }
             }
         }
@@ -274,6 +274,12 @@ impl<P: LaunchParams> Pipeline<P> {
         }
         .map_err(Error::vk("vkGetRayTracingShaderGroupHandlesKHR"))?;
         Ok(Pipeline { inner: Arc::new(pipeline_inner), _params: PhantomData })
+    }
+
+    /// How this pipeline delivers its params: push constants, or a uniform buffer
+    /// for params over [`PUSH_CONSTANT_BUDGET`](raykit_device::PUSH_CONSTANT_BUDGET) bytes.
+    pub fn params_delivery(&self) -> ParamsDelivery {
+        params_delivery::<P>()
     }
 
     /// The position of `group` in this pipeline, if it was linked into it.

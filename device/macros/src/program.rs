@@ -65,18 +65,23 @@ struct Param {
     role: Role,
 }
 
-/// `ray = Type` in the macro's arguments.
+/// The macro's arguments: `ray = Type`, `skip_params_check`.
 struct Args {
     ray: Option<syn::Path>,
+    /// Generate no build-time params layout test (for tests of the check itself).
+    skip_params_check: bool,
 }
 
 fn parse_args(stage: Stage, attr: TokenStream) -> syn::Result<Args> {
-    let mut args = Args { ray: None };
+    let mut args = Args { ray: None, skip_params_check: false };
     if attr.is_empty() {
         return Ok(args);
     }
     let parser = syn::meta::parser(|meta| {
-        if meta.path.is_ident("ray") && stage != Stage::Raygen {
+        if meta.path.is_ident("skip_params_check") {
+            args.skip_params_check = true;
+            Ok(())
+        } else if meta.path.is_ident("ray") && stage != Stage::Raygen {
             let value: syn::Path = meta.value()?.parse()?;
             args.ray = Some(value);
             Ok(())
@@ -84,7 +89,7 @@ fn parse_args(stage: Stage, attr: TokenStream) -> syn::Result<Args> {
             Err(meta.error("`ray = …` belongs on miss and closest-hit programs; raygen names the ray type at each `trace::<R>` call"))
         } else {
             Err(meta.error(format!(
-                "unknown argument of #[{}]; expected `ray = RayType` or nothing",
+                "unknown argument of #[{}]; expected `ray = RayType`, `skip_params_check` or nothing",
                 stage.macro_name()
             )))
         }
@@ -287,6 +292,31 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                         fn __raykit_check() { __raykit_params_derive_launch_params::<#ty>() }
                     };
                 });
+                if !args.skip_params_check {
+                    // A host-side test that `cargo xtask build-shaders` runs right
+                    // after building this crate: the SPIR-V's params block must be
+                    // laid out as the host lays out the struct.
+                    let test_name = format_ident!("__raykit_params_layout_{}", entry_name);
+                    checks.push(quote! {
+                        #[cfg(test)]
+                        #[test]
+                        #[allow(non_snake_case)]
+                        fn #test_name() {
+                            let path = ::raykit_device::layout::built_spirv_path(
+                                env!("CARGO_MANIFEST_DIR"),
+                                env!("CARGO_PKG_NAME"),
+                            );
+                            if let Err(e) = ::raykit_device::layout::check_file(
+                                &path,
+                                #entry_name,
+                                &<#ty as ::raykit_device::LaunchParams>::LAYOUT,
+                                ::raykit_device::uses_push_constants::<#ty>(),
+                            ) {
+                                panic!("{} (in {})", e, path.display());
+                            }
+                        }
+                    });
+                }
                 call_args.push(quote!(#name));
             }
             Role::Record(ty) => {

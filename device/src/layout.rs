@@ -1,4 +1,5 @@
-//! Launch-params layouts: what the SPIR-V says, and the check against the host.
+//! Launch-params layouts: what the SPIR-V says, and the check against the host
+//! (host target only).
 //!
 //! OptiX leaves it to the user to keep the device's `Params` and the host's copy
 //! in sync ("take care that CUDA vector types have specific alignment
@@ -6,20 +7,86 @@
 //! SPIR-V — the push-constant block, or the uniform block at set
 //! [`PARAMS_SET`](raykit_device::PARAMS_SET) — with its member `Offset`,
 //! `ArrayStride` and `MatrixStride` decorations, and compares it with the layout
-//! that `#[derive(LaunchParams)]` recorded on the host. A difference is an
-//! [`Error::ParamsLayoutMismatch`] naming the struct, the field, both offsets and
+//! that `#[derive(LaunchParams)]` recorded on the host. A difference is a
+//! [`LayoutError::Mismatch`] naming the struct, the field, both offsets and
 //! sizes, and the likely cause.
 //!
+//! The same check runs in two places: when the host links a pipeline
+//! (`raykit::Pipeline::new`), and right after `cargo xtask build-shaders` built a
+//! device crate (the tests that `#[raygen]` and friends generate for programs
+//! with `#[params]`), so a mismatch is caught before anything runs.
+//!
 //! The reader is rspirv's data representation (naga's SPIR-V front-end rejects
-//! the ray-tracing stages).
+//! the ray-tracing stages); rspirv is a host-only dependency of this crate.
 
 use std::collections::HashMap;
 
-use raykit_device::{ParamsLayout, Shape};
 use rspirv::dr::{Instruction, Operand};
 use rspirv::spirv::{Decoration, Op, StorageClass};
 
-use crate::error::{Error, Result};
+use crate::params::{ParamsLayout, Shape};
+
+/// Why a params block and a host layout cannot be used together.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum LayoutError {
+    /// The SPIR-V could not be read.
+    InvalidSpirv(String),
+    /// A field sits elsewhere, or has another size or stride, in the SPIR-V.
+    Mismatch {
+        /// The host struct's name.
+        struct_name: &'static str,
+        /// The entry point whose block differs.
+        entry: String,
+        /// The first field that differs (dotted path for nested structs).
+        field: String,
+        /// Its offset and size on the host.
+        host: String,
+        /// Its offset and size in the SPIR-V.
+        device: String,
+        /// What usually causes this, and the fix.
+        cause: String,
+    },
+    /// The program reads its params another way than raykit delivers them.
+    Delivery {
+        /// The host struct's name.
+        struct_name: &'static str,
+        /// Its size.
+        size: u32,
+        /// The entry point.
+        entry: String,
+        /// How raykit delivers the struct.
+        expected: String,
+        /// How the program reads it.
+        found: String,
+    },
+}
+
+impl std::fmt::Display for LayoutError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LayoutError::InvalidSpirv(reason) => write!(f, "not a valid SPIR-V module: {reason}"),
+            LayoutError::Mismatch { struct_name, entry, field, host, device, cause } => write!(
+                f,
+                "launch params `{struct_name}` do not match the SPIR-V of `{entry}`: field `{field}` is at {host} on the \
+                 host but at {device} in the SPIR-V. Likely cause: {cause}"
+            ),
+            LayoutError::Delivery { struct_name, size, entry, expected, found } => write!(
+                f,
+                "`{entry}` reads its params from {found}, but raykit delivers `{struct_name}` ({size} bytes) in \
+                 {expected}: params of at most {budget} bytes go in push constants, larger ones in a uniform buffer \
+                 at set {set}, binding {binding}. Use `#[params]` in Rust programs; in GLSL declare the block \
+                 accordingly (`layout(push_constant)` or `layout(set = {set}, binding = {binding}, scalar) uniform`)",
+                budget = crate::PUSH_CONSTANT_BUDGET,
+                set = crate::PARAMS_SET,
+                binding = crate::PARAMS_BINDING,
+            ),
+        }
+    }
+}
+
+impl std::error::Error for LayoutError {}
+
+type Result<T> = std::result::Result<T, LayoutError>;
 
 /// How a params block reaches the programs.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -116,8 +183,8 @@ fn literal(inst: &Instruction, i: usize) -> Option<u32> {
     }
 }
 
-fn bad(reason: impl Into<String>) -> Error {
-    Error::InvalidSpirv { reason: reason.into() }
+fn bad(reason: impl Into<String>) -> LayoutError {
+    LayoutError::InvalidSpirv(reason.into())
 }
 
 impl<'m> Index<'m> {
@@ -261,7 +328,7 @@ impl<'m> Index<'m> {
             StorageClass::Uniform => {
                 let set = self.decoration(var, Decoration::DescriptorSet).flatten().unwrap_or(0);
                 let binding = self.decoration(var, Decoration::Binding).flatten().unwrap_or(0);
-                if (set, binding) != (raykit_device::PARAMS_SET, raykit_device::PARAMS_BINDING) {
+                if (set, binding) != (crate::PARAMS_SET, crate::PARAMS_BINDING) {
                     return Ok(None);
                 }
                 ParamsDelivery::UniformBuffer { set, binding }
@@ -279,7 +346,7 @@ impl<'m> Index<'m> {
 
 /// The params blocks each entry point uses, by entry name (entry points without
 /// params are absent).
-pub(crate) fn reflect_params(module: &rspirv::dr::Module) -> Result<HashMap<String, Vec<ParamsBlock>>> {
+pub fn reflect_params(module: &rspirv::dr::Module) -> Result<HashMap<String, Vec<ParamsBlock>>> {
     let index = Index::new(module);
     let mut blocks = HashMap::new();
     for entry in &module.entry_points {
@@ -298,6 +365,59 @@ pub(crate) fn reflect_params(module: &rspirv::dr::Module) -> Result<HashMap<Stri
         }
     }
     Ok(blocks)
+}
+
+/// Parses SPIR-V words with rspirv, turning its panics on malformed input into
+/// errors. Callers facing untrusted input check the module's structure first
+/// (`raykit::Module::new` does).
+pub fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
+    match std::panic::catch_unwind(|| rspirv::dr::load_words(words)) {
+        Ok(Ok(module)) => Ok(module),
+        Ok(Err(e)) => Err(bad(e.to_string())),
+        Err(_) => Err(bad("malformed operands (the SPIR-V parser gave up)")),
+    }
+}
+
+/// Checks entry point `entry` of the SPIR-V file `path` against `host`: what
+/// the tests generated for `#[params]` programs run after
+/// `cargo xtask build-shaders`.
+pub fn check_file(path: &std::path::Path, entry: &str, host: &ParamsLayout, push_constants: bool) -> Result<()> {
+    let bytes = std::fs::read(path).map_err(|e| {
+        bad(format!("reading {}: {e}; build the device crates with `cargo xtask build-shaders`", path.display()))
+    })?;
+    if bytes.len() % 4 != 0 {
+        return Err(bad(format!("{} is not a whole number of 32-bit words", path.display())));
+    }
+    let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let module = parse(&words)?;
+    let blocks = reflect_params(&module)?;
+    let Some(blocks) = blocks.get(entry) else {
+        return Err(bad(format!("{} has no params block for entry point `{entry}`", path.display())));
+    };
+    let expected = if push_constants {
+        ParamsDelivery::PushConstants
+    } else {
+        ParamsDelivery::UniformBuffer { set: crate::PARAMS_SET, binding: crate::PARAMS_BINDING }
+    };
+    check(host, entry, blocks, expected)
+}
+
+/// Where `cargo xtask build-shaders` put the SPIR-V of the device crate whose
+/// manifest directory is `manifest_dir`: `$RAYKIT_SPIRV_DIR/<crate>.spv`, else
+/// `target/spirv/<crate>.spv` in the nearest ancestor directory that has it.
+pub fn built_spirv_path(manifest_dir: &str, crate_name: &str) -> std::path::PathBuf {
+    let file = format!("{}.spv", crate_name.replace('-', "_"));
+    if let Some(dir) = std::env::var_os("RAYKIT_SPIRV_DIR") {
+        return std::path::PathBuf::from(dir).join(file);
+    }
+    let start = std::path::Path::new(manifest_dir);
+    for dir in start.ancestors() {
+        let candidate = dir.join("target").join("spirv").join(&file);
+        if candidate.is_file() {
+            return candidate;
+        }
+    }
+    start.join("target").join("spirv").join(file)
 }
 
 /// A disagreement between the host's struct and the SPIR-V.
@@ -395,9 +515,9 @@ fn likely_cause(type_name: &str) -> String {
 ///
 /// `blocks` are the params blocks the entry point declares; the one delivered
 /// the way raykit delivers `host` (`expected`) is compared.
-pub(crate) fn check(host: &ParamsLayout, entry: &str, blocks: &[ParamsBlock], expected: ParamsDelivery) -> Result<()> {
+pub fn check(host: &ParamsLayout, entry: &str, blocks: &[ParamsBlock], expected: ParamsDelivery) -> Result<()> {
     let Some(block) = blocks.iter().find(|b| b.delivery == expected) else {
-        return Err(Error::ParamsDelivery {
+        return Err(LayoutError::Delivery {
             struct_name: host.name,
             size: host.size,
             entry: entry.to_owned(),
@@ -423,7 +543,7 @@ pub(crate) fn check(host: &ParamsLayout, entry: &str, blocks: &[ParamsBlock], ex
     }
     let m = best.unwrap_or(Mismatch { field: String::new(), host: String::new(), device: String::new(), depth: 0 });
     let type_name = field_type(host, &m.field).unwrap_or("");
-    Err(Error::ParamsLayoutMismatch {
+    Err(LayoutError::Mismatch {
         struct_name: host.name,
         entry: entry.to_owned(),
         field: m.field,
@@ -453,7 +573,7 @@ fn field_type(host: &ParamsLayout, path: &str) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raykit_device::FieldLayout;
+    use crate::params::FieldLayout;
 
     const INNER: ParamsLayout = ParamsLayout {
         name: "Inner",
@@ -520,6 +640,6 @@ mod tests {
         assert!(err.contains("only 3 fields"), "{err}");
         let ubo = ParamsDelivery::UniformBuffer { set: 1, binding: 0 };
         let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4), plain(16, 16)])], ubo).unwrap_err();
-        assert!(matches!(err, Error::ParamsDelivery { .. }), "{err}");
+        assert!(matches!(err, LayoutError::Delivery { .. }), "{err}");
     }
 }
