@@ -76,6 +76,7 @@ pub struct SbtBuilder<'p, P: raykit_device::LaunchParams> {
     raygen: Option<PackedRecord>,
     miss: Vec<PackedRecord>,
     hit: Vec<PackedRecord>,
+    callable: Vec<PackedRecord>,
     error: Option<Error>,
 }
 
@@ -86,7 +87,10 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         }
         let kind_ok = matches!(
             (&group.programs, region),
-            (GroupPrograms::Raygen(_), "raygen") | (GroupPrograms::Miss(_), "miss") | (GroupPrograms::Hit { .. }, "hit")
+            (GroupPrograms::Raygen(_), "raygen")
+                | (GroupPrograms::Miss(_), "miss")
+                | (GroupPrograms::Hit { .. }, "hit")
+                | (GroupPrograms::Callable(_), "callable")
         );
         if !kind_ok {
             self.error = Some(Error::SbtGroupKind { region, expected, actual: group.kind_name() });
@@ -123,12 +127,22 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         self
     }
 
+    /// Appends a callable record; the n-th call is callable index n (the
+    /// `sbt_index` of `ctx.call(sbt_index, data)` on the device).
+    pub fn callable<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+        if let Some(r) = self.pack(group, &data, "callable", "callable") {
+            self.callable.push(r);
+        }
+        self
+    }
+
     /// Appends an [`SbtRecord`] to the region its group's kind belongs to.
     pub fn record<T: bytemuck::Pod>(self, record: SbtRecord<'_, T>) -> Self {
         match record.group.programs {
             GroupPrograms::Raygen(_) => self.raygen(record.group, record.data),
             GroupPrograms::Miss(_) => self.miss(record.group, record.data),
             GroupPrograms::Hit { .. } => self.hit(record.group, record.data),
+            GroupPrograms::Callable(_) => self.callable(record.group, record.data),
         }
     }
 
@@ -151,11 +165,12 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         let rg = check(region_layout(&limits, 0, 1, raygen.data.len()), raygen.data.len())?;
         let ms = check(region_layout(&limits, rg.offset + rg.size, self.miss.len(), max_data(&self.miss)), max_data(&self.miss))?;
         let ht = check(region_layout(&limits, ms.offset + ms.size, self.hit.len(), max_data(&self.hit)), max_data(&self.hit))?;
-        let total = ht.offset + ht.size;
+        let cl = check(region_layout(&limits, ht.offset + ht.size, self.callable.len(), max_data(&self.callable)), max_data(&self.callable))?;
+        let total = cl.offset + cl.size;
 
         let mut bytes = vec![0u8; total as usize];
         let handle_size = limits.shader_group_handle_size as usize;
-        for (layout, records) in [(rg, raygen_records), (ms, &self.miss[..]), (ht, &self.hit[..])] {
+        for (layout, records) in [(rg, raygen_records), (ms, &self.miss[..]), (ht, &self.hit[..]), (cl, &self.callable[..])] {
             for (i, record) in records.iter().enumerate() {
                 let at = (layout.offset + layout.stride * i as u64) as usize;
                 let handle = &pipeline.handles[record.group_index * handle_size..][..handle_size];
@@ -182,8 +197,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             raygen: region(rg),
             miss: region(ms),
             hit: region(ht),
-            callable: vk::StridedDeviceAddressRegionKHR::default(),
-            layouts: [rg, ms, ht],
+            callable: region(cl),
+            layouts: [rg, ms, ht, cl],
             _buffer: buffer,
         })
     }
@@ -196,18 +211,18 @@ pub struct Sbt {
     pub(crate) miss: vk::StridedDeviceAddressRegionKHR,
     pub(crate) hit: vk::StridedDeviceAddressRegionKHR,
     pub(crate) callable: vk::StridedDeviceAddressRegionKHR,
-    layouts: [RegionLayout; 3],
+    layouts: [RegionLayout; 4],
     _buffer: RawBuffer,
 }
 
 impl Sbt {
     /// Starts an SBT for `pipeline`.
     pub fn builder<P: raykit_device::LaunchParams>(pipeline: &Pipeline<P>) -> SbtBuilder<'_, P> {
-        SbtBuilder { pipeline, raygen: None, miss: Vec::new(), hit: Vec::new(), error: None }
+        SbtBuilder { pipeline, raygen: None, miss: Vec::new(), hit: Vec::new(), callable: Vec::new(), error: None }
     }
 
-    /// Layouts of the raygen, miss and hit regions.
-    pub fn region_layouts(&self) -> [RegionLayout; 3] {
+    /// Layouts of the raygen, miss, hit and callable regions.
+    pub fn region_layouts(&self) -> [RegionLayout; 4] {
         self.layouts
     }
 }
