@@ -28,6 +28,7 @@
 //! types, [`Buffer`] and [`Traversable`] handles and the [`EntryPoint`] constants the
 //! macros generate are shared between the two sides.
 #![cfg_attr(target_arch = "spirv", no_std)]
+#![cfg_attr(target_arch = "spirv", feature(asm_experimental_arch))]
 #![deny(missing_docs)]
 
 pub mod entry;
