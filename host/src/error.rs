@@ -193,6 +193,24 @@ pub enum Error {
         region: &'static str,
     },
 
+    /// Two records were placed in one SBT slot.
+    #[error("SBT {region} slot {index} already holds a record; each ray type × geometry slot takes one (check the ray types' SBT_OFFSET/SBT_STRIDE/MISS_INDEX)")]
+    SbtSlotTaken {
+        /// The region.
+        region: &'static str,
+        /// The slot.
+        index: usize,
+    },
+
+    /// A slot below the last filled one was left empty.
+    #[error("SBT {region} slot {index} is empty, but a later slot is filled; every slot a trace can reach needs a record (add one with `{region}_at({index}, ..)` or the ray type's `{region}_for`)")]
+    SbtHole {
+        /// The region.
+        region: &'static str,
+        /// The empty slot.
+        index: usize,
+    },
+
     /// A record's data is too large for the device.
     #[error("SBT record data of {size} bytes: record stride {stride} exceeds this device's maxShaderGroupStride {limit}")]
     SbtRecordTooLarge {

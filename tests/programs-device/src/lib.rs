@@ -13,7 +13,8 @@
 use raykit_device::glam::{UVec2, Vec2, Vec3, Vec4};
 use raykit_device::{
     any_hit, closest_hit, continuation_callable, direct_callable, intersection, miss, raygen, AnyHit, Buffer,
-    ClosestHit, ContinuationCallable, DirectCallable, Intersection, LaunchParams, Miss, RayType, Raygen, Traversable,
+    ClosestHit, ContinuationCallable, DirectCallable, Intersection, LaunchParams, Miss, Ray, RayFlags, RayType, Raygen,
+    Traversable,
 };
 
 /// Launch params of every scene here.
@@ -196,4 +197,101 @@ fn green(_ctx: &mut DirectCallable, #[callable_data] data: &mut MaterialCall) {
 #[continuation_callable]
 fn blue(_ctx: &mut ContinuationCallable, #[callable_data] data: &mut MaterialCall) {
     data.value = MATERIALS[2];
+}
+
+// ---------------------------------------------------------------- shadows ---
+
+/// Radiance rays of the shadows scene: two ray types, so stride 2.
+pub struct ShadowedRadiance;
+impl RayType for ShadowedRadiance {
+    type Payload = Vec3;
+    const SBT_OFFSET: u32 = 0;
+    const SBT_STRIDE: u32 = 2;
+    const MISS_INDEX: u32 = 0;
+}
+
+/// Shadow rays: payload 1 when the light is visible, 0 when occluded; the
+/// first hit ends the traversal.
+pub struct Shadow;
+impl RayType for Shadow {
+    type Payload = u32;
+    const SBT_OFFSET: u32 = 1;
+    const SBT_STRIDE: u32 = 2;
+    const MISS_INDEX: u32 = 1;
+    const FLAGS: RayFlags = RayFlags::from_bits_truncate(
+        RayFlags::TERMINATE_ON_FIRST_HIT.bits() | RayFlags::SKIP_CLOSEST_HIT_SHADER.bits() | RayFlags::OPAQUE.bits(),
+    );
+}
+
+/// The point light of the shadows scene.
+pub const LIGHT: Vec3 = Vec3::new(0.3, 0.2, 4.0);
+/// Ground colour where the light is visible.
+pub const LIT: Vec3 = Vec3::new(0.9, 0.8, 0.6);
+/// Ground colour in shadow.
+pub const SHADOWED: Vec3 = Vec3::new(0.2, 0.2, 0.25);
+/// Colour of the occluder.
+pub const OCCLUDER: Vec3 = Vec3::new(1.0, 1.0, 1.0);
+/// Primitives from this index on are the occluder; below, the ground.
+pub const FIRST_OCCLUDER_PRIMITIVE: u32 = 2;
+/// How far above the ground shadow rays start.
+pub const SHADOW_EPSILON: f32 = 1e-3;
+
+#[raygen]
+fn rg_shadows(ctx: &mut Raygen, #[params] p: &Params, #[payload] color: &mut Vec3) {
+    let index = ctx.launch_index().truncate();
+    let (origin, dir) = ortho_ray(index, p.size);
+    *color = Vec3::ZERO;
+    ctx.trace_from::<ShadowedRadiance>(p.scene, origin, dir, color);
+    let pixel = ctx.launch_linear_index();
+    ctx.store(p.image, pixel, pack(*color));
+}
+
+#[miss(ray = ShadowedRadiance)]
+fn ms_shadows(_ctx: &mut Miss, #[payload] color: &mut Vec3) {
+    *color = BACKGROUND;
+}
+
+#[miss(ray = Shadow)]
+fn ms_shadow(_ctx: &mut Miss, #[payload] visible: &mut u32) {
+    *visible = 1;
+}
+
+#[closest_hit(ray = ShadowedRadiance)]
+fn shade_shadowed(
+    ctx: &mut ClosestHit,
+    #[params] p: &Params,
+    #[payload] color: &mut Vec3,
+    #[trace_payload] visible: &mut u32,
+) {
+    if ctx.primitive_index() >= FIRST_OCCLUDER_PRIMITIVE {
+        *color = OCCLUDER;
+        return;
+    }
+    let hit = ctx.world_ray_origin() + ctx.hit_t() * ctx.world_ray_direction();
+    let origin = hit + Vec3::new(0.0, 0.0, SHADOW_EPSILON);
+    let to_light = LIGHT - origin;
+    *visible = 0;
+    ctx.trace::<Shadow>(p.scene, Ray::new(origin, to_light).with_interval(0.0, 1.0), visible);
+    *color = if *visible == 1 { LIT } else { SHADOWED };
+}
+
+/// The shadow ray type's hit group (never run: shadow rays skip closest-hit).
+#[closest_hit(ray = Shadow)]
+fn shadow_hit(_ctx: &mut ClosestHit, #[payload] visible: &mut u32) {
+    *visible = 0;
+}
+
+// --------------------------------------------------------------- sbt data ---
+
+/// A hit record's data: the colour of the instance using it.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ColorRecord {
+    /// Linear colour.
+    pub color: Vec3,
+}
+
+#[closest_hit(ray = Radiance)]
+fn record_color(_ctx: &mut ClosestHit, #[record] record: &ColorRecord, #[payload] color: &mut Vec3) {
+    *color = record.color;
 }
