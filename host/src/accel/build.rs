@@ -71,41 +71,51 @@ impl Geometry {
     }
 }
 
-/// Packs byte ranges into one host-visible input buffer, each aligned.
+/// Lays byte ranges out in one host-visible input buffer, each aligned, and
+/// copies each once, straight into the mapped memory.
 #[derive(Default)]
-pub(crate) struct InputPacker {
-    bytes: Vec<u8>,
+pub(crate) struct InputPacker<'a> {
+    parts: Vec<(u64, std::borrow::Cow<'a, [u8]>)>,
+    len: u64,
 }
 
-impl InputPacker {
-    /// Appends `data` at the next multiple of `align`; returns its offset.
-    pub(crate) fn push(&mut self, data: &[u8], align: usize) -> u64 {
-        let at = self.bytes.len().div_ceil(align) * align;
-        self.bytes.resize(at, 0);
-        self.bytes.extend_from_slice(data);
-        at as u64
+impl<'a> InputPacker<'a> {
+    /// Places `data` at the next multiple of `align`; returns its offset.
+    pub(crate) fn push(&mut self, data: impl Into<std::borrow::Cow<'a, [u8]>>, align: u64) -> u64 {
+        let data = data.into();
+        let at = self.len.div_ceil(align) * align;
+        self.len = at + data.len() as u64;
+        self.parts.push((at, data));
+        at
     }
 
-    /// Uploads everything; returns the buffer (address + offset is each range's address).
+    /// Allocates the buffer and copies every range; address + offset is each range's address.
     pub(crate) fn upload(self, ctx: &Arc<ContextInner>, what: &'static str) -> Result<RawBuffer> {
         let mut buffer = RawBuffer::new(
             ctx,
             what,
-            self.bytes.len().max(16) as u64,
+            self.len.max(16),
             vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR,
             MemoryLocation::CpuToGpu,
             16,
         )?;
-        buffer.write_bytes(&self.bytes)?;
+        let mapped = buffer.mapped_mut().ok_or(Error::BufferSize {
+            len: self.len as usize,
+            element_size: 1,
+            reason: "the build-input buffer is not host-visible",
+        })?;
+        for (at, data) in &self.parts {
+            mapped[*at as usize..*at as usize + data.len()].copy_from_slice(data);
+        }
         Ok(buffer)
     }
 }
 
 /// Uploads validated GAS inputs into one buffer; returns it and the geometries
 /// pointing into it.
-pub(crate) fn upload_gas_inputs(
+pub(crate) fn upload_gas_inputs<'a>(
     ctx: &Arc<ContextInner>,
-    inputs: &[BuildInput<'_>],
+    inputs: &[BuildInput<'a>],
     shapes: &[Shape],
 ) -> Result<(RawBuffer, Vec<Geometry>)> {
     // Offsets first, addresses once the buffer exists.
@@ -126,7 +136,7 @@ pub(crate) fn upload_gas_inputs(
                 };
                 let transform = t.transform.map(|m| {
                     let rows = transform_rows(&m);
-                    packer.push(bytemuck::cast_slice(&rows), 16)
+                    packer.push(bytemuck::cast_slice::<f32, u8>(&rows).to_vec(), 16)
                 });
                 let index_type = match shape {
                     Shape::Triangles { index, .. } => index.vk(),

@@ -87,7 +87,7 @@ impl<'a> GasBuilder<'a> {
     /// Validates the inputs and queries the memory the build needs, without
     /// building (OptiX's `optixAccelComputeMemoryUsage`).
     pub fn sizes(&self, ctx: &Context) -> Result<AccelSizes> {
-        let shapes = input::validate(&self.inputs, &ctx.inner.limits)?;
+        let shapes = input::validate(&self.inputs, &ctx.inner.limits, false)?;
         let counts: Vec<u32> = shapes.iter().map(Shape::primitives).collect();
         // The size query ignores addresses (only a transform's presence counts):
         // describe the geometry without uploading it.
@@ -137,7 +137,7 @@ fn submit_gases(ctx: &Arc<ContextInner>, builds: &[GasBuilder<'_>]) -> Result<(b
         return Err(Error::AccelEmpty { what: "the batch has no GAS builds".to_owned() });
     }
     // Validate everything before allocating anything.
-    let validated = builds.iter().map(|b| input::validate(&b.inputs, &ctx.limits)).collect::<Result<Vec<_>>>()?;
+    let validated = builds.iter().map(|b| input::validate(&b.inputs, &ctx.limits, b.options.allow_update)).collect::<Result<Vec<_>>>()?;
     let mut gases = Vec::with_capacity(builds.len());
     let mut jobs = Vec::with_capacity(builds.len());
     let mut buffers = Vec::with_capacity(builds.len());
@@ -221,7 +221,7 @@ impl Gas {
                 reason: "it was built without BuildOptions::allow_update".to_owned(),
             });
         }
-        let shapes = input::validate(inputs, &ctx.limits)?;
+        let shapes = input::validate(inputs, &ctx.limits, true)?;
         if let Some(reason) = input::update_refusal(&self.shapes, &shapes) {
             return Err(Error::UpdateRefused { what: "GAS", reason });
         }

@@ -325,8 +325,9 @@ fn check_transform(what: String, t: &Affine3A) -> Result<()> {
 }
 
 /// Checks `inputs` against Vulkan's rules and `limits`; returns each geometry's
-/// shape. Pure: nothing is uploaded.
-pub(crate) fn validate(inputs: &[BuildInput<'_>], limits: &DeviceLimits) -> Result<Vec<Shape>> {
+/// shape. Pure: nothing is uploaded. `for_update` also fingerprints the index
+/// data (needed only by builds that allow updates).
+pub(crate) fn validate(inputs: &[BuildInput<'_>], limits: &DeviceLimits, for_update: bool) -> Result<Vec<Shape>> {
     if inputs.is_empty() {
         return Err(Error::AccelEmpty { what: "the GAS build has no geometry".to_owned() });
     }
@@ -346,7 +347,7 @@ pub(crate) fn validate(inputs: &[BuildInput<'_>], limits: &DeviceLimits) -> Resu
             return Err(Error::MixedGeometryTypes { first: 0, other: g });
         }
         let shape = match input {
-            BuildInput::Triangles(t) => validate_triangles(g, t)?,
+            BuildInput::Triangles(t) => validate_triangles(g, t, for_update)?,
             BuildInput::Aabbs(a) => validate_aabbs(g, a)?,
         };
         total += shape.primitives() as u64;
@@ -363,7 +364,7 @@ pub(crate) fn validate(inputs: &[BuildInput<'_>], limits: &DeviceLimits) -> Resu
     Ok(shapes)
 }
 
-fn validate_triangles(g: usize, t: &Triangles<'_>) -> Result<Shape> {
+fn validate_triangles(g: usize, t: &Triangles<'_>, for_update: bool) -> Result<Shape> {
     check_stride(g, "vertex", t.stride, 4, VERTEX_SIZE)?;
     if t.vertex_count == 0 {
         return Err(Error::AccelEmpty { what: format!("geometry {g} has no vertices") });
@@ -425,7 +426,9 @@ fn validate_triangles(g: usize, t: &Triangles<'_>) -> Result<Shape> {
         check_transform(format!("the transform of geometry {g}"), transform)?;
     }
     let mut hasher = std::collections::hash_map::DefaultHasher::new();
-    t.indices.bytes().hash(&mut hasher);
+    if for_update {
+        t.indices.bytes().hash(&mut hasher);
+    }
     Ok(Shape::Triangles {
         triangles: triangles as u32,
         vertices: t.vertex_count as u32,
@@ -533,46 +536,46 @@ mod tests {
     #[test]
     fn counts_over_the_device_limits_are_refused() {
         let verts = [Vec3::ZERO; 15];
-        let err = validate(&[Triangles::new(&verts).into()], &limits()).unwrap_err();
+        let err = validate(&[Triangles::new(&verts).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::AccelLimit { count: 5, limit: 4, limit_name: "maxPrimitiveCount", .. }), "{err}");
         let t: BuildInput<'_> = Triangles::new(&TRI).into();
-        let err = validate(&[t, t, t], &limits()).unwrap_err();
+        let err = validate(&[t, t, t], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::AccelLimit { limit_name: "maxGeometryCount", .. }), "{err}");
-        assert!(validate(&[t, t], &limits()).is_ok());
+        assert!(validate(&[t, t], &limits(), true).is_ok());
     }
 
     #[test]
     fn strides_must_be_aligned_and_cover_a_vertex() {
         let bytes = [0u8; 64];
         for stride in [10, 14, 8] {
-            let err = validate(&[Triangles::strided(&bytes, stride, 3).into()], &limits()).unwrap_err();
+            let err = validate(&[Triangles::strided(&bytes, stride, 3).into()], &limits(), true).unwrap_err();
             assert!(matches!(err, Error::MisalignedStride { alignment: 4, .. }), "{stride}: {err}");
         }
-        let err = validate(&[Triangles::strided(&bytes, 32, 3).into()], &limits()).unwrap_err();
+        let err = validate(&[Triangles::strided(&bytes, 32, 3).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::InputTooShort { needed: 76, len: 64, .. }), "{err}");
-        assert!(validate(&[Triangles::strided(&bytes, 16, 3).into()], &limits()).is_ok());
+        assert!(validate(&[Triangles::strided(&bytes, 16, 3).into()], &limits(), true).is_ok());
         let boxes = [0u8; 96];
-        let err = validate(&[Aabbs::strided(&boxes, 28, 2).into()], &limits()).unwrap_err();
+        let err = validate(&[Aabbs::strided(&boxes, 28, 2).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::MisalignedStride { alignment: 8, .. }), "{err}");
-        assert!(validate(&[Aabbs::strided(&boxes, 32, 3).into()], &limits()).is_ok());
+        assert!(validate(&[Aabbs::strided(&boxes, 32, 3).into()], &limits(), true).is_ok());
     }
 
     #[test]
     fn indices_and_vertices_are_checked() {
-        let err = validate(&[Triangles::new(&TRI).indices_u16(&[0, 1, 3]).into()], &limits()).unwrap_err();
+        let err = validate(&[Triangles::new(&TRI).indices_u16(&[0, 1, 3]).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::IndexOutOfRange { position: 2, index: 3, vertex_count: 3, .. }), "{err}");
-        let err = validate(&[Triangles::new(&TRI).indices_u32(&[0, 1]).into()], &limits()).unwrap_err();
+        let err = validate(&[Triangles::new(&TRI).indices_u32(&[0, 1]).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::TriangleCount { count: 2, .. }), "{err}");
-        let err = validate(&[Triangles::new(&TRI[..2]).into()], &limits()).unwrap_err();
+        let err = validate(&[Triangles::new(&TRI[..2]).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::TriangleCount { count: 2, .. }), "{err}");
-        let err = validate(&[Triangles::new(&[]).into()], &limits()).unwrap_err();
+        let err = validate(&[Triangles::new(&[]).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::AccelEmpty { .. }), "{err}");
-        let err = validate(&[Triangles::new(&TRI).indices_u32(&[]).into()], &limits()).unwrap_err();
+        let err = validate(&[Triangles::new(&TRI).indices_u32(&[]).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::AccelEmpty { .. }), "{err}");
         let bad = [Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0), Vec3::Y];
-        let err = validate(&[Triangles::new(&bad).into()], &limits()).unwrap_err();
+        let err = validate(&[Triangles::new(&bad).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::NonFiniteVertex { vertex: 1, .. }), "{err}");
-        let err = validate(&[Triangles::new(&TRI).transform(Affine3A::from_scale(Vec3::splat(f32::NAN))).into()], &limits())
+        let err = validate(&[Triangles::new(&TRI).transform(Affine3A::from_scale(Vec3::splat(f32::NAN))).into()], &limits(), true)
             .unwrap_err();
         assert!(matches!(err, Error::NonFiniteTransform { .. }), "{err}");
     }
@@ -580,13 +583,13 @@ mod tests {
     #[test]
     fn boxes_must_be_finite_and_ordered() {
         let flipped = [Aabb::new(Vec3::ONE, Vec3::ZERO)];
-        let err = validate(&[Aabbs::new(&flipped).into()], &limits()).unwrap_err();
+        let err = validate(&[Aabbs::new(&flipped).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::InvalidAabb { primitive: 0, .. }), "{err}");
         let nan = [Aabb::new(Vec3::ZERO, Vec3::ONE), Aabb::new(Vec3::ZERO, Vec3::splat(f32::NAN))];
-        let err = validate(&[Aabbs::new(&nan).into()], &limits()).unwrap_err();
+        let err = validate(&[Aabbs::new(&nan).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::InvalidAabb { primitive: 1, .. }), "{err}");
         let boxes = [Aabb::new(Vec3::ZERO, Vec3::ONE)];
-        let err = validate(&[Triangles::new(&TRI).into(), Aabbs::new(&boxes).into()], &limits()).unwrap_err();
+        let err = validate(&[Triangles::new(&TRI).into(), Aabbs::new(&boxes).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::MixedGeometryTypes { first: 0, other: 1 }), "{err}");
     }
 
@@ -594,7 +597,7 @@ mod tests {
     fn updates_need_the_same_topology() {
         let moved = [Vec3::ZERO, Vec3::X * 2.0, Vec3::Y];
         let quad = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE];
-        let shapes = |i: BuildInput<'_>| validate(&[i], &limits()).unwrap();
+        let shapes = |i: BuildInput<'_>| validate(&[i], &limits(), true).unwrap();
         let base = shapes(Triangles::new(&TRI).indices_u32(&[0, 1, 2]).into());
         assert_eq!(update_refusal(&base, &shapes(Triangles::new(&moved).indices_u32(&[0, 1, 2]).into())), None);
         let r = update_refusal(&base, &shapes(Triangles::new(&moved).indices_u32(&[0, 2, 1]).into())).unwrap();
@@ -606,7 +609,7 @@ mod tests {
         let r = update_refusal(&base, &shapes(Triangles::new(&moved).into())).unwrap();
         assert!(r.contains("index format"), "{r}");
         let t: BuildInput<'_> = Triangles::new(&TRI).into();
-        let r = update_refusal(&base, &validate(&[t, t], &limits()).unwrap()).unwrap();
+        let r = update_refusal(&base, &validate(&[t, t], &limits(), true).unwrap()).unwrap();
         assert!(r.contains("geometry count"), "{r}");
     }
 }
