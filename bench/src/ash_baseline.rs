@@ -86,7 +86,7 @@ impl AshDevice {
         // SAFETY: as above.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
         let family = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)).context("no compute queue")?;
-        let timestamps = families[family].timestamp_valid_bits > 0 && props.limits.timestamp_period > 0.0 && std::env::var_os("RAYKIT_BENCH_NO_TIMESTAMPS").is_none();
+        let timestamps = families[family].timestamp_valid_bits > 0 && props.limits.timestamp_period > 0.0;
         let mut accel_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
         let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut accel_props);
         // SAFETY: as above.
@@ -246,8 +246,10 @@ impl AshDevice {
     }
 
     /// Builds a GAS over `vertices` (f32×3) and `indices` (u32) with fast trace
-    /// and compaction allowed, querying the compacted size in the same submission.
-    pub fn build_gas(&self, vertices: &[[f32; 3]], indices: &[u32]) -> anyhow::Result<AshGas> {
+    /// and compaction allowed, querying the compacted size in the same submission;
+    /// with `timed`, GPU timestamps bracket the build command (they cost time
+    /// themselves, so timed builds are kept out of the wall-clock comparison).
+    pub fn build_gas(&self, vertices: &[[f32; 3]], indices: &[u32], timed: bool) -> anyhow::Result<AshGas> {
         let addresses = self.upload(&[as_bytes(vertices), as_bytes(indices)])?;
         let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
             .vertex_format(vk::Format::R32G32B32_SFLOAT)
@@ -285,7 +287,7 @@ impl AshDevice {
         let pool_info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR).query_count(1);
         // SAFETY: valid create info.
         let query = unsafe { self.device.create_query_pool(&pool_info, None) }?;
-        let time_pool = if self.timestamps {
+        let time_pool = if timed && self.timestamps {
             // SAFETY: valid create info.
             Some(unsafe { self.device.create_query_pool(&vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2), None) }?)
         } else {

@@ -8,7 +8,7 @@
 //! offset `o` runs hit record `o + g × stride + ray type offset` (see
 //! [the SBT indexing rules](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#shader-binding-table-indexing-rules)).
 //!
-//! [`validate`] checks everything the Vulkan valid-usage rules and the device's
+//! Validation checks everything the Vulkan valid-usage rules and the device's
 //! limits require before anything is uploaded; it is pure and unit-tested.
 
 use std::hash::{Hash, Hasher};
@@ -303,7 +303,7 @@ impl Shape {
 }
 
 fn check_stride(geometry: usize, what: &'static str, stride: u64, alignment: u64, min: u64) -> Result<()> {
-    if stride % alignment != 0 || stride < min || stride > u32::MAX as u64 {
+    if !stride.is_multiple_of(alignment) || stride < min || stride > u32::MAX as u64 {
         return Err(Error::MisalignedStride { geometry, what, stride, alignment, min });
     }
     Ok(())
@@ -380,7 +380,7 @@ fn validate_triangles(g: usize, t: &Triangles<'_>, for_update: bool) -> Result<S
     check_len(g, "vertex", t.vertex_bytes.len(), t.vertex_count, t.stride, VERTEX_SIZE)?;
     let index_count = match t.indices {
         Indices::None => {
-            if t.vertex_count % 3 != 0 {
+            if !t.vertex_count.is_multiple_of(3) {
                 return Err(Error::TriangleCount { geometry: g, what: "vertices without indices", count: t.vertex_count });
             }
             t.vertex_count
@@ -390,7 +390,7 @@ fn validate_triangles(g: usize, t: &Triangles<'_>, for_update: bool) -> Result<S
             if n == 0 {
                 return Err(Error::AccelEmpty { what: format!("geometry {g} has an empty index buffer") });
             }
-            if n % 3 != 0 {
+            if !n.is_multiple_of(3) {
                 return Err(Error::TriangleCount { geometry: g, what: "indices", count: n });
             }
             for i in 0..n {
