@@ -158,3 +158,13 @@ fn grid(n: u32) -> (Vec<Vec3>, Vec<u32>) {
     }
     (vertices, indices)
 }
+
+#[test]
+fn acceleration_structures_are_send_and_sync() {
+    fn check<T: Send + Sync>() {}
+    check::<Gas>();
+    check::<Ias>();
+    check::<Instance>();
+    check::<raykit::PendingBuild<Gas>>();
+    check::<raykit::PendingBuild<Vec<Gas>>>();
+}

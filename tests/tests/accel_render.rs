@@ -398,3 +398,24 @@ fn batched_builds_render() -> anyhow::Result<()> {
         Ok(())
     })
 }
+
+#[test]
+fn each_geometry_hits_its_own_record_after_the_instance_offset() -> anyhow::Result<()> {
+    with_context("each_geometry_hits_its_own_record_after_the_instance_offset", |ctx| {
+        let left = [Vec3::new(-1.4, -0.5, 0.0), Vec3::new(-0.6, -0.5, 0.0), Vec3::new(-1.0, 0.5, 0.0)];
+        let right = [Vec3::new(0.6, -0.5, 0.0), Vec3::new(1.4, -0.5, 0.0), Vec3::new(1.0, 0.5, 0.0)];
+        let gas = Gas::builder()
+            .triangles(Triangles::new(&left).flags(raykit::GeometryFlags::OPAQUE))
+            .triangles(Triangles::new(&right).flags(raykit::GeometryFlags::OPAQUE | raykit::GeometryFlags::NO_DUPLICATE_ANY_HIT))
+            .build(ctx)?;
+        assert_eq!(gas.geometry_count(), 2);
+        let ias = Ias::new(ctx, &[Instance::new(&gas).sbt_offset(1).flags(raykit::InstanceFlags::FORCE_OPAQUE)])?;
+        // Record 0 is skipped by the offset; geometry 0 → record 1, geometry 1 → record 2.
+        let picture = render(ctx, &ias, &[(Hit::Record, Vec3::ONE), (Hit::Record, Vec3::X), (Hit::Record, Vec3::Y)])?;
+        let inside = |t: [Vec3; 3]| triangle_coverage(t).iter().map(|c| c.filter(|&v| v)).collect::<Vec<_>>();
+        assert!(check_coverage(&picture, &inside(left), Vec3::X) > 100);
+        assert!(check_coverage(&picture, &inside(right), Vec3::Y) > 100);
+        assert!(!picture.contains(&pack_unorm(Vec3::ONE)), "record 0 was used despite the instance's SBT offset");
+        Ok(())
+    })
+}

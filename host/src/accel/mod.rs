@@ -19,6 +19,36 @@
 //!    ([`Gas::update`], [`Ias::update`]) when its build allowed it and its topology
 //!    is unchanged.
 //!
+//! ```no_run
+//! use raykit::accel::BuildOptions;
+//! use raykit::glam::{Affine3A, Vec3};
+//! use raykit::{Context, ContextOptions, Gas, Ias, Instance, Triangles};
+//!
+//! # fn main() -> raykit::Result<()> {
+//! let ctx = Context::new(ContextOptions::default())?;
+//! let vertices = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE];
+//! let indices: [u16; 6] = [0, 1, 2, 1, 3, 2];
+//! let input = Triangles::new(&vertices).indices_u16(&indices);
+//! let options = BuildOptions::default().allow_update(true).allow_compaction(true);
+//! // Ask for the memory first if you like, as optixAccelComputeMemoryUsage does.
+//! let sizes = Gas::builder().triangles(input).options(options).sizes(&ctx)?;
+//! // Build without blocking, do other work, then wait.
+//! let pending = Gas::builder().triangles(input).options(options).submit(&ctx)?;
+//! let mut gas = pending.wait()?;
+//! assert_eq!(gas.size(), sizes.structure);
+//! // Refit after moving vertices (same topology).
+//! let moved = vertices.map(|v| v * 2.0);
+//! gas.update(&[Triangles::new(&moved).indices_u16(&indices).into()])?;
+//! // Instance it twice, the second with its own hit records.
+//! let scene = Ias::new(&ctx, &[
+//!     Instance::new(&gas),
+//!     Instance::new(&gas).transform(Affine3A::from_translation(Vec3::Z)).sbt_offset(1).mask(0x02),
+//! ])?;
+//! let _handle = scene.handle(); // goes into the launch params
+//! # Ok(())
+//! # }
+//! ```
+//!
 //! Vulkan differences from OptiX, documented where they show: a GAS holds either
 //! triangles or AABBs, not both; a geometry's SBT index is its position in the
 //! build (Vulkan has no per-primitive SBT index buffer); motion blur and curves
