@@ -21,6 +21,10 @@ pub struct Row {
     pub raykit: Summary,
     /// The ash baseline's build times in seconds.
     pub ash: Summary,
+    /// The ash baseline's build times with fresh structure memory each build.
+    pub ash_fresh: Summary,
+    /// Per-pair time ratios raykit / ash with fresh memory.
+    pub ratio_fresh: Summary,
     /// Per-pair time ratios raykit / ash.
     pub ratio: Summary,
     /// GPU time of the baseline's build command alone, seconds (timestamps, in
@@ -28,6 +32,8 @@ pub struct Row {
     pub ash_gpu: Option<Summary>,
     /// raykit's structure size before compaction.
     pub raykit_size: u64,
+    /// Scratch bytes of the build.
+    pub scratch: u64,
     /// raykit's structure size after compaction.
     pub raykit_compacted: u64,
     /// The baseline's sizes before and after compaction.
@@ -76,40 +82,51 @@ pub fn run(ctx: &Context, ash: &AshDevice, sizes: &[usize], reps: Option<usize>)
             let gas = Gas::builder().triangles(Triangles::new(&vertices).indices_u32(&indices)).options(options).build(ctx)?;
             Ok((t.elapsed().as_secs_f64(), gas))
         };
-        let build_ash = || -> anyhow::Result<(f64, raykit_ash::Gas)> {
+        let build_ash = |reuse: bool| -> anyhow::Result<(f64, raykit_ash::Gas)> {
             let t = Instant::now();
-            let gas = ash.build_gas(&arrays, &indices, false)?;
+            let gas = ash.build_gas(&arrays, &indices, false, reuse)?;
             Ok((t.elapsed().as_secs_f64(), gas))
         };
         // Warm-up, untimed; it also gives the sizes.
         let (_, gas) = build_raykit()?;
         let raykit_size = gas.size();
+        let scratch = gas.build_sizes().build_scratch;
         let compacted = gas.compact()?;
         let raykit_compacted = compacted.compaction().map_or(0, |c| c.after);
         drop(compacted);
-        let (_, a) = build_ash()?;
+        let (_, a) = build_ash(true)?;
         let (ash_size, ash_compacted) = (a.size, ash.compact(&a)?);
         ash.destroy(a);
 
-        let (mut rk, mut hw, mut ratios, mut gpu) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut rk, mut hw, mut fresh, mut ratios, mut ratios_fresh, mut gpu) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for rep in 0..reps {
-            // Alternate which side goes first.
-            let (r, h) = if rep % 2 == 0 {
-                let r = build_raykit()?;
-                (r, build_ash()?)
-            } else {
-                let h = build_ash()?;
-                (build_raykit()?, h)
-            };
-            rk.push(r.0);
-            hw.push(h.0);
-            ratios.push(r.0 / h.0);
-            drop(r.1);
-            ash.destroy(h.1);
+            // Rotate which side goes first; each structure is dropped before the next build.
+            let mut times = [0.0f64; 3];
+            for k in 0..3 {
+                match (rep + k) % 3 {
+                    0 => times[0] = build_raykit()?.0,
+                    1 => {
+                        let (t, g) = build_ash(true)?;
+                        ash.destroy(g);
+                        times[1] = t;
+                    }
+                    _ => {
+                        let (t, g) = build_ash(false)?;
+                        ash.destroy(g);
+                        times[2] = t;
+                    }
+                }
+            }
+            rk.push(times[0]);
+            hw.push(times[1]);
+            fresh.push(times[2]);
+            ratios.push(times[0] / times[1]);
+            ratios_fresh.push(times[0] / times[2]);
         }
         // GPU time of the build command alone, in separate builds.
         for _ in 0..3 {
-            let g = ash.build_gas(&arrays, &indices, true)?;
+            let g = ash.build_gas(&arrays, &indices, true, true)?;
             if let Some(ns) = g.gpu_ns {
                 gpu.push(ns * 1e-9);
             }
@@ -120,9 +137,12 @@ pub fn run(ctx: &Context, ash: &AshDevice, sizes: &[usize], reps: Option<usize>)
             reps,
             raykit: Summary::of(&rk),
             ash: Summary::of(&hw),
+            ash_fresh: Summary::of(&fresh),
+            ratio_fresh: Summary::of(&ratios_fresh),
             ratio: Summary::of(&ratios),
             ash_gpu: (!gpu.is_empty()).then(|| Summary::of(&gpu)),
             raykit_size,
+            scratch,
             raykit_compacted,
             ash_size,
             ash_compacted,
@@ -148,26 +168,30 @@ fn mtri(n: usize, seconds: f64) -> f64 {
 /// The Markdown table.
 pub fn markdown(rows: &[Row], device: &str) -> String {
     let mut s = format!(
-        "GAS builds on {device}: wall time from host arrays to a built, waited-for GAS (validation for raykit, upload, size query, allocation, build with compacted-size query, scratch released); PREFER_FAST_TRACE | ALLOW_COMPACTION; u32 indices; raykit and the hand-written ash build alternate, median (± half the interquartile range); the time ratio is the median of per-pair ratios (< 1: raykit faster). GPU build ms: timestamps around the ash build command alone (3 extra builds).\n\n"
+        "GAS builds on {device}: wall time from host arrays to a built, waited-for GAS (validation for raykit, upload, size query, allocation, build with compacted-size query, scratch released); PREFER_FAST_TRACE | ALLOW_COMPACTION; u32 indices. Each repetition runs raykit, the hand-written ash build reusing a destroyed structure's memory (`ash`), and the same with a fresh vkAllocateMemory per structure (`ash fresh`), in rotating order; median (± half the interquartile range); ratios are medians of per-repetition ratios (< 1: raykit faster). raykit allocates through gpu-allocator, which suballocates blocks (256 MB device-local, 64 MB host-visible) and gives a larger structure its own fresh allocation. GPU build ms: timestamps around the ash build command alone (3 extra builds).\n\n"
     );
-    s.push_str("| triangles | reps | raykit ms | ash ms | raykit Mtri/s | ash Mtri/s | time ratio raykit/ash (min–max) | ash GPU build ms | size B | compacted B | B/tri before → after | ash size → compacted B |\n");
-    s.push_str("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    s.push_str("| triangles | reps | raykit ms | ash ms | ash fresh ms | raykit Mtri/s | ash Mtri/s | raykit/ash (min–max) | raykit/ash fresh | ash GPU build ms | scratch B | size B | compacted B | B/tri before → after | ash size → compacted B |\n");
+    s.push_str("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for r in rows {
         let gpu = r.ash_gpu.map_or("n/a".to_owned(), |g| format!("{:.2}", g.median * 1e3));
         s.push_str(&format!(
-            "| {} | {} | {:.2} ± {:.1}% | {:.2} ± {:.1}% | {:.2} | {:.2} | {:.3} ({:.3}–{:.3}) | {} | {} | {} | {:.1} → {:.1} | {} → {} |\n",
+            "| {} | {} | {:.2} ± {:.1}% | {:.2} ± {:.1}% | {:.2} ± {:.1}% | {:.2} | {:.2} | {:.3} ({:.3}–{:.3}) | {:.3} | {} | {} | {} | {} | {:.1} → {:.1} | {} → {} |\n",
             r.triangles,
             r.reps,
             r.raykit.median * 1e3,
             r.raykit.spread_percent(),
             r.ash.median * 1e3,
             r.ash.spread_percent(),
+            r.ash_fresh.median * 1e3,
+            r.ash_fresh.spread_percent(),
             mtri(r.triangles, r.raykit.median),
             mtri(r.triangles, r.ash.median),
             r.ratio.median,
             r.ratio.min,
             r.ratio.max,
+            r.ratio_fresh.median,
             gpu,
+            r.scratch,
             r.raykit_size,
             r.raykit_compacted,
             r.raykit_size as f64 / r.triangles as f64,
@@ -190,10 +214,13 @@ pub fn json(rows: &[Row]) -> serde_json::Value {
                     "raykit_seconds": r.raykit.json(),
                     "ash_seconds": r.ash.json(),
                     "time_ratio_raykit_over_ash": r.ratio.json(),
+                    "ash_fresh_memory_seconds": r.ash_fresh.json(),
+                    "time_ratio_raykit_over_ash_fresh_memory": r.ratio_fresh.json(),
                     "ash_gpu_build_seconds": r.ash_gpu.map(|g| g.json()),
                     "raykit_triangles_per_second": r.triangles as f64 / r.raykit.median,
                     "ash_triangles_per_second": r.triangles as f64 / r.ash.median,
                     "raykit_bytes": r.raykit_size,
+                    "build_scratch_bytes": r.scratch,
                     "raykit_compacted_bytes": r.raykit_compacted,
                     "ash_bytes": r.ash_size,
                     "ash_compacted_bytes": r.ash_compacted,

@@ -249,7 +249,10 @@ impl AshDevice {
     /// and compaction allowed, querying the compacted size in the same submission;
     /// with `timed`, GPU timestamps bracket the build command (they cost time
     /// themselves, so timed builds are kept out of the wall-clock comparison).
-    pub fn build_gas(&self, vertices: &[[f32; 3]], indices: &[u32], timed: bool) -> anyhow::Result<AshGas> {
+    ///
+    /// With `reuse_storage`, the structure's memory comes from a destroyed
+    /// structure's when one fits; otherwise from a fresh `vkAllocateMemory`.
+    pub fn build_gas(&self, vertices: &[[f32; 3]], indices: &[u32], timed: bool, reuse_storage: bool) -> anyhow::Result<AshGas> {
         let addresses = self.upload(&[as_bytes(vertices), as_bytes(indices)])?;
         let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
             .vertex_format(vk::Format::R32G32B32_SFLOAT)
@@ -273,7 +276,12 @@ impl AshDevice {
         unsafe {
             self.accel.get_acceleration_structure_build_sizes(vk::AccelerationStructureBuildTypeKHR::DEVICE, &info, &[count], &mut sizes)
         };
-        let storage = self.storage(sizes.acceleration_structure_size)?;
+        let storage = if reuse_storage {
+            self.storage(sizes.acceleration_structure_size)?
+        } else {
+            let size = sizes.acceleration_structure_size;
+            (self.buffer(size, vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR, false)?, size)
+        };
         let create = vk::AccelerationStructureCreateInfoKHR::default()
             .buffer(storage.0.buffer)
             .size(sizes.acceleration_structure_size)
@@ -359,7 +367,7 @@ impl AshDevice {
         self.submit_and_wait(|cmd| unsafe { self.accel.cmd_copy_acceleration_structure(cmd, &copy) })?;
         // SAFETY: the copy has finished.
         unsafe { self.accel.destroy_acceleration_structure(accel, None) };
-        self.arena.borrow_mut().free_storage.push(storage);
+        self.free(storage.0);
         Ok(gas.compacted_size)
     }
 
@@ -367,7 +375,12 @@ impl AshDevice {
     pub fn destroy(&self, gas: AshGas) {
         // SAFETY: nothing uses it any more.
         unsafe { self.accel.destroy_acceleration_structure(gas.accel, None) };
-        self.arena.borrow_mut().free_storage.push(gas.storage);
+        let mut arena = self.arena.borrow_mut();
+        if arena.free_storage.len() < 4 {
+            arena.free_storage.push(gas.storage);
+        } else {
+            self.free(gas.storage.0);
+        }
     }
 
     /// Whether GPU timestamps of the build are available.
