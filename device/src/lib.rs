@@ -32,6 +32,8 @@
 
 pub mod entry;
 pub mod handles;
+#[cfg(not(target_arch = "spirv"))]
+pub mod layout;
 pub mod params;
 pub mod ray;
 pub mod stage;
@@ -40,7 +42,10 @@ pub use bytemuck;
 pub use entry::{EntryPoint, ProgramKind};
 pub use handles::{Buffer, Element, Traversable};
 pub use ray::{Ray, RayFlags, RayType};
-pub use params::{FieldLayout, LaunchParams, ParamsLayout};
+pub use params::{
+    uses_push_constants, DeviceField, FieldLayout, LaunchParams, ParamsLayout, Shape, PARAMS_BINDING, PARAMS_SET,
+    PUSH_CONSTANT_BUDGET,
+};
 pub use raykit_macros::{closest_hit, miss, raygen, LaunchParams};
 pub use spirv_std;
 pub use spirv_std::glam;

@@ -55,6 +55,10 @@ pub struct DeviceLimits {
     pub max_ray_dispatch_invocation_count: u32,
     /// `maxPushConstantsSize`.
     pub max_push_constants_size: u32,
+    /// `maxUniformBufferRange`.
+    pub max_uniform_buffer_range: u32,
+    /// `minUniformBufferOffsetAlignment`.
+    pub min_uniform_buffer_offset_alignment: u64,
     /// `minAccelerationStructureScratchOffsetAlignment`.
     pub min_scratch_alignment: u32,
     /// `maxGeometryCount` of acceleration structures.
@@ -594,6 +598,8 @@ fn query_limits(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Devic
         max_ray_recursion_depth: rt.max_ray_recursion_depth,
         max_ray_dispatch_invocation_count: rt.max_ray_dispatch_invocation_count,
         max_push_constants_size: limits.max_push_constants_size,
+        max_uniform_buffer_range: limits.max_uniform_buffer_range,
+        min_uniform_buffer_offset_alignment: limits.min_uniform_buffer_offset_alignment,
         min_scratch_alignment: accel.min_acceleration_structure_scratch_offset_alignment,
         max_geometry_count: accel.max_geometry_count,
         max_primitive_count: accel.max_primitive_count,

@@ -159,8 +159,8 @@ pub enum Error {
     #[error("a pipeline needs a raygen program group")]
     NoRaygen,
 
-    /// The launch params do not fit in push constants.
-    #[error("launch params of {size} bytes exceed this device's maxPushConstantsSize {limit}")]
+    /// The launch params do not fit in a uniform buffer.
+    #[error("launch params of {size} bytes exceed this device's maxUniformBufferRange {limit}; move large data into a `Buffer<T>` and put its handle in the params")]
     ParamsTooLarge {
         /// `size_of::<P>()`.
         size: usize,
@@ -234,6 +234,11 @@ pub enum Error {
         /// Why not.
         reason: &'static str,
     },
+
+    /// A program's params block differs from the host's launch-params struct, or
+    /// the program reads its params another way than raykit delivers them.
+    #[error(transparent)]
+    ParamsLayout(raykit_device::layout::LayoutError),
 
     /// The GPU stopped responding.
     #[error("the device was lost during {during}; the Context is no longer usable — create a new one")]
@@ -382,6 +387,15 @@ pub enum Error {
     /// Compaction of a GAS built without allowing it.
     #[error("this GAS was built without BuildOptions::allow_compaction; build it with allow_compaction(true) to compact it")]
     CompactionNotAllowed,
+}
+
+impl From<raykit_device::layout::LayoutError> for Error {
+    fn from(e: raykit_device::layout::LayoutError) -> Self {
+        match e {
+            raykit_device::layout::LayoutError::InvalidSpirv(reason) => Error::InvalidSpirv { reason },
+            other => Error::ParamsLayout(other),
+        }
+    }
 }
 
 impl Error {

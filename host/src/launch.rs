@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::pipeline::Pipeline;
 use crate::sbt::Sbt;
 
-impl<P: bytemuck::Pod> Pipeline<P> {
+impl<P: raykit_device::LaunchParams> Pipeline<P> {
     /// Traces a `dims = [width, height, depth]` grid with `params`, using `sbt`,
     /// and waits until it is done.
     pub fn launch(&self, sbt: &Sbt, params: &P, dims: [u32; 3]) -> Result<()> {
@@ -36,7 +36,20 @@ impl<P: bytemuck::Pod> Pipeline<P> {
         }
         let device = &ctx.device;
         let params_bytes = bytemuck::bytes_of(params);
-        ctx.submit_and_wait("a launch", |cmd| {
+        // Large params go through the pipeline's uniform buffer; the lock is held
+        // until the launch is done, so concurrent launches cannot overwrite it.
+        let mut uniform_guard = match &inner.params_uniform {
+            Some(uniform) => {
+                let mut guard = uniform.buffer.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                if let Some(buffer) = guard.as_mut() {
+                    buffer.write_bytes(params_bytes)?;
+                }
+                Some((guard, uniform.set))
+            }
+            None => None,
+        };
+        let params_set = uniform_guard.as_ref().map(|(_, set)| *set);
+        let result = ctx.submit_and_wait("a launch", |cmd| {
             // SAFETY: the pipeline, layout, descriptor set and SBT buffer are alive
             // for the whole submission (held by `self` and `sbt`, and waited on).
             unsafe {
@@ -49,6 +62,16 @@ impl<P: bytemuck::Pod> Pipeline<P> {
                     &[ctx.buffer_table.set],
                     &[],
                 );
+                if let Some(set) = params_set {
+                    device.cmd_bind_descriptor_sets(
+                        cmd,
+                        vk::PipelineBindPoint::RAY_TRACING_KHR,
+                        inner.layout,
+                        raykit_device::PARAMS_SET,
+                        &[set],
+                        &[],
+                    );
+                }
                 if inner.push_constant_size > 0 {
                     device.cmd_push_constants(cmd, inner.layout, RT_STAGES, 0, params_bytes);
                 }
@@ -67,6 +90,8 @@ impl<P: bytemuck::Pod> Pipeline<P> {
                     &[],
                 );
             }
-        })
+        });
+        uniform_guard.take();
+        result
     }
 }

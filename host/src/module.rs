@@ -16,6 +16,7 @@ use rspirv::spirv::ExecutionModel;
 
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
+use raykit_device::layout::ParamsBlock;
 
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
@@ -29,6 +30,9 @@ pub struct EntryPointInfo {
     pub kind: Option<ProgramKind>,
     /// The SPIR-V execution model, as text (`RayGenerationKHR`, …).
     pub execution_model: String,
+    /// The launch-params blocks it declares (push constants, or the uniform
+    /// buffer at set 1), with their layouts; empty when it takes no params.
+    pub params: Vec<ParamsBlock>,
 }
 
 /// A SPIR-V module on the device, with its entry points.
@@ -137,23 +141,18 @@ fn check_structure(words: &[u32]) -> Result<()> {
     Ok(())
 }
 
-/// Parses a structurally checked module with rspirv. rspirv can panic on some
-/// malformed input; such a panic is turned into an error rather than crossing
-/// raykit's API.
+/// Parses a structurally checked module with rspirv (whose panics on malformed
+/// operands become errors).
 fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
     check_structure(words)?;
-    let parsed = std::panic::catch_unwind(|| rspirv::dr::load_words(words));
-    match parsed {
-        Ok(Ok(module)) => Ok(module),
-        Ok(Err(e)) => Err(Error::InvalidSpirv { reason: e.to_string() }),
-        Err(_) => Err(Error::InvalidSpirv { reason: "malformed operands (the SPIR-V parser gave up)".to_owned() }),
-    }
+    Ok(raykit_device::layout::parse(words)?)
 }
 
-/// Lists the entry points of a SPIR-V module.
+/// Lists the entry points of a SPIR-V module, with their stages and params blocks.
 pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
     let words = words_of(bytes)?;
     let module = parse(&words)?;
+    let mut params = raykit_device::layout::reflect_params(&module)?;
     let mut entries = Vec::new();
     for inst in &module.entry_points {
         let (Some(rspirv::dr::Operand::ExecutionModel(model)), Some(rspirv::dr::Operand::LiteralString(name))) =
@@ -161,7 +160,12 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
         else {
             return Err(Error::InvalidSpirv { reason: "malformed OpEntryPoint".to_owned() });
         };
-        entries.push(EntryPointInfo { name: name.clone(), kind: kind_of(*model), execution_model: format!("{model:?}") });
+        entries.push(EntryPointInfo {
+            name: name.clone(),
+            kind: kind_of(*model),
+            execution_model: format!("{model:?}"),
+            params: params.remove(name).unwrap_or_default(),
+        });
     }
     Ok(entries)
 }

@@ -1,20 +1,29 @@
 //! Pipelines: program groups linked into a Vulkan ray-tracing pipeline, OptiX's
 //! `optixPipelineCreate`.
 //!
-//! A [`Pipeline<P>`] is typed by its launch params `P`: the pipeline layout's
-//! push-constant range is `size_of::<P>()`, and [`Pipeline::launch`] takes a `&P`.
-//! Every program sees the context's bindless buffer table at set 0, binding 0.
+//! A [`Pipeline<P>`] is typed by its launch params `P` (a struct that derives
+//! `LaunchParams`), and [`Pipeline::launch`] takes a `&P`. Linking checks every
+//! program's params block in the SPIR-V against `P`'s layout (see
+//! [`raykit_device::layout`]), as OptiX requires every module of a pipeline to agree on
+//! its `PipelineCompileOptions`. `P` travels as push constants when it is at most
+//! [`PUSH_CONSTANT_BUDGET`](raykit_device::PUSH_CONSTANT_BUDGET) bytes, otherwise
+//! in a uniform buffer the pipeline owns (set 1, binding 0); `#[params]` in device
+//! code follows the same rule. Every program sees the context's bindless buffer
+//! table at set 0, binding 0.
 //! See [`vkCreateRayTracingPipelinesKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCreateRayTracingPipelinesKHR.html).
 
 use std::marker::PhantomData;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use ash::vk;
 
 use crate::buffer_table::RT_STAGES;
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
+use raykit_device::layout::ParamsDelivery;
+use crate::memory::RawBuffer;
 use crate::program_group::{GroupPrograms, Program, ProgramGroup};
+use raykit_device::LaunchParams;
 
 /// Link options (OptiX's `OptixPipelineLinkOptions`).
 #[derive(Copy, Clone, Debug)]
@@ -30,7 +39,7 @@ impl Default for LinkOptions {
 }
 
 /// A linked ray-tracing pipeline whose programs take launch params `P`.
-pub struct Pipeline<P: bytemuck::Pod> {
+pub struct Pipeline<P: LaunchParams> {
     pub(crate) inner: Arc<PipelineInner>,
     _params: PhantomData<fn(&P)>,
 }
@@ -44,9 +53,91 @@ pub(crate) struct PipelineInner {
     /// `shaderGroupHandleSize` bytes per group, in pipeline order.
     pub(crate) handles: Vec<u8>,
     pub(crate) push_constant_size: u32,
+    /// The params uniform buffer, for params over the push-constant budget.
+    pub(crate) params_uniform: Option<ParamsUniform>,
 }
 
-impl<P: bytemuck::Pod> Pipeline<P> {
+/// A uniform buffer holding the launch params, with its descriptor set.
+pub(crate) struct ParamsUniform {
+    ctx: Arc<ContextInner>,
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    pub(crate) set: vk::DescriptorSet,
+    /// Host-visible; written before each launch, under the lock (launches of one
+    /// pipeline from several threads take turns).
+    pub(crate) buffer: Mutex<Option<RawBuffer>>,
+}
+
+impl ParamsUniform {
+    fn new(ctx: &Arc<ContextInner>, size: u64) -> Result<ParamsUniform> {
+        let device = &ctx.device;
+        let bindings = [vk::DescriptorSetLayoutBinding::default()
+            .binding(raykit_device::PARAMS_BINDING)
+            .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+            .descriptor_count(1)
+            .stage_flags(RT_STAGES)];
+        let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: valid create info on a live device.
+        let set_layout = unsafe { device.create_descriptor_set_layout(&info, None) }
+            .map_err(Error::vk("vkCreateDescriptorSetLayout"))?;
+        // Wrapped at once, so an early return frees what exists.
+        let mut uniform = ParamsUniform {
+            ctx: ctx.clone(),
+            set_layout,
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            buffer: Mutex::new(None),
+        };
+        let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: 1 }];
+        let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
+        // SAFETY: valid create info on a live device.
+        uniform.pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
+            .map_err(Error::vk("vkCreateDescriptorPool"))?;
+        let layouts = [set_layout];
+        let alloc = vk::DescriptorSetAllocateInfo::default().descriptor_pool(uniform.pool).set_layouts(&layouts);
+        // SAFETY: the pool has room for exactly this set.
+        uniform.set = unsafe { device.allocate_descriptor_sets(&alloc) }.map_err(Error::vk("vkAllocateDescriptorSets"))?[0];
+        let buffer = RawBuffer::new(
+            ctx,
+            "launch params uniform buffer",
+            size,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            gpu_allocator::MemoryLocation::CpuToGpu,
+            ctx.limits.min_uniform_buffer_offset_alignment.max(16),
+        )?;
+        let buffer_info = [vk::DescriptorBufferInfo { buffer: buffer.buffer, offset: 0, range: size }];
+        let write = vk::WriteDescriptorSet::default()
+            .dst_set(uniform.set)
+            .dst_binding(raykit_device::PARAMS_BINDING)
+            .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+            .buffer_info(&buffer_info);
+        // SAFETY: the set and buffer are alive; the set is not in use yet.
+        unsafe { device.update_descriptor_sets(&[write], &[]) };
+        uniform.buffer = Mutex::new(Some(buffer));
+        Ok(uniform)
+    }
+}
+
+impl Drop for ParamsUniform {
+    fn drop(&mut self) {
+        // SAFETY: launches are blocking, so the set is idle; freeing the pool frees it.
+        unsafe {
+            self.ctx.device.destroy_descriptor_pool(self.pool, None);
+            self.ctx.device.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// How raykit delivers params of type `P`.
+pub fn params_delivery<P: LaunchParams>() -> ParamsDelivery {
+    if raykit_device::uses_push_constants::<P>() {
+        ParamsDelivery::PushConstants
+    } else {
+        ParamsDelivery::UniformBuffer { set: raykit_device::PARAMS_SET, binding: raykit_device::PARAMS_BINDING }
+    }
+}
+
+impl<P: LaunchParams> Pipeline<P> {
     /// Links `groups` into a pipeline. There must be a raygen group.
     pub fn new(ctx: &Context, groups: &[&ProgramGroup], options: LinkOptions) -> Result<Pipeline<P>> {
         let inner = &ctx.inner;
@@ -64,8 +155,20 @@ impl<P: bytemuck::Pod> Pipeline<P> {
             return Err(Error::NoRaygen);
         }
         let params_size = std::mem::size_of::<P>();
-        if params_size > limits.max_push_constants_size as usize {
-            return Err(Error::ParamsTooLarge { size: params_size, limit: limits.max_push_constants_size });
+        let delivery = params_delivery::<P>();
+        if delivery != ParamsDelivery::PushConstants && params_size > limits.max_uniform_buffer_range as usize {
+            return Err(Error::ParamsTooLarge { size: params_size, limit: limits.max_uniform_buffer_range });
+        }
+        // OptiX's rule that all modules agree on the compile options: every
+        // program's params block must be `P`, laid out as on the host.
+        for group in groups {
+            for program in group.programs() {
+                let name = program.name.to_string_lossy();
+                let Some(info) = program.module.entry_points.iter().find(|e| e.name == name) else { continue };
+                if !info.params.is_empty() {
+                    raykit_device::layout::check(&P::LAYOUT, &name, &info.params, delivery)?;
+                }
+            }
         }
 
         // One shader stage per program; groups refer to stages by index.
@@ -111,13 +214,21 @@ impl<P: bytemuck::Pod> Pipeline<P> {
             })
             .collect();
 
-        let set_layouts = [inner.buffer_table.layout];
-        let push_ranges = [vk::PushConstantRange { stage_flags: RT_STAGES, offset: 0, size: params_size as u32 }];
+        let params_uniform = match delivery {
+            ParamsDelivery::PushConstants => None,
+            ParamsDelivery::UniformBuffer { .. } => Some(ParamsUniform::new(inner, params_size as u64)?),
+        };
+        let mut set_layouts = vec![inner.buffer_table.layout];
+        if let Some(uniform) = &params_uniform {
+            set_layouts.push(uniform.set_layout);
+        }
+        let push_constant_size = if params_uniform.is_some() { 0 } else { params_size as u32 };
+        let push_ranges = [vk::PushConstantRange { stage_flags: RT_STAGES, offset: 0, size: push_constant_size }];
         let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
-        if params_size > 0 {
+        if push_constant_size > 0 {
             layout_info = layout_info.push_constant_ranges(&push_ranges);
         }
-        // SAFETY: valid create info; the set layout lives as long as the context.
+        // SAFETY: valid create info; the set layouts live as long as the pipeline.
         let layout = unsafe { inner.device.create_pipeline_layout(&layout_info, None) }
             .map_err(Error::vk("vkCreatePipelineLayout"))?;
         let mut pipeline_inner = PipelineInner {
@@ -126,7 +237,8 @@ impl<P: bytemuck::Pod> Pipeline<P> {
             layout,
             groups: groups.iter().map(|g| (g.id, g.kind_name())).collect(),
             handles: Vec::new(),
-            push_constant_size: params_size as u32,
+            push_constant_size,
+            params_uniform,
         };
 
         let create_info = [vk::RayTracingPipelineCreateInfoKHR::default()
@@ -162,6 +274,12 @@ impl<P: bytemuck::Pod> Pipeline<P> {
         }
         .map_err(Error::vk("vkGetRayTracingShaderGroupHandlesKHR"))?;
         Ok(Pipeline { inner: Arc::new(pipeline_inner), _params: PhantomData })
+    }
+
+    /// How this pipeline delivers its params: push constants, or a uniform buffer
+    /// for params over [`PUSH_CONSTANT_BUDGET`](raykit_device::PUSH_CONSTANT_BUDGET) bytes.
+    pub fn params_delivery(&self) -> ParamsDelivery {
+        params_delivery::<P>()
     }
 
     /// The position of `group` in this pipeline, if it was linked into it.

@@ -110,6 +110,16 @@ pub struct ProgramGroup {
 static NEXT_GROUP_ID: AtomicU64 = AtomicU64::new(1);
 
 impl ProgramGroup {
+    /// The programs of this group.
+    pub(crate) fn programs(&self) -> Vec<&Program> {
+        match &self.programs {
+            GroupPrograms::Raygen(p) | GroupPrograms::Miss(p) => vec![p],
+            GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
+                [closest_hit, any_hit, intersection].into_iter().flatten().collect()
+            }
+        }
+    }
+
     fn from_programs(module: &Module, programs: GroupPrograms) -> ProgramGroup {
         ProgramGroup { id: NEXT_GROUP_ID.fetch_add(1, Ordering::Relaxed), ctx: module.inner.ctx.clone(), programs }
     }

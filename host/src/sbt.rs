@@ -71,7 +71,7 @@ fn align_up(x: u64, a: u64) -> u64 {
 
 /// Builds an [`Sbt`] for one pipeline.
 #[must_use]
-pub struct SbtBuilder<'p, P: bytemuck::Pod> {
+pub struct SbtBuilder<'p, P: raykit_device::LaunchParams> {
     pipeline: &'p Pipeline<P>,
     raygen: Option<PackedRecord>,
     miss: Vec<PackedRecord>,
@@ -79,7 +79,7 @@ pub struct SbtBuilder<'p, P: bytemuck::Pod> {
     error: Option<Error>,
 }
 
-impl<'p, P: bytemuck::Pod> SbtBuilder<'p, P> {
+impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     fn pack<T: bytemuck::Pod>(&mut self, group: &ProgramGroup, data: &T, region: &'static str, expected: &'static str) -> Option<PackedRecord> {
         if self.error.is_some() {
             return None;
@@ -202,7 +202,7 @@ pub struct Sbt {
 
 impl Sbt {
     /// Starts an SBT for `pipeline`.
-    pub fn builder<P: bytemuck::Pod>(pipeline: &Pipeline<P>) -> SbtBuilder<'_, P> {
+    pub fn builder<P: raykit_device::LaunchParams>(pipeline: &Pipeline<P>) -> SbtBuilder<'_, P> {
         SbtBuilder { pipeline, raygen: None, miss: Vec::new(), hit: Vec::new(), error: None }
     }
 
@@ -225,6 +225,8 @@ mod tests {
             max_ray_recursion_depth: 31,
             max_ray_dispatch_invocation_count: 1 << 30,
             max_push_constants_size: 128,
+            max_uniform_buffer_range: 65536,
+            min_uniform_buffer_offset_alignment: 256,
             min_scratch_alignment: 128,
             max_geometry_count: 1 << 24,
             max_primitive_count: 1 << 29,

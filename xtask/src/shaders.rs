@@ -260,5 +260,29 @@ pub fn build_all(root: &Path, force: bool) -> anyhow::Result<()> {
             started.elapsed().as_secs_f64()
         );
     }
+    check_params_layouts(&crates, &out_dir)
+}
+
+/// Runs the tests that `#[params]` programs generate: each compares the host's
+/// layout of its params struct with the SPIR-V just built, and fails with the
+/// same message as `Pipeline::new` would.
+fn check_params_layouts(crates: &[DeviceCrate], spirv_dir: &Path) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let mut cmd = crate::cargo();
+    cmd.args(["test", "--quiet", "--lib"]);
+    for krate in crates {
+        cmd.args(["-p", &krate.name]);
+    }
+    cmd.args(["--", "__raykit_params_layout_"]).env("RAYKIT_SPIRV_DIR", spirv_dir);
+    let output = cmd.output().context("running the params layout checks")?;
+    if !output.status.success() {
+        let text = format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
+        let reasons: Vec<&str> = text.lines().filter(|l| l.contains("launch params") || l.contains("reads its params") || l.starts_with("error")).collect();
+        bail!(
+            "a launch-params struct disagrees with the SPIR-V built from it:\n{}\n(full output of the check follows)\n{text}",
+            reasons.join("\n")
+        );
+    }
+    println!("xtask: params layouts match the SPIR-V ({:.1} s)", started.elapsed().as_secs_f64());
     Ok(())
 }

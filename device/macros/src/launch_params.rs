@@ -2,7 +2,7 @@
 //! fields that cannot cross to the device.
 
 use proc_macro2::TokenStream;
-use quote::quote;
+use quote::{quote, quote_spanned};
 use syn::spanned::Spanned;
 use syn::{Data, DeriveInput, Fields, Type};
 
@@ -87,12 +87,16 @@ fn try_derive(input: TokenStream) -> syn::Result<TokenStream> {
         let ty = &field.ty;
         let field_name = ident.to_string();
         let type_name = quote!(#ty).to_string().replace(' ', "");
+        // `<T as DeviceField>` with the field's span: an unsupported type is an
+        // error pointing at the field, with DeviceField's explanation.
+        let shape = quote_spanned! {ty.span()=> <#ty as ::raykit_device::DeviceField>::SHAPE };
         entries.push(quote! {
             ::raykit_device::FieldLayout {
                 name: #field_name,
                 type_name: #type_name,
                 offset: ::core::mem::offset_of!(#name, #ident) as u32,
                 size: ::core::mem::size_of::<#ty>() as u32,
+                shape: #shape,
             }
         });
     }
@@ -107,6 +111,10 @@ fn try_derive(input: TokenStream) -> syn::Result<TokenStream> {
                 size: ::core::mem::size_of::<#name>() as u32,
                 fields: &[#(#entries),*],
             };
+        }
+        impl ::raykit_device::DeviceField for #name {
+            const SHAPE: ::raykit_device::Shape =
+                ::raykit_device::Shape::Struct(&<#name as ::raykit_device::LaunchParams>::LAYOUT);
         }
     })
 }

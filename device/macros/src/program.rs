@@ -65,18 +65,23 @@ struct Param {
     role: Role,
 }
 
-/// `ray = Type` in the macro's arguments.
+/// The macro's arguments: `ray = Type`, `skip_params_check`.
 struct Args {
     ray: Option<syn::Path>,
+    /// Generate no build-time params layout test (for tests of the check itself).
+    skip_params_check: bool,
 }
 
 fn parse_args(stage: Stage, attr: TokenStream) -> syn::Result<Args> {
-    let mut args = Args { ray: None };
+    let mut args = Args { ray: None, skip_params_check: false };
     if attr.is_empty() {
         return Ok(args);
     }
     let parser = syn::meta::parser(|meta| {
-        if meta.path.is_ident("ray") && stage != Stage::Raygen {
+        if meta.path.is_ident("skip_params_check") {
+            args.skip_params_check = true;
+            Ok(())
+        } else if meta.path.is_ident("ray") && stage != Stage::Raygen {
             let value: syn::Path = meta.value()?.parse()?;
             args.ray = Some(value);
             Ok(())
@@ -84,7 +89,7 @@ fn parse_args(stage: Stage, attr: TokenStream) -> syn::Result<Args> {
             Err(meta.error("`ray = …` belongs on miss and closest-hit programs; raygen names the ray type at each `trace::<R>` call"))
         } else {
             Err(meta.error(format!(
-                "unknown argument of #[{}]; expected `ray = RayType` or nothing",
+                "unknown argument of #[{}]; expected `ray = RayType`, `skip_params_check` or nothing",
                 stage.macro_name()
             )))
         }
@@ -259,6 +264,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
     let mut wrapper_params = Vec::new();
     let mut call_args = Vec::new();
     let mut checks = Vec::new();
+    let mut params_choice = None;
     for p in &params {
         let name = &p.name;
         match &p.role {
@@ -266,7 +272,52 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 call_args.push(if *by_ref { quote!(&mut __ctx) } else { quote!(__ctx) });
             }
             Role::Params(ty) => {
-                wrapper_params.push(quote! { #[spirv(push_constant)] #name: &#ty });
+                // Push constants for small params, a uniform buffer for large ones:
+                // the same rule the host applies (`uses_push_constants`), decided
+                // by a constant, so only one of the two variables is used.
+                let pc = format_ident!("__{}_push_constants", name);
+                let ubo = format_ident!("__{}_uniform", name);
+                wrapper_params.push(quote! { #[spirv(push_constant)] #pc: &#ty });
+                wrapper_params.push(quote! {
+                    #[spirv(uniform, descriptor_set = 1, binding = 0)] #ubo: &#ty
+                });
+                // rust-gpu gives every pointer one storage class, so the program
+                // is called from two branches, and the constant condition leaves
+                // only one of them (and one variable in use) in the SPIR-V.
+                params_choice = Some((name.clone(), ty.clone(), pc, ubo));
+                checks.push(quote_spanned! {ty.span()=>
+                    const _: () = {
+                        #[allow(dead_code)]
+                        fn __raykit_params_derive_launch_params<P: ::raykit_device::LaunchParams>() {}
+                        #[allow(dead_code)]
+                        fn __raykit_check() { __raykit_params_derive_launch_params::<#ty>() }
+                    };
+                });
+                if !args.skip_params_check {
+                    // A host-side test that `cargo xtask build-shaders` runs right
+                    // after building this crate: the SPIR-V's params block must be
+                    // laid out as the host lays out the struct.
+                    let test_name = format_ident!("__raykit_params_layout_{}", entry_name);
+                    checks.push(quote! {
+                        #[cfg(test)]
+                        #[test]
+                        #[allow(non_snake_case)]
+                        fn #test_name() {
+                            let path = ::raykit_device::layout::built_spirv_path(
+                                env!("CARGO_MANIFEST_DIR"),
+                                env!("CARGO_PKG_NAME"),
+                            );
+                            if let Err(e) = ::raykit_device::layout::check_file(
+                                &path,
+                                #entry_name,
+                                &<#ty as ::raykit_device::LaunchParams>::LAYOUT,
+                                ::raykit_device::uses_push_constants::<#ty>(),
+                            ) {
+                                panic!("{} (in {})", e, path.display());
+                            }
+                        }
+                    });
+                }
                 call_args.push(quote!(#name));
             }
             Role::Record(ty) => {
@@ -298,6 +349,24 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
         }
     }
 
+    let body = quote! {
+        #[allow(unused_mut)]
+        let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers);
+        #fn_name(#(#call_args),*);
+    };
+    let call = match params_choice {
+        Some((name, ty, pc, ubo)) => quote! {
+            if const { ::raykit_device::uses_push_constants::<#ty>() } {
+                let #name: &#ty = #pc;
+                #body
+            } else {
+                let #name: &#ty = #ubo;
+                #body
+            }
+        },
+        None => body,
+    };
+
     let doc = format!("The entry point `{entry_name}` (a {} program), for the host.", stage.context_type());
     Ok(quote! {
         #func
@@ -318,9 +387,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
             #[spirv(descriptor_set = 0, binding = 0, storage_buffer)] __buffers: &mut ::raykit_device::BufferTable,
             #(#wrapper_params,)*
         ) {
-            #[allow(unused_mut)]
-            let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers);
-            #fn_name(#(#call_args),*);
+            #call
         }
     })
 }

@@ -524,6 +524,8 @@ mod tests {
             max_ray_recursion_depth: 31,
             max_ray_dispatch_invocation_count: 1 << 30,
             max_push_constants_size: 128,
+            max_uniform_buffer_range: 65536,
+            min_uniform_buffer_offset_alignment: 256,
             min_scratch_alignment: 128,
             max_geometry_count: 2,
             max_primitive_count: 4,

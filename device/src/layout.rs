@@ -1,0 +1,657 @@
+//! Launch-params layouts: what the SPIR-V says, and the check against the host
+//! (host target only).
+//!
+//! OptiX leaves it to the user to keep the device's `Params` and the host's copy
+//! in sync ("take care that CUDA vector types have specific alignment
+//! requirements"). raykit reads the params block of every entry point from the
+//! SPIR-V — the push-constant block, or the uniform block at set
+//! [`PARAMS_SET`](raykit_device::PARAMS_SET) — with its member `Offset`,
+//! `ArrayStride` and `MatrixStride` decorations, and compares it with the layout
+//! that `#[derive(LaunchParams)]` recorded on the host. A difference is a
+//! [`LayoutError::Mismatch`] naming the struct, the field, both offsets and
+//! sizes, and the likely cause.
+//!
+//! The same check runs in two places: when the host links a pipeline
+//! (`raykit::Pipeline::new`), and right after `cargo xtask build-shaders` built a
+//! device crate (the tests that `#[raygen]` and friends generate for programs
+//! with `#[params]`), so a mismatch is caught before anything runs.
+//!
+//! The reader is rspirv's data representation (naga's SPIR-V front-end rejects
+//! the ray-tracing stages); rspirv is a host-only dependency of this crate.
+
+use std::collections::HashMap;
+
+use rspirv::dr::{Instruction, Operand};
+use rspirv::spirv::{Decoration, Op, StorageClass};
+
+use crate::params::{ParamsLayout, Shape};
+
+/// Why a params block and a host layout cannot be used together.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum LayoutError {
+    /// The SPIR-V could not be read.
+    InvalidSpirv(String),
+    /// A field sits elsewhere, or has another size or stride, in the SPIR-V.
+    Mismatch {
+        /// The host struct's name.
+        struct_name: &'static str,
+        /// The entry point whose block differs.
+        entry: String,
+        /// The first field that differs (dotted path for nested structs).
+        field: String,
+        /// Its offset and size on the host.
+        host: String,
+        /// Its offset and size in the SPIR-V.
+        device: String,
+        /// What usually causes this, and the fix.
+        cause: String,
+    },
+    /// The program reads its params another way than raykit delivers them.
+    Delivery {
+        /// The host struct's name.
+        struct_name: &'static str,
+        /// Its size.
+        size: u32,
+        /// The entry point.
+        entry: String,
+        /// How raykit delivers the struct.
+        expected: String,
+        /// How the program reads it.
+        found: String,
+    },
+}
+
+impl std::fmt::Display for LayoutError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LayoutError::InvalidSpirv(reason) => write!(f, "not a valid SPIR-V module: {reason}"),
+            LayoutError::Mismatch { struct_name, entry, field, host, device, cause } => write!(
+                f,
+                "launch params `{struct_name}` do not match the SPIR-V of `{entry}`: field `{field}` is at {host} on the \
+                 host but at {device} in the SPIR-V. Likely cause: {cause}"
+            ),
+            LayoutError::Delivery { struct_name, size, entry, expected, found } => write!(
+                f,
+                "`{entry}` reads its params from {found}, but raykit delivers `{struct_name}` ({size} bytes) in \
+                 {expected}: params of at most {budget} bytes go in push constants, larger ones in a uniform buffer \
+                 at set {set}, binding {binding}. Use `#[params]` in Rust programs; in GLSL declare the block \
+                 accordingly (`layout(push_constant)` or `layout(set = {set}, binding = {binding}, scalar) uniform`)",
+                budget = crate::PUSH_CONSTANT_BUDGET,
+                set = crate::PARAMS_SET,
+                binding = crate::PARAMS_BINDING,
+            ),
+        }
+    }
+}
+
+impl std::error::Error for LayoutError {}
+
+type Result<T> = std::result::Result<T, LayoutError>;
+
+/// How a params block reaches the programs.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum ParamsDelivery {
+    /// A push-constant block.
+    PushConstants,
+    /// A uniform buffer at this descriptor set and binding.
+    UniformBuffer {
+        /// `DescriptorSet` decoration.
+        set: u32,
+        /// `Binding` decoration.
+        binding: u32,
+    },
+}
+
+impl std::fmt::Display for ParamsDelivery {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ParamsDelivery::PushConstants => f.write_str("push constants"),
+            ParamsDelivery::UniformBuffer { set, binding } => write!(f, "a uniform buffer (set {set}, binding {binding})"),
+        }
+    }
+}
+
+/// One member of a block, as the SPIR-V lays it out.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BlockMember {
+    /// `OpMemberName`, when the module has debug names.
+    pub name: Option<String>,
+    /// `Offset` decoration.
+    pub offset: u32,
+    /// Size in bytes (for arrays `stride × length`; for structs, up to the end of
+    /// the last member).
+    pub size: u32,
+    /// What it is.
+    pub ty: BlockType,
+}
+
+/// The type of a block member.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum BlockType {
+    /// Scalar, vector, pointer or anything else without inner layout.
+    Plain(String),
+    /// A matrix with its `MatrixStride`.
+    Matrix {
+        /// Columns.
+        columns: u32,
+        /// `MatrixStride`.
+        column_stride: u32,
+    },
+    /// An array with its `ArrayStride`.
+    Array {
+        /// `ArrayStride`.
+        stride: u32,
+        /// Length (0 for a runtime array).
+        len: u32,
+        /// The element.
+        element: Box<BlockType>,
+    },
+    /// A struct with its members.
+    Struct(Vec<BlockMember>),
+}
+
+/// The params block one entry point uses.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ParamsBlock {
+    /// How it is delivered.
+    pub delivery: ParamsDelivery,
+    /// The block's members, as laid out in the SPIR-V.
+    pub members: Vec<BlockMember>,
+    /// Size up to the end of the last member.
+    pub size: u32,
+}
+
+/// Indexes of a parsed module that the reflection needs.
+struct Index<'m> {
+    defs: HashMap<u32, &'m Instruction>,
+    decorations: HashMap<u32, Vec<(Decoration, Option<u32>)>>,
+    member_decorations: HashMap<(u32, u32), Vec<(Decoration, Option<u32>)>>,
+    member_names: HashMap<(u32, u32), String>,
+}
+
+fn id_operand(inst: &Instruction, i: usize) -> Option<u32> {
+    match inst.operands.get(i)? {
+        Operand::IdRef(id) => Some(*id),
+        _ => None,
+    }
+}
+
+fn literal(inst: &Instruction, i: usize) -> Option<u32> {
+    match inst.operands.get(i)? {
+        Operand::LiteralBit32(v) => Some(*v),
+        _ => None,
+    }
+}
+
+fn bad(reason: impl Into<String>) -> LayoutError {
+    LayoutError::InvalidSpirv(reason.into())
+}
+
+impl<'m> Index<'m> {
+    fn new(module: &'m rspirv::dr::Module) -> Index<'m> {
+        let mut defs = HashMap::new();
+        for inst in &module.types_global_values {
+            if let Some(id) = inst.result_id {
+                defs.insert(id, inst);
+            }
+        }
+        let mut decorations: HashMap<u32, Vec<(Decoration, Option<u32>)>> = HashMap::new();
+        let mut member_decorations: HashMap<(u32, u32), Vec<(Decoration, Option<u32>)>> = HashMap::new();
+        for inst in &module.annotations {
+            match inst.class.opcode {
+                Op::Decorate => {
+                    if let (Some(target), Some(Operand::Decoration(d))) = (id_operand(inst, 0), inst.operands.get(1)) {
+                        decorations.entry(target).or_default().push((*d, literal(inst, 2)));
+                    }
+                }
+                Op::MemberDecorate => {
+                    if let (Some(target), Some(member), Some(Operand::Decoration(d))) =
+                        (id_operand(inst, 0), literal(inst, 1), inst.operands.get(2))
+                    {
+                        member_decorations.entry((target, member)).or_default().push((*d, literal(inst, 3)));
+                    }
+                }
+                _ => {}
+            }
+        }
+        let mut member_names = HashMap::new();
+        for inst in &module.debug_names {
+            if inst.class.opcode == Op::MemberName {
+                if let (Some(target), Some(member), Some(Operand::LiteralString(name))) =
+                    (id_operand(inst, 0), literal(inst, 1), inst.operands.get(2))
+                {
+                    member_names.insert((target, member), name.clone());
+                }
+            }
+        }
+        Index { defs, decorations, member_decorations, member_names }
+    }
+
+    fn decoration(&self, id: u32, which: Decoration) -> Option<Option<u32>> {
+        self.decorations.get(&id)?.iter().find(|(d, _)| *d == which).map(|(_, v)| *v)
+    }
+
+    fn member_decoration(&self, id: u32, member: u32, which: Decoration) -> Option<u32> {
+        self.member_decorations.get(&(id, member))?.iter().find(|(d, _)| *d == which).and_then(|(_, v)| *v)
+    }
+
+    fn def(&self, id: u32) -> Result<&'m Instruction> {
+        self.defs.get(&id).copied().ok_or_else(|| bad(format!("type %{id} is used but not defined")))
+    }
+
+    /// The value of an integer constant.
+    fn constant(&self, id: u32) -> Result<u32> {
+        let inst = self.def(id)?;
+        match (inst.class.opcode, inst.operands.first()) {
+            (Op::Constant, Some(Operand::LiteralBit32(v))) => Ok(*v),
+            (Op::Constant, Some(Operand::LiteralBit64(v))) => u32::try_from(*v).map_err(|_| bad("array length over 2^32")),
+            _ => Err(bad(format!("array length %{id} is not a plain integer constant (specialization constants are not supported in params)"))),
+        }
+    }
+
+    /// The type and size of type `id`; `depth` bounds recursion on malformed input.
+    fn describe(&self, id: u32, depth: u32) -> Result<(BlockType, u32)> {
+        if depth > 32 {
+            return Err(bad("types nested more than 32 levels deep"));
+        }
+        let inst = self.def(id)?;
+        let plain = |size: u32| Ok((BlockType::Plain(format!("{:?}", inst.class.opcode)), size));
+        match inst.class.opcode {
+            Op::TypeInt | Op::TypeFloat => plain(literal(inst, 0).ok_or_else(|| bad("OpTypeInt/Float without width"))? / 8),
+            Op::TypeBool => plain(4),
+            Op::TypeVector => {
+                let component = id_operand(inst, 0).ok_or_else(|| bad("OpTypeVector without component"))?;
+                let count = literal(inst, 1).ok_or_else(|| bad("OpTypeVector without count"))?;
+                let (_, size) = self.describe(component, depth + 1)?;
+                Ok((BlockType::Plain(format!("vector of {count}")), size.saturating_mul(count)))
+            }
+            Op::TypePointer => plain(8),
+            Op::TypeMatrix => {
+                let column = id_operand(inst, 0).ok_or_else(|| bad("OpTypeMatrix without column type"))?;
+                let columns = literal(inst, 1).ok_or_else(|| bad("OpTypeMatrix without column count"))?;
+                let (_, column_size) = self.describe(column, depth + 1)?;
+                // The stride is a member decoration; the caller fills it in.
+                Ok((BlockType::Matrix { columns, column_stride: column_size }, column_size.saturating_mul(columns)))
+            }
+            Op::TypeArray | Op::TypeRuntimeArray => {
+                let element = id_operand(inst, 0).ok_or_else(|| bad("array without element type"))?;
+                let len = match inst.class.opcode {
+                    Op::TypeArray => self.constant(id_operand(inst, 1).ok_or_else(|| bad("OpTypeArray without length"))?)?,
+                    _ => 0,
+                };
+                let (element_ty, element_size) = self.describe(element, depth + 1)?;
+                let stride = match self.decoration(id, Decoration::ArrayStride) {
+                    Some(Some(stride)) => stride,
+                    _ => element_size,
+                };
+                Ok((BlockType::Array { stride, len, element: Box::new(element_ty) }, stride.saturating_mul(len)))
+            }
+            Op::TypeStruct => {
+                let members = self.struct_members(id, depth + 1)?;
+                let size = members.iter().map(|m| m.offset.saturating_add(m.size)).max().unwrap_or(0);
+                Ok((BlockType::Struct(members), size))
+            }
+            other => Ok((BlockType::Plain(format!("{other:?}")), 0)),
+        }
+    }
+
+    fn struct_members(&self, id: u32, depth: u32) -> Result<Vec<BlockMember>> {
+        let inst = self.def(id)?;
+        let mut members = Vec::with_capacity(inst.operands.len());
+        for (i, _) in inst.operands.iter().enumerate() {
+            let member_ty = id_operand(inst, i).ok_or_else(|| bad(format!("struct %{id} member {i} is not a type")))?;
+            let i = i as u32;
+            let offset = self.member_decoration(id, i, Decoration::Offset).ok_or_else(|| {
+                bad(format!("struct %{id} member {i} has no Offset decoration (blocks need an explicit layout)"))
+            })?;
+            let (mut ty, mut size) = self.describe(member_ty, depth)?;
+            if let BlockType::Matrix { columns, column_stride } = &mut ty {
+                if let Some(stride) = self.member_decoration(id, i, Decoration::MatrixStride) {
+                    *column_stride = stride;
+                    size = stride.saturating_mul(*columns);
+                }
+            }
+            members.push(BlockMember { name: self.member_names.get(&(id, i)).cloned(), offset, size, ty });
+        }
+        Ok(members)
+    }
+
+    /// The params block behind global variable `var`, if it is one.
+    fn params_block(&self, var: u32) -> Result<Option<ParamsBlock>> {
+        let Some(inst) = self.defs.get(&var) else { return Ok(None) };
+        if inst.class.opcode != Op::Variable {
+            return Ok(None);
+        }
+        let Some(Operand::StorageClass(storage)) = inst.operands.first() else { return Ok(None) };
+        let delivery = match storage {
+            StorageClass::PushConstant => ParamsDelivery::PushConstants,
+            StorageClass::Uniform => {
+                let set = self.decoration(var, Decoration::DescriptorSet).flatten().unwrap_or(0);
+                let binding = self.decoration(var, Decoration::Binding).flatten().unwrap_or(0);
+                if (set, binding) != (crate::PARAMS_SET, crate::PARAMS_BINDING) {
+                    return Ok(None);
+                }
+                ParamsDelivery::UniformBuffer { set, binding }
+            }
+            _ => return Ok(None),
+        };
+        let pointer = self.def(inst.result_type.ok_or_else(|| bad("OpVariable without type"))?)?;
+        let pointee = id_operand(pointer, 1).ok_or_else(|| bad("params variable is not a pointer"))?;
+        match self.describe(pointee, 0)? {
+            (BlockType::Struct(members), size) => Ok(Some(ParamsBlock { delivery, members, size })),
+            _ => Err(bad(format!("the {delivery} variable %{var} is not a struct block"))),
+        }
+    }
+}
+
+/// The params blocks each entry point uses, by entry name (entry points without
+/// params are absent).
+pub fn reflect_params(module: &rspirv::dr::Module) -> Result<HashMap<String, Vec<ParamsBlock>>> {
+    let index = Index::new(module);
+    let mut blocks = HashMap::new();
+    for entry in &module.entry_points {
+        let Some(Operand::LiteralString(name)) = entry.operands.get(2) else { continue };
+        // SPIR-V ≥ 1.4 lists every global an entry point uses in its interface.
+        let mut found: Vec<ParamsBlock> = Vec::new();
+        for op in entry.operands.iter().skip(3) {
+            if let Operand::IdRef(var) = op {
+                if let Some(block) = index.params_block(*var)? {
+                    found.push(block);
+                }
+            }
+        }
+        if !found.is_empty() {
+            blocks.insert(name.clone(), found);
+        }
+    }
+    Ok(blocks)
+}
+
+/// Parses SPIR-V words with rspirv, turning its panics on malformed input into
+/// errors. Callers facing untrusted input check the module's structure first
+/// (`raykit::Module::new` does).
+pub fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
+    match std::panic::catch_unwind(|| rspirv::dr::load_words(words)) {
+        Ok(Ok(module)) => Ok(module),
+        Ok(Err(e)) => Err(bad(e.to_string())),
+        Err(_) => Err(bad("malformed operands (the SPIR-V parser gave up)")),
+    }
+}
+
+/// Checks entry point `entry` of the SPIR-V file `path` against `host`: what
+/// the tests generated for `#[params]` programs run after
+/// `cargo xtask build-shaders`.
+pub fn check_file(path: &std::path::Path, entry: &str, host: &ParamsLayout, push_constants: bool) -> Result<()> {
+    let bytes = std::fs::read(path).map_err(|e| {
+        bad(format!("reading {}: {e}; build the device crates with `cargo xtask build-shaders`", path.display()))
+    })?;
+    if bytes.len() % 4 != 0 {
+        return Err(bad(format!("{} is not a whole number of 32-bit words", path.display())));
+    }
+    let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let module = parse(&words)?;
+    let blocks = reflect_params(&module)?;
+    let Some(blocks) = blocks.get(entry) else {
+        return Err(bad(format!("{} has no params block for entry point `{entry}`", path.display())));
+    };
+    let expected = if push_constants {
+        ParamsDelivery::PushConstants
+    } else {
+        ParamsDelivery::UniformBuffer { set: crate::PARAMS_SET, binding: crate::PARAMS_BINDING }
+    };
+    check(host, entry, blocks, expected)
+}
+
+/// Where `cargo xtask build-shaders` put the SPIR-V of the device crate whose
+/// manifest directory is `manifest_dir`: `$RAYKIT_SPIRV_DIR/<crate>.spv`, else
+/// `target/spirv/<crate>.spv` in the nearest ancestor directory that has it.
+pub fn built_spirv_path(manifest_dir: &str, crate_name: &str) -> std::path::PathBuf {
+    let file = format!("{}.spv", crate_name.replace('-', "_"));
+    if let Some(dir) = std::env::var_os("RAYKIT_SPIRV_DIR") {
+        return std::path::PathBuf::from(dir).join(file);
+    }
+    let start = std::path::Path::new(manifest_dir);
+    for dir in start.ancestors() {
+        let candidate = dir.join("target").join("spirv").join(&file);
+        if candidate.is_file() {
+            return candidate;
+        }
+    }
+    start.join("target").join("spirv").join(file)
+}
+
+/// A disagreement between the host's struct and the SPIR-V.
+struct Mismatch {
+    field: String,
+    host: String,
+    device: String,
+    depth: usize,
+}
+
+fn describe_host(offset: u32, size: u32) -> String {
+    format!("offset {offset}, size {size}")
+}
+
+/// Compares the host layout with the block members; `Err` on the first difference.
+fn compare(host: &ParamsLayout, members: &[BlockMember], path: &str, depth: usize) -> std::result::Result<(), Mismatch> {
+    let at = |name: &str| if path.is_empty() { name.to_owned() } else { format!("{path}.{name}") };
+    for (i, field) in host.fields.iter().enumerate() {
+        let Some(member) = members.get(i) else {
+            return Err(Mismatch {
+                field: at(field.name),
+                host: describe_host(field.offset, field.size),
+                device: format!("absent: the SPIR-V block has only {} members", members.len()),
+                depth,
+            });
+        };
+        let mismatch = |device: String| Mismatch {
+            field: at(field.name),
+            host: format!("{}, type {}", describe_host(field.offset, field.size), field.type_name),
+            device,
+            depth,
+        };
+        if member.offset != field.offset {
+            return Err(mismatch(format!("offset {}, size {}", member.offset, member.size)));
+        }
+        match (&field.shape, &member.ty) {
+            (Shape::Struct(inner), BlockType::Struct(inner_members)) => {
+                compare(inner, inner_members, &at(field.name), depth + 1)?;
+            }
+            (Shape::Array { stride, len, .. }, BlockType::Array { stride: s, len: l, .. }) => {
+                if stride != s || len != l {
+                    return Err(mismatch(format!("array of {l} with stride {s} (host: {len} with stride {stride})")));
+                }
+            }
+            (Shape::Matrix { column_stride, .. }, BlockType::Matrix { column_stride: s, .. }) => {
+                if column_stride != s {
+                    return Err(mismatch(format!("matrix column stride {s} (host: {column_stride})")));
+                }
+            }
+            // rust-gpu lays glam's matrices out as structs of column vectors.
+            (Shape::Matrix { columns, column_stride }, BlockType::Struct(cols)) => {
+                let stride_ok = cols.len() == *columns as usize
+                    && cols.iter().enumerate().all(|(k, c)| c.offset == k as u32 * column_stride && c.size <= *column_stride);
+                if !stride_ok {
+                    let offsets: Vec<u32> = cols.iter().map(|c| c.offset).collect();
+                    return Err(mismatch(format!(
+                        "offset {}, columns at relative offsets {offsets:?} (host: {columns} columns {column_stride} bytes apart)",
+                        member.offset
+                    )));
+                }
+            }
+            (Shape::Plain, _) => {
+                if member.size > field.size {
+                    return Err(mismatch(format!("offset {}, size {}", member.offset, member.size)));
+                }
+            }
+            (_, other) => return Err(mismatch(format!("offset {}, a {}", member.offset, kind_name(other)))),
+        }
+    }
+    if members.len() > host.fields.len() {
+        let extra = &members[host.fields.len()];
+        return Err(Mismatch {
+            field: at(extra.name.as_deref().unwrap_or("(unnamed)")),
+            host: format!("absent: `{}` has only {} fields", host.name, host.fields.len()),
+            device: format!("member {} at offset {}, size {}", host.fields.len(), extra.offset, extra.size),
+            depth,
+        });
+    }
+    Ok(())
+}
+
+fn kind_name(ty: &BlockType) -> &'static str {
+    match ty {
+        BlockType::Plain(_) => "scalar or vector",
+        BlockType::Matrix { .. } => "matrix",
+        BlockType::Array { .. } => "array",
+        BlockType::Struct(_) => "struct",
+    }
+}
+
+/// The likely cause of a mismatch in a field of type `type_name`.
+fn likely_cause(type_name: &str) -> String {
+    let aligned = ["Vec3A", "Vec4", "Mat3A", "Mat4", "Quat", "UVec4", "IVec4", "Affine"];
+    if let Some(t) = aligned.iter().find(|t| type_name.contains(*t)) {
+        format!(
+            "glam's `{t}` has a different alignment on the host (SIMD, 16 bytes) than on the SPIR-V target; \
+             place it at an offset that is a multiple of 16 with explicit padding fields, or use `Vec3`/`[f32; 4]`"
+        )
+    } else {
+        "the host and the SPIR-V were built from different definitions (rebuild the shaders with \
+         `cargo xtask build-shaders`), or the pipeline's params type is not the one the program declares"
+            .to_owned()
+    }
+}
+
+/// Checks that entry point `entry`'s params block matches the host's layout.
+///
+/// `blocks` are the params blocks the entry point declares; the one delivered
+/// the way raykit delivers `host` (`expected`) is compared.
+pub fn check(host: &ParamsLayout, entry: &str, blocks: &[ParamsBlock], expected: ParamsDelivery) -> Result<()> {
+    let Some(block) = blocks.iter().find(|b| b.delivery == expected) else {
+        return Err(LayoutError::Delivery {
+            struct_name: host.name,
+            size: host.size,
+            entry: entry.to_owned(),
+            expected: expected.to_string(),
+            found: blocks.iter().map(|b| b.delivery.to_string()).collect::<Vec<_>>().join(" and "),
+        });
+    };
+    // rust-gpu wraps the struct in a one-member block; GLSL blocks are the struct.
+    let mut candidates = vec![(block.members.as_slice(), 0usize)];
+    if let [BlockMember { offset: 0, ty: BlockType::Struct(inner), .. }] = block.members.as_slice() {
+        candidates.push((inner.as_slice(), 0));
+    }
+    let mut best: Option<Mismatch> = None;
+    for (members, _) in candidates.iter().rev() {
+        match compare(host, members, "", 0) {
+            Ok(()) => return Ok(()),
+            Err(m) => {
+                if best.as_ref().is_none_or(|b| m.depth > b.depth) {
+                    best = Some(m);
+                }
+            }
+        }
+    }
+    let m = best.unwrap_or(Mismatch { field: String::new(), host: String::new(), device: String::new(), depth: 0 });
+    let type_name = field_type(host, &m.field).unwrap_or("");
+    Err(LayoutError::Mismatch {
+        struct_name: host.name,
+        entry: entry.to_owned(),
+        field: m.field,
+        host: m.host,
+        device: m.device,
+        cause: likely_cause(type_name),
+    })
+}
+
+/// The type name of the field at dotted `path`.
+fn field_type(host: &ParamsLayout, path: &str) -> Option<&'static str> {
+    let mut layout = host;
+    let mut parts = path.split('.').peekable();
+    while let Some(part) = parts.next() {
+        let field = layout.fields.iter().find(|f| f.name == part)?;
+        if parts.peek().is_none() {
+            return Some(field.type_name);
+        }
+        match field.shape {
+            Shape::Struct(inner) => layout = inner,
+            _ => return Some(field.type_name),
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::FieldLayout;
+
+    const INNER: ParamsLayout = ParamsLayout {
+        name: "Inner",
+        size: 8,
+        fields: &[
+            FieldLayout { name: "a", type_name: "u32", offset: 0, size: 4, shape: Shape::Plain },
+            FieldLayout { name: "b", type_name: "f32", offset: 4, size: 4, shape: Shape::Plain },
+        ],
+    };
+    const HOST: ParamsLayout = ParamsLayout {
+        name: "P",
+        size: 32,
+        fields: &[
+            FieldLayout { name: "x", type_name: "u32", offset: 0, size: 4, shape: Shape::Plain },
+            FieldLayout { name: "inner", type_name: "Inner", offset: 4, size: 8, shape: Shape::Struct(&INNER) },
+            FieldLayout { name: "v", type_name: "Vec4", offset: 16, size: 16, shape: Shape::Plain },
+        ],
+    };
+
+    fn plain(offset: u32, size: u32) -> BlockMember {
+        BlockMember { name: None, offset, size, ty: BlockType::Plain("f".into()) }
+    }
+
+    fn block(members: Vec<BlockMember>) -> ParamsBlock {
+        ParamsBlock { delivery: ParamsDelivery::PushConstants, size: 32, members }
+    }
+
+    fn inner(b_offset: u32) -> BlockMember {
+        BlockMember { name: None, offset: 4, size: 8, ty: BlockType::Struct(vec![plain(0, 4), plain(b_offset, 4)]) }
+    }
+
+    #[test]
+    fn agreeing_layouts_pass_flat_and_wrapped() {
+        let flat = block(vec![plain(0, 4), inner(4), plain(16, 16)]);
+        assert!(check(&HOST, "e", std::slice::from_ref(&flat), ParamsDelivery::PushConstants).is_ok());
+        let wrapped = block(vec![BlockMember { name: None, offset: 0, size: 32, ty: BlockType::Struct(flat.members.clone()) }]);
+        assert!(check(&HOST, "e", std::slice::from_ref(&wrapped), ParamsDelivery::PushConstants).is_ok());
+    }
+
+    #[test]
+    fn a_moved_field_is_named_with_both_offsets_and_the_cause() {
+        let err = check(&HOST, "__raygen__rg", &[block(vec![plain(0, 4), inner(4), plain(12, 16)])], ParamsDelivery::PushConstants)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("`P`") && err.contains("`v`") && err.contains("offset 16") && err.contains("offset 12"), "{err}");
+        assert!(err.contains("Vec4") && err.contains("alignment"), "{err}");
+    }
+
+    #[test]
+    fn nested_fields_are_compared_too() {
+        let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(8), plain(16, 16)])], ParamsDelivery::PushConstants)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("inner.b"), "{err}");
+    }
+
+    #[test]
+    fn missing_and_extra_members_and_delivery_are_reported() {
+        let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4)])], ParamsDelivery::PushConstants).unwrap_err().to_string();
+        assert!(err.contains("`v`") && err.contains("absent"), "{err}");
+        let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4), plain(16, 16), plain(32, 4)])], ParamsDelivery::PushConstants)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("only 3 fields"), "{err}");
+        let ubo = ParamsDelivery::UniformBuffer { set: 1, binding: 0 };
+        let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4), plain(16, 16)])], ubo).unwrap_err();
+        assert!(matches!(err, LayoutError::Delivery { .. }), "{err}");
+    }
+}
