@@ -238,7 +238,7 @@ pub enum Error {
     /// A program's params block differs from the host's launch-params struct, or
     /// the program reads its params another way than raykit delivers them.
     #[error(transparent)]
-    ParamsLayout(raykit_device::layout::LayoutError),
+    ParamsLayout(Box<raykit_device::layout::LayoutError>),
 
     /// The GPU stopped responding.
     #[error("the device was lost during {during}; the Context is no longer usable — create a new one")]
@@ -393,7 +393,7 @@ impl From<raykit_device::layout::LayoutError> for Error {
     fn from(e: raykit_device::layout::LayoutError) -> Self {
         match e {
             raykit_device::layout::LayoutError::InvalidSpirv(reason) => Error::InvalidSpirv { reason },
-            other => Error::ParamsLayout(other),
+            other => Error::ParamsLayout(Box::new(other)),
         }
     }
 }
