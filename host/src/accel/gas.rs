@@ -1,4 +1,8 @@
-//! Geometry acceleration structures (bottom level), OptiX's GAS.
+//! Geometry acceleration structures (bottom level), OptiX's GAS: built from
+//! [`BuildInput`]s with [`GasBuilder`], refitted with [`Gas::update`], compacted
+//! with [`Gas::compact`] ([`vkCmdCopyAccelerationStructureKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCmdCopyAccelerationStructureKHR.html)
+//! in `COMPACT` mode, after a
+//! [compacted-size query](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCmdWriteAccelerationStructuresPropertiesKHR.html)).
 
 use std::sync::Arc;
 
