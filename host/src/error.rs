@@ -159,6 +159,20 @@ pub enum Error {
     #[error("a pipeline needs a raygen program group")]
     NoRaygen,
 
+    /// A stack-size call graph cannot be evaluated.
+    #[error("stack-size call graph: {reason}")]
+    CallGraph {
+        /// What is wrong with the graph.
+        reason: String,
+    },
+
+    /// A stack-size choice does not fit the pipeline.
+    #[error("pipeline stack size: {reason}")]
+    StackSize {
+        /// What does not fit, and the fix.
+        reason: String,
+    },
+
     /// The launch params do not fit in a uniform buffer.
     #[error("launch params of {size} bytes exceed this device's maxUniformBufferRange {limit}; move large data into a `Buffer<T>` and put its handle in the params")]
     ParamsTooLarge {

@@ -1,7 +1,8 @@
 //! Launches: `optixLaunch` as `vkCmdTraceRaysKHR`.
 //!
 //! A launch pushes the params as push constants, binds the bindless buffer table,
-//! traces a `width × height × depth` grid with the SBT's regions and waits for it,
+//! sets the pipeline's stack size (`vkCmdSetRayTracingPipelineStackSizeKHR`, see
+//! [`crate::stack`]), traces a `width × height × depth` grid with the SBT's regions and waits for it,
 //! so buffers read afterwards hold the results. See
 //! [`vkCmdTraceRaysKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCmdTraceRaysKHR.html).
 
@@ -48,12 +49,15 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             }
             None => None,
         };
+        let stack_size = self.stack_size();
         let params_set = uniform_guard.as_ref().map(|(_, set)| *set);
         let result = ctx.submit_and_wait("a launch", |cmd| {
             // SAFETY: the pipeline, layout, descriptor set and SBT buffer are alive
             // for the whole submission (held by `self` and `sbt`, and waited on).
             unsafe {
                 device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, inner.pipeline);
+                // The pipeline's stack size is dynamic state (see `crate::stack`).
+                ctx.rt.cmd_set_ray_tracing_pipeline_stack_size(cmd, stack_size);
                 device.cmd_bind_descriptor_sets(
                     cmd,
                     vk::PipelineBindPoint::RAY_TRACING_KHR,

@@ -12,6 +12,7 @@ pub mod module;
 pub mod pipeline;
 pub mod program_group;
 pub mod sbt;
+pub mod stack;
 
 pub use accel::{Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance, InstanceFlags, PendingBuild, Triangles};
 pub use context::{Context, ContextOptions, DeviceLimits};
@@ -23,6 +24,7 @@ pub use module::{spirv_path, EntryPointInfo, Module};
 pub use pipeline::{params_delivery, LinkOptions, Pipeline};
 pub use program_group::{EntryName, HitGroupBuilder, ProgramGroup};
 pub use sbt::{Sbt, SbtBuilder, SbtRecord};
+pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
 
 pub use glam;
 /// The device crate's shared types, re-exported for host code.

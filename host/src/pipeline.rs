@@ -10,9 +10,16 @@
 //! in a uniform buffer the pipeline owns (set 1, binding 0); `#[params]` in device
 //! code follows the same rule. Every program sees the context's bindless buffer
 //! table at set 0, binding 0.
+//!
+//! Pipelines are created with the dynamic stack-size state
+//! (`VK_DYNAMIC_STATE_RAY_TRACING_PIPELINE_STACK_SIZE_KHR`): linking reads every
+//! group's stack sizes from the driver ([`Pipeline::group_stack_sizes`]), and each
+//! launch sets the size chosen with [`Pipeline::set_stack_size`] (by default the
+//! value Vulkan defines for a pipeline without that state); see [`crate::stack`].
 //! See [`vkCreateRayTracingPipelinesKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCreateRayTracingPipelinesKHR.html).
 
 use std::marker::PhantomData;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
 use ash::vk;
@@ -23,6 +30,7 @@ use crate::error::{Error, Result};
 use raykit_device::layout::ParamsDelivery;
 use crate::memory::RawBuffer;
 use crate::program_group::{GroupPrograms, Program, ProgramGroup};
+use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
 use raykit_device::LaunchParams;
 
 /// Link options (OptiX's `OptixPipelineLinkOptions`).
@@ -55,6 +63,12 @@ pub(crate) struct PipelineInner {
     pub(crate) push_constant_size: u32,
     /// The params uniform buffer, for params over the push-constant budget.
     pub(crate) params_uniform: Option<ParamsUniform>,
+    /// `maxPipelineRayRecursionDepth`.
+    pub(crate) max_trace_depth: u32,
+    /// Each group's role and driver-reported stack sizes, in pipeline order.
+    pub(crate) group_stacks: Vec<(GroupRole, GroupStackSizes)>,
+    /// The stack size every launch sets (`vkCmdSetRayTracingPipelineStackSizeKHR`).
+    pub(crate) stack_size: AtomicU32,
 }
 
 /// A uniform buffer holding the launch params, with its descriptor set.
@@ -239,12 +253,19 @@ impl<P: LaunchParams> Pipeline<P> {
             handles: Vec::new(),
             push_constant_size,
             params_uniform,
+            max_trace_depth: options.max_trace_depth,
+            group_stacks: Vec::new(),
+            stack_size: AtomicU32::new(0),
         };
 
+        // The stack size is set by every launch (see `crate::stack`).
+        let dynamic_states = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
+        let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
         let create_info = [vk::RayTracingPipelineCreateInfoKHR::default()
             .stages(&stages)
             .groups(&group_infos)
             .max_pipeline_ray_recursion_depth(options.max_trace_depth)
+            .dynamic_state(&dynamic_state)
             .layout(layout)];
         // SAFETY: every stage's module is alive (held by `programs`); the create
         // info is valid; the recursion depth was checked against the device limit.
@@ -273,7 +294,89 @@ impl<P: LaunchParams> Pipeline<P> {
             inner.rt.get_ray_tracing_shader_group_handles(pipeline, 0, groups.len() as u32, groups.len() * handle_size)
         }
         .map_err(Error::vk("vkGetRayTracingShaderGroupHandlesKHR"))?;
+        for (index, group) in groups.iter().enumerate() {
+            let sizes = query_group_stack_sizes(inner, pipeline, index as u32, &group.programs);
+            pipeline_inner.group_stacks.push((group_role(&group.programs), sizes));
+        }
+        let default = stack::vulkan_default(&StackSizes::from_groups(pipeline_inner.group_stacks.iter().copied()), options.max_trace_depth);
+        pipeline_inner.stack_size = AtomicU32::new(stack_bytes(default)?);
         Ok(Pipeline { inner: Arc::new(pipeline_inner), _params: PhantomData })
+    }
+
+    /// The stack sizes the driver reports for `group`'s shaders in this pipeline
+    /// (`vkGetRayTracingShaderGroupStackSizeKHR`; OptiX's
+    /// `optixProgramGroupGetStackSize`). Vulkan knows them only once the group is
+    /// linked, hence a pipeline method.
+    pub fn group_stack_sizes(&self, group: &ProgramGroup) -> Result<GroupStackSizes> {
+        let index = self.group_index(group).ok_or(Error::GroupNotInPipeline { kind: group.kind_name() })?;
+        Ok(self.inner.group_stacks[index].1)
+    }
+
+    /// Every group's role and stack sizes, in the order the groups were linked.
+    pub fn all_group_stack_sizes(&self) -> Vec<(GroupRole, GroupStackSizes)> {
+        self.inner.group_stacks.clone()
+    }
+
+    /// The maxima of the groups' stack sizes by program kind: the input of
+    /// [`stack::conservative`], [`stack::refined`] and [`stack::vulkan_default`].
+    pub fn stack_sizes(&self) -> StackSizes {
+        StackSizes::from_groups(self.inner.group_stacks.iter().copied())
+    }
+
+    /// The pipeline's `max_trace_depth` (`maxPipelineRayRecursionDepth`).
+    pub fn max_trace_depth(&self) -> u32 {
+        self.inner.max_trace_depth
+    }
+
+    /// The stack size Vulkan defines for this pipeline were it made without the
+    /// dynamic stack-size state ([`stack::vulkan_default`]).
+    pub fn driver_default_stack_size(&self) -> u64 {
+        stack::vulkan_default(&self.stack_sizes(), self.inner.max_trace_depth)
+    }
+
+    /// The size `choice` gives for this pipeline, in bytes, without setting it.
+    pub fn compute_stack_size(&self, choice: &StackSize<'_>) -> Result<u32> {
+        let max_depth = self.inner.max_trace_depth;
+        let check_depth = |depth: u32| -> Result<()> {
+            if depth > max_depth {
+                return Err(Error::StackSize {
+                    reason: format!("the estimate's trace depth {depth} is over the pipeline's max_trace_depth {max_depth}; raise LinkOptions::max_trace_depth or lower the estimate's"),
+                });
+            }
+            Ok(())
+        };
+        let bytes = match choice {
+            StackSize::DriverDefault => self.driver_default_stack_size(),
+            StackSize::Conservative(depths) => {
+                check_depth(depths.max_trace_depth)?;
+                stack::conservative(&self.stack_sizes(), depths).total()
+            }
+            StackSize::Refined(depths) => {
+                check_depth(depths.max_trace_depth)?;
+                stack::refined(&self.stack_sizes(), depths).total()
+            }
+            StackSize::CallGraph(graph) => {
+                check_depth(graph.max_trace_depth())?;
+                graph.estimate()?
+            }
+            StackSize::Explicit(bytes) => u64::from(*bytes),
+        };
+        stack_bytes(bytes)
+    }
+
+    /// Chooses the stack size every later launch sets
+    /// (`vkCmdSetRayTracingPipelineStackSizeKHR`; OptiX's
+    /// `optixPipelineSetStackSize`) and returns it in bytes. Until called, launches
+    /// use [`StackSize::DriverDefault`].
+    pub fn set_stack_size(&self, choice: &StackSize<'_>) -> Result<u32> {
+        let bytes = self.compute_stack_size(choice)?;
+        self.inner.stack_size.store(bytes, Ordering::Relaxed);
+        Ok(bytes)
+    }
+
+    /// The stack size launches set, in bytes.
+    pub fn stack_size(&self) -> u32 {
+        self.inner.stack_size.load(Ordering::Relaxed)
     }
 
     /// How this pipeline delivers its params: push constants, or a uniform buffer
@@ -285,6 +388,50 @@ impl<P: LaunchParams> Pipeline<P> {
     /// The position of `group` in this pipeline, if it was linked into it.
     pub(crate) fn group_index(&self, group: &ProgramGroup) -> Option<usize> {
         self.inner.groups.iter().position(|(id, _)| *id == group.id)
+    }
+}
+
+/// A stack size as `vkCmdSetRayTracingPipelineStackSizeKHR` takes it.
+fn stack_bytes(bytes: u64) -> Result<u32> {
+    u32::try_from(bytes).map_err(|_| Error::StackSize { reason: format!("{bytes} bytes do not fit the 32 bits Vulkan takes") })
+}
+
+/// How a group counts in the stack formulas; callables by their OptiX prefix.
+fn group_role(programs: &GroupPrograms) -> GroupRole {
+    match programs {
+        GroupPrograms::Raygen(_) => GroupRole::Raygen,
+        GroupPrograms::Miss(_) => GroupRole::Miss,
+        GroupPrograms::Hit { .. } => GroupRole::Hit,
+        GroupPrograms::Callable(p) => {
+            let name = p.name.to_bytes();
+            if name.starts_with(b"__direct_callable__") {
+                GroupRole::DirectCallable
+            } else if name.starts_with(b"__continuation_callable__") {
+                GroupRole::ContinuationCallable
+            } else {
+                GroupRole::Callable
+            }
+        }
+    }
+}
+
+/// The driver's stack sizes of group `index` of `pipeline`, for the shaders it has.
+fn query_group_stack_sizes(ctx: &ContextInner, pipeline: vk::Pipeline, index: u32, programs: &GroupPrograms) -> GroupStackSizes {
+    let query = |shader: vk::ShaderGroupShaderKHR| -> u64 {
+        // SAFETY: `index` is a group of the live `pipeline`, which has a shader of
+        // kind `shader` (only those are asked for).
+        unsafe { ctx.rt.get_ray_tracing_shader_group_stack_size(pipeline, index, shader) }
+    };
+    match programs {
+        GroupPrograms::Raygen(_) | GroupPrograms::Miss(_) | GroupPrograms::Callable(_) => {
+            GroupStackSizes { general: query(vk::ShaderGroupShaderKHR::GENERAL), ..Default::default() }
+        }
+        GroupPrograms::Hit { closest_hit, any_hit, intersection } => GroupStackSizes {
+            general: 0,
+            closest_hit: if closest_hit.is_some() { query(vk::ShaderGroupShaderKHR::CLOSEST_HIT) } else { 0 },
+            any_hit: if any_hit.is_some() { query(vk::ShaderGroupShaderKHR::ANY_HIT) } else { 0 },
+            intersection: if intersection.is_some() { query(vk::ShaderGroupShaderKHR::INTERSECTION) } else { 0 },
+        },
     }
 }
 
