@@ -1,7 +1,9 @@
 //! `raykit-bench [SUITE...] [options]`: raykit's benchmarks.
 //!
 //! Suites (all when none is named): `accel` — GAS build throughput, raykit
-//! against a hand-written ash build, and memory before/after compaction.
+//! against a hand-written ash build, and memory before/after compaction;
+//! `stack` — per-group stack sizes and each stack-size estimate, with the
+//! driver default, for the example and test pipelines (no timing).
 //!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
@@ -17,6 +19,7 @@
 
 mod accel;
 mod ash_baseline;
+mod stack;
 mod stats;
 
 use std::path::PathBuf;
@@ -24,7 +27,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 1] = ["accel"];
+const SUITES: [&str; 2] = ["accel", "stack"];
 
 struct Args {
     suites: Vec<String>,
@@ -93,6 +96,14 @@ fn main() -> anyhow::Result<()> {
             markdown.push_str("## accel\n\n");
             markdown.push_str(&table);
             report["suites"]["accel"] = accel::json(&rows);
+        }
+        if suite == "stack" {
+            let rows = stack::run(&ctx)?;
+            let table = stack::markdown(&rows, &device);
+            println!("{table}");
+            markdown.push_str("## stack\n\n");
+            markdown.push_str(&table);
+            report["suites"]["stack"] = stack::json(&rows);
         }
     }
     let json_path = args.out.join("bench.json");

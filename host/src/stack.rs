@@ -64,6 +64,7 @@ pub struct GroupStackSizes {
 
 /// What a program group is, for stack accounting.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum GroupRole {
     /// A raygen group.
     Raygen,
