@@ -15,7 +15,7 @@ pub mod sbt;
 
 pub use accel::{Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance, InstanceFlags, PendingBuild, Triangles};
 pub use context::{Context, ContextOptions, DeviceLimits};
-pub use error::{DeviceReport, Error, Result};
+pub use error::{DeviceReport, Error, Result, UserException};
 pub use raykit_device::layout::{BlockMember, BlockType, LayoutError, ParamsBlock, ParamsDelivery};
 pub use log::{MessageLog, Severity, ValidationMessage};
 pub use memory::DeviceBuffer;

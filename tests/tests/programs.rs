@@ -345,3 +345,38 @@ fn instances_sharing_a_hit_program_read_their_own_sbt_records() -> anyhow::Resul
         Ok(())
     })
 }
+
+#[test]
+fn user_exceptions_reach_the_host_with_code_and_launch_index() -> anyhow::Result<()> {
+    with_context("user_exceptions_reach_the_host_with_code_and_launch_index", |ctx| {
+        let module = module(ctx)?;
+        let raygen = ProgramGroup::raygen(&module, programs_device::RG_THROW)?;
+        let pipeline = Pipeline::<Params>::new(ctx, &[&raygen], LinkOptions::default())?;
+        let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).build()?;
+        let image = ctx.buffer::<u32>(16 * 16)?;
+        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+        let gas = Gas::triangles(ctx, &[Vec3::ZERO, Vec3::X, Vec3::Y], None)?;
+        let scene = Ias::single(ctx, &gas)?;
+        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+        let err = pipeline.launch(&sbt, &params, [16, 16, 1]).err();
+        let Some(Error::UserExceptions { total, mut exceptions }) = err else {
+            anyhow::bail!("expected UserExceptions, got {err:?}");
+        };
+        assert_eq!(total, 2);
+        exceptions.sort_by_key(|e| e.code);
+        let mut expected: Vec<raykit::UserException> = programs_device::THROWN
+            .iter()
+            .map(|(at, code)| raykit::UserException { code: *code, launch_index: [at.x, at.y, 0] })
+            .collect();
+        expected.sort_by_key(|e| e.code);
+        assert_eq!(exceptions, expected);
+        // The launch ran to its end: every other pixel was written.
+        let written = image.read()?.iter().filter(|&&p| p == 1).count();
+        assert_eq!(written, 16 * 16 - 2);
+        // The next launch starts with no exceptions recorded: a launch of a
+        // single invocation that does not throw succeeds.
+        let quiet = Params { size: UVec2::splat(1), ..params };
+        pipeline.launch(&sbt, &quiet, [1, 1, 1])?;
+        Ok(())
+    })
+}

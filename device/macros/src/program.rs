@@ -493,7 +493,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
 
     let body = quote! {
         #[allow(unused_mut)]
-        let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers);
+        let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers, __exception_slot);
         #fn_name(#(#call_args),*);
     };
     let call = match params_choice {
@@ -527,6 +527,8 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
         pub fn #wrapper(
             #builtin_params
             #[spirv(descriptor_set = 0, binding = 0, storage_buffer)] __buffers: &mut ::raykit_device::BufferTable,
+            // The exception buffer's slot (`raykit_device::exception::EXCEPTION_SLOT_SPEC_ID`).
+            #[spirv(spec_constant(id = 1918959616, default = 0))] __exception_slot: u32,
             #(#wrapper_params,)*
         ) {
             #call

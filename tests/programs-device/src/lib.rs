@@ -295,3 +295,23 @@ pub struct ColorRecord {
 fn record_color(_ctx: &mut ClosestHit, #[record] record: &ColorRecord, #[payload] color: &mut Vec3) {
     *color = record.color;
 }
+
+// ------------------------------------------------------------- exceptions ---
+
+/// The launch indices where `rg_throw` throws, with their codes.
+pub const THROWN: [(UVec2, u32); 2] = [(UVec2::new(3, 5), 0xBAD), (UVec2::new(7, 1), 0xF00D)];
+
+#[raygen]
+fn rg_throw(ctx: &mut Raygen, #[params] p: &Params) {
+    let index = ctx.launch_index().truncate();
+    let pixel = ctx.launch_linear_index();
+    if index == THROWN[0].0 {
+        ctx.throw_exception(THROWN[0].1);
+        return;
+    }
+    if index == THROWN[1].0 {
+        ctx.throw_exception(THROWN[1].1);
+        return;
+    }
+    ctx.store(p.image, pixel, 1);
+}
