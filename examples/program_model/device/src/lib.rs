@@ -109,7 +109,7 @@ pub struct SphereHit {
 pub fn cutout_solid(b: Vec2) -> bool {
     let cx = (b.x * 8.0) as u32;
     let cy = (b.y * 8.0) as u32;
-    (cx + cy) % 2 == 0
+    (cx + cy) & 1 == 0
 }
 
 /// The colours of the material callables, by SBT callable index.
