@@ -208,6 +208,15 @@ pub enum Error {
         region: &'static str,
     },
 
+    /// An SBT record could not be updated in place.
+    #[error("cannot update SBT {region} record: {reason}")]
+    SbtUpdate {
+        /// The region.
+        region: &'static str,
+        /// Why not.
+        reason: String,
+    },
+
     /// Two records were placed in one SBT slot.
     #[error("SBT {region} slot {index} already holds a record; each ray type × geometry slot takes one (check the ray types' SBT_OFFSET/SBT_STRIDE/MISS_INDEX)")]
     SbtSlotTaken {

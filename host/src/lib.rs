@@ -22,7 +22,7 @@ pub use memory::DeviceBuffer;
 pub use module::{spirv_path, EntryPointInfo, Module};
 pub use pipeline::{params_delivery, LinkOptions, Pipeline};
 pub use program_group::{EntryName, HitGroupBuilder, ProgramGroup};
-pub use sbt::{Sbt, SbtBuilder, SbtRecord};
+pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
 
 pub use glam;
 /// The device crate's shared types, re-exported for host code.

@@ -259,3 +259,37 @@ fn user_exceptions_reach_the_host_with_code_and_launch_index() -> anyhow::Result
         Ok(())
     })
 }
+
+#[test]
+fn sbt_records_are_updated_between_launches_without_a_new_pipeline() -> anyhow::Result<()> {
+    use program_model_device::{ColorRecord, Radiance};
+    with_context("sbt_records_are_updated_between_launches_without_a_new_pipeline", |ctx| {
+        let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
+        let scene = Ias::new(ctx, &[raykit::Instance::new(&gas).transform(raykit::glam::Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
+        let module = module(ctx)?;
+        let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+        let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
+        let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::RECORD_COLOR).build()?;
+        let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions::default())?;
+        let mut sbt = Sbt::builder(&pipeline)
+            .raygen(&raygen, ())
+            .miss_for::<Radiance, _>(&miss, ())
+            .hit_for::<Radiance, _>(0, &hit, ColorRecord { color: Vec3::new(1.0, 0.0, 0.0) })
+            .build()?;
+        let image = ctx.buffer::<u32>(16 * 16)?;
+        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+        let centre = (8 * 16 + 8) as usize;
+        pipeline.launch(&sbt, &params, [16, 16, 1])?;
+        assert_eq!(image.read()?[centre], pack(Vec3::new(1.0, 0.0, 0.0)));
+        sbt.update(raykit::SbtRegion::Hit, 0, ColorRecord { color: Vec3::new(0.0, 0.0, 1.0) })?;
+        pipeline.launch(&sbt, &params, [16, 16, 1])?;
+        assert_eq!(image.read()?[centre], pack(Vec3::new(0.0, 0.0, 1.0)));
+        // Out of range and too large are refused; the SBT stays usable.
+        assert!(matches!(sbt.update(raykit::SbtRegion::Hit, 1, ColorRecord { color: Vec3::ONE }), Err(Error::SbtUpdate { .. })));
+        assert!(matches!(sbt.update(raykit::SbtRegion::Hit, 0, [0u8; 4096]), Err(Error::SbtUpdate { .. })));
+        pipeline.launch(&sbt, &params, [16, 16, 1])?;
+        assert_eq!(image.read()?[centre], pack(Vec3::new(0.0, 0.0, 1.0)));
+        Ok(())
+    })
+}
