@@ -315,3 +315,17 @@ fn rg_throw(ctx: &mut Raygen, #[params] p: &Params) {
     }
     ctx.store(p.image, pixel, 1);
 }
+
+// ------------------------------------------------ specialization constants ---
+
+/// The specialization constant that picks [`spec_shade`]'s colour.
+pub const SHADE_MODE_SPEC_ID: u32 = 7;
+
+/// Colours of [`spec_shade`] by the value of specialization constant
+/// [`SHADE_MODE_SPEC_ID`] (0 unless the pipeline sets it).
+pub const SPEC_COLORS: [Vec3; 2] = [Vec3::new(1.0, 0.5, 0.0), Vec3::new(0.0, 0.5, 1.0)];
+
+#[closest_hit(ray = Radiance)]
+fn spec_shade(_ctx: &mut ClosestHit, #[spec_constant(id = 7, default = 0)] mode: u32, #[payload] color: &mut Vec3) {
+    *color = if mode == 0 { SPEC_COLORS[0] } else { SPEC_COLORS[1] };
+}
