@@ -61,8 +61,8 @@ fn triangle(ctx: &Context) -> anyhow::Result<Row> {
 }
 
 fn shadows(ctx: &Context) -> anyhow::Result<Row> {
-    use programs_device as d;
-    let module = Module::from_device_crate(ctx, "programs-device")?;
+    use program_model_device as d;
+    let module = Module::from_device_crate(ctx, "program-model-device")?;
     let rg = ProgramGroup::raygen(&module, d::RG_SHADOWS)?;
     let ms = ProgramGroup::miss(&module, d::MS_SHADOWS)?;
     let ms_shadow = ProgramGroup::miss(&module, d::MS_SHADOW)?;
@@ -78,12 +78,12 @@ fn shadows(ctx: &Context) -> anyhow::Result<Row> {
     g.miss(shadow, p.group_stack_sizes(&ms_shadow)?.general);
     g.hit(shadow, p.group_stack_sizes(&shadow_hit)?);
     g.traces(n_rg, camera).traces(n_shade, shadow);
-    row("shadows (tests/programs-device, 2 ray types)", &p, &["rg_shadows", "ms_shadows", "ms_shadow", "shade_shadowed", "shadow_hit"], CallDepths::new(2), &g)
+    row("shadows (examples/program_model, 2 ray types)", &p, &["rg_shadows", "ms_shadows", "ms_shadow", "shade_shadowed", "shadow_hit"], CallDepths::new(2), &g)
 }
 
 fn materials(ctx: &Context) -> anyhow::Result<Row> {
-    use programs_device as d;
-    let module = Module::from_device_crate(ctx, "programs-device")?;
+    use program_model_device as d;
+    let module = Module::from_device_crate(ctx, "program-model-device")?;
     let rg = ProgramGroup::raygen(&module, d::RG)?;
     let ms = ProgramGroup::miss(&module, d::MS)?;
     let hit = ProgramGroup::hit_group(&module).closest_hit(d::MATERIAL_SHADE).build()?;
@@ -100,12 +100,12 @@ fn materials(ctx: &Context) -> anyhow::Result<Row> {
         g.calls(n_hit, n);
     }
     let depths = CallDepths::new(1).direct_callables(1).continuation_callables(1);
-    row("materials (tests/programs-device, callables)", &p, &["rg", "ms", "material_shade", "red (dc)", "green (dc)", "blue (cc)"], depths, &g)
+    row("materials (examples/program_model, callables)", &p, &["rg", "ms", "material_shade", "red (dc)", "green (dc)", "blue (cc)"], depths, &g)
 }
 
 fn spheres(ctx: &Context) -> anyhow::Result<Row> {
-    use programs_device as d;
-    let module = Module::from_device_crate(ctx, "programs-device")?;
+    use program_model_device as d;
+    let module = Module::from_device_crate(ctx, "program-model-device")?;
     let rg = ProgramGroup::raygen(&module, d::RG)?;
     let ms = ProgramGroup::miss(&module, d::MS)?;
     let hit = ProgramGroup::hit_group(&module).intersection(d::SPHERE).closest_hit(d::SPHERE_SHADE).build()?;
@@ -116,7 +116,7 @@ fn spheres(ctx: &Context) -> anyhow::Result<Row> {
     g.miss(radiance, p.group_stack_sizes(&ms)?.general);
     g.hit(radiance, p.group_stack_sizes(&hit)?);
     g.traces(n_rg, radiance);
-    row("spheres (tests/programs-device, intersection)", &p, &["rg", "ms", "sphere+sphere_shade"], CallDepths::new(1), &g)
+    row("spheres (examples/program_model, intersection)", &p, &["rg", "ms", "sphere+sphere_shade"], CallDepths::new(1), &g)
 }
 
 fn layered(ctx: &Context) -> anyhow::Result<Row> {
