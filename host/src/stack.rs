@@ -362,6 +362,8 @@ pub struct CallGraph {
     traces: Vec<(ProgramId, RayTypeId)>,
     /// (caller, callee) edges.
     calls: Vec<(ProgramId, ProgramId)>,
+    /// A ray type of another graph given to `miss` or `hit`, refused by `estimate`.
+    foreign_ray_type: Option<RayTypeId>,
 }
 
 /// The largest trace or call depth a [`CallGraph`] evaluates.
@@ -377,6 +379,7 @@ impl CallGraph {
             ray_types: Vec::new(),
             traces: Vec::new(),
             calls: Vec::new(),
+            foreign_ray_type: None,
         }
     }
 
@@ -411,11 +414,9 @@ impl CallGraph {
     /// A miss program of `ray` needing `css` bytes.
     pub fn miss(&mut self, ray: RayTypeId, css: u64) -> ProgramId {
         let id = self.add(Node::Miss { css });
-        if let Some(r) = self.ray_types.get_mut(ray.0) {
-            r.miss.push(id.0);
-        } else {
-            // Checked by `estimate`.
-            self.traces.push((id, ray));
+        match self.ray_types.get_mut(ray.0) {
+            Some(r) => r.miss.push(id.0),
+            None => self.foreign_ray_type = Some(ray),
         }
         id
     }
@@ -423,10 +424,9 @@ impl CallGraph {
     /// A hit group of `ray` with its closest-hit, any-hit and intersection sizes.
     pub fn hit(&mut self, ray: RayTypeId, sizes: GroupStackSizes) -> ProgramId {
         let id = self.add(Node::Hit { sizes });
-        if let Some(r) = self.ray_types.get_mut(ray.0) {
-            r.hits.push(id.0);
-        } else {
-            self.traces.push((id, ray));
+        match self.ray_types.get_mut(ray.0) {
+            Some(r) => r.hits.push(id.0),
+            None => self.foreign_ray_type = Some(ray),
         }
         id
     }
@@ -451,6 +451,9 @@ impl CallGraph {
 
     fn check(&self) -> Result<()> {
         let bad = |reason: String| Err(Error::CallGraph { reason });
+        if let Some(r) = self.foreign_ray_type {
+            return bad(format!("a miss or hit program was added to {r:?}, which is not of this graph"));
+        }
         for &(p, r) in &self.traces {
             if p.0 >= self.nodes.len() || r.0 >= self.ray_types.len() {
                 return bad(format!("{p:?} or {r:?} is not of this graph"));
@@ -761,6 +764,10 @@ mod tests {
         assert!(matches!(g.estimate(), Err(Error::CallGraph { .. })));
         let rg = g.raygen(1);
         g.traces(rg, RayTypeId(7));
+        assert!(matches!(g.estimate(), Err(Error::CallGraph { .. })));
+        let mut g = CallGraph::new(1);
+        g.raygen(1);
+        g.hit(RayTypeId(3), GroupStackSizes::default());
         assert!(matches!(g.estimate(), Err(Error::CallGraph { .. })));
         let mut g = CallGraph::new(1);
         let rg = g.raygen(1);
