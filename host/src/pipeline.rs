@@ -46,6 +46,37 @@ impl Default for LinkOptions {
     }
 }
 
+/// Values of specialization constants for [`Pipeline::with_specialization`]:
+/// `u32`s by constant ID (device programs declare them as
+/// `#[spec_constant(id = N, default = D)] x: u32`).
+#[derive(Clone, Debug, Default)]
+#[must_use]
+pub struct Specialization {
+    values: Vec<(u32, u32)>,
+}
+
+impl Specialization {
+    /// No constants set: every program sees its defaults.
+    pub fn new() -> Self {
+        Specialization::default()
+    }
+
+    /// Sets constant `id` to `value` (a later value for the same ID replaces it).
+    /// ID 0x72610000 is reserved by raykit and ignored here.
+    pub fn set(mut self, id: u32, value: u32) -> Self {
+        if id != raykit_device::exception::EXCEPTION_SLOT_SPEC_ID {
+            self.values.retain(|(i, _)| *i != id);
+            self.values.push((id, value));
+        }
+        self
+    }
+
+    /// Sets constant `id` to the bits of `value`.
+    pub fn set_f32(self, id: u32, value: f32) -> Self {
+        self.set(id, value.to_bits())
+    }
+}
+
 /// A linked ray-tracing pipeline whose programs take launch params `P`.
 pub struct Pipeline<P: LaunchParams> {
     pub(crate) inner: Arc<PipelineInner>,
@@ -208,6 +239,20 @@ pub fn params_delivery<P: LaunchParams>() -> ParamsDelivery {
 impl<P: LaunchParams> Pipeline<P> {
     /// Links `groups` into a pipeline. There must be a raygen group.
     pub fn new(ctx: &Context, groups: &[&ProgramGroup], options: LinkOptions) -> Result<Pipeline<P>> {
+        Self::with_specialization(ctx, groups, options, &Specialization::new())
+    }
+
+    /// Links `groups` like [`Pipeline::new`], with the specialization constants
+    /// in `constants` (OptiX's parameter specialization): every program's
+    /// `#[spec_constant(id = N)]` parameter takes the value set for `N`, or its
+    /// default. One module can so give several pipelines that behave differently,
+    /// with the branches on those constants compiled away by the driver.
+    pub fn with_specialization(
+        ctx: &Context,
+        groups: &[&ProgramGroup],
+        options: LinkOptions,
+        constants: &Specialization,
+    ) -> Result<Pipeline<P>> {
         let inner = &ctx.inner;
         let limits = inner.limits;
         if options.max_trace_depth > limits.max_ray_recursion_depth {
@@ -278,13 +323,19 @@ impl<P: LaunchParams> Pipeline<P> {
         // The user-exception buffer, and its slot for every program as a
         // specialization constant (modules without that constant ignore it).
         let exceptions = ExceptionBuffer::new(inner)?;
-        let slot_bytes = exceptions.slot.to_ne_bytes();
-        let spec_entries = [vk::SpecializationMapEntry {
-            constant_id: raykit_device::exception::EXCEPTION_SLOT_SPEC_ID,
-            offset: 0,
-            size: std::mem::size_of::<u32>(),
-        }];
-        let specialization = vk::SpecializationInfo::default().map_entries(&spec_entries).data(&slot_bytes);
+        let mut values = vec![(raykit_device::exception::EXCEPTION_SLOT_SPEC_ID, exceptions.slot)];
+        values.extend(constants.values.iter().copied());
+        let spec_data: Vec<u8> = values.iter().flat_map(|(_, v)| v.to_ne_bytes()).collect();
+        let spec_entries: Vec<vk::SpecializationMapEntry> = values
+            .iter()
+            .enumerate()
+            .map(|(i, (id, _))| vk::SpecializationMapEntry {
+                constant_id: *id,
+                offset: (i * std::mem::size_of::<u32>()) as u32,
+                size: std::mem::size_of::<u32>(),
+            })
+            .collect();
+        let specialization = vk::SpecializationInfo::default().map_entries(&spec_entries).data(&spec_data);
         let stages: Vec<vk::PipelineShaderStageCreateInfo<'_>> = programs
             .iter()
             .map(|p| {
