@@ -1,7 +1,11 @@
 //! `raykit-bench [SUITE...] [options]`: raykit's benchmarks.
 //!
 //! Suites (all when none is named): `accel` — GAS build throughput, raykit
-//! against a hand-written ash build, and memory before/after compaction.
+//! against a hand-written ash build, and memory before/after compaction;
+//! `primary` and `path` — Rust device programs against their GLSL twins (primary
+//! rays on a ≥ 1M-triangle mesh, the path tracer); `launch` — raykit's launch
+//! path and pipeline + SBT creation against hand-written ash; `shaders` — SPIR-V
+//! sizes (and build times measured by `cargo xtask bench`). See `bench/README.md`.
 //!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
@@ -10,6 +14,8 @@
 //! * `--sizes 10000,100000,1000000` — triangle counts of `accel`.
 //! * `--reps N` — repetitions per size (default: 15, 9, 5 by size).
 //! * `--device NAME` — use the first ray-tracing device whose name contains NAME.
+//! * `--triangles N`, `--primary-size WxH`, `--path-size N`, `--spp N` — sizes of
+//!   the tracing suites (defaults 1000000, 1920x1080, 512, 1).
 //!
 //! The binary needs only the Vulkan loader (and the SPIR-V files for suites that
 //! trace): build it here with `cargo build --release -p raykit-bench` and copy
@@ -17,14 +23,18 @@
 
 mod accel;
 mod ash_baseline;
+mod launch;
+mod shaders;
 mod stats;
+mod suites;
+mod trace;
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 1] = ["accel"];
+const SUITES: [&str; 5] = ["accel", "primary", "path", "launch", "shaders"];
 
 struct Args {
     suites: Vec<String>,
@@ -32,6 +42,7 @@ struct Args {
     sizes: Vec<usize>,
     reps: Option<usize>,
     device: Option<String>,
+    trace: trace::Options,
 }
 
 fn parse() -> anyhow::Result<Args> {
@@ -41,6 +52,7 @@ fn parse() -> anyhow::Result<Args> {
         sizes: vec![10_000, 100_000, 1_000_000],
         reps: None,
         device: None,
+        trace: suites::default_options(),
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -61,6 +73,7 @@ fn parse() -> anyhow::Result<Args> {
             }
             "--reps" => args.reps = Some(value("--reps")?.parse().context("--reps takes a number")?),
             "--device" => args.device = Some(value("--device")?),
+            s if suites::parse_option(&mut args.trace, s, &mut || value(s))? => {}
             "-h" | "--help" => {
                 println!("raykit-bench [SUITE...] [--spirv-dir DIR] [--out DIR] [--sizes N,N,..] [--reps N] [--device NAME]\nsuites: {}", SUITES.join(", "));
                 std::process::exit(0);
@@ -69,6 +82,9 @@ fn parse() -> anyhow::Result<Args> {
             s if SUITES.contains(&s) => args.suites.push(s.to_owned()),
             s => bail!("unknown suite {s:?}; suites: {}", SUITES.join(", ")),
         }
+    }
+    if let Some(reps) = args.reps {
+        args.trace.reps = reps;
     }
     if args.suites.is_empty() {
         args.suites = SUITES.iter().map(|s| s.to_string()).collect();
@@ -93,6 +109,11 @@ fn main() -> anyhow::Result<()> {
             markdown.push_str("## accel\n\n");
             markdown.push_str(&table);
             report["suites"]["accel"] = accel::json(&rows);
+        } else {
+            let (table, json) = suites::run(suite, &ctx, &args.trace, &args.out)?;
+            println!("## {suite}\n\n{table}");
+            markdown.push_str(&format!("## {suite}\n\n{table}\n"));
+            report["suites"][suite.as_str()] = json;
         }
     }
     let json_path = args.out.join("bench.json");

@@ -64,7 +64,9 @@ enum Cmd {
     Setup,
     /// Build and run the benchmarks (target/bench/bench.{json,md}).
     Bench {
-        /// Build the shaders first (suites that trace need them; `accel` does not).
+        /// Build the shaders first (suites that trace need them; `accel` does not),
+        /// and measure shader build times (Rust against the GLSL twins) for the
+        /// `shaders` suite.
         #[arg(long)]
         shaders: bool,
         /// Arguments of raykit-bench: suites (`accel`) and options
@@ -147,6 +149,20 @@ fn main() -> anyhow::Result<()> {
             if shaders {
                 setup::ensure_toolchain()?;
                 shaders::build_all(&root, false)?;
+                let mut times = Vec::new();
+                for (programs, krate, script) in [
+                    ("primary rays (triangle)", "triangle-device", "bench/glsl/build.sh"),
+                    ("path tracer", "path-tracer-device", "examples/path_tracer/glsl/build.sh"),
+                ] {
+                    let rust_s = shaders::time_rebuild(&root, krate)?;
+                    let started = std::time::Instant::now();
+                    run(&mut Command::new(root.join(script)), script)?;
+                    let glsl_s = started.elapsed().as_secs_f64();
+                    times.push(serde_json::json!({"programs": programs, "rust_s": rust_s, "glsl_s": glsl_s}));
+                }
+                let out = root.join("target").join("bench");
+                std::fs::create_dir_all(&out)?;
+                std::fs::write(out.join("shader_build.json"), serde_json::to_string_pretty(&times)?)?;
             }
             run(cargo().args(["build", "--release", "--quiet", "-p", "raykit-bench"]), "building raykit-bench")?;
             let binary = root.join("target").join("release").join("raykit-bench");

@@ -204,6 +204,16 @@ impl Renderer {
         Ok(())
     }
 
+    /// [`Renderer::launch`] timed by GPU timestamps around the trace.
+    pub fn launch_timed(&mut self, samples: u32, timer: &raykit::LaunchTimer) -> raykit::Result<std::time::Duration> {
+        let params = Params { subframe: self.subframe, samples, ..self.params };
+        let size = self.params.size;
+        let time = self.pipeline.launch_timed(&self.sbt, &params, [size.x, size.y, 1], timer)?;
+        self.subframe += 1;
+        self.samples_done += samples;
+        Ok(time)
+    }
+
     /// The launch params of the next launch of `samples` paths (for code that
     /// launches the same pipeline by other means, such as the benchmarks).
     pub fn next_params(&self, samples: u32) -> Params {
