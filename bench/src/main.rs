@@ -4,6 +4,10 @@
 //! against a hand-written ash build, and memory before/after compaction;
 //! `stack` — per-group stack sizes and each stack-size estimate, with the
 //! driver default, for the example and test pipelines (no timing).
+//! `primary` and `path` — Rust device programs against their GLSL twins (primary
+//! rays on a ≥ 1M-triangle mesh, the path tracer); `launch` — raykit's launch
+//! path and pipeline + SBT creation against hand-written ash; `shaders` — SPIR-V
+//! sizes (and build times measured by `cargo xtask bench`). See `bench/README.md`.
 //!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
@@ -12,6 +16,8 @@
 //! * `--sizes 10000,100000,1000000` — triangle counts of `accel`.
 //! * `--reps N` — repetitions per size (default: 15, 9, 5 by size).
 //! * `--device NAME` — use the first ray-tracing device whose name contains NAME.
+//! * `--triangles N`, `--primary-size WxH`, `--path-size N`, `--spp N` — sizes of
+//!   the tracing suites (defaults 1000000, 1920x1080, 512, 1).
 //!
 //! The binary needs only the Vulkan loader (and the SPIR-V files for suites that
 //! trace): build it here with `cargo build --release -p raykit-bench` and copy
@@ -19,15 +25,19 @@
 
 mod accel;
 mod ash_baseline;
+mod launch;
+mod shaders;
 mod stack;
 mod stats;
+mod suites;
+mod trace;
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 2] = ["accel", "stack"];
+const SUITES: [&str; 6] = ["accel", "stack", "primary", "path", "launch", "shaders"];
 
 struct Args {
     suites: Vec<String>,
@@ -35,6 +45,7 @@ struct Args {
     sizes: Vec<usize>,
     reps: Option<usize>,
     device: Option<String>,
+    trace: trace::Options,
 }
 
 fn parse() -> anyhow::Result<Args> {
@@ -44,6 +55,7 @@ fn parse() -> anyhow::Result<Args> {
         sizes: vec![10_000, 100_000, 1_000_000],
         reps: None,
         device: None,
+        trace: suites::default_options(),
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -64,6 +76,7 @@ fn parse() -> anyhow::Result<Args> {
             }
             "--reps" => args.reps = Some(value("--reps")?.parse().context("--reps takes a number")?),
             "--device" => args.device = Some(value("--device")?),
+            s if suites::parse_option(&mut args.trace, s, &mut || value(s))? => {}
             "-h" | "--help" => {
                 println!("raykit-bench [SUITE...] [--spirv-dir DIR] [--out DIR] [--sizes N,N,..] [--reps N] [--device NAME]\nsuites: {}", SUITES.join(", "));
                 std::process::exit(0);
@@ -72,6 +85,9 @@ fn parse() -> anyhow::Result<Args> {
             s if SUITES.contains(&s) => args.suites.push(s.to_owned()),
             s => bail!("unknown suite {s:?}; suites: {}", SUITES.join(", ")),
         }
+    }
+    if let Some(reps) = args.reps {
+        args.trace.reps = reps;
     }
     if args.suites.is_empty() {
         args.suites = SUITES.iter().map(|s| s.to_string()).collect();
@@ -96,14 +112,18 @@ fn main() -> anyhow::Result<()> {
             markdown.push_str("## accel\n\n");
             markdown.push_str(&table);
             report["suites"]["accel"] = accel::json(&rows);
-        }
-        if suite == "stack" {
+        } else if suite == "stack" {
             let rows = stack::run(&ctx)?;
             let table = stack::markdown(&rows, &device);
             println!("{table}");
             markdown.push_str("## stack\n\n");
             markdown.push_str(&table);
             report["suites"]["stack"] = stack::json(&rows);
+        } else {
+            let (table, json) = suites::run(suite, &ctx, &args.trace, &args.out)?;
+            println!("## {suite}\n\n{table}");
+            markdown.push_str(&format!("## {suite}\n\n{table}\n"));
+            report["suites"][suite.as_str()] = json;
         }
     }
     let json_path = args.out.join("bench.json");

@@ -19,6 +19,18 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
     /// Traces a `dims = [width, height, depth]` grid with `params`, using `sbt`,
     /// and waits until it is done.
     pub fn launch(&self, sbt: &Sbt, params: &P, dims: [u32; 3]) -> Result<()> {
+        self.launch_recording(sbt, params, dims, None)
+    }
+
+    /// [`Pipeline::launch`], with GPU timestamps written into queries 0 and 1 of
+    /// `timestamps` around the trace (see `timing.rs`).
+    pub(crate) fn launch_recording(
+        &self,
+        sbt: &Sbt,
+        params: &P,
+        dims: [u32; 3],
+        timestamps: Option<vk::QueryPool>,
+    ) -> Result<()> {
         let inner = &self.inner;
         let ctx = &inner.ctx;
         if !Arc::ptr_eq(&sbt.pipeline, inner) {
@@ -83,7 +95,14 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 if inner.push_constant_size > 0 {
                     device.cmd_push_constants(cmd, inner.layout, RT_STAGES, 0, params_bytes);
                 }
+                if let Some(pool) = timestamps {
+                    device.cmd_reset_query_pool(cmd, pool, 0, 2);
+                    device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0);
+                }
                 ctx.rt.cmd_trace_rays(cmd, &sbt.raygen, &sbt.miss, &sbt.hit, &sbt.callable, dims[0], dims[1], dims[2]);
+                if let Some(pool) = timestamps {
+                    device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
+                }
                 // Make the programs' writes visible to the host once the fence signals.
                 let barrier = vk::MemoryBarrier::default()
                     .src_access_mask(vk::AccessFlags::SHADER_WRITE)

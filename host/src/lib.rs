@@ -11,8 +11,10 @@ pub mod memory;
 pub mod module;
 pub mod pipeline;
 pub mod program_group;
+pub mod raw;
 pub mod sbt;
 pub mod stack;
+pub mod timing;
 
 pub use accel::{Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance, InstanceFlags, PendingBuild, Triangles};
 pub use context::{Context, ContextOptions, DeviceLimits};
@@ -25,7 +27,9 @@ pub use pipeline::{params_delivery, LinkOptions, Pipeline, Specialization};
 pub use program_group::{EntryName, HitGroupBuilder, ProgramGroup};
 pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
 pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
+pub use timing::LaunchTimer;
 
+pub use ash;
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
 pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, Traversable};

@@ -2,7 +2,8 @@
 //!
 //! * `build-shaders`: compile every device crate of the workspace to SPIR-V under
 //!   `target/spirv/`, installing the pinned nightly when missing.
-//! * `demo`: render the triangle example to a PNG.
+//! * `demo`: render the path tracer's Cornell box to a PNG (and PFM) with a
+//!   progress bar; `--example triangle` renders optixTriangle instead.
 //! * `test`: set up what is missing (nightly, lavapipe, validation layers), build
 //!   the shaders and run every test with validation on.
 //! * `bench`: build `raykit-bench` in release and run it (suites such as `accel`);
@@ -38,11 +39,20 @@ enum Cmd {
         #[arg(long)]
         force: bool,
     },
-    /// Render the triangle example to a PNG and print where.
+    /// Render the Cornell box (path_tracer example) to a PNG and print where.
     Demo {
-        /// Output file.
-        #[arg(long, default_value = "target/demo/triangle.png")]
-        output: PathBuf,
+        /// Which example: `path_tracer` (the Cornell box) or `triangle`.
+        #[arg(long, default_value = "path_tracer")]
+        example: String,
+        /// Output file (default: target/demo/<example>.png).
+        #[arg(long)]
+        output: Option<PathBuf>,
+        /// Image size of the path tracer, `WIDTHxHEIGHT`.
+        #[arg(long, default_value = "512x512")]
+        size: String,
+        /// Paths per pixel of the path tracer.
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
     },
     /// Build the shaders and run the whole test suite with validation on.
     Test {
@@ -54,7 +64,9 @@ enum Cmd {
     Setup,
     /// Build and run the benchmarks (target/bench/bench.{json,md}).
     Bench {
-        /// Build the shaders first (suites that trace need them; `accel` does not).
+        /// Build the shaders first (suites that trace need them; `accel` does not),
+        /// and measure shader build times (Rust against the GLSL twins) for the
+        /// `shaders` suite.
         #[arg(long)]
         shaders: bool,
         /// Arguments of raykit-bench: suites (`accel`) and options
@@ -93,21 +105,28 @@ fn main() -> anyhow::Result<()> {
             setup::ensure_toolchain()?;
             shaders::build_all(&root, force)?;
         }
-        Cmd::Demo { output } => {
+        Cmd::Demo { example, output, size, spp } => {
             setup::ensure_toolchain()?;
             setup::ensure_vulkan(false)?;
             shaders::build_all(&root, false)?;
+            let output = output.unwrap_or_else(|| PathBuf::from(format!("target/demo/{example}.png")));
             let output = if output.is_absolute() { output } else { root.join(output) };
             if let Some(dir) = output.parent() {
                 std::fs::create_dir_all(dir)?;
             }
-            run(
-                cargo()
-                    .args(["run", "--release", "--quiet", "-p", "triangle", "--"])
-                    .arg(&output)
-                    .env("RAYKIT_SPIRV_DIR", shaders::spirv_dir(&root)),
-                "the triangle example",
-            )?;
+            let mut cmd = cargo();
+            cmd.args(["run", "--release", "--quiet", "-p", &example, "--"]).env("RAYKIT_SPIRV_DIR", shaders::spirv_dir(&root));
+            match example.as_str() {
+                "path_tracer" => {
+                    let (width, height) = size.split_once('x').context("--size takes WIDTHxHEIGHT, e.g. 512x512")?;
+                    cmd.args(["--width", width, "--height", height, "--spp", &spp.to_string(), "--output"]).arg(&output);
+                }
+                "triangle" => {
+                    cmd.arg(&output);
+                }
+                other => bail!("unknown example {other:?}; the demos are path_tracer and triangle"),
+            }
+            run(&mut cmd, &format!("the {example} example"))?;
             println!("demo: wrote {}", output.display());
         }
         Cmd::Test { cargo_args } => {
@@ -130,6 +149,20 @@ fn main() -> anyhow::Result<()> {
             if shaders {
                 setup::ensure_toolchain()?;
                 shaders::build_all(&root, false)?;
+                let mut times = Vec::new();
+                for (programs, krate, script) in [
+                    ("primary rays (triangle)", "triangle-device", "bench/glsl/build.sh"),
+                    ("path tracer", "path-tracer-device", "examples/path_tracer/glsl/build.sh"),
+                ] {
+                    let rust_s = shaders::time_rebuild(&root, krate)?;
+                    let started = std::time::Instant::now();
+                    run(&mut Command::new(root.join(script)), script)?;
+                    let glsl_s = started.elapsed().as_secs_f64();
+                    times.push(serde_json::json!({"programs": programs, "rust_s": rust_s, "glsl_s": glsl_s}));
+                }
+                let out = root.join("target").join("bench");
+                std::fs::create_dir_all(&out)?;
+                std::fs::write(out.join("shader_build.json"), serde_json::to_string_pretty(&times)?)?;
             }
             run(cargo().args(["build", "--release", "--quiet", "-p", "raykit-bench"]), "building raykit-bench")?;
             let binary = root.join("target").join("release").join("raykit-bench");

@@ -263,6 +263,24 @@ pub fn build_all(root: &Path, force: bool) -> anyhow::Result<()> {
     check_params_layouts(&crates, &out_dir)
 }
 
+/// Rebuilds device crate `name` (its dependencies already built) and returns
+/// the seconds it took: the shader build time the benchmarks report.
+pub fn time_rebuild(root: &Path, name: &str) -> anyhow::Result<f64> {
+    let krate = device_crates(root)?.into_iter().find(|k| k.name == name).with_context(|| format!("no device crate {name}"))?;
+    let (builder, lib_path) = shader_builder(root)?;
+    let spv = spirv_dir(root).join(format!("{}.spv", name.replace('-', "_")));
+    // Touch a source file so cargo recompiles the crate itself.
+    let lib = krate.dir.join("src").join("lib.rs");
+    let text = std::fs::read(&lib)?;
+    std::fs::write(&lib, &text)?;
+    let started = Instant::now();
+    let mut cmd = Command::new(&builder);
+    cmd.arg(&krate.dir).arg(&spv).arg(root.join("target").join("spirv-builder")).env("LD_LIBRARY_PATH", &lib_path);
+    cmd.env_remove("RUSTUP_TOOLCHAIN");
+    crate::run(&mut cmd, &format!("building device crate {name}"))?;
+    Ok(started.elapsed().as_secs_f64())
+}
+
 /// Runs the tests that `#[params]` programs generate: each compares the host's
 /// layout of its params struct with the SPIR-V just built, and fails with the
 /// same message as `Pipeline::new` would.

@@ -1,0 +1,55 @@
+//! Dispatch of the suites added after `accel`: `primary`, `path`, `launch`,
+//! `shaders`, and their options.
+
+use std::path::Path;
+
+use anyhow::Context as _;
+use raykit::{Context, LaunchTimer};
+
+use crate::trace::Options;
+
+/// Defaults of the options these suites add.
+pub fn default_options() -> Options {
+    Options { reps: 5, triangles: 1_000_000, primary_size: (1920, 1080), path_size: 512, spp: 1 }
+}
+
+/// Parses one option of these suites (`--triangles`, `--primary-size WxH`,
+/// `--path-size N`, `--spp N`); returns false when `name` is not one.
+pub fn parse_option(opts: &mut Options, name: &str, value: &mut dyn FnMut() -> anyhow::Result<String>) -> anyhow::Result<bool> {
+    match name {
+        "--triangles" => opts.triangles = value()?.replace('_', "").parse().context("--triangles takes a number")?,
+        "--primary-size" => {
+            let v = value()?;
+            let (w, h) = v.split_once('x').context("--primary-size takes WIDTHxHEIGHT")?;
+            opts.primary_size = (w.parse()?, h.parse()?);
+        }
+        "--path-size" => opts.path_size = value()?.parse().context("--path-size takes a number")?,
+        "--spp" => opts.spp = value()?.parse().context("--spp takes a number")?,
+        _ => return Ok(false),
+    }
+    Ok(true)
+}
+
+/// Runs `suite`; returns its Markdown section and JSON.
+pub fn run(suite: &str, ctx: &Context, opts: &Options, out: &Path) -> anyhow::Result<(String, serde_json::Value)> {
+    let timer = LaunchTimer::new(ctx)?;
+    eprintln!("{suite}: GPU timestamps {}", if timer.is_some() { "available" } else { "not available (wall clock)" });
+    Ok(match suite {
+        "primary" => {
+            let rows = crate::trace::primary(ctx, timer.as_ref(), opts)?;
+            (crate::trace::markdown(&rows), crate::trace::json(&rows))
+        }
+        "path" => {
+            let rows = crate::trace::path(ctx, timer.as_ref(), opts)?;
+            (crate::trace::markdown(&rows), crate::trace::json(&rows))
+        }
+        "launch" => {
+            let scene = crate::trace::primary_scene(ctx, opts.triangles, opts.primary_size)?;
+            let mut rows = crate::launch::launches(ctx, &scene, opts.primary_size, opts.reps)?;
+            rows.push(crate::launch::creation(ctx, opts.reps * 4)?);
+            (crate::launch::markdown(&rows), crate::launch::json(&rows))
+        }
+        "shaders" => crate::shaders::markdown(&crate::shaders::sizes()?, out),
+        other => anyhow::bail!("unknown suite {other}"),
+    })
+}

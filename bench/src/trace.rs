@@ -1,0 +1,301 @@
+//! The tracing suites: Rust device programs against their GLSL twins, through
+//! the same host code, on the same acceleration structures, interleaved.
+//!
+//! * `primary`: one camera ray per pixel on a procedural height-field mesh
+//!   (`--triangles`, default 1,000,000) at `--primary-size` (default 1920x1080),
+//!   with optixTriangle's programs (`triangle-device`, and
+//!   `examples/triangle/glsl` through `spirv-opt -O`, in `bench/glsl/`).
+//! * `path`: the path tracer (`path-tracer-device` and
+//!   `examples/path_tracer/glsl`) on the Cornell box at `--path-size` (default
+//!   512) with `--spp` paths per pixel in one launch (default 1).
+//!
+//! Time is the GPU time of `vkCmdTraceRaysKHR` from timestamps where the queue
+//! has them, else the wall time of the whole launch (submission and wait
+//! included; lavapipe has timestamps).
+
+use std::time::{Duration, Instant};
+
+use path_tracer::{Programs as PathPrograms, Renderer, Scene};
+use raykit::glam::{UVec2, Vec3};
+use raykit::{Context, Gas, Ias, LaunchTimer, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Triangles};
+use triangle_device::{MissData, Params as PrimaryParams};
+
+use crate::stats::Summary;
+
+/// Options of the tracing suites.
+pub struct Options {
+    /// Repetitions of each variant.
+    pub reps: usize,
+    /// Triangles of the primary-ray mesh.
+    pub triangles: usize,
+    /// Image size of the primary-ray suite.
+    pub primary_size: (u32, u32),
+    /// Image side of the path-tracer suite.
+    pub path_size: u32,
+    /// Paths per pixel of the path-tracer suite.
+    pub spp: u32,
+}
+
+/// One variant's results.
+pub struct Row {
+    /// `primary` or `path`.
+    pub suite: &'static str,
+    /// `Rust` or `GLSL`.
+    pub variant: &'static str,
+    /// What was traced.
+    pub setup: String,
+    /// Repetitions.
+    pub reps: usize,
+    /// Rays of one launch (median).
+    pub rays: u64,
+    /// Seconds per launch.
+    pub seconds: Summary,
+    /// Million rays per second.
+    pub mrays: Summary,
+    /// Per-repetition ratio of this variant's Mrays/s to the GLSL twin's.
+    pub vs_glsl: Summary,
+    /// `GPU timestamps` or `wall clock`.
+    pub timing: &'static str,
+}
+
+/// A variant: a name and a launch returning its time and its rays.
+type Variant<'a> = (&'static str, Box<dyn FnMut() -> anyhow::Result<(f64, u64)> + 'a>);
+
+/// Runs every variant once to warm up, then `reps` rounds in rotating order;
+/// returns per variant the (seconds, rays) of each round.
+fn interleave(variants: &mut [Variant<'_>], reps: usize) -> anyhow::Result<Vec<Vec<(f64, u64)>>> {
+    for (_, run) in variants.iter_mut() {
+        run()?;
+    }
+    let n = variants.len();
+    let mut results = vec![Vec::with_capacity(reps); n];
+    for rep in 0..reps {
+        for k in 0..n {
+            let i = (rep + k) % n;
+            let r = (variants[i].1)()?;
+            results[i].push(r);
+        }
+    }
+    Ok(results)
+}
+
+fn rows(
+    suite: &'static str,
+    setup: &str,
+    timing: &'static str,
+    names: &[&'static str],
+    results: &[Vec<(f64, u64)>],
+) -> Vec<Row> {
+    let glsl = names.iter().position(|n| *n == "GLSL").unwrap_or(0);
+    let mrays_of = |r: &[(f64, u64)]| -> Vec<f64> { r.iter().map(|(s, rays)| *rays as f64 / s / 1e6).collect() };
+    let glsl_mrays = mrays_of(&results[glsl]);
+    names
+        .iter()
+        .zip(results)
+        .map(|(name, r)| {
+            let mrays = mrays_of(r);
+            let ratios: Vec<f64> = mrays.iter().zip(&glsl_mrays).map(|(a, b)| a / b).collect();
+            let mut rays: Vec<u64> = r.iter().map(|(_, n)| *n).collect();
+            rays.sort_unstable();
+            Row {
+                suite,
+                variant: name,
+                setup: setup.to_owned(),
+                reps: r.len(),
+                rays: rays.get(rays.len() / 2).copied().unwrap_or(0),
+                seconds: Summary::of(&r.iter().map(|(s, _)| *s).collect::<Vec<_>>()),
+                mrays: Summary::of(&mrays),
+                vs_glsl: Summary::of(&ratios),
+                timing,
+            }
+        })
+        .collect()
+}
+
+fn seconds(d: Duration) -> f64 {
+    d.as_secs_f64()
+}
+
+/// The primary-ray programs: Rust (`triangle-device`) or the GLSL twin.
+fn primary_programs(ctx: &Context, glsl: bool) -> anyhow::Result<[ProgramGroup; 3]> {
+    if glsl {
+        let rgen = Module::new(ctx, include_bytes!("../glsl/primary.rgen.spv"))?;
+        let rmiss = Module::new(ctx, include_bytes!("../glsl/primary.rmiss.spv"))?;
+        let rchit = Module::new(ctx, include_bytes!("../glsl/primary.rchit.spv"))?;
+        Ok([
+            ProgramGroup::raygen(&rgen, "main")?,
+            ProgramGroup::miss(&rmiss, "main")?,
+            ProgramGroup::hit_group(&rchit).closest_hit("main").build()?,
+        ])
+    } else {
+        let module = Module::from_device_crate(ctx, "triangle-device")?;
+        Ok([
+            ProgramGroup::raygen(&module, triangle_device::RG)?,
+            ProgramGroup::miss(&module, triangle_device::MS)?,
+            ProgramGroup::hit_group(&module).closest_hit(triangle_device::CH).build()?,
+        ])
+    }
+}
+
+/// A linked primary-ray pipeline and its SBT.
+pub struct PrimaryPipeline {
+    /// The pipeline.
+    pub pipeline: Pipeline<PrimaryParams>,
+    /// Its SBT.
+    pub sbt: Sbt,
+}
+
+/// Links the primary-ray programs (Rust or GLSL) and lays out their SBT.
+pub fn primary_pipeline(ctx: &Context, glsl: bool) -> anyhow::Result<PrimaryPipeline> {
+    let [raygen, miss, hit] = primary_programs(ctx, glsl)?;
+    let pipeline = Pipeline::<PrimaryParams>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
+    let sbt = Sbt::builder(&pipeline)
+        .raygen(&raygen, ())
+        .miss(&miss, MissData { bg_color: Vec3::new(0.3, 0.1, 0.2) })
+        .hit(&hit, ())
+        .build()?;
+    Ok(PrimaryPipeline { pipeline, sbt })
+}
+
+/// The primary-ray scene: the mesh's TLAS and the image, and the params.
+pub struct PrimaryScene {
+    /// TLAS over the mesh (kept alive while `params` names it).
+    #[allow(dead_code)]
+    pub ias: Ias,
+    /// The RGBA8 image.
+    pub image: raykit::DeviceBuffer<u32>,
+    /// The launch params (camera over the mesh).
+    pub params: PrimaryParams,
+}
+
+/// Builds the height field of `triangles` triangles over [0,1]² and a camera
+/// above it whose every ray hits it.
+pub fn primary_scene(ctx: &Context, triangles: usize, (width, height): (u32, u32)) -> anyhow::Result<PrimaryScene> {
+    let (vertices, indices) = crate::accel::grid(triangles);
+    let gas = Gas::builder()
+        .triangles(Triangles::new(&vertices).indices_u32(&indices).flags(raykit::GeometryFlags::OPAQUE))
+        .options(raykit::accel::BuildOptions::default().fast_trace())
+        .build(ctx)?;
+    let ias = Ias::single(ctx, &gas)?;
+    let image = ctx.buffer::<u32>(width as usize * height as usize)?;
+    let aspect = width as f32 / height as f32;
+    let half_height = 0.45 / aspect.max(1.0);
+    let params = PrimaryParams {
+        image: image.handle(),
+        size: UVec2::new(width, height),
+        cam_eye: Vec3::new(0.5, 0.5, 1.2),
+        cam_u: Vec3::new(half_height * aspect, 0.0, 0.0),
+        cam_v: Vec3::new(0.0, half_height, 0.0),
+        cam_w: Vec3::new(0.0, 0.0, -1.2),
+        _pad: 0,
+        handle: ias.handle(),
+    };
+    Ok(PrimaryScene { ias, image, params })
+}
+
+/// The `primary` suite.
+pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> anyhow::Result<Vec<Row>> {
+    let (width, height) = opts.primary_size;
+    let built = Instant::now();
+    let scene = primary_scene(ctx, opts.triangles, opts.primary_size)?;
+    eprintln!("primary: {} triangles built in {:.1} s", opts.triangles, built.elapsed().as_secs_f64());
+    let rust = primary_pipeline(ctx, false)?;
+    let glsl = primary_pipeline(ctx, true)?;
+    let rays = width as u64 * height as u64;
+    let launch = |p: &PrimaryPipeline| -> anyhow::Result<(f64, u64)> {
+        let dims = [width, height, 1];
+        let s = match timer {
+            Some(t) => seconds(p.pipeline.launch_timed(&p.sbt, &scene.params, dims, t)?),
+            None => {
+                let start = Instant::now();
+                p.pipeline.launch(&p.sbt, &scene.params, dims)?;
+                start.elapsed().as_secs_f64()
+            }
+        };
+        Ok((s, rays))
+    };
+    let mut variants: Vec<Variant<'_>> =
+        vec![("Rust", Box::new(|| launch(&rust))), ("GLSL", Box::new(|| launch(&glsl)))];
+    let results = interleave(&mut variants, opts.reps)?;
+    // Both programs drew the same picture.
+    let picture = scene.image.read()?;
+    anyhow::ensure!(picture.iter().any(|&p| p != picture[0]), "the primary-ray image is uniform");
+    let setup = format!("{} triangles, {width}x{height}, 1 ray/pixel", opts.triangles);
+    Ok(rows("primary", &setup, timing_name(timer), &["Rust", "GLSL"], &results))
+}
+
+/// The `path` suite.
+pub fn path(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> anyhow::Result<Vec<Row>> {
+    let scene = Scene::new(ctx)?;
+    let size = opts.path_size;
+    let mut rust = Renderer::new(ctx, &PathPrograms::rust(ctx)?, &scene, size, size)?;
+    let mut glsl = Renderer::new(ctx, &PathPrograms::glsl(ctx)?, &scene, size, size)?;
+    let spp = opts.spp;
+    let launch = |r: &mut Renderer| -> anyhow::Result<(f64, u64)> {
+        r.reset();
+        let s = match timer {
+            Some(t) => seconds(r.launch_timed(spp, t)?),
+            None => {
+                let start = Instant::now();
+                r.launch(spp)?;
+                start.elapsed().as_secs_f64()
+            }
+        };
+        Ok((s, r.rays()?))
+    };
+    let mut variants: Vec<Variant<'_>> =
+        vec![("Rust", Box::new(|| launch(&mut rust))), ("GLSL", Box::new(|| launch(&mut glsl)))];
+    let results = interleave(&mut variants, opts.reps)?;
+    drop(variants);
+    let setup = format!("Cornell box, {size}x{size}, {spp} spp, max depth {}", path_tracer::device::scene::MAX_DEPTH);
+    Ok(rows("path", &setup, timing_name(timer), &["Rust", "GLSL"], &results))
+}
+
+fn timing_name(timer: Option<&LaunchTimer>) -> &'static str {
+    if timer.is_some() {
+        "GPU timestamps"
+    } else {
+        "wall clock"
+    }
+}
+
+/// The rows as a Markdown table.
+pub fn markdown(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "Same host code, same acceleration structures; variants interleaved in rotating order after one warm-up launch each; median (± half the interquartile range); `vs GLSL` is the median of per-repetition ratios of Mrays/s (> 1: faster than the GLSL twin).\n\n",
+    );
+    s.push_str("| suite | setup | programs | reps | rays/launch | ms/launch | Mrays/s | vs GLSL (min–max) | timing |\n");
+    s.push_str("|---|---|---|---:|---:|---:|---:|---:|---|\n");
+    for r in rows {
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {:.2} ± {:.1}% | {:.2} | {:.3} ({:.3}–{:.3}) | {} |\n",
+            r.suite,
+            r.setup,
+            r.variant,
+            r.reps,
+            r.rays,
+            r.seconds.median * 1e3,
+            r.seconds.spread_percent(),
+            r.mrays.median,
+            r.vs_glsl.median,
+            r.vs_glsl.min,
+            r.vs_glsl.max,
+            r.timing
+        ));
+    }
+    s
+}
+
+/// The rows as JSON.
+pub fn json(rows: &[Row]) -> serde_json::Value {
+    serde_json::Value::Array(
+        rows.iter()
+            .map(|r| {
+                serde_json::json!({
+                    "suite": r.suite, "setup": r.setup, "programs": r.variant, "reps": r.reps, "rays_per_launch": r.rays,
+                    "seconds": r.seconds.json(), "mrays_per_s": r.mrays.json(), "vs_glsl": r.vs_glsl.json(), "timing": r.timing,
+                })
+            })
+            .collect(),
+    )
+}

@@ -1,0 +1,223 @@
+//! optixPathTracer in Rust: the Cornell box, Lambertian surfaces, next-event
+//! estimation with a shadow ray type, Russian roulette, progressive
+//! accumulation over launches with a deterministic per-pixel random sequence.
+//!
+//! As in optixPathTracer, the path loop runs in raygen: the closest-hit program
+//! only reports the hit (normal, distance, material) in the payload, and
+//! raygen traces the next bounce and the shadow rays. That keeps the trace depth
+//! at 1 and the stack small.
+//!
+//! This crate is compiled twice: to SPIR-V by `cargo xtask build-shaders`, and
+//! for the host, where [`Params`], the SBT record types, the ray types, the
+//! entry-point constants, the [`math`] and the [`scene`] are shared with the
+//! host program and the CPU reference of the tests.
+#![cfg_attr(target_arch = "spirv", no_std)]
+
+pub mod math;
+pub mod scene;
+
+use raykit_device::glam::{UVec2, Vec3, Vec4};
+use raykit_device::{
+    closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, Ray, RayFlags, RayType, Raygen, Traversable,
+};
+
+use math::{CameraFrame, HitInfo, Light, PathState, RAY_EPSILON};
+
+/// Launch params.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
+pub struct Params {
+    /// Per pixel: the sum of the radiance samples so far (xyz) and the number of
+    /// rays traced for the pixel (w). Launch `subframe == 0` overwrites it.
+    pub accum: Buffer<Vec4>,
+    /// Unit geometric normal of each triangle of the scene.
+    pub normals: Buffer<Vec3>,
+    /// Image width and height.
+    pub size: UVec2,
+    /// Index of this launch in the progressive sequence (seeds the random numbers).
+    pub subframe: u32,
+    /// Paths per pixel traced by this launch.
+    pub samples: u32,
+    /// Longest path (bounces).
+    pub max_depth: u32,
+    /// Padding (keeps `handle` 8-byte aligned on every target).
+    pub _pad: u32,
+    /// Camera position.
+    pub cam_eye: Vec3,
+    /// Camera right, scaled to half the image-plane width.
+    pub cam_u: Vec3,
+    /// Camera up, scaled to half the image-plane height.
+    pub cam_v: Vec3,
+    /// Camera forward, to the image-plane centre.
+    pub cam_w: Vec3,
+    /// The scene.
+    pub handle: Traversable,
+}
+
+impl Params {
+    /// The camera part of the params.
+    pub fn camera(&self) -> CameraFrame {
+        CameraFrame { eye: self.cam_eye, u: self.cam_u, v: self.cam_v, w: self.cam_w }
+    }
+}
+
+/// The raygen program's SBT record: the light it samples.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct RaygenRecord {
+    /// A corner of the parallelogram light.
+    pub corner: Vec3,
+    /// Its first edge.
+    pub v1: Vec3,
+    /// Its second edge.
+    pub v2: Vec3,
+    /// Its emitted radiance.
+    pub emission: Vec3,
+}
+
+impl RaygenRecord {
+    /// The record of `light`.
+    pub const fn new(light: &Light) -> Self {
+        RaygenRecord { corner: light.corner, v1: light.v1, v2: light.v2, emission: light.emission }
+    }
+    /// The light.
+    pub fn light(&self) -> Light {
+        Light { corner: self.corner, v1: self.v1, v2: self.v2, emission: self.emission }
+    }
+}
+
+/// The radiance hit group's SBT record, one per material group (geometry).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct HitRecord {
+    /// Emitted radiance.
+    pub emission: Vec3,
+    /// Index of the geometry's first triangle in [`Params::normals`].
+    pub first_triangle: u32,
+    /// Diffuse reflectance.
+    pub albedo: Vec3,
+    /// Padding.
+    pub _pad: u32,
+}
+
+/// Radiance rays: the payload is the hit, filled by closest-hit or miss.
+pub struct Radiance;
+impl RayType for Radiance {
+    type Payload = HitInfo;
+    const SBT_OFFSET: u32 = 0;
+    const SBT_STRIDE: u32 = 2;
+    const MISS_INDEX: u32 = 0;
+}
+
+/// Shadow rays: payload 1 when the light sample is visible (the miss program
+/// ran), 0 when something is in the way; the first hit ends the traversal.
+pub struct Shadow;
+impl RayType for Shadow {
+    type Payload = u32;
+    const SBT_OFFSET: u32 = 1;
+    const SBT_STRIDE: u32 = 2;
+    const MISS_INDEX: u32 = 1;
+    const FLAGS: RayFlags = RayFlags::from_bits_truncate(
+        RayFlags::TERMINATE_ON_FIRST_HIT.bits() | RayFlags::SKIP_CLOSEST_HIT_SHADER.bits() | RayFlags::OPAQUE.bits(),
+    );
+}
+
+#[raygen]
+fn rg(
+    ctx: &mut Raygen,
+    #[params] p: &Params,
+    #[record] record: &RaygenRecord,
+    #[payload] hit: &mut HitInfo,
+    #[payload] visible: &mut u32,
+) {
+    let index = ctx.launch_index().truncate();
+    let dims: UVec2 = p.size;
+    let pixel = ctx.launch_linear_index();
+    let camera = p.camera();
+    let light = record.light();
+    let mut seed = math::pixel_seed(pixel, p.subframe);
+    let mut sum = Vec3::ZERO;
+    let mut rays = 0u32;
+    let mut sample = 0;
+    while sample < p.samples {
+        let mut state = PathState::camera(&camera, index, dims, &mut seed);
+        while !state.done {
+            *hit = HitInfo::MISS;
+            let ray = Ray::new(state.origin, state.direction).with_interval(RAY_EPSILON, 1e16);
+            ctx.trace::<Radiance>(p.handle, ray, hit);
+            rays += 1;
+            let shadow = state.shade(hit, &light, &mut seed, p.max_depth);
+            if shadow.contribution != Vec3::ZERO {
+                *visible = 0;
+                let ray = Ray::new(shadow.origin, shadow.direction).with_interval(RAY_EPSILON, shadow.t_max);
+                ctx.trace::<Shadow>(p.handle, ray, visible);
+                rays += 1;
+                if *visible != 0 {
+                    state.radiance += shadow.contribution;
+                }
+            }
+        }
+        sum += state.radiance;
+        sample += 1;
+    }
+    let previous = if p.subframe == 0 { Vec4::ZERO } else { ctx.load(p.accum, pixel) };
+    ctx.store(p.accum, pixel, previous + sum.extend(rays as f32));
+}
+
+#[miss(ray = Radiance)]
+fn ms(_ctx: &mut Miss, #[payload] hit: &mut HitInfo) {
+    hit.t = -1.0;
+}
+
+#[closest_hit(ray = Radiance)]
+fn ch(ctx: &mut ClosestHit, #[params] p: &Params, #[record] material: &HitRecord, #[payload] hit: &mut HitInfo) {
+    let normal = ctx.load(p.normals, material.first_triangle + ctx.primitive_index());
+    hit.normal = math::face_forward(normal, ctx.world_ray_direction());
+    hit.t = ctx.hit_t();
+    hit.emission = material.emission;
+    hit.albedo = material.albedo;
+}
+
+#[miss(ray = Shadow)]
+fn ms_shadow(_ctx: &mut Miss, #[payload] visible: &mut u32) {
+    *visible = 1;
+}
+
+/// The shadow ray type's hit group (never run: shadow rays skip closest-hit).
+#[closest_hit(ray = Shadow)]
+fn ch_shadow(_ctx: &mut ClosestHit, #[payload] visible: &mut u32) {
+    *visible = 0;
+}
+
+#[cfg(all(test, not(target_arch = "spirv")))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn params_fit_push_constants_and_have_the_same_layout_everywhere() {
+        assert_eq!(core::mem::size_of::<Params>(), 88);
+        assert_eq!(core::mem::offset_of!(Params, cam_eye), 32);
+        assert_eq!(core::mem::offset_of!(Params, handle), 80);
+        assert!(raykit_device::uses_push_constants::<Params>());
+        assert_eq!(core::mem::size_of::<RaygenRecord>(), 48);
+        assert_eq!(core::mem::size_of::<HitRecord>(), 32);
+    }
+
+    #[test]
+    fn the_scene_groups_cover_every_triangle() {
+        let mut next = 0;
+        for group in scene::MATERIALS {
+            assert_eq!(group.first_triangle, next, "{}", group.name);
+            next += group.triangles;
+        }
+        assert_eq!(next as usize * 3, scene::VERTICES.len());
+        assert!((scene::LIGHT.normal() - Vec3::new(0.0, -1.0, 0.0)).length() < 1e-6);
+    }
+
+    #[test]
+    fn entry_points_carry_optix_prefixes() {
+        assert_eq!(RG.name, "__raygen__rg");
+        assert_eq!(CH.name, "__closesthit__ch");
+        assert_eq!(MS_SHADOW.name, "__miss__ms_shadow");
+    }
+}

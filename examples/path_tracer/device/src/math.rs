@@ -1,0 +1,388 @@
+//! The path tracer's math, shared by the device programs and the host (the CPU
+//! reference of the tests): optixPathTracer's random numbers (`tea`, `lcg`), the
+//! orthonormal basis and cosine-weighted hemisphere sampling, the Lambertian BRDF,
+//! the area light, the camera ray, and one path's state machine ([`PathState`]).
+//!
+//! Everything here compiles for SPIR-V (rust-gpu) and for the host. Integer
+//! arithmetic wraps explicitly, so the host's debug builds compute the same bits
+//! as the device.
+
+use raykit_device::glam::{UVec2, Vec3};
+
+/// π.
+pub const PI: f32 = core::f32::consts::PI;
+
+/// `t_min` of every ray and the gap left before the light on shadow rays
+/// (optixPathTracer's 0.01, in the scene's millimetres).
+pub const RAY_EPSILON: f32 = 0.01;
+
+/// Bounces after which Russian roulette may end a path.
+pub const ROULETTE_AFTER: u32 = 2;
+
+/// The largest survival probability of Russian roulette.
+pub const ROULETTE_MAX_SURVIVAL: f32 = 0.95;
+
+/// Square root (the platform's, on each side).
+pub fn sqrt(x: f32) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    {
+        use raykit_device::spirv_std::num_traits::Float;
+        x.sqrt()
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        x.sqrt()
+    }
+}
+
+/// `(sin x, cos x)`.
+pub fn sin_cos(x: f32) -> (f32, f32) {
+    #[cfg(target_arch = "spirv")]
+    {
+        use raykit_device::spirv_std::num_traits::Float;
+        (x.sin(), x.cos())
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        x.sin_cos()
+    }
+}
+
+/// `x^y`.
+pub fn powf(x: f32, y: f32) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    {
+        use raykit_device::spirv_std::num_traits::Float;
+        x.powf(y)
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        x.powf(y)
+    }
+}
+
+/// The Tiny Encryption Algorithm with 4 rounds (sutil's `tea<4>`): a seed from
+/// two integers (pixel index and launch index).
+pub fn tea4(val0: u32, val1: u32) -> u32 {
+    let (mut v0, mut v1, mut s0) = (val0, val1, 0u32);
+    let mut n = 0;
+    while n < 4 {
+        s0 = s0.wrapping_add(0x9e37_79b9);
+        v0 = v0.wrapping_add(
+            (v1 << 4).wrapping_add(0xa341_316c) ^ v1.wrapping_add(s0) ^ (v1 >> 5).wrapping_add(0xc801_3ea4),
+        );
+        v1 = v1.wrapping_add(
+            (v0 << 4).wrapping_add(0xad90_777d) ^ v0.wrapping_add(s0) ^ (v0 >> 5).wrapping_add(0x7e95_761e),
+        );
+        n += 1;
+    }
+    v0
+}
+
+/// sutil's linear congruential generator: advances `state`, returns 24 bits.
+pub fn lcg(state: &mut u32) -> u32 {
+    *state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+    *state & 0x00ff_ffff
+}
+
+/// A uniform random number in `[0, 1)` (sutil's `rnd`).
+pub fn rnd(state: &mut u32) -> f32 {
+    lcg(state) as f32 / 16_777_216.0
+}
+
+/// The seed of pixel `pixel` (linear index) in launch `subframe`
+/// (optixPathTracer: `tea<4>(idx.y * w + idx.x, subframe_index)`).
+pub fn pixel_seed(pixel: u32, subframe: u32) -> u32 {
+    tea4(pixel, subframe)
+}
+
+/// A cosine-weighted direction on the hemisphere around +z from two uniform
+/// numbers (optixPathTracer's `cosine_sample_hemisphere`): pdf `cos θ / π`.
+pub fn cosine_sample_hemisphere(u1: f32, u2: f32) -> Vec3 {
+    let r = sqrt(u1);
+    let (s, c) = sin_cos(2.0 * PI * u2);
+    let x = r * c;
+    let y = r * s;
+    Vec3::new(x, y, sqrt((1.0 - x * x - y * y).max(0.0)))
+}
+
+/// `p` (in the frame where `normal` is +z) turned into world space, with
+/// optixPathTracer's orthonormal basis (`Onb`).
+pub fn onb_to_world(normal: Vec3, p: Vec3) -> Vec3 {
+    let binormal = if normal.x.abs() > normal.z.abs() {
+        Vec3::new(-normal.y, normal.x, 0.0)
+    } else {
+        Vec3::new(0.0, -normal.z, normal.y)
+    };
+    let binormal = binormal.normalize();
+    let tangent = binormal.cross(normal);
+    p.x * tangent + p.y * binormal + p.z * normal
+}
+
+/// The Lambertian BRDF, `albedo / π`.
+pub fn lambert_brdf(albedo: Vec3) -> Vec3 {
+    albedo * (1.0 / PI)
+}
+
+/// `n` flipped to face against the incoming direction `d`.
+pub fn face_forward(n: Vec3, d: Vec3) -> Vec3 {
+    if n.dot(d) > 0.0 {
+        -n
+    } else {
+        n
+    }
+}
+
+/// The parallelogram light: `corner + u·v1 + v·v2`, emitting `emission` from
+/// the side of `v1 × v2` (optixPathTracer's `ParallelogramLight`).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Light {
+    /// One corner.
+    pub corner: Vec3,
+    /// First edge.
+    pub v1: Vec3,
+    /// Second edge.
+    pub v2: Vec3,
+    /// Emitted radiance.
+    pub emission: Vec3,
+}
+
+impl Light {
+    /// The point at `(u, v) ∈ [0,1)²`.
+    pub fn point(&self, u: f32, v: f32) -> Vec3 {
+        self.corner + u * self.v1 + v * self.v2
+    }
+    /// The emitting side's unit normal.
+    pub fn normal(&self) -> Vec3 {
+        self.v1.cross(self.v2).normalize()
+    }
+    /// The area.
+    pub fn area(&self) -> f32 {
+        self.v1.cross(self.v2).length()
+    }
+}
+
+/// A pinhole camera: the eye and the image-plane basis (`u`, `v` scaled to half
+/// the plane, `w` from the eye to its centre), as sutil's `Camera::UVWFrame`.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct CameraFrame {
+    /// Eye position.
+    pub eye: Vec3,
+    /// Right, scaled to half the image-plane width.
+    pub u: Vec3,
+    /// Up, scaled to half the image-plane height.
+    pub v: Vec3,
+    /// Forward, to the image-plane centre.
+    pub w: Vec3,
+}
+
+impl CameraFrame {
+    /// The ray through pixel `index` of a `dims` image, jittered by `jitter ∈
+    /// [0,1)²` inside the pixel; row 0 is the top row. Returns the direction
+    /// (normalised); the origin is the eye.
+    pub fn direction(&self, index: UVec2, dims: UVec2, jx: f32, jy: f32) -> Vec3 {
+        let dx = 2.0 * (index.x as f32 + jx) / dims.x as f32 - 1.0;
+        let dy = 1.0 - 2.0 * (index.y as f32 + jy) / dims.y as f32;
+        (dx * self.u + dy * self.v + self.w).normalize()
+    }
+}
+
+/// What the closest-hit program tells raygen about a hit (the radiance ray's
+/// payload): `t < 0` is a miss.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct HitInfo {
+    /// Unit geometric normal, facing the incoming ray.
+    pub normal: Vec3,
+    /// Hit distance; negative for a miss.
+    pub t: f32,
+    /// Emitted radiance of the surface.
+    pub emission: Vec3,
+    /// Diffuse reflectance.
+    pub albedo: Vec3,
+}
+
+impl HitInfo {
+    /// The miss value.
+    pub const MISS: HitInfo = HitInfo { normal: Vec3::ZERO, t: -1.0, emission: Vec3::ZERO, albedo: Vec3::ZERO };
+}
+
+/// A shadow ray that [`PathState::shade`] asks for, and what its path gains
+/// when the light is visible.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ShadowRay {
+    /// Origin (the shaded point).
+    pub origin: Vec3,
+    /// Unit direction to the light sample.
+    pub direction: Vec3,
+    /// Distance to the light sample, less [`RAY_EPSILON`].
+    pub t_max: f32,
+    /// Radiance added when the sample is visible; the ray is only traced when this
+    /// is non-zero (the light faces the point and the point faces the light).
+    pub contribution: Vec3,
+}
+
+/// One path, written as a state machine so the device (tracing with
+/// `OpTraceRayKHR` from raygen) and the CPU reference (tracing with its own
+/// intersection) run the same code between traces:
+///
+/// ```text
+/// state = PathState::camera(...)
+/// while !state.done {
+///     hit = trace(state.origin, state.direction)         // radiance ray
+///     shadow = state.shade(hit, light, seed, max_depth)  // emission, NEE, bounce, roulette
+///     if shadow.contribution != 0 && visible(shadow) { state.radiance += shadow.contribution }
+/// }
+/// ```
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct PathState {
+    /// Origin of the next ray.
+    pub origin: Vec3,
+    /// Unit direction of the next ray.
+    pub direction: Vec3,
+    /// Product of the BRDF · cos / pdf factors so far.
+    pub throughput: Vec3,
+    /// Radiance gathered so far.
+    pub radiance: Vec3,
+    /// Bounces so far (0 for the camera ray).
+    pub depth: u32,
+    /// Whether the path has ended.
+    pub done: bool,
+}
+
+impl PathState {
+    /// The camera ray of pixel `index`, jittered with two numbers from `seed`.
+    pub fn camera(camera: &CameraFrame, index: UVec2, dims: UVec2, seed: &mut u32) -> PathState {
+        let jx = rnd(seed);
+        let jy = rnd(seed);
+        PathState {
+            origin: camera.eye,
+            direction: camera.direction(index, dims, jx, jy),
+            throughput: Vec3::ONE,
+            radiance: Vec3::ZERO,
+            depth: 0,
+            done: false,
+        }
+    }
+
+    /// Handles the radiance ray's result: counts emission seen by the camera ray,
+    /// samples the light (next-event estimation, returned as a shadow ray to
+    /// trace), picks the next direction (cosine-weighted) and plays Russian
+    /// roulette. Uses five numbers from `seed` per hit.
+    pub fn shade(&mut self, hit: &HitInfo, light: &Light, seed: &mut u32, max_depth: u32) -> ShadowRay {
+        let mut shadow =
+            ShadowRay { origin: Vec3::ZERO, direction: Vec3::Z, t_max: 0.0, contribution: Vec3::ZERO };
+        if hit.t < 0.0 {
+            self.done = true;
+            return shadow;
+        }
+        let p = self.origin + hit.t * self.direction;
+        let n = hit.normal;
+        if self.depth == 0 {
+            // Light reached directly from the camera; later bounces count the light
+            // through next-event estimation only.
+            self.radiance += self.throughput * hit.emission;
+        }
+
+        // Next-event estimation: one point on the light.
+        let light_point = light.point(rnd(seed), rnd(seed));
+        let to_light = light_point - p;
+        let distance = to_light.length();
+        let l = to_light / distance;
+        let n_dot_l = n.dot(l);
+        let ln_dot_l = -light.normal().dot(l);
+        shadow.origin = p;
+        shadow.direction = l;
+        shadow.t_max = distance - RAY_EPSILON;
+        if n_dot_l > 0.0 && ln_dot_l > 0.0 {
+            // BRDF · Le · cos θ · cos θ' / d² / pdf(area) with pdf = 1 / area.
+            let geometry = n_dot_l * ln_dot_l * light.area() / (distance * distance);
+            shadow.contribution = self.throughput * lambert_brdf(hit.albedo) * light.emission * geometry;
+        }
+
+        // Bounce: cosine-weighted sampling makes BRDF · cos / pdf = albedo.
+        let local = cosine_sample_hemisphere(rnd(seed), rnd(seed));
+        self.origin = p;
+        self.direction = onb_to_world(n, local);
+        self.throughput *= hit.albedo;
+        self.depth += 1;
+
+        let survive = rnd(seed);
+        if self.depth >= max_depth {
+            self.done = true;
+        } else if self.depth > ROULETTE_AFTER {
+            let q = self.throughput.max_element().min(ROULETTE_MAX_SURVIVAL);
+            if survive >= q {
+                self.done = true;
+            } else {
+                self.throughput /= q;
+            }
+        }
+        shadow
+    }
+}
+
+/// Linear → sRGB transfer of one channel in `[0, 1]`.
+pub fn linear_to_srgb(c: f32) -> f32 {
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * powf(c, 1.0 / 2.4) - 0.055
+    }
+}
+
+/// The tonemap of the PNG: exposure, Reinhard on each channel, sRGB, 8 bits,
+/// packed as RGBA8 (red in the lowest byte).
+pub fn tonemap(c: Vec3, exposure: f32) -> u32 {
+    let q = |v: f32| -> u32 {
+        let v = (v * exposure).max(0.0);
+        let mapped = v / (1.0 + v);
+        (linear_to_srgb(mapped.clamp(0.0, 1.0)) * 255.0 + 0.5) as u32
+    };
+    q(c.x) | (q(c.y) << 8) | (q(c.z) << 16) | (255 << 24)
+}
+
+#[cfg(all(test, not(target_arch = "spirv")))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tea_and_lcg_are_deterministic_and_spread() {
+        assert_eq!(tea4(12, 3), tea4(12, 3));
+        assert_ne!(tea4(12, 3), tea4(13, 3));
+        assert_ne!(tea4(12, 3), tea4(12, 4));
+        let mut s = 1u32;
+        assert_eq!(lcg(&mut s), (1_664_525u32 + 1_013_904_223) & 0x00ff_ffff);
+        let mut seed = pixel_seed(5, 0);
+        let mean = (0..10_000).map(|_| rnd(&mut seed) as f64).sum::<f64>() / 10_000.0;
+        assert!((mean - 0.5).abs() < 0.02, "{mean}");
+    }
+
+    #[test]
+    fn cosine_samples_lie_on_the_upper_unit_hemisphere() {
+        let mut seed = pixel_seed(7, 3);
+        for _ in 0..1000 {
+            let d = cosine_sample_hemisphere(rnd(&mut seed), rnd(&mut seed));
+            assert!((d.length() - 1.0).abs() < 1e-4 && d.z >= 0.0, "{d:?}");
+            let n = Vec3::new(0.3, -0.5, 0.8).normalize();
+            let w = onb_to_world(n, d);
+            assert!(w.dot(n) >= -1e-5 && (w.length() - 1.0).abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn a_miss_ends_the_path_without_light() {
+        let mut state = PathState {
+            origin: Vec3::ZERO,
+            direction: Vec3::Z,
+            throughput: Vec3::ONE,
+            radiance: Vec3::ZERO,
+            depth: 0,
+            done: false,
+        };
+        let light = Light { corner: Vec3::Y, v1: Vec3::X, v2: Vec3::Z, emission: Vec3::ONE };
+        let mut seed = 1;
+        let shadow = state.shade(&HitInfo::MISS, &light, &mut seed, 8);
+        assert!(state.done && state.radiance == Vec3::ZERO && shadow.contribution == Vec3::ZERO);
+    }
+}

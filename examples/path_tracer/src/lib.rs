@@ -1,0 +1,291 @@
+//! optixPathTracer on raykit: the host half.
+//!
+//! [`Renderer`] builds the Cornell box's acceleration structure (one GAS with a
+//! geometry per material group, so each group gets its own hit records), links
+//! the five programs (raygen, two miss programs, two hit groups: one ray type for
+//! radiance, one for shadows), lays out the SBT from the ray types, and launches
+//! progressively: each launch adds `samples` paths per pixel to an accumulation
+//! buffer, seeded by the launch index, so a render is the same whatever the
+//! launches are cut into. [`Image`] holds the result: linear radiance per pixel,
+//! written as PFM, and tonemapped to PNG.
+//!
+//! The device half, and the math and scene both halves share, are in the
+//! `path-tracer-device` crate. [`Programs::glsl`] loads a GLSL twin of the same
+//! programs (`glsl/`), used by the benchmarks.
+
+use std::io::Write as _;
+use std::path::Path;
+
+use path_tracer_device::math::{tonemap, CameraFrame};
+use path_tracer_device::scene::{self, MATERIALS, VERTICES};
+use path_tracer_device::{HitRecord, Params, Radiance, RaygenRecord, Shadow};
+use raykit::glam::{UVec2, Vec3, Vec4};
+use raykit::{Context, DeviceBuffer, Gas, GeometryFlags, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Triangles};
+
+pub use path_tracer_device as device;
+
+/// The camera basis of optixPathTracer's camera for an image of `aspect` =
+/// width / height (sutil's `Camera::UVWFrame`).
+pub fn camera_frame(aspect: f32) -> CameraFrame {
+    let w = scene::CAMERA_LOOK_AT - scene::CAMERA_EYE;
+    let w_len = w.length();
+    let u = w.cross(scene::CAMERA_UP).normalize();
+    let v = u.cross(w).normalize();
+    let v_len = w_len * (0.5 * scene::CAMERA_FOV_Y.to_radians()).tan();
+    let u_len = v_len * aspect;
+    CameraFrame { eye: scene::CAMERA_EYE, u: u * u_len, v: v * v_len, w }
+}
+
+/// The unit geometric normal of each triangle of [`VERTICES`].
+pub fn triangle_normals() -> Vec<Vec3> {
+    VERTICES.chunks_exact(3).map(|t| (t[1] - t[0]).cross(t[2] - t[0]).normalize()).collect()
+}
+
+/// The path tracer's five program groups.
+pub struct Programs {
+    /// `__raygen__rg`: the path loop.
+    pub raygen: ProgramGroup,
+    /// Miss program of radiance rays.
+    pub miss: ProgramGroup,
+    /// Miss program of shadow rays (the light is visible).
+    pub shadow_miss: ProgramGroup,
+    /// Hit group of radiance rays (reports the hit).
+    pub hit: ProgramGroup,
+    /// Hit group of shadow rays (its closest-hit never runs).
+    pub shadow_hit: ProgramGroup,
+}
+
+impl Programs {
+    /// The Rust programs of `path-tracer-device`.
+    pub fn rust(ctx: &Context) -> raykit::Result<Programs> {
+        Self::rust_from(&Module::from_device_crate(ctx, "path-tracer-device")?)
+    }
+
+    /// The Rust programs from an already loaded module.
+    pub fn rust_from(module: &Module) -> raykit::Result<Programs> {
+        use path_tracer_device::{CH, CH_SHADOW, MS, MS_SHADOW, RG};
+        Ok(Programs {
+            raygen: ProgramGroup::raygen(module, RG)?,
+            miss: ProgramGroup::miss(module, MS)?,
+            shadow_miss: ProgramGroup::miss(module, MS_SHADOW)?,
+            hit: ProgramGroup::hit_group(module).closest_hit(CH).build()?,
+            shadow_hit: ProgramGroup::hit_group(module).closest_hit(CH_SHADOW).build()?,
+        })
+    }
+
+    /// The GLSL twin (`glsl/`, compiled with glslang and `spirv-opt -O`): one
+    /// module per program, entry points `main`.
+    pub fn glsl(ctx: &Context) -> raykit::Result<Programs> {
+        let [rgen, rmiss, shadow_rmiss, rchit, shadow_rchit] = GLSL_SPIRV;
+        let raygen = Module::new(ctx, rgen.1)?;
+        let miss = Module::new(ctx, rmiss.1)?;
+        let shadow_miss = Module::new(ctx, shadow_rmiss.1)?;
+        let hit = Module::new(ctx, rchit.1)?;
+        let shadow_hit = Module::new(ctx, shadow_rchit.1)?;
+        Ok(Programs {
+            raygen: ProgramGroup::raygen(&raygen, "main")?,
+            miss: ProgramGroup::miss(&miss, "main")?,
+            shadow_miss: ProgramGroup::miss(&shadow_miss, "main")?,
+            hit: ProgramGroup::hit_group(&hit).closest_hit("main").build()?,
+            shadow_hit: ProgramGroup::hit_group(&shadow_hit).closest_hit("main").build()?,
+        })
+    }
+}
+
+/// The GLSL twin's SPIR-V files (name, bytes), as committed in `glsl/`.
+pub const GLSL_SPIRV: [(&str, &[u8]); 5] = [
+    ("path_tracer.rgen.spv", include_bytes!("../glsl/path_tracer.rgen.spv")),
+    ("path_tracer.rmiss.spv", include_bytes!("../glsl/path_tracer.rmiss.spv")),
+    ("shadow.rmiss.spv", include_bytes!("../glsl/shadow.rmiss.spv")),
+    ("path_tracer.rchit.spv", include_bytes!("../glsl/path_tracer.rchit.spv")),
+    ("shadow.rchit.spv", include_bytes!("../glsl/shadow.rchit.spv")),
+];
+
+/// The Cornell box's acceleration structures and triangle normals, shareable
+/// between renderers (the benchmarks run the Rust and GLSL programs on one scene).
+pub struct Scene {
+    /// The TLAS over the one GAS.
+    pub ias: Ias,
+    /// Per-triangle normals read by the closest-hit program.
+    pub normals: DeviceBuffer<Vec3>,
+}
+
+impl Scene {
+    /// Builds the GAS (one geometry per material group) and its TLAS.
+    pub fn new(ctx: &Context) -> raykit::Result<Scene> {
+        let mut builder = Gas::builder();
+        for group in MATERIALS {
+            let first = group.first_triangle as usize * 3;
+            let end = first + group.triangles as usize * 3;
+            builder = builder.triangles(Triangles::new(&VERTICES[first..end]).flags(GeometryFlags::OPAQUE));
+        }
+        let gas = builder.build(ctx)?;
+        let ias = Ias::single(ctx, &gas)?;
+        let normals = ctx.buffer_from(&triangle_normals())?;
+        Ok(Scene { ias, normals })
+    }
+}
+
+/// A linked path tracer for one image size: pipeline, SBT, accumulation buffer.
+pub struct Renderer {
+    pipeline: Pipeline<Params>,
+    sbt: Sbt,
+    accum: DeviceBuffer<Vec4>,
+    params: Params,
+    /// Paths per pixel accumulated so far.
+    samples_done: u32,
+    /// Launches so far (the next launch's seed).
+    subframe: u32,
+}
+
+impl Renderer {
+    /// Links `programs` and lays out the SBT for a `width × height` render of `scene`.
+    pub fn new(ctx: &Context, programs: &Programs, scene: &Scene, width: u32, height: u32) -> raykit::Result<Renderer> {
+        let Programs { raygen, miss, shadow_miss, hit, shadow_hit } = programs;
+        let pipeline =
+            Pipeline::<Params>::new(ctx, &[raygen, miss, shadow_miss, hit, shadow_hit], LinkOptions { max_trace_depth: 1 })?;
+        let mut sbt = Sbt::builder(&pipeline)
+            .raygen(raygen, RaygenRecord::new(&scene::LIGHT))
+            .miss_for::<Radiance, _>(miss, ())
+            .miss_for::<Shadow, _>(shadow_miss, ());
+        for (geometry, group) in MATERIALS.iter().enumerate() {
+            let record = HitRecord {
+                emission: group.emission,
+                first_triangle: group.first_triangle,
+                albedo: group.albedo,
+                _pad: 0,
+            };
+            sbt = sbt.hit_for::<Radiance, _>(geometry, hit, record).hit_for::<Shadow, _>(geometry, shadow_hit, ());
+        }
+        let sbt = sbt.build()?;
+        let accum = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let camera = camera_frame(width as f32 / height as f32);
+        let params = Params {
+            accum: accum.handle(),
+            normals: scene.normals.handle(),
+            size: UVec2::new(width, height),
+            subframe: 0,
+            samples: 1,
+            max_depth: scene::MAX_DEPTH,
+            _pad: 0,
+            cam_eye: camera.eye,
+            cam_u: camera.u,
+            cam_v: camera.v,
+            cam_w: camera.w,
+            handle: scene.ias.handle(),
+        };
+        Ok(Renderer { pipeline, sbt, accum, params, samples_done: 0, subframe: 0 })
+    }
+
+    /// Image size.
+    pub fn size(&self) -> UVec2 {
+        self.params.size
+    }
+
+    /// Paths per pixel accumulated so far.
+    pub fn samples_done(&self) -> u32 {
+        self.samples_done
+    }
+
+    /// Starts over: the next launch overwrites the accumulation buffer and uses
+    /// the first seed again.
+    pub fn reset(&mut self) {
+        self.samples_done = 0;
+        self.subframe = 0;
+    }
+
+    /// One launch adding `samples` paths per pixel; waits for it.
+    pub fn launch(&mut self, samples: u32) -> raykit::Result<()> {
+        let params = Params { subframe: self.subframe, samples, ..self.params };
+        let size = self.params.size;
+        self.pipeline.launch(&self.sbt, &params, [size.x, size.y, 1])?;
+        self.subframe += 1;
+        self.samples_done += samples;
+        Ok(())
+    }
+
+    /// [`Renderer::launch`] timed by GPU timestamps around the trace.
+    pub fn launch_timed(&mut self, samples: u32, timer: &raykit::LaunchTimer) -> raykit::Result<std::time::Duration> {
+        let params = Params { subframe: self.subframe, samples, ..self.params };
+        let size = self.params.size;
+        let time = self.pipeline.launch_timed(&self.sbt, &params, [size.x, size.y, 1], timer)?;
+        self.subframe += 1;
+        self.samples_done += samples;
+        Ok(time)
+    }
+
+    /// The launch params of the next launch of `samples` paths (for code that
+    /// launches the same pipeline by other means, such as the benchmarks).
+    pub fn next_params(&self, samples: u32) -> Params {
+        Params { subframe: self.subframe, samples, ..self.params }
+    }
+
+    /// The pipeline.
+    pub fn pipeline(&self) -> &Pipeline<Params> {
+        &self.pipeline
+    }
+
+    /// The SBT.
+    pub fn sbt(&self) -> &Sbt {
+        &self.sbt
+    }
+
+    /// Reads the accumulation buffer back: mean radiance per pixel and the rays
+    /// traced so far.
+    pub fn image(&self) -> raykit::Result<Image> {
+        let accum = self.accum.read()?;
+        let n = self.samples_done.max(1) as f32;
+        let radiance = accum.iter().map(|a| a.truncate() / n).collect();
+        let rays = accum.iter().map(|a| a.w as f64).sum::<f64>() as u64;
+        Ok(Image { width: self.params.size.x, height: self.params.size.y, radiance, rays })
+    }
+
+    /// Rays traced so far (reads the accumulation buffer back).
+    pub fn rays(&self) -> raykit::Result<u64> {
+        Ok(self.accum.read()?.iter().map(|a| a.w as f64).sum::<f64>() as u64)
+    }
+}
+
+/// A rendered image: mean linear radiance per pixel, row 0 at the top.
+#[derive(Clone, Debug)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Mean radiance per pixel, row-major.
+    pub radiance: Vec<Vec3>,
+    /// Rays traced (radiance and shadow rays) for all samples so far.
+    pub rays: u64,
+}
+
+impl Image {
+    /// Tonemapped RGBA8 pixels (exposure, Reinhard, sRGB).
+    pub fn tonemapped(&self, exposure: f32) -> Vec<u32> {
+        self.radiance.iter().map(|&c| tonemap(c, exposure)).collect()
+    }
+
+    /// Writes the tonemapped image as PNG.
+    pub fn write_png(&self, path: &Path, exposure: f32) -> anyhow::Result<()> {
+        let bytes: Vec<u8> = self.tonemapped(exposure).iter().flat_map(|p| p.to_le_bytes()).collect();
+        image::save_buffer(path, &bytes, self.width, self.height, image::ExtendedColorType::Rgba8)?;
+        Ok(())
+    }
+
+    /// Writes the linear radiance as a PFM file (little-endian RGB floats, rows
+    /// bottom to top, as the format wants).
+    pub fn write_pfm(&self, path: &Path) -> anyhow::Result<()> {
+        let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+        write!(out, "PF\n{} {}\n-1.0\n", self.width, self.height)?;
+        for row in (0..self.height as usize).rev() {
+            let start = row * self.width as usize;
+            for c in &self.radiance[start..start + self.width as usize] {
+                for v in [c.x, c.y, c.z] {
+                    out.write_all(&v.to_le_bytes())?;
+                }
+            }
+        }
+        out.flush()?;
+        Ok(())
+    }
+}

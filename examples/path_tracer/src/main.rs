@@ -1,0 +1,90 @@
+//! `cargo run --release -p path_tracer -- [--width W] [--height H] [--spp N] [--output FILE.png]`:
+//! renders optixPathTracer's Cornell box progressively, with a progress bar, to a
+//! tonemapped PNG and the linear radiance as PFM next to it.
+//!
+//! Build the shaders first (`cargo xtask build-shaders`), or run `cargo xtask demo`.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context as _;
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressStyle};
+use path_tracer::{Programs, Renderer, Scene};
+
+/// Renders the Cornell box with raykit's path tracer.
+#[derive(Parser)]
+#[command(name = "path_tracer", about = "optixPathTracer's Cornell box on raykit")]
+struct Cli {
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512)]
+    width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 512)]
+    height: u32,
+    /// Paths per pixel in all.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Paths per pixel per launch (the progress bar moves once per launch).
+    #[arg(long, default_value_t = 4)]
+    spp_per_launch: u32,
+    /// The tonemapped PNG; the linear radiance goes to the same path with `.pfm`.
+    #[arg(long, short, default_value = "path_tracer.png")]
+    output: PathBuf,
+    /// Exposure applied before the tonemap.
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    /// Use the GLSL twin of the device programs instead of the Rust ones.
+    #[arg(long)]
+    glsl: bool,
+    /// Use the first ray-tracing device whose name contains this.
+    #[arg(long)]
+    device: Option<String>,
+}
+
+fn main() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    anyhow::ensure!(cli.width > 0 && cli.height > 0, "--width and --height must be at least 1");
+    anyhow::ensure!(cli.spp > 0 && cli.spp_per_launch > 0, "--spp and --spp-per-launch must be at least 1");
+    let ctx = raykit::Context::new(raykit::ContextOptions { device_name_contains: cli.device.clone(), ..Default::default() })?;
+    let programs = if cli.glsl { Programs::glsl(&ctx)? } else { Programs::rust(&ctx)? };
+    let scene = Scene::new(&ctx)?;
+    let mut renderer = Renderer::new(&ctx, &programs, &scene, cli.width, cli.height)?;
+
+    let bar = ProgressBar::new(cli.spp as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} spp  {msg}")
+            .context("progress bar template")?,
+    );
+    let started = Instant::now();
+    while renderer.samples_done() < cli.spp {
+        let samples = cli.spp_per_launch.min(cli.spp - renderer.samples_done());
+        renderer.launch(samples)?;
+        let rays = renderer.rays()?;
+        let seconds = started.elapsed().as_secs_f64();
+        bar.set_message(format!("{:.2} Mrays/s", rays as f64 / seconds / 1e6));
+        bar.set_position(renderer.samples_done() as u64);
+    }
+    bar.finish();
+    let seconds = started.elapsed().as_secs_f64();
+    let image = renderer.image()?;
+    if let Some(dir) = cli.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    image.write_png(&cli.output, cli.exposure)?;
+    let pfm = cli.output.with_extension("pfm");
+    image.write_pfm(&pfm)?;
+    println!(
+        "rendered {}x{} at {} spp on {} in {seconds:.2} s ({} rays, {:.2} Mrays/s, {} programs) to {} and {}",
+        cli.width,
+        cli.height,
+        cli.spp,
+        ctx.device_name(),
+        image.rays,
+        image.rays as f64 / seconds / 1e6,
+        if cli.glsl { "GLSL" } else { "Rust" },
+        cli.output.display(),
+        pfm.display()
+    );
+    Ok(())
+}

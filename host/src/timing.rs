@@ -1,0 +1,103 @@
+//! GPU-timed launches, for benchmarks: [`LaunchTimer`] holds a timestamp query
+//! pool, and [`Pipeline::launch_timed`] launches as [`Pipeline::launch`] does,
+//! with timestamps written right before and after `vkCmdTraceRaysKHR`, and
+//! returns the GPU time between them. See
+//! [`vkCmdWriteTimestamp`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCmdWriteTimestamp.html)
+//! and [timestamp queries](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#queries-timestamps).
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use ash::vk;
+
+use crate::context::{Context, ContextInner};
+use crate::error::{Error, Result};
+use crate::pipeline::Pipeline;
+use crate::sbt::Sbt;
+
+/// A timestamp query pool of two queries, and how to turn ticks into time.
+pub struct LaunchTimer {
+    ctx: Arc<ContextInner>,
+    pool: vk::QueryPool,
+    period_ns: f64,
+    valid_bits: u32,
+}
+
+impl LaunchTimer {
+    /// A timer for launches on `ctx`; `None` when its queue has no timestamps
+    /// (`timestampValidBits == 0` or a zero `timestampPeriod`).
+    pub fn new(ctx: &Context) -> Result<Option<LaunchTimer>> {
+        let inner = &ctx.inner;
+        let Some((period_ns, valid_bits)) = timestamp_support(ctx)? else {
+            return Ok(None);
+        };
+        let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2);
+        // SAFETY: valid create info on a live device.
+        let pool = unsafe { inner.device.create_query_pool(&info, None) }.map_err(Error::vk("vkCreateQueryPool"))?;
+        Ok(Some(LaunchTimer { ctx: inner.clone(), pool, period_ns, valid_bits }))
+    }
+
+    /// Nanoseconds per timestamp tick.
+    pub fn period_ns(&self) -> f64 {
+        self.period_ns
+    }
+}
+
+impl Drop for LaunchTimer {
+    fn drop(&mut self) {
+        // SAFETY: the pool is not in use: every launch using it was waited for.
+        unsafe { self.ctx.device.destroy_query_pool(self.pool, None) };
+    }
+}
+
+/// The queue's timestamp period (ns) and valid bits, if it has timestamps.
+fn timestamp_support(ctx: &Context) -> Result<Option<(f64, u32)>> {
+    let inner = &ctx.inner;
+    let instance = &inner.instance;
+    // SAFETY: the instance is alive. The context keeps no physical-device handle;
+    // the one with its name and queue family stands for it (devices of one name
+    // have one set of properties).
+    let physicals = unsafe { instance.enumerate_physical_devices() }.map_err(Error::vk("vkEnumeratePhysicalDevices"))?;
+    for physical in physicals {
+        // SAFETY: `physical` came from this instance.
+        let props = unsafe { instance.get_physical_device_properties(physical) };
+        let name = props.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        if name != ctx.device_name() {
+            continue;
+        }
+        // SAFETY: as above.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+        let Some(family) = families.get(ctx.queue_family() as usize) else { continue };
+        let period = props.limits.timestamp_period as f64;
+        if family.timestamp_valid_bits == 0 || period <= 0.0 {
+            return Ok(None);
+        }
+        return Ok(Some((period, family.timestamp_valid_bits)));
+    }
+    Ok(None)
+}
+
+impl<P: raykit_device::LaunchParams> Pipeline<P> {
+    /// [`Pipeline::launch`] with GPU timestamps around the trace: returns the GPU
+    /// time of `vkCmdTraceRaysKHR` alone (without binding, submission and wait).
+    pub fn launch_timed(&self, sbt: &Sbt, params: &P, dims: [u32; 3], timer: &LaunchTimer) -> Result<Duration> {
+        if !Arc::ptr_eq(&timer.ctx, &self.inner.ctx) {
+            return Err(Error::ContextMismatch);
+        }
+        self.launch_recording(sbt, params, dims, Some(timer.pool))?;
+        let mut ticks = [0u64; 2];
+        // SAFETY: both queries were written by the launch just waited for.
+        unsafe {
+            timer.ctx.device.get_query_pool_results(
+                timer.pool,
+                0,
+                &mut ticks,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
+        }
+        .map_err(Error::vk("vkGetQueryPoolResults"))?;
+        let mask = if timer.valid_bits >= 64 { u64::MAX } else { (1u64 << timer.valid_bits) - 1 };
+        let elapsed = ticks[1].wrapping_sub(ticks[0]) & mask;
+        Ok(Duration::from_nanos((elapsed as f64 * timer.period_ns) as u64))
+    }
+}
