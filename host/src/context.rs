@@ -425,55 +425,6 @@ impl ContextInner {
         // way that matters more than losing the allocation; keep going.
         self.allocator.lock().unwrap_or_else(|p| p.into_inner())
     }
-
-    /// Records commands with `record`, submits them and waits for completion.
-    pub(crate) fn submit_and_wait(
-        &self,
-        during: &'static str,
-        record: impl FnOnce(vk::CommandBuffer),
-    ) -> Result<()> {
-        let device = &self.device;
-        let pool = self.command_pool.lock().unwrap_or_else(|p| p.into_inner());
-        let alloc_info = vk::CommandBufferAllocateInfo::default()
-            .command_pool(*pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        // SAFETY: the pool is externally synchronised by the mutex held.
-        let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }
-            .map_err(Error::vk("vkAllocateCommandBuffers"))?[0];
-        let result = (|| {
-            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-            // SAFETY: freshly allocated command buffer, recorded on this thread only.
-            unsafe { device.begin_command_buffer(cmd, &begin) }.map_err(Error::vk("vkBeginCommandBuffer"))?;
-            record(cmd);
-            // SAFETY: as above.
-            unsafe { device.end_command_buffer(cmd) }.map_err(Error::vk("vkEndCommandBuffer"))?;
-            // SAFETY: valid device.
-            let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
-                .map_err(Error::vk("vkCreateFence"))?;
-            let cmds = [cmd];
-            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-            let submitted = {
-                let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
-                // SAFETY: the queue is externally synchronised by its mutex; the
-                // command buffer is fully recorded.
-                unsafe { device.queue_submit(*queue, &submit, fence) }
-            };
-            let waited = submitted.and_then(|()| {
-                // SAFETY: the fence belongs to this device.
-                unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }
-            });
-            // SAFETY: the fence is signalled (or never submitted) and no longer used.
-            unsafe { device.destroy_fence(fence, None) };
-            waited.map_err(|e| match e {
-                vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during },
-                other => Error::Vulkan { call: "vkQueueSubmit/vkWaitForFences", result: other },
-            })
-        })();
-        // SAFETY: the command buffer is no longer executing (waited, or never submitted).
-        unsafe { device.free_command_buffers(*pool, &[cmd]) };
-        result
-    }
 }
 
 /// Work submitted to the queue and not yet waited for: a recorded command buffer

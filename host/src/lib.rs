@@ -21,6 +21,7 @@ pub use raykit_device::layout::{BlockMember, BlockType, LayoutError, ParamsBlock
 pub use log::{MessageLog, Severity, ValidationMessage};
 pub use memory::DeviceBuffer;
 pub use module::{spirv_path, EntryPointInfo, Module};
+pub use launch::Launch;
 pub use pipeline::{params_delivery, LinkOptions, Pipeline, Specialization};
 pub use program_group::{EntryName, HitGroupBuilder, ProgramGroup};
 pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
