@@ -15,6 +15,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use ash::vk;
 
 use crate::buffer_table::BufferTable;
+use crate::cache::{CacheKey, DiskCache, PipelineCacheInfo, PipelineCacheLocation};
 use crate::error::{DeviceReport, Error, Result};
 use crate::log::{MessageLog, Severity, ValidationMessage};
 
@@ -36,6 +37,9 @@ pub struct ContextOptions {
     pub validation: Option<bool>,
     /// Use the first ray-tracing device whose name contains this string.
     pub device_name_contains: Option<String>,
+    /// Where the on-disk compile cache lives, or [`PipelineCacheLocation::Off`]
+    /// (see [`crate::cache`]). On by default.
+    pub pipeline_cache: PipelineCacheLocation,
 }
 
 /// Ray-tracing limits and SBT layout constants of the device.
@@ -92,6 +96,8 @@ pub(crate) struct ContextInner {
     pub(crate) buffer_table: ManuallyDrop<BufferTable>,
     pub(crate) limits: DeviceLimits,
     device_name: String,
+    /// The compile cache every pipeline creation goes through.
+    pub(crate) pipeline_cache: DiskCache,
 }
 
 // SAFETY: the raw `log_ptr` points at a `MessageLog` (itself Send + Sync) that lives
@@ -372,6 +378,9 @@ impl Context {
         .map_err(|source| Error::Allocation { what: "the memory allocator", source })?;
         let buffer_table = BufferTable::new(&device, instance, physical_device)?;
         std::mem::forget(pool_guard);
+        // SAFETY: `physical_device` belongs to `instance`.
+        let properties = unsafe { instance.get_physical_device_properties(physical_device) };
+        let pipeline_cache = DiskCache::open(&device, CacheKey::of(&properties), &options.pipeline_cache);
 
         let device = device_guard.take();
         let (entry, instance, debug) = partial.take();
@@ -392,6 +401,7 @@ impl Context {
                 buffer_table: ManuallyDrop::new(buffer_table),
                 limits,
                 device_name,
+                pipeline_cache,
             }),
         })
     }
@@ -416,6 +426,19 @@ impl Context {
     /// The queue family used for all work.
     pub fn queue_family(&self) -> u32 {
         self.inner.queue_family
+    }
+
+    /// The compile cache: its file, whether it was loaded (warm), missing (cold)
+    /// or refused, and its current size. See [`crate::cache`].
+    pub fn pipeline_cache_info(&self) -> PipelineCacheInfo {
+        self.inner.pipeline_cache.info(&self.inner.device)
+    }
+
+    /// Writes the compile cache to its file now (it is also written when the
+    /// context is destroyed); returns the file, or `None` when the cache is off or
+    /// empty.
+    pub fn save_pipeline_cache(&self) -> Result<Option<std::path::PathBuf>> {
+        self.inner.pipeline_cache.save(&self.inner.device)
     }
 }
 
@@ -565,6 +588,10 @@ impl Drop for ContextInner {
         // reverse order of creation, the messenger last so it reports leaks.
         unsafe {
             let _ = self.device.device_wait_idle();
+            // Errors cannot be returned from drop; `Context::save_pipeline_cache`
+            // reports them to whoever wants to know.
+            let _ = self.pipeline_cache.save(&self.device);
+            self.pipeline_cache.destroy(&self.device);
             ManuallyDrop::take(&mut self.buffer_table).destroy(&self.device);
             ManuallyDrop::drop(&mut self.allocator);
             let pool = self.command_pool.get_mut().unwrap_or_else(|p| p.into_inner());

@@ -3,6 +3,7 @@
 
 pub mod accel;
 mod buffer_table;
+pub mod cache;
 pub mod context;
 pub mod error;
 pub mod launch;
@@ -15,6 +16,7 @@ pub mod sbt;
 pub mod stack;
 
 pub use accel::{Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance, InstanceFlags, PendingBuild, Triangles};
+pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Context, ContextOptions, DeviceLimits};
 pub use error::{DeviceReport, Error, Result, UserException};
 pub use raykit_device::layout::{BlockMember, BlockType, LayoutError, ParamsBlock, ParamsDelivery};

@@ -400,7 +400,7 @@ impl<P: LaunchParams> Pipeline<P> {
         let pipelines = unsafe {
             inner.rt.create_ray_tracing_pipelines(
                 vk::DeferredOperationKHR::null(),
-                vk::PipelineCache::null(),
+                inner.pipeline_cache.handle,
                 &create_info,
                 None,
             )

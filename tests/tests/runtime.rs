@@ -3,8 +3,8 @@
 
 use program_model_device::{pack, Params, Radiance, SHADE_MODE_SPEC_ID, SPEC_COLORS};
 use raykit::glam::{Affine3A, UVec2, Vec3, Vec4};
-use raykit::{Gas, Ias, Instance, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Specialization};
-use raykit_tests::with_context;
+use raykit::{CacheLoad, Context, ContextOptions, Gas, Ias, Instance, LinkOptions, Module, Pipeline, PipelineCacheLocation, ProgramGroup, Sbt, Specialization};
+use raykit_tests::{temp_dir, with_context, with_context_options};
 
 #[test]
 fn two_pipelines_from_one_module_specialized_differently_render_differently() -> anyhow::Result<()> {
@@ -100,6 +100,99 @@ fn async_launches_report_their_own_user_exceptions() -> anyhow::Result<()> {
             Err(raykit::Error::UserExceptions { total, .. }) => assert_eq!(total, 2),
             other => anyhow::bail!("expected two user exceptions, got {other:?}"),
         }
+        Ok(())
+    })
+}
+
+/// Links the specialization scene's pipeline (constant `mode`), renders 16×16 and
+/// returns the centre pixel.
+fn render_spec_centre(ctx: &Context, mode: u32) -> anyhow::Result<u32> {
+    let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
+    let scene = Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
+    let module = Module::from_device_crate(ctx, "program-model-device")?;
+    let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+    let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
+    let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SPEC_SHADE).build()?;
+    let constants = Specialization::new().set(SHADE_MODE_SPEC_ID, mode);
+    let pipeline = Pipeline::<Params>::with_specialization(ctx, &[&raygen, &miss, &hit], LinkOptions::default(), &constants)?;
+    let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build()?;
+    let image = ctx.buffer::<u32>(16 * 16)?;
+    let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+    let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+    pipeline.launch(&sbt, &params, [16, 16, 1])?;
+    Ok(image.read()?[8 * 16 + 8])
+}
+
+fn cache_in(dir: &std::path::Path) -> ContextOptions {
+    ContextOptions { pipeline_cache: PipelineCacheLocation::Dir(dir.to_owned()), ..Default::default() }
+}
+
+#[test]
+fn a_warm_compile_cache_is_written_and_loaded_by_the_next_context() -> anyhow::Result<()> {
+    let dir = temp_dir("warm-cache")?;
+    let mut file = None;
+    with_context_options("compile cache, cold", cache_in(&dir.0), |ctx| {
+        let info = ctx.pipeline_cache_info();
+        assert_eq!(info.load, CacheLoad::Missing);
+        assert!(info.path.as_ref().is_some_and(|p| p.starts_with(&dir.0)), "cache file {:?} outside {:?}", info.path, dir.0);
+        assert_eq!(render_spec_centre(ctx, 1)?, pack(SPEC_COLORS[1]));
+        let after = ctx.pipeline_cache_info();
+        eprintln!("compile cache after one pipeline: {} bytes", after.current_bytes);
+        file = after.path;
+        Ok(())
+    })?;
+    let file = file.ok_or_else(|| anyhow::anyhow!("no cache file path"))?;
+    assert!(file.exists(), "{} was not written when the context was destroyed", file.display());
+    with_context_options("compile cache, warm", cache_in(&dir.0), |ctx| {
+        let info = ctx.pipeline_cache_info();
+        let CacheLoad::Loaded { bytes } = info.load else { anyhow::bail!("the warm cache was not loaded: {:?}", info.load) };
+        assert!(bytes >= 32, "{bytes} bytes loaded");
+        assert_eq!(render_spec_centre(ctx, 1)?, pack(SPEC_COLORS[1]));
+        Ok(())
+    })
+}
+
+#[test]
+fn a_corrupt_compile_cache_is_refused_and_rebuilt_without_failing_pipelines() -> anyhow::Result<()> {
+    let dir = temp_dir("corrupt-cache")?;
+    // Make a valid file, then damage it in two ways.
+    let mut file = None;
+    with_context_options("compile cache, first", cache_in(&dir.0), |ctx| {
+        render_spec_centre(ctx, 0)?;
+        file = ctx.save_pipeline_cache()?;
+        Ok(())
+    })?;
+    let file = file.ok_or_else(|| anyhow::anyhow!("save_pipeline_cache wrote nothing"))?;
+    let good = std::fs::read(&file)?;
+    let mut flipped = good.clone();
+    let last = flipped.len() - 1;
+    flipped[last] ^= 0x5a;
+    for (damage, bytes) in [("a flipped byte", flipped), ("a truncated file", good[..good.len() / 2].to_vec()), ("garbage", b"not a cache".to_vec())] {
+        std::fs::write(&file, &bytes)?;
+        with_context_options("compile cache, corrupt", cache_in(&dir.0), |ctx| {
+            let info = ctx.pipeline_cache_info();
+            let CacheLoad::Rejected { reason } = &info.load else { anyhow::bail!("{damage} was not refused: {:?}", info.load) };
+            eprintln!("{damage}: refused: {reason}");
+            assert_eq!(render_spec_centre(ctx, 0)?, pack(SPEC_COLORS[0]), "{damage}");
+            Ok(())
+        })?;
+        // Rebuilt: the next context loads it.
+        with_context_options("compile cache, rebuilt", cache_in(&dir.0), |ctx| {
+            let load = ctx.pipeline_cache_info().load;
+            anyhow::ensure!(matches!(load, CacheLoad::Loaded { .. }), "after {damage}, the rewritten cache was not loaded: {load:?}");
+            Ok(())
+        })?;
+    }
+    Ok(())
+}
+
+#[test]
+fn the_compile_cache_can_be_turned_off() -> anyhow::Result<()> {
+    with_context_options("compile cache off", ContextOptions { pipeline_cache: PipelineCacheLocation::Off, ..Default::default() }, |ctx| {
+        let info = ctx.pipeline_cache_info();
+        assert_eq!((info.path, info.load), (None, CacheLoad::Off));
+        assert_eq!(ctx.save_pipeline_cache()?, None);
+        assert_eq!(render_spec_centre(ctx, 1)?, pack(SPEC_COLORS[1]));
         Ok(())
     })
 }
