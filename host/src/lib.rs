@@ -32,3 +32,23 @@ pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
 pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, Traversable};
+
+/// Host objects are `Send + Sync`: each may be shared by threads, with the external
+/// synchronisation Vulkan requires (queue, command pool, allocator, descriptor
+/// updates) done inside raykit behind locks.
+#[allow(dead_code)]
+fn host_objects_are_send_and_sync<P: LaunchParams, T: raykit_device::Element + Send + Sync>() {
+    fn check<X: Send + Sync>() {}
+    check::<Context>();
+    check::<Module>();
+    check::<ProgramGroup>();
+    check::<Pipeline<P>>();
+    check::<Sbt>();
+    check::<Launch>();
+    check::<Gas>();
+    check::<Ias>();
+    check::<PendingBuild<Gas>>();
+    check::<PendingBuild<Ias>>();
+    check::<DeviceBuffer<T>>();
+    check::<MessageLog>();
+}

@@ -196,3 +196,24 @@ fn the_compile_cache_can_be_turned_off() -> anyhow::Result<()> {
         Ok(())
     })
 }
+
+#[test]
+fn eight_threads_create_modules_and_pipelines_and_launch_concurrently() -> anyhow::Result<()> {
+    with_context("eight_threads_create_modules_and_pipelines_and_launch_concurrently", |ctx| {
+        let results: Vec<anyhow::Result<(u32, u32)>> = std::thread::scope(|scope| {
+            let threads: Vec<_> = (0..8u32)
+                .map(|i| scope.spawn(move || -> anyhow::Result<(u32, u32)> {
+                    // Each thread: its own GAS, IAS, module, groups, pipeline, SBT and launch.
+                    let mode = i % 2;
+                    Ok((mode, render_spec_centre(ctx, mode)?))
+                }))
+                .collect();
+            threads.into_iter().map(|t| t.join().unwrap_or_else(|_| Err(anyhow::anyhow!("a thread panicked")))).collect()
+        });
+        for result in results {
+            let (mode, centre) = result?;
+            assert_eq!(centre, pack(SPEC_COLORS[mode as usize]));
+        }
+        Ok(())
+    })
+}
