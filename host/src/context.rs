@@ -17,7 +17,7 @@ use ash::vk;
 use crate::buffer_table::BufferTable;
 use crate::cache::{CacheKey, DiskCache, PipelineCacheInfo, PipelineCacheLocation};
 use crate::error::{DeviceReport, Error, Result};
-use crate::log::{MessageLog, Severity, ValidationMessage};
+use crate::log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
 
 /// Device extensions raykit needs.
 const REQUIRED_EXTENSIONS: [&CStr; 3] = [
@@ -40,6 +40,10 @@ pub struct ContextOptions {
     /// Where the on-disk compile cache lives, or [`PipelineCacheLocation::Off`]
     /// (see [`crate::cache`]). On by default.
     pub pipeline_cache: PipelineCacheLocation,
+    /// Called with every warning and error the debug messenger reports (OptiX's
+    /// log callback; see [`crate::log`]). Turns `VK_EXT_debug_utils` on even
+    /// without validation, where the loader has it.
+    pub log_callback: Option<LogCallback>,
 }
 
 /// Ray-tracing limits and SBT layout constants of the device.
@@ -98,6 +102,8 @@ pub(crate) struct ContextInner {
     device_name: String,
     /// The compile cache every pipeline creation goes through.
     pub(crate) pipeline_cache: DiskCache,
+    /// `vkSetDebugUtilsObjectNameEXT`, when VK_EXT_debug_utils is on.
+    debug_names: Option<ash::ext::debug_utils::Device>,
 }
 
 // SAFETY: the raw `log_ptr` points at a `MessageLog` (itself Send + Sync) that lives
@@ -131,6 +137,18 @@ unsafe extern "system" fn debug_callback(
         } else {
             CStr::from_ptr(data.p_message_id_name).to_string_lossy().into_owned()
         };
+        let objects = if data.p_objects.is_null() || data.object_count == 0 {
+            Vec::new()
+        } else {
+            std::slice::from_raw_parts(data.p_objects, data.object_count as usize)
+                .iter()
+                .map(|o| LoggedObject {
+                    object_type: format!("{:?}", o.object_type),
+                    handle: o.object_handle,
+                    name: (!o.p_object_name.is_null()).then(|| CStr::from_ptr(o.p_object_name).to_string_lossy().into_owned()),
+                })
+                .collect()
+        };
         let severity = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
             Severity::Error
         } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
@@ -138,7 +156,7 @@ unsafe extern "system" fn debug_callback(
         } else {
             Severity::Info
         };
-        log.push(ValidationMessage { severity, id, text });
+        log.push(ValidationMessage { severity, id, text, objects });
     }
     vk::FALSE
 }
@@ -255,6 +273,15 @@ impl Context {
 
         let mut layers: Vec<*const std::ffi::c_char> = Vec::new();
         let mut instance_extensions: Vec<*const std::ffi::c_char> = Vec::new();
+        // The messenger (and debug names) need VK_EXT_debug_utils: always there with
+        // the validation layer; for a log callback alone, where the loader has it.
+        // SAFETY: plain enumeration call.
+        let loader_has_debug_utils = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .is_ok_and(|exts| exts.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::debug_utils::NAME)));
+        let debug = validation || (options.log_callback.is_some() && loader_has_debug_utils);
+        if debug && !validation {
+            instance_extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
         if validation {
             // SAFETY: plain enumeration call.
             let available = unsafe { entry.enumerate_instance_layer_properties() }
@@ -269,7 +296,7 @@ impl Context {
             .application_name(c"raykit")
             .engine_name(c"raykit")
             .api_version(vk::API_VERSION_1_2);
-        let log = MessageLog::default();
+        let log = MessageLog::with_callback(options.log_callback.clone());
         let log_ptr = Box::into_raw(Box::new(log.clone())) as *const MessageLog;
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(
@@ -286,7 +313,7 @@ impl Context {
             .application_info(&app_info)
             .enabled_layer_names(&layers)
             .enabled_extension_names(&instance_extensions);
-        if validation {
+        if debug {
             // Also catches messages of instance creation and destruction.
             instance_info = instance_info.push_next(&mut messenger_info);
         }
@@ -303,7 +330,7 @@ impl Context {
         let mut partial = Partial { entry: Some(entry), instance: Some(instance), debug: None, log_ptr };
         let instance = partial.instance();
         let entry = partial.entry();
-        if validation {
+        if debug {
             let debug_utils = ash::ext::debug_utils::Instance::new(entry, instance);
             // SAFETY: the create info is valid; the callback's user data outlives the messenger.
             let messenger = unsafe { debug_utils.create_debug_utils_messenger(&messenger_info, None) }
@@ -356,6 +383,7 @@ impl Context {
         let device_guard = DeviceGuard(Some(device.clone()));
 
         let limits = query_limits(instance, physical_device);
+        let debug_names = debug.then(|| ash::ext::debug_utils::Device::new(instance, &device));
         let rt = ash::khr::ray_tracing_pipeline::Device::new(instance, &device);
         let accel = ash::khr::acceleration_structure::Device::new(instance, &device);
         // SAFETY: queue family and index 0 were requested at device creation.
@@ -402,6 +430,7 @@ impl Context {
                 limits,
                 device_name,
                 pipeline_cache,
+                debug_names,
             }),
         })
     }
@@ -428,6 +457,24 @@ impl Context {
         self.inner.queue_family
     }
 
+    /// Names `handle` (an object of this context's device) for validation messages
+    /// and debugging tools (`vkSetDebugUtilsObjectNameEXT`); does nothing without
+    /// VK_EXT_debug_utils. raykit names the objects it makes itself.
+    pub fn set_debug_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        self.inner.set_name(handle, name);
+    }
+
+    /// The `ash` device, to make Vulkan calls raykit does not wrap.
+    ///
+    /// # Safety
+    /// Objects made through it must be destroyed before the context, and objects
+    /// raykit owns must not be destroyed or used against the rules of the Vulkan
+    /// specification (for the queue and raykit's command pool, which raykit
+    /// synchronises internally: not at all).
+    pub unsafe fn raw_device(&self) -> &ash::Device {
+        &self.inner.device
+    }
+
     /// The compile cache: its file, whether it was loaded (warm), missing (cold)
     /// or refused, and its current size. See [`crate::cache`].
     pub fn pipeline_cache_info(&self) -> PipelineCacheInfo {
@@ -443,6 +490,17 @@ impl Context {
 }
 
 impl ContextInner {
+    /// Gives `handle` a debug name, so validation messages and tools name it. Does
+    /// nothing without VK_EXT_debug_utils.
+    pub(crate) fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        let Some(debug) = &self.debug_names else { return };
+        let Ok(name) = std::ffi::CString::new(name) else { return };
+        let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&name);
+        // SAFETY: `handle` is a live object of this device (callers name what they
+        // just made); naming needs no external synchronisation of the object.
+        let _ = unsafe { debug.set_debug_utils_object_name(&info) };
+    }
+
     pub(crate) fn allocator(&self) -> MutexGuard<'_, gpu_allocator::vulkan::Allocator> {
         // A panic while holding the lock cannot leave the allocator half-updated in a
         // way that matters more than losing the allocation; keep going.

@@ -20,7 +20,7 @@ pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Context, ContextOptions, DeviceLimits};
 pub use error::{DeviceReport, Error, Result, UserException};
 pub use raykit_device::layout::{BlockMember, BlockType, LayoutError, ParamsBlock, ParamsDelivery};
-pub use log::{MessageLog, Severity, ValidationMessage};
+pub use log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
 pub use memory::DeviceBuffer;
 pub use module::{spirv_path, EntryPointInfo, Module};
 pub use launch::Launch;
@@ -29,6 +29,7 @@ pub use program_group::{EntryName, HitGroupBuilder, ProgramGroup};
 pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
 pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
 
+pub use ash;
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
 pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, Traversable};

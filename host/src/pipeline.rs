@@ -104,6 +104,8 @@ pub(crate) struct PipelineInner {
     /// compiled together (the pipeline itself, or each linked library). Launches
     /// zero and copy them on the device (see [`crate::launch`]).
     pub(crate) exceptions: Vec<Arc<ExceptionBuffer>>,
+    /// Messages reported while it was created.
+    pub(crate) log: Vec<crate::log::ValidationMessage>,
 }
 
 /// A pipeline's user-exception buffer (see `raykit_device::exception`): a
@@ -384,6 +386,7 @@ impl<P: LaunchParams> Pipeline<P> {
             group_stacks: Vec::new(),
             stack_size: AtomicU32::new(0),
             exceptions: vec![Arc::new(exceptions)],
+            log: Vec::new(),
         };
 
         // The stack size is set by every launch (see `crate::stack`).
@@ -395,16 +398,19 @@ impl<P: LaunchParams> Pipeline<P> {
             .max_pipeline_ray_recursion_depth(options.max_trace_depth)
             .dynamic_state(&dynamic_state)
             .layout(layout)];
-        // SAFETY: every stage's module is alive (held by `programs`); the create
-        // info is valid; the recursion depth was checked against the device limit.
-        let pipelines = unsafe {
-            inner.rt.create_ray_tracing_pipelines(
-                vk::DeferredOperationKHR::null(),
-                inner.pipeline_cache.handle,
-                &create_info,
-                None,
-            )
-        };
+        let (pipelines, log) = crate::log::capture(|| {
+            // SAFETY: every stage's module is alive (held by `programs`); the create
+            // info is valid; the recursion depth was checked against the device limit.
+            unsafe {
+                inner.rt.create_ray_tracing_pipelines(
+                    vk::DeferredOperationKHR::null(),
+                    inner.pipeline_cache.handle,
+                    &create_info,
+                    None,
+                )
+            }
+        });
+        pipeline_inner.log = log;
         let pipeline = match pipelines {
             Ok(p) => p[0],
             Err((p, e)) => {
@@ -416,6 +422,9 @@ impl<P: LaunchParams> Pipeline<P> {
             }
         };
         pipeline_inner.pipeline = pipeline;
+        let names: Vec<&str> = programs.iter().filter_map(|p| p.name.to_str().ok()).collect();
+        inner.set_name(pipeline, &format!("raykit pipeline [{}]", names.join(", ")));
+        inner.set_name(layout, "raykit pipeline layout");
         let handle_size = inner.limits.shader_group_handle_size as usize;
         // SAFETY: `pipeline` has exactly `groups.len()` groups.
         pipeline_inner.handles = unsafe {
@@ -449,6 +458,12 @@ impl<P: LaunchParams> Pipeline<P> {
     /// [`stack::conservative`], [`stack::refined`] and [`stack::vulkan_default`].
     pub fn stack_sizes(&self) -> StackSizes {
         StackSizes::from_groups(self.inner.group_stacks.iter().copied())
+    }
+
+    /// What the validation layer reported while the pipeline was linked (OptiX's
+    /// log string of `optixPipelineCreate`); see [`crate::log`].
+    pub fn creation_log(&self) -> &[crate::log::ValidationMessage] {
+        &self.inner.log
     }
 
     /// The pipeline's `max_trace_depth` (`maxPipelineRayRecursionDepth`).

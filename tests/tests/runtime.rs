@@ -217,3 +217,42 @@ fn eight_threads_create_modules_and_pipelines_and_launch_concurrently() -> anyho
         Ok(())
     })
 }
+
+#[test]
+fn a_validation_message_reaches_the_log_callback_naming_its_object() -> anyhow::Result<()> {
+    if std::env::var("RAYKIT_VALIDATION").map_or(true, |v| v != "1") {
+        eprintln!("SKIPPED: needs the validation layer (RAYKIT_VALIDATION=1, as cargo xtask test sets)");
+        return Ok(());
+    }
+    let received = std::sync::Arc::new(std::sync::Mutex::new(Vec::<raykit::ValidationMessage>::new()));
+    let sink = received.clone();
+    let options = ContextOptions {
+        validation: Some(true),
+        pipeline_cache: PipelineCacheLocation::Off,
+        log_callback: Some(raykit::LogCallback::new(move |m| sink.lock().unwrap_or_else(|p| p.into_inner()).push(m.clone()))),
+        ..Default::default()
+    };
+    let ctx = Context::new(options)?;
+    // Creation calls that are valid report nothing.
+    let module = Module::from_device_crate(&ctx, "program-model-device")?;
+    let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+    let pipeline = Pipeline::<Params>::new(&ctx, &[&raygen], LinkOptions::default())?;
+    assert!(module.creation_log().is_empty() && pipeline.creation_log().is_empty());
+    // An invalid but harmless use, through the escape hatch: a named fence leaked
+    // until the context is destroyed.
+    // SAFETY: a fence on the context's device; it is deliberately leaked (the
+    // validation layer reports it when the device is destroyed).
+    let fence = unsafe { ctx.raw_device().create_fence(&raykit::ash::vk::FenceCreateInfo::default(), None) }?;
+    ctx.set_debug_name(fence, "deliberately leaked fence");
+    drop((pipeline, raygen, module));
+    assert!(received.lock().unwrap_or_else(|p| p.into_inner()).is_empty(), "messages before the leak");
+    drop(ctx);
+    let messages = received.lock().unwrap_or_else(|p| p.into_inner()).clone();
+    let leak = messages
+        .iter()
+        .find(|m| m.objects.iter().any(|o| o.name.as_deref() == Some("deliberately leaked fence")) || m.text.contains("deliberately leaked fence"));
+    let Some(leak) = leak else { anyhow::bail!("no message named the leaked fence; got: {messages:#?}") };
+    eprintln!("callback got: {leak}");
+    assert_eq!(leak.severity, raykit::Severity::Error);
+    Ok(())
+}
