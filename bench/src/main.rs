@@ -3,7 +3,8 @@
 //! Suites (all when none is named): `accel` — GAS build throughput, raykit
 //! against a hand-written ash build, and memory before/after compaction;
 //! `stack` — per-group stack sizes and each stack-size estimate, with the
-//! driver default, for the example and test pipelines (no timing).
+//! driver default, for the example and test pipelines (no timing);
+//! `pipeline` — pipeline creation with the compile cache off, cold and warm.
 //!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
@@ -19,6 +20,7 @@
 
 mod accel;
 mod ash_baseline;
+mod pipeline;
 mod stack;
 mod stats;
 
@@ -27,7 +29,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 2] = ["accel", "stack"];
+const SUITES: [&str; 3] = ["accel", "stack", "pipeline"];
 
 struct Args {
     suites: Vec<String>,
@@ -104,6 +106,14 @@ fn main() -> anyhow::Result<()> {
             markdown.push_str("## stack\n\n");
             markdown.push_str(&table);
             report["suites"]["stack"] = stack::json(&rows);
+        }
+        if suite == "pipeline" {
+            let rows = pipeline::run(args.device.as_deref(), args.reps)?;
+            let table = pipeline::markdown(&rows, &device);
+            println!("{table}");
+            markdown.push_str("## pipeline\n\n");
+            markdown.push_str(&table);
+            report["suites"]["pipeline"] = pipeline::json(&rows);
         }
     }
     let json_path = args.out.join("bench.json");
