@@ -3,11 +3,12 @@
 //! Suites (all when none is named): `accel` — GAS build throughput, raykit
 //! against a hand-written ash build, and memory before/after compaction;
 //! `stack` — per-group stack sizes and each stack-size estimate, with the
-//! driver default, for the example and test pipelines (no timing).
+//! driver default, for the example and test pipelines (no timing);
 //! `primary` and `path` — Rust device programs against their GLSL twins (primary
 //! rays on a ≥ 1M-triangle mesh, the path tracer); `launch` — raykit's launch
 //! path and pipeline + SBT creation against hand-written ash; `shaders` — SPIR-V
-//! sizes (and build times measured by `cargo xtask bench`). See `bench/README.md`.
+//! sizes (and build times measured by `cargo xtask bench`). `pipeline` — pipeline creation with the compile
+//! cache off, cold and warm. See `bench/README.md`.
 //!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
@@ -26,6 +27,7 @@
 mod accel;
 mod ash_baseline;
 mod launch;
+mod pipeline;
 mod shaders;
 mod stack;
 mod stats;
@@ -37,7 +39,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 6] = ["accel", "stack", "primary", "path", "launch", "shaders"];
+const SUITES: [&str; 7] = ["accel", "stack", "pipeline", "primary", "path", "launch", "shaders"];
 
 struct Args {
     suites: Vec<String>,
@@ -97,7 +99,7 @@ fn parse() -> anyhow::Result<Args> {
 
 fn main() -> anyhow::Result<()> {
     let args = parse()?;
-    let ctx = Context::new(ContextOptions { validation: Some(false), device_name_contains: args.device.clone() })?;
+    let ctx = Context::new(ContextOptions { validation: Some(false), device_name_contains: args.device.clone(), ..Default::default() })?;
     let device = ctx.device_name().to_owned();
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let mut report = serde_json::json!({ "device": device, "suites": {} });
@@ -119,6 +121,13 @@ fn main() -> anyhow::Result<()> {
             markdown.push_str("## stack\n\n");
             markdown.push_str(&table);
             report["suites"]["stack"] = stack::json(&rows);
+        } else if suite == "pipeline" {
+            let rows = pipeline::run(args.device.as_deref(), args.reps)?;
+            let table = pipeline::markdown(&rows, &device);
+            println!("{table}");
+            markdown.push_str("## pipeline\n\n");
+            markdown.push_str(&table);
+            report["suites"]["pipeline"] = pipeline::json(&rows);
         } else {
             let (table, json) = suites::run(suite, &ctx, &args.trace, &args.out)?;
             println!("## {suite}\n\n{table}");

@@ -15,8 +15,9 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use ash::vk;
 
 use crate::buffer_table::BufferTable;
+use crate::cache::{CacheKey, DiskCache, PipelineCacheInfo, PipelineCacheLocation};
 use crate::error::{DeviceReport, Error, Result};
-use crate::log::{MessageLog, Severity, ValidationMessage};
+use crate::log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
 
 /// Device extensions raykit needs.
 const REQUIRED_EXTENSIONS: [&CStr; 3] = [
@@ -36,6 +37,13 @@ pub struct ContextOptions {
     pub validation: Option<bool>,
     /// Use the first ray-tracing device whose name contains this string.
     pub device_name_contains: Option<String>,
+    /// Where the on-disk compile cache lives, or [`PipelineCacheLocation::Off`]
+    /// (see [`crate::cache`]). On by default.
+    pub pipeline_cache: PipelineCacheLocation,
+    /// Called with every warning and error the debug messenger reports (OptiX's
+    /// log callback; see [`crate::log`]). Turns `VK_EXT_debug_utils` on even
+    /// without validation, where the loader has it.
+    pub log_callback: Option<LogCallback>,
 }
 
 /// Ray-tracing limits and SBT layout constants of the device.
@@ -92,6 +100,10 @@ pub(crate) struct ContextInner {
     pub(crate) buffer_table: ManuallyDrop<BufferTable>,
     pub(crate) limits: DeviceLimits,
     device_name: String,
+    /// The compile cache every pipeline creation goes through.
+    pub(crate) pipeline_cache: DiskCache,
+    /// `vkSetDebugUtilsObjectNameEXT`, when VK_EXT_debug_utils is on.
+    debug_names: Option<ash::ext::debug_utils::Device>,
 }
 
 // SAFETY: the raw `log_ptr` points at a `MessageLog` (itself Send + Sync) that lives
@@ -125,6 +137,18 @@ unsafe extern "system" fn debug_callback(
         } else {
             CStr::from_ptr(data.p_message_id_name).to_string_lossy().into_owned()
         };
+        let objects = if data.p_objects.is_null() || data.object_count == 0 {
+            Vec::new()
+        } else {
+            std::slice::from_raw_parts(data.p_objects, data.object_count as usize)
+                .iter()
+                .map(|o| LoggedObject {
+                    object_type: format!("{:?}", o.object_type),
+                    handle: o.object_handle,
+                    name: (!o.p_object_name.is_null()).then(|| CStr::from_ptr(o.p_object_name).to_string_lossy().into_owned()),
+                })
+                .collect()
+        };
         let severity = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
             Severity::Error
         } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
@@ -132,7 +156,7 @@ unsafe extern "system" fn debug_callback(
         } else {
             Severity::Info
         };
-        log.push(ValidationMessage { severity, id, text });
+        log.push(ValidationMessage { severity, id, text, objects });
     }
     vk::FALSE
 }
@@ -249,6 +273,15 @@ impl Context {
 
         let mut layers: Vec<*const std::ffi::c_char> = Vec::new();
         let mut instance_extensions: Vec<*const std::ffi::c_char> = Vec::new();
+        // The messenger (and debug names) need VK_EXT_debug_utils: always there with
+        // the validation layer; for a log callback alone, where the loader has it.
+        // SAFETY: plain enumeration call.
+        let loader_has_debug_utils = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .is_ok_and(|exts| exts.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::debug_utils::NAME)));
+        let debug = validation || (options.log_callback.is_some() && loader_has_debug_utils);
+        if debug && !validation {
+            instance_extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
         if validation {
             // SAFETY: plain enumeration call.
             let available = unsafe { entry.enumerate_instance_layer_properties() }
@@ -263,7 +296,7 @@ impl Context {
             .application_name(c"raykit")
             .engine_name(c"raykit")
             .api_version(vk::API_VERSION_1_2);
-        let log = MessageLog::default();
+        let log = MessageLog::with_callback(options.log_callback.clone());
         let log_ptr = Box::into_raw(Box::new(log.clone())) as *const MessageLog;
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(
@@ -280,7 +313,7 @@ impl Context {
             .application_info(&app_info)
             .enabled_layer_names(&layers)
             .enabled_extension_names(&instance_extensions);
-        if validation {
+        if debug {
             // Also catches messages of instance creation and destruction.
             instance_info = instance_info.push_next(&mut messenger_info);
         }
@@ -297,7 +330,7 @@ impl Context {
         let mut partial = Partial { entry: Some(entry), instance: Some(instance), debug: None, log_ptr };
         let instance = partial.instance();
         let entry = partial.entry();
-        if validation {
+        if debug {
             let debug_utils = ash::ext::debug_utils::Instance::new(entry, instance);
             // SAFETY: the create info is valid; the callback's user data outlives the messenger.
             let messenger = unsafe { debug_utils.create_debug_utils_messenger(&messenger_info, None) }
@@ -350,6 +383,7 @@ impl Context {
         let device_guard = DeviceGuard(Some(device.clone()));
 
         let limits = query_limits(instance, physical_device);
+        let debug_names = debug.then(|| ash::ext::debug_utils::Device::new(instance, &device));
         let rt = ash::khr::ray_tracing_pipeline::Device::new(instance, &device);
         let accel = ash::khr::acceleration_structure::Device::new(instance, &device);
         // SAFETY: queue family and index 0 were requested at device creation.
@@ -372,6 +406,9 @@ impl Context {
         .map_err(|source| Error::Allocation { what: "the memory allocator", source })?;
         let buffer_table = BufferTable::new(&device, instance, physical_device)?;
         std::mem::forget(pool_guard);
+        // SAFETY: `physical_device` belongs to `instance`.
+        let properties = unsafe { instance.get_physical_device_properties(physical_device) };
+        let pipeline_cache = DiskCache::open(&device, CacheKey::of(&properties), &options.pipeline_cache);
 
         let device = device_guard.take();
         let (entry, instance, debug) = partial.take();
@@ -392,6 +429,8 @@ impl Context {
                 buffer_table: ManuallyDrop::new(buffer_table),
                 limits,
                 device_name,
+                pipeline_cache,
+                debug_names,
             }),
         })
     }
@@ -417,62 +456,44 @@ impl Context {
     pub fn queue_family(&self) -> u32 {
         self.inner.queue_family
     }
+
+    /// Names `handle` (an object of this context's device) for validation messages
+    /// and debugging tools (`vkSetDebugUtilsObjectNameEXT`); does nothing without
+    /// VK_EXT_debug_utils. raykit names the objects it makes itself.
+    pub fn set_debug_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        self.inner.set_name(handle, name);
+    }
+
+    /// The compile cache: its file, whether it was loaded (warm), missing (cold)
+    /// or refused, and its current size. See [`crate::cache`].
+    pub fn pipeline_cache_info(&self) -> PipelineCacheInfo {
+        self.inner.pipeline_cache.info(&self.inner.device)
+    }
+
+    /// Writes the compile cache to its file now (it is also written when the
+    /// context is destroyed); returns the file, or `None` when the cache is off or
+    /// empty.
+    pub fn save_pipeline_cache(&self) -> Result<Option<std::path::PathBuf>> {
+        self.inner.pipeline_cache.save(&self.inner.device)
+    }
 }
 
 impl ContextInner {
+    /// Gives `handle` a debug name, so validation messages and tools name it. Does
+    /// nothing without VK_EXT_debug_utils.
+    pub(crate) fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        let Some(debug) = &self.debug_names else { return };
+        let Ok(name) = std::ffi::CString::new(name) else { return };
+        let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&name);
+        // SAFETY: `handle` is a live object of this device (callers name what they
+        // just made); naming needs no external synchronisation of the object.
+        let _ = unsafe { debug.set_debug_utils_object_name(&info) };
+    }
+
     pub(crate) fn allocator(&self) -> MutexGuard<'_, gpu_allocator::vulkan::Allocator> {
         // A panic while holding the lock cannot leave the allocator half-updated in a
         // way that matters more than losing the allocation; keep going.
         self.allocator.lock().unwrap_or_else(|p| p.into_inner())
-    }
-
-    /// Records commands with `record`, submits them and waits for completion.
-    pub(crate) fn submit_and_wait(
-        &self,
-        during: &'static str,
-        record: impl FnOnce(vk::CommandBuffer),
-    ) -> Result<()> {
-        let device = &self.device;
-        let pool = self.command_pool.lock().unwrap_or_else(|p| p.into_inner());
-        let alloc_info = vk::CommandBufferAllocateInfo::default()
-            .command_pool(*pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        // SAFETY: the pool is externally synchronised by the mutex held.
-        let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }
-            .map_err(Error::vk("vkAllocateCommandBuffers"))?[0];
-        let result = (|| {
-            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-            // SAFETY: freshly allocated command buffer, recorded on this thread only.
-            unsafe { device.begin_command_buffer(cmd, &begin) }.map_err(Error::vk("vkBeginCommandBuffer"))?;
-            record(cmd);
-            // SAFETY: as above.
-            unsafe { device.end_command_buffer(cmd) }.map_err(Error::vk("vkEndCommandBuffer"))?;
-            // SAFETY: valid device.
-            let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
-                .map_err(Error::vk("vkCreateFence"))?;
-            let cmds = [cmd];
-            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-            let submitted = {
-                let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
-                // SAFETY: the queue is externally synchronised by its mutex; the
-                // command buffer is fully recorded.
-                unsafe { device.queue_submit(*queue, &submit, fence) }
-            };
-            let waited = submitted.and_then(|()| {
-                // SAFETY: the fence belongs to this device.
-                unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }
-            });
-            // SAFETY: the fence is signalled (or never submitted) and no longer used.
-            unsafe { device.destroy_fence(fence, None) };
-            waited.map_err(|e| match e {
-                vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during },
-                other => Error::Vulkan { call: "vkQueueSubmit/vkWaitForFences", result: other },
-            })
-        })();
-        // SAFETY: the command buffer is no longer executing (waited, or never submitted).
-        unsafe { device.free_command_buffers(*pool, &[cmd]) };
-        result
     }
 }
 
@@ -614,6 +635,10 @@ impl Drop for ContextInner {
         // reverse order of creation, the messenger last so it reports leaks.
         unsafe {
             let _ = self.device.device_wait_idle();
+            // Errors cannot be returned from drop; `Context::save_pipeline_cache`
+            // reports them to whoever wants to know.
+            let _ = self.pipeline_cache.save(&self.device);
+            self.pipeline_cache.destroy(&self.device);
             ManuallyDrop::take(&mut self.buffer_table).destroy(&self.device);
             ManuallyDrop::drop(&mut self.allocator);
             let pool = self.command_pool.get_mut().unwrap_or_else(|p| p.into_inner());

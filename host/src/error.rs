@@ -306,6 +306,16 @@ pub enum Error {
     #[error(transparent)]
     ParamsLayout(Box<raykit_device::layout::LayoutError>),
 
+    /// Reading or writing the compile cache file failed.
+    #[error("pipeline cache file {path}: {source}; set ContextOptions::pipeline_cache (or RAYKIT_CACHE_DIR) to a writable directory, or turn the cache off")]
+    PipelineCacheIo {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+
     /// The GPU stopped responding.
     #[error("the device was lost during {during}; the Context is no longer usable — create a new one")]
     DeviceLost {

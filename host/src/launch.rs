@@ -1,25 +1,95 @@
-//! Launches: `optixLaunch` as `vkCmdTraceRaysKHR`.
+//! Launches: `optixLaunch` as `vkCmdTraceRaysKHR`, blocking or asynchronous.
 //!
-//! A launch pushes the params as push constants, binds the bindless buffer table,
-//! sets the pipeline's stack size (`vkCmdSetRayTracingPipelineStackSizeKHR`, see
-//! [`crate::stack`]), traces a `width × height × depth` grid with the SBT's regions and waits for it,
-//! so buffers read afterwards hold the results. See
+//! A launch pushes the params as push constants (or writes them into the
+//! pipeline's uniform buffer from its own command buffer), binds the bindless
+//! buffer table, sets the pipeline's stack size
+//! (`vkCmdSetRayTracingPipelineStackSizeKHR`, see [`crate::stack`]) and traces a
+//! `width × height × depth` grid with the SBT's regions. See
 //! [`vkCmdTraceRaysKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCmdTraceRaysKHR.html).
+//!
+//! [`Pipeline::launch_async`] submits the work and returns a [`Launch`] at once,
+//! like OptiX's launch on a CUDA stream: the work runs in the background, and the
+//! handle (a fence) is polled with [`Launch::is_done`] or waited on with
+//! [`Launch::wait`]. [`Pipeline::launch`] is the simple path: submit, then wait.
+//!
+//! # Several launches in flight
+//! Nothing a launch needs is shared on the host with another launch in flight:
+//! * its params travel in its own command buffer — as push constants, or recorded
+//!   with `vkCmdUpdateBuffer` into the pipeline's uniform buffer;
+//! * the pipeline's user-exception counters are zeroed with `vkCmdFillBuffer` at the
+//!   start of its command buffer and copied into the launch's own readback buffer
+//!   at its end;
+//! * every launch begins with a full memory barrier, so on raykit's one queue a
+//!   launch's device work starts only after that of earlier submissions — the
+//!   uniform buffer and the exception counters are rewritten only once the launch
+//!   before has finished with them.
+//!
+//! So no lock is held between submission and completion, and any thread may launch
+//! while launches of the same pipeline are in flight. A [`Launch`] holds `Arc`s of
+//! the pipeline and the SBT's buffer, so neither is destroyed under the device, even
+//! if the handle is leaked; [`crate::Sbt::update`] refuses while a launch holds the
+//! SBT. The buffers the params name are the caller's: keep them alive, and read the
+//! results only after [`Launch::wait`] (or once [`Launch::is_done`] says so).
 
 use std::sync::Arc;
 
 use ash::vk;
 
 use crate::buffer_table::RT_STAGES;
+use crate::context::Submission;
 use crate::error::{Error, Result};
-use crate::pipeline::Pipeline;
+use crate::memory::RawBuffer;
+use crate::pipeline::{ExceptionBuffer, Pipeline, PipelineInner};
 use crate::sbt::Sbt;
+
+/// A launch submitted to the device and not yet waited for (OptiX's launch on a
+/// stream). Dropping it waits for the work first.
+#[must_use = "a Launch is waited on (or polled); dropping it waits and discards its user exceptions"]
+pub struct Launch {
+    // Field order matters: the submission (which waits in its drop) goes first.
+    submission: Submission,
+    /// Host-visible copies of the pipeline's exception buffers, written by the launch.
+    readback: RawBuffer,
+    _pipeline: Arc<PipelineInner>,
+    _sbt: Arc<RawBuffer>,
+}
+
+impl Launch {
+    /// Whether the launch has finished, without blocking.
+    pub fn is_done(&self) -> Result<bool> {
+        self.submission.is_done()
+    }
+
+    /// Blocks until the launch has finished; then the buffers it wrote hold the
+    /// results. Returns [`Error::UserExceptions`] if device programs threw any.
+    pub fn wait(mut self) -> Result<()> {
+        self.submission.wait()?;
+        let Some(bytes) = self.readback.mapped() else { return Ok(()) };
+        let mut total = 0;
+        let mut exceptions = Vec::new();
+        for copy in bytes.chunks_exact(ExceptionBuffer::SIZE as usize) {
+            let (n, thrown) = ExceptionBuffer::parse(copy);
+            total += n;
+            exceptions.extend(thrown);
+        }
+        if total > 0 {
+            return Err(Error::UserExceptions { total, exceptions });
+        }
+        Ok(())
+    }
+}
 
 impl<P: raykit_device::LaunchParams> Pipeline<P> {
     /// Traces a `dims = [width, height, depth]` grid with `params`, using `sbt`,
-    /// and waits until it is done.
+    /// and waits until it is done: [`Pipeline::launch_async`] then [`Launch::wait`].
     pub fn launch(&self, sbt: &Sbt, params: &P, dims: [u32; 3]) -> Result<()> {
-        self.launch_recording(sbt, params, dims, None)
+        self.launch_async(sbt, params, dims)?.wait()
+    }
+
+    /// Submits a launch like [`Pipeline::launch`] and returns without waiting. See
+    /// the [module docs](crate::launch) for what may be in flight at once.
+    pub fn launch_async(&self, sbt: &Sbt, params: &P, dims: [u32; 3]) -> Result<Launch> {
+        self.submit_launch(sbt, params, dims, None)
     }
 
     /// [`Pipeline::launch`], with GPU timestamps written into queries 0 and 1 of
@@ -31,6 +101,17 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         dims: [u32; 3],
         timestamps: Option<vk::QueryPool>,
     ) -> Result<()> {
+        self.submit_launch(sbt, params, dims, timestamps)?.wait()
+    }
+
+    /// Records and submits a launch, with optional timestamps around the trace.
+    fn submit_launch(
+        &self,
+        sbt: &Sbt,
+        params: &P,
+        dims: [u32; 3],
+        timestamps: Option<vk::QueryPool>,
+    ) -> Result<Launch> {
         let inner = &self.inner;
         let ctx = &inner.ctx;
         if !Arc::ptr_eq(&sbt.pipeline, inner) {
@@ -49,28 +130,46 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         }
         let device = &ctx.device;
         let params_bytes = bytemuck::bytes_of(params);
-        // Large params go through the pipeline's uniform buffer; the lock is held
-        // until the launch is done, so concurrent launches cannot overwrite it.
-        let mut uniform_guard = match &inner.params_uniform {
-            Some(uniform) => {
-                let mut guard = uniform.buffer.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                if let Some(buffer) = guard.as_mut() {
-                    buffer.write_bytes(params_bytes)?;
-                }
-                Some((guard, uniform.set))
-            }
-            None => None,
-        };
+        // `vkCmdUpdateBuffer` takes whole words: pad the params to the buffer's size.
+        let uniform = inner.params_uniform.as_ref().and_then(|u| {
+            let buffer = u.buffer.as_ref()?;
+            let mut padded = params_bytes.to_vec();
+            padded.resize(u.size as usize, 0);
+            Some((u.set, buffer.buffer, padded))
+        });
         let stack_size = self.stack_size();
-        let params_set = uniform_guard.as_ref().map(|(_, set)| *set);
-        // User exceptions: the counter is zeroed now and read after the launch;
-        // the lock keeps concurrent launches of this pipeline apart.
-        let mut exceptions = inner.exceptions.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        exceptions.reset()?;
-        let result = ctx.submit_and_wait("a launch", |cmd| {
-            // SAFETY: the pipeline, layout, descriptor set and SBT buffer are alive
-            // for the whole submission (held by `self` and `sbt`, and waited on).
+        let readback = RawBuffer::new(
+            ctx,
+            "user exception readback",
+            ExceptionBuffer::SIZE * inner.exceptions.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            gpu_allocator::MemoryLocation::GpuToCpu,
+            16,
+        )?;
+        let submission = ctx.submit("a launch", |cmd| {
+            // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
+            // SBT buffers are alive until the work is done (the returned `Launch`
+            // holds them and waits before dropping them); `cmd` is recording.
             unsafe {
+                // Earlier submissions (launches of this pipeline among them) finish
+                // with the uniform buffer and the exception counters before this
+                // launch rewrites them.
+                full_barrier(device, cmd, vk::PipelineStageFlags::ALL_COMMANDS, vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::MEMORY_READ, vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE);
+                for exceptions in &inner.exceptions {
+                    // The counter is the first word.
+                    device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
+                }
+                if let Some((_, buffer, bytes)) = &uniform {
+                    device.cmd_update_buffer(cmd, *buffer, 0, bytes);
+                }
+                full_barrier(
+                    device,
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                    vk::AccessFlags::UNIFORM_READ | vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+                );
                 device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, inner.pipeline);
                 // The pipeline's stack size is dynamic state (see `crate::stack`).
                 ctx.rt.cmd_set_ray_tracing_pipeline_stack_size(cmd, stack_size);
@@ -82,13 +181,13 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                     &[ctx.buffer_table.set],
                     &[],
                 );
-                if let Some(set) = params_set {
+                if let Some((set, _, _)) = &uniform {
                     device.cmd_bind_descriptor_sets(
                         cmd,
                         vk::PipelineBindPoint::RAY_TRACING_KHR,
                         inner.layout,
                         raykit_device::PARAMS_SET,
-                        &[set],
+                        &[*set],
                         &[],
                     );
                 }
@@ -103,27 +202,40 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 if let Some(pool) = timestamps {
                     device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
                 }
-                // Make the programs' writes visible to the host once the fence signals.
-                let barrier = vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::HOST_READ);
-                device.cmd_pipeline_barrier(
+                // The programs' writes: visible to the host once the fence signals,
+                // and the exception records to the copy below.
+                full_barrier(
+                    device,
                     cmd,
                     vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
-                    vk::PipelineStageFlags::HOST,
-                    vk::DependencyFlags::empty(),
-                    &[barrier],
-                    &[],
-                    &[],
+                    vk::AccessFlags::SHADER_WRITE,
+                    vk::PipelineStageFlags::HOST | vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::HOST_READ | vk::AccessFlags::TRANSFER_READ,
                 );
+                for (i, exceptions) in inner.exceptions.iter().enumerate() {
+                    let region = vk::BufferCopy { src_offset: 0, dst_offset: i as u64 * ExceptionBuffer::SIZE, size: ExceptionBuffer::SIZE };
+                    device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]);
+                }
+                full_barrier(device, cmd, vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
             }
-        });
-        uniform_guard.take();
-        result?;
-        let (total, thrown) = exceptions.read();
-        if total > 0 {
-            return Err(Error::UserExceptions { total, exceptions: thrown });
-        }
-        Ok(())
+        })?;
+        Ok(Launch { submission, readback, _pipeline: inner.clone(), _sbt: sbt.buffer.clone() })
     }
+}
+
+/// A global memory barrier.
+///
+/// # Safety
+/// `cmd` must be a command buffer of `device` in the recording state.
+unsafe fn full_barrier(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    src_stage: vk::PipelineStageFlags,
+    src_access: vk::AccessFlags,
+    dst_stage: vk::PipelineStageFlags,
+    dst_access: vk::AccessFlags,
+) {
+    let barrier = vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access);
+    // SAFETY: per the contract above.
+    unsafe { device.cmd_pipeline_barrier(cmd, src_stage, dst_stage, vk::DependencyFlags::empty(), &[barrier], &[], &[]) };
 }

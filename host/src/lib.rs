@@ -3,6 +3,7 @@
 
 pub mod accel;
 mod buffer_table;
+pub mod cache;
 pub mod context;
 pub mod error;
 pub mod launch;
@@ -17,12 +18,14 @@ pub mod stack;
 pub mod timing;
 
 pub use accel::{Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance, InstanceFlags, PendingBuild, Triangles};
+pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Context, ContextOptions, DeviceLimits};
 pub use error::{DeviceReport, Error, Result, UserException};
 pub use raykit_device::layout::{BlockMember, BlockType, LayoutError, ParamsBlock, ParamsDelivery};
-pub use log::{MessageLog, Severity, ValidationMessage};
+pub use log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
 pub use memory::DeviceBuffer;
 pub use module::{spirv_path, EntryPointInfo, Module};
+pub use launch::Launch;
 pub use pipeline::{params_delivery, LinkOptions, Pipeline, Specialization};
 pub use program_group::{EntryName, HitGroupBuilder, ProgramGroup};
 pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
@@ -33,3 +36,23 @@ pub use ash;
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
 pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, Traversable};
+
+/// Host objects are `Send + Sync`: each may be shared by threads, with the external
+/// synchronisation Vulkan requires (queue, command pool, allocator, descriptor
+/// updates) done inside raykit behind locks.
+#[allow(dead_code)]
+fn host_objects_are_send_and_sync<P: LaunchParams, T: raykit_device::Element + Send + Sync>() {
+    fn check<X: Send + Sync>() {}
+    check::<Context>();
+    check::<Module>();
+    check::<ProgramGroup>();
+    check::<Pipeline<P>>();
+    check::<Sbt>();
+    check::<Launch>();
+    check::<Gas>();
+    check::<Ias>();
+    check::<PendingBuild<Gas>>();
+    check::<PendingBuild<Ias>>();
+    check::<DeviceBuffer<T>>();
+    check::<MessageLog>();
+}

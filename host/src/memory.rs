@@ -46,6 +46,7 @@ impl RawBuffer {
         let buffer = unsafe { device.create_buffer(&info, None) }.map_err(Error::vk("vkCreateBuffer"))?;
         // Wrapped at once, so an early return frees it.
         let mut raw = RawBuffer { ctx: ctx.clone(), buffer, allocation: None, size, address: 0 };
+        ctx.set_name(buffer, what);
         // SAFETY: `buffer` is a live buffer of this device.
         let mut requirements = unsafe { device.get_buffer_memory_requirements(buffer) };
         requirements.alignment = requirements.alignment.max(alignment);

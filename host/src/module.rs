@@ -45,6 +45,8 @@ pub(crate) struct ModuleInner {
     pub(crate) ctx: Arc<ContextInner>,
     pub(crate) shader: vk::ShaderModule,
     pub(crate) entry_points: Vec<EntryPointInfo>,
+    /// Messages reported while it was created.
+    pub(crate) log: Vec<crate::log::ValidationMessage>,
 }
 
 fn kind_of(model: ExecutionModel) -> Option<ProgramKind> {
@@ -171,6 +173,10 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
 impl Module {
     /// Loads a module from SPIR-V bytes.
     pub fn new(ctx: &Context, spirv: &[u8]) -> Result<Module> {
+        Module::named(ctx, spirv, "from bytes")
+    }
+
+    fn named(ctx: &Context, spirv: &[u8], name: &str) -> Result<Module> {
         let entry_points = reflect_entry_points(spirv)?;
         if !entry_points.iter().any(|e| e.kind.is_some()) {
             return Err(Error::NoRayTracingEntryPoints {
@@ -179,10 +185,13 @@ impl Module {
         }
         let words = words_of(spirv)?;
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
-        // SAFETY: `words` is a parsed SPIR-V module; the device is live.
-        let shader = unsafe { ctx.inner.device.create_shader_module(&info, None) }
-            .map_err(Error::vk("vkCreateShaderModule"))?;
-        Ok(Module { inner: Arc::new(ModuleInner { ctx: ctx.inner.clone(), shader, entry_points }) })
+        let (shader, log) = crate::log::capture(|| {
+            // SAFETY: `words` is a parsed SPIR-V module; the device is live.
+            unsafe { ctx.inner.device.create_shader_module(&info, None) }
+        });
+        let shader = shader.map_err(Error::vk("vkCreateShaderModule"))?;
+        ctx.inner.set_name(shader, &format!("raykit module {name}"));
+        Ok(Module { inner: Arc::new(ModuleInner { ctx: ctx.inner.clone(), shader, entry_points, log }) })
     }
 
     /// Loads the SPIR-V that `cargo xtask build-shaders` built for the device crate
@@ -195,7 +204,13 @@ impl Module {
     pub fn from_file(ctx: &Context, path: impl AsRef<Path>) -> Result<Module> {
         let path = path.as_ref();
         let bytes = std::fs::read(path).map_err(|source| Error::SpirvFile { path: path.to_owned(), source })?;
-        Module::new(ctx, &bytes)
+        Module::named(ctx, &bytes, &path.display().to_string())
+    }
+
+    /// What the validation layer reported while the module was created (OptiX's
+    /// log string of `optixModuleCreate`); see [`crate::log`].
+    pub fn creation_log(&self) -> &[crate::log::ValidationMessage] {
+        &self.inner.log
     }
 
     /// The module's entry points and their stages.

@@ -20,7 +20,7 @@
 
 use std::marker::PhantomData;
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use ash::vk;
 
@@ -100,12 +100,18 @@ pub(crate) struct PipelineInner {
     pub(crate) group_stacks: Vec<(GroupRole, GroupStackSizes)>,
     /// The stack size every launch sets (`vkCmdSetRayTracingPipelineStackSizeKHR`).
     pub(crate) stack_size: AtomicU32,
-    /// Where programs record user exceptions; launches hold the lock.
-    pub(crate) exceptions: Mutex<ExceptionBuffer>,
+    /// Where programs record user exceptions: one buffer per set of programs
+    /// compiled together (the pipeline itself, or each linked library). Launches
+    /// zero and copy them on the device (see [`crate::launch`]).
+    pub(crate) exceptions: Vec<Arc<ExceptionBuffer>>,
+    /// Messages reported while it was created.
+    pub(crate) log: Vec<crate::log::ValidationMessage>,
 }
 
 /// A pipeline's user-exception buffer (see `raykit_device::exception`): a
-/// host-visible buffer in the bindless table.
+/// device buffer in the bindless table. Every launch zeroes its counter and
+/// copies it into the launch's own readback buffer, on the device, so launches in
+/// flight never share host-visible state.
 pub(crate) struct ExceptionBuffer {
     ctx: Arc<ContextInner>,
     pub(crate) buffer: RawBuffer,
@@ -113,29 +119,25 @@ pub(crate) struct ExceptionBuffer {
 }
 
 impl ExceptionBuffer {
-    fn new(ctx: &Arc<ContextInner>) -> Result<ExceptionBuffer> {
-        let size = raykit_device::exception::EXCEPTION_BUFFER_WORDS as u64 * 4;
+    /// Bytes of one exception buffer.
+    pub(crate) const SIZE: u64 = raykit_device::exception::EXCEPTION_BUFFER_WORDS as u64 * 4;
+
+    pub(crate) fn new(ctx: &Arc<ContextInner>) -> Result<ExceptionBuffer> {
         let buffer = RawBuffer::new(
             ctx,
             "user exception buffer",
-            size,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            gpu_allocator::MemoryLocation::GpuToCpu,
+            Self::SIZE,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST,
+            gpu_allocator::MemoryLocation::GpuOnly,
             16,
         )?;
         let slot = ctx.buffer_table.insert(&ctx.device, buffer.buffer)?;
         Ok(ExceptionBuffer { ctx: ctx.clone(), buffer, slot })
     }
 
-    /// Zeroes the counter before a launch.
-    pub(crate) fn reset(&mut self) -> Result<()> {
-        self.buffer.write_bytes(&0u32.to_ne_bytes())
-    }
-
-    /// The exceptions recorded by the last launch: `(total thrown, records)`.
-    pub(crate) fn read(&self) -> (u32, Vec<crate::error::UserException>) {
+    /// The exceptions in a copy of an exception buffer: `(total thrown, records)`.
+    pub(crate) fn parse(bytes: &[u8]) -> (u32, Vec<crate::error::UserException>) {
         use raykit_device::exception::{EXCEPTION_CAPACITY, EXCEPTION_RECORD_WORDS};
-        let Some(bytes) = self.buffer.mapped() else { return (0, Vec::new()) };
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(bytes);
         let total = words.first().copied().unwrap_or(0);
         let stored = total.min(EXCEPTION_CAPACITY) as usize;
@@ -162,9 +164,13 @@ pub(crate) struct ParamsUniform {
     set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
     pub(crate) set: vk::DescriptorSet,
-    /// Host-visible; written before each launch, under the lock (launches of one
-    /// pipeline from several threads take turns).
-    pub(crate) buffer: Mutex<Option<RawBuffer>>,
+    /// Device memory, written by each launch's command buffer
+    /// (`vkCmdUpdateBuffer`), so every launch carries its own params and launches in
+    /// flight never share host-visible state.
+    pub(crate) buffer: Option<RawBuffer>,
+    /// Bytes each launch writes (the params' size rounded up to 4, as
+    /// `vkCmdUpdateBuffer` requires).
+    pub(crate) size: u64,
 }
 
 impl ParamsUniform {
@@ -185,7 +191,8 @@ impl ParamsUniform {
             set_layout,
             pool: vk::DescriptorPool::null(),
             set: vk::DescriptorSet::null(),
-            buffer: Mutex::new(None),
+            buffer: None,
+            size,
         };
         let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: 1 }];
         let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
@@ -200,8 +207,8 @@ impl ParamsUniform {
             ctx,
             "launch params uniform buffer",
             size,
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
-            gpu_allocator::MemoryLocation::CpuToGpu,
+            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            gpu_allocator::MemoryLocation::GpuOnly,
             ctx.limits.min_uniform_buffer_offset_alignment.max(16),
         )?;
         let buffer_info = [vk::DescriptorBufferInfo { buffer: buffer.buffer, offset: 0, range: size }];
@@ -212,14 +219,15 @@ impl ParamsUniform {
             .buffer_info(&buffer_info);
         // SAFETY: the set and buffer are alive; the set is not in use yet.
         unsafe { device.update_descriptor_sets(&[write], &[]) };
-        uniform.buffer = Mutex::new(Some(buffer));
+        uniform.buffer = Some(buffer);
         Ok(uniform)
     }
 }
 
 impl Drop for ParamsUniform {
     fn drop(&mut self) {
-        // SAFETY: launches are blocking, so the set is idle; freeing the pool frees it.
+        // SAFETY: every launch holds an `Arc` of the pipeline that owns this, and
+        // waits before dropping it, so the set is idle; freeing the pool frees it.
         unsafe {
             self.ctx.device.destroy_descriptor_pool(self.pool, None);
             self.ctx.device.destroy_descriptor_set_layout(self.set_layout, None);
@@ -269,8 +277,10 @@ impl<P: LaunchParams> Pipeline<P> {
         }
         let params_size = std::mem::size_of::<P>();
         let delivery = params_delivery::<P>();
-        if delivery != ParamsDelivery::PushConstants && params_size > limits.max_uniform_buffer_range as usize {
-            return Err(Error::ParamsTooLarge { size: params_size, limit: limits.max_uniform_buffer_range });
+        // Launches write uniform params with `vkCmdUpdateBuffer`, which takes at most 65536 bytes.
+        let uniform_limit = limits.max_uniform_buffer_range.min(65536);
+        if delivery != ParamsDelivery::PushConstants && params_size > uniform_limit as usize {
+            return Err(Error::ParamsTooLarge { size: params_size, limit: uniform_limit });
         }
         // OptiX's rule that all modules agree on the compile options: every
         // program's params block must be `P`, laid out as on the host.
@@ -349,7 +359,7 @@ impl<P: LaunchParams> Pipeline<P> {
 
         let params_uniform = match delivery {
             ParamsDelivery::PushConstants => None,
-            ParamsDelivery::UniformBuffer { .. } => Some(ParamsUniform::new(inner, params_size as u64)?),
+            ParamsDelivery::UniformBuffer { .. } => Some(ParamsUniform::new(inner, (params_size as u64).next_multiple_of(4))?),
         };
         let mut set_layouts = vec![inner.buffer_table.layout];
         if let Some(uniform) = &params_uniform {
@@ -375,7 +385,8 @@ impl<P: LaunchParams> Pipeline<P> {
             max_trace_depth: options.max_trace_depth,
             group_stacks: Vec::new(),
             stack_size: AtomicU32::new(0),
-            exceptions: Mutex::new(exceptions),
+            exceptions: vec![Arc::new(exceptions)],
+            log: Vec::new(),
         };
 
         // The stack size is set by every launch (see `crate::stack`).
@@ -387,16 +398,19 @@ impl<P: LaunchParams> Pipeline<P> {
             .max_pipeline_ray_recursion_depth(options.max_trace_depth)
             .dynamic_state(&dynamic_state)
             .layout(layout)];
-        // SAFETY: every stage's module is alive (held by `programs`); the create
-        // info is valid; the recursion depth was checked against the device limit.
-        let pipelines = unsafe {
-            inner.rt.create_ray_tracing_pipelines(
-                vk::DeferredOperationKHR::null(),
-                vk::PipelineCache::null(),
-                &create_info,
-                None,
-            )
-        };
+        let (pipelines, log) = crate::log::capture(|| {
+            // SAFETY: every stage's module is alive (held by `programs`); the create
+            // info is valid; the recursion depth was checked against the device limit.
+            unsafe {
+                inner.rt.create_ray_tracing_pipelines(
+                    vk::DeferredOperationKHR::null(),
+                    inner.pipeline_cache.handle,
+                    &create_info,
+                    None,
+                )
+            }
+        });
+        pipeline_inner.log = log;
         let pipeline = match pipelines {
             Ok(p) => p[0],
             Err((p, e)) => {
@@ -408,6 +422,9 @@ impl<P: LaunchParams> Pipeline<P> {
             }
         };
         pipeline_inner.pipeline = pipeline;
+        let names: Vec<&str> = programs.iter().filter_map(|p| p.name.to_str().ok()).collect();
+        inner.set_name(pipeline, &format!("raykit pipeline [{}]", names.join(", ")));
+        inner.set_name(layout, "raykit pipeline layout");
         let handle_size = inner.limits.shader_group_handle_size as usize;
         // SAFETY: `pipeline` has exactly `groups.len()` groups.
         pipeline_inner.handles = unsafe {
@@ -441,6 +458,12 @@ impl<P: LaunchParams> Pipeline<P> {
     /// [`stack::conservative`], [`stack::refined`] and [`stack::vulkan_default`].
     pub fn stack_sizes(&self) -> StackSizes {
         StackSizes::from_groups(self.inner.group_stacks.iter().copied())
+    }
+
+    /// What the validation layer reported while the pipeline was linked (OptiX's
+    /// log string of `optixPipelineCreate`); see [`crate::log`].
+    pub fn creation_log(&self) -> &[crate::log::ValidationMessage] {
+        &self.inner.log
     }
 
     /// The pipeline's `max_trace_depth` (`maxPipelineRayRecursionDepth`).
@@ -569,8 +592,8 @@ fn stage_flag(kind: raykit_device::ProgramKind) -> vk::ShaderStageFlags {
 
 impl Drop for PipelineInner {
     fn drop(&mut self) {
-        // SAFETY: launches are blocking, so the pipeline is idle; SBTs made for it
-        // hold an `Arc` to it.
+        // SAFETY: SBTs and launches in flight hold an `Arc` to this, and a launch
+        // waits for its work before it is dropped, so the pipeline is idle.
         unsafe {
             if self.pipeline != vk::Pipeline::null() {
                 self.ctx.device.destroy_pipeline(self.pipeline, None);

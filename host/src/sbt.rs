@@ -252,7 +252,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             callable: region(cl),
             layouts: [rg, ms, ht, cl],
             counts: [1, miss.len(), hit.len(), self.callable.len()],
-            buffer,
+            buffer: Arc::new(buffer),
         })
     }
 }
@@ -267,7 +267,8 @@ pub struct Sbt {
     layouts: [RegionLayout; 4],
     /// Record counts per region (raygen, miss, hit, callable).
     counts: [usize; 4],
-    buffer: RawBuffer,
+    /// Shared with launches in flight ([`crate::Launch`]), which keep it alive.
+    pub(crate) buffer: Arc<RawBuffer>,
 }
 
 /// An SBT region, for [`Sbt::update`].
@@ -291,8 +292,8 @@ impl Sbt {
 
     /// Overwrites the data of record `index` of `region` (the group stays),
     /// without rebuilding the SBT or the pipeline — OptiX's way of changing a
-    /// material between launches. Call it between launches: launches wait for
-    /// their end, so no launch is reading the record.
+    /// material between launches. Call it between launches: while an async launch
+    /// ([`Pipeline::launch_async`]) that uses this SBT is in flight, it fails.
     pub fn update<T: bytemuck::Pod>(&mut self, region: SbtRegion, index: usize, data: T) -> Result<()> {
         let r = region as usize;
         let name = ["raygen", "miss", "hit", "callable"][r];
@@ -316,7 +317,12 @@ impl Sbt {
             });
         }
         let at = (layout.offset + layout.stride * index as u64 + handle) as usize;
-        let mapped = self.buffer.mapped_mut().ok_or(Error::SbtUpdate {
+        // A launch in flight holds a clone of the buffer: the device may be reading it.
+        let buffer = Arc::get_mut(&mut self.buffer).ok_or(Error::SbtUpdate {
+            region: name,
+            reason: "a launch using this SBT is still in flight; wait for it (Launch::wait) first".to_owned(),
+        })?;
+        let mapped = buffer.mapped_mut().ok_or(Error::SbtUpdate {
             region: name,
             reason: "the SBT buffer is not host-visible".to_owned(),
         })?;

@@ -7,12 +7,22 @@
 //! the test fails when `RAYKIT_REQUIRE_DEVICE=1` (CI and `cargo xtask test`), and
 //! otherwise prints a loud SKIPPED line.
 
-use raykit::{Context, ContextOptions, Error};
+use raykit::{Context, ContextOptions, Error, PipelineCacheLocation};
 
-/// Runs `test` with a fresh context; checks the validation log afterwards.
+/// Runs `test` with a fresh context; checks the validation log afterwards. The
+/// context's disk compile cache is off: tests never touch the user's cache.
 pub fn with_context(name: &str, test: impl FnOnce(&Context) -> anyhow::Result<()>) -> anyhow::Result<()> {
+    with_context_options(name, ContextOptions { pipeline_cache: PipelineCacheLocation::Off, ..Default::default() }, test)
+}
+
+/// [`with_context`] with `options` (validation as `RAYKIT_VALIDATION` says).
+pub fn with_context_options(
+    name: &str,
+    options: ContextOptions,
+    test: impl FnOnce(&Context) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
     let validation = std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1");
-    let ctx = match Context::new(ContextOptions { validation: Some(validation), ..Default::default() }) {
+    let ctx = match Context::new(ContextOptions { validation: Some(validation), ..options }) {
         Ok(ctx) => ctx,
         Err(e @ (Error::NoRayTracingDevice { .. } | Error::LoaderMissing(_))) => {
             if std::env::var("RAYKIT_REQUIRE_DEVICE").is_ok_and(|v| v == "1") {
@@ -43,4 +53,22 @@ pub fn rgba(pixel: u32) -> [u8; 4] {
 /// Largest per-channel difference between two RGBA8 pixels.
 pub fn channel_distance(a: u32, b: u32) -> u8 {
     rgba(a).iter().zip(rgba(b)).map(|(x, y)| x.abs_diff(y)).max().unwrap_or(0)
+}
+
+/// A fresh, empty directory under the system's temp dir for test `name`; removed
+/// when the returned guard drops.
+pub fn temp_dir(name: &str) -> anyhow::Result<TempDir> {
+    let path = std::env::temp_dir().join(format!("raykit-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&path);
+    std::fs::create_dir_all(&path)?;
+    Ok(TempDir(path))
+}
+
+/// A directory removed on drop.
+pub struct TempDir(pub std::path::PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }

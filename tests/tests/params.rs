@@ -112,6 +112,37 @@ fn params_over_the_push_constant_budget_go_through_a_uniform_buffer() -> anyhow:
     })
 }
 
+#[test]
+fn async_launches_in_flight_each_see_their_own_uniform_params() -> anyhow::Result<()> {
+    with_context("async_launches_in_flight_each_see_their_own_uniform_params", |ctx| {
+        let module = Module::from_device_crate(ctx, "params-device")?;
+        let raygen = ProgramGroup::raygen(&module, params_device::RG_LARGE)?;
+        let pipeline = Pipeline::<Large>::new(ctx, &[&raygen], LinkOptions::default())?;
+        let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).build()?;
+        let base = Large {
+            out: raykit::Buffer::from_table_index(0),
+            _pad: [0; 3],
+            m: Mat4::from_cols_array(&std::array::from_fn(|i| f(i as u32))),
+            v: std::array::from_fn(|i| Vec4::splat(f(100 + i as u32))),
+            tail: std::array::from_fn(|i| f(200 + i as u32)),
+            id: 0,
+            _pad2: 0,
+        };
+        let len = expected(&base).len();
+        let outs = (0..4).map(|_| ctx.buffer::<u32>(len)).collect::<raykit::Result<Vec<_>>>()?;
+        let params: Vec<Large> = outs.iter().enumerate().map(|(i, out)| Large { out: out.handle(), id: 1000 + i as u64, ..base }).collect();
+        // All four submitted before any is waited for: one uniform buffer, four values.
+        let launches = params.iter().map(|p| pipeline.launch_async(&sbt, p, [1, 1, 1])).collect::<raykit::Result<Vec<_>>>()?;
+        for launch in launches {
+            launch.wait()?;
+        }
+        for (out, p) in outs.iter().zip(&params) {
+            assert_eq!(out.read()?, expected(p));
+        }
+        Ok(())
+    })
+}
+
 fn layout_error(err: &Error) -> Option<&LayoutError> {
     match err {
         Error::ParamsLayout(e) => Some(e),

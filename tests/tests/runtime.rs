@@ -1,9 +1,10 @@
-//! OptiX's host-side runtime model on raykit: parameter specialization.
+//! OptiX's host-side runtime model on raykit: parameter specialization, async
+//! launches, the compile cache, thread safety, logs and pipeline libraries.
 
 use program_model_device::{pack, Params, Radiance, SHADE_MODE_SPEC_ID, SPEC_COLORS};
 use raykit::glam::{Affine3A, UVec2, Vec3, Vec4};
-use raykit::{Gas, Ias, Instance, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Specialization};
-use raykit_tests::with_context;
+use raykit::{CacheLoad, Context, ContextOptions, Gas, Ias, Instance, LinkOptions, Module, Pipeline, PipelineCacheLocation, ProgramGroup, Sbt, Specialization};
+use raykit_tests::{temp_dir, with_context, with_context_options};
 
 #[test]
 fn two_pipelines_from_one_module_specialized_differently_render_differently() -> anyhow::Result<()> {
@@ -28,4 +29,230 @@ fn two_pipelines_from_one_module_specialized_differently_render_differently() ->
         assert_eq!(seen, [pack(SPEC_COLORS[0]), pack(SPEC_COLORS[1])]);
         Ok(())
     })
+}
+
+#[test]
+fn two_async_launches_in_flight_give_correct_results() -> anyhow::Result<()> {
+    with_context("two_async_launches_in_flight_give_correct_results", |ctx| {
+        let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
+        let scene = Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
+        let module = Module::from_device_crate(ctx, "program-model-device")?;
+        let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+        let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
+        let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SPEC_SHADE).build()?;
+        let pipelines = [Specialization::new(), Specialization::new().set(SHADE_MODE_SPEC_ID, 1)]
+            .iter()
+            .map(|c| Pipeline::<Params>::with_specialization(ctx, &[&raygen, &miss, &hit], LinkOptions::default(), c))
+            .collect::<raykit::Result<Vec<_>>>()?;
+        let sbts = pipelines
+            .iter()
+            .map(|p| Sbt::builder(p).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build())
+            .collect::<raykit::Result<Vec<_>>>()?;
+        let size = 64u32;
+        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+        // Three launches: two of one pipeline (different images), one of the other.
+        let images = (0..3).map(|_| ctx.buffer::<u32>((size * size) as usize)).collect::<raykit::Result<Vec<_>>>()?;
+        let params = |i: usize| Params { image: images[i].handle(), spheres: spheres.handle(), size: UVec2::splat(size), scene: scene.handle() };
+        let launches = [
+            pipelines[0].launch_async(&sbts[0], &params(0), [size, size, 1])?,
+            pipelines[1].launch_async(&sbts[1], &params(1), [size, size, 1])?,
+            pipelines[0].launch_async(&sbts[0], &params(2), [size, size, 1])?,
+        ];
+        // While launches use the SBT, updating it is refused.
+        let mut spare = Sbt::builder(&pipelines[0]).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build()?;
+        let held = pipelines[0].launch_async(&spare, &params(0), [1, 1, 1])?;
+        assert!(spare.update(raykit::SbtRegion::Raygen, 0, ()).is_err(), "an SBT in use by a launch was updated");
+        held.wait()?;
+        spare.update(raykit::SbtRegion::Raygen, 0, ())?;
+        // Poll the last one, then wait for all.
+        while !launches[2].is_done()? {
+            std::thread::yield_now();
+        }
+        for launch in launches {
+            launch.wait()?;
+        }
+        let centre = ((size / 2) * size + size / 2) as usize;
+        let corner = 0usize;
+        let bg = pack(program_model_device::BACKGROUND);
+        let got: Vec<Vec<u32>> = images.iter().map(|i| i.read()).collect::<raykit::Result<_>>()?;
+        assert_eq!([got[0][centre], got[1][centre], got[2][centre]], [pack(SPEC_COLORS[0]), pack(SPEC_COLORS[1]), pack(SPEC_COLORS[0])]);
+        assert_eq!([got[0][corner], got[1][corner], got[2][corner]], [bg, bg, bg]);
+        assert_eq!(got[0], got[2]);
+        Ok(())
+    })
+}
+
+#[test]
+fn async_launches_report_their_own_user_exceptions() -> anyhow::Result<()> {
+    with_context("async_launches_report_their_own_user_exceptions", |ctx| {
+        let module = Module::from_device_crate(ctx, "program-model-device")?;
+        let throwing = ProgramGroup::raygen(&module, program_model_device::RG_THROW)?;
+        let pipeline = Pipeline::<Params>::new(ctx, &[&throwing], LinkOptions::default())?;
+        let sbt = Sbt::builder(&pipeline).raygen(&throwing, ()).build()?;
+        let image = ctx.buffer::<u32>(16 * 16)?;
+        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+        let p = |size: u32| Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(size), scene: raykit::Traversable::NULL };
+        // The first launch covers both throwing pixels, the second neither.
+        let a = pipeline.launch_async(&sbt, &p(16), [16, 16, 1])?;
+        let b = pipeline.launch_async(&sbt, &p(1), [1, 1, 1])?;
+        b.wait()?;
+        match a.wait() {
+            Err(raykit::Error::UserExceptions { total, .. }) => assert_eq!(total, 2),
+            other => anyhow::bail!("expected two user exceptions, got {other:?}"),
+        }
+        Ok(())
+    })
+}
+
+/// Links the specialization scene's pipeline (constant `mode`), renders 16×16 and
+/// returns the centre pixel.
+fn render_spec_centre(ctx: &Context, mode: u32) -> anyhow::Result<u32> {
+    let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
+    let scene = Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
+    let module = Module::from_device_crate(ctx, "program-model-device")?;
+    let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+    let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
+    let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SPEC_SHADE).build()?;
+    let constants = Specialization::new().set(SHADE_MODE_SPEC_ID, mode);
+    let pipeline = Pipeline::<Params>::with_specialization(ctx, &[&raygen, &miss, &hit], LinkOptions::default(), &constants)?;
+    let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build()?;
+    let image = ctx.buffer::<u32>(16 * 16)?;
+    let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+    let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+    pipeline.launch(&sbt, &params, [16, 16, 1])?;
+    Ok(image.read()?[8 * 16 + 8])
+}
+
+fn cache_in(dir: &std::path::Path) -> ContextOptions {
+    ContextOptions { pipeline_cache: PipelineCacheLocation::Dir(dir.to_owned()), ..Default::default() }
+}
+
+#[test]
+fn a_warm_compile_cache_is_written_and_loaded_by_the_next_context() -> anyhow::Result<()> {
+    let dir = temp_dir("warm-cache")?;
+    let mut file = None;
+    with_context_options("compile cache, cold", cache_in(&dir.0), |ctx| {
+        let info = ctx.pipeline_cache_info();
+        assert_eq!(info.load, CacheLoad::Missing);
+        assert!(info.path.as_ref().is_some_and(|p| p.starts_with(&dir.0)), "cache file {:?} outside {:?}", info.path, dir.0);
+        assert_eq!(render_spec_centre(ctx, 1)?, pack(SPEC_COLORS[1]));
+        let after = ctx.pipeline_cache_info();
+        eprintln!("compile cache after one pipeline: {} bytes", after.current_bytes);
+        file = after.path;
+        Ok(())
+    })?;
+    let file = file.ok_or_else(|| anyhow::anyhow!("no cache file path"))?;
+    assert!(file.exists(), "{} was not written when the context was destroyed", file.display());
+    with_context_options("compile cache, warm", cache_in(&dir.0), |ctx| {
+        let info = ctx.pipeline_cache_info();
+        let CacheLoad::Loaded { bytes } = info.load else { anyhow::bail!("the warm cache was not loaded: {:?}", info.load) };
+        assert!(bytes >= 32, "{bytes} bytes loaded");
+        assert_eq!(render_spec_centre(ctx, 1)?, pack(SPEC_COLORS[1]));
+        Ok(())
+    })
+}
+
+#[test]
+fn a_corrupt_compile_cache_is_refused_and_rebuilt_without_failing_pipelines() -> anyhow::Result<()> {
+    let dir = temp_dir("corrupt-cache")?;
+    // Make a valid file, then damage it in two ways.
+    let mut file = None;
+    with_context_options("compile cache, first", cache_in(&dir.0), |ctx| {
+        render_spec_centre(ctx, 0)?;
+        file = ctx.save_pipeline_cache()?;
+        Ok(())
+    })?;
+    let file = file.ok_or_else(|| anyhow::anyhow!("save_pipeline_cache wrote nothing"))?;
+    let good = std::fs::read(&file)?;
+    let mut flipped = good.clone();
+    let last = flipped.len() - 1;
+    flipped[last] ^= 0x5a;
+    for (damage, bytes) in [("a flipped byte", flipped), ("a truncated file", good[..good.len() / 2].to_vec()), ("garbage", b"not a cache".to_vec())] {
+        std::fs::write(&file, &bytes)?;
+        with_context_options("compile cache, corrupt", cache_in(&dir.0), |ctx| {
+            let info = ctx.pipeline_cache_info();
+            let CacheLoad::Rejected { reason } = &info.load else { anyhow::bail!("{damage} was not refused: {:?}", info.load) };
+            eprintln!("{damage}: refused: {reason}");
+            assert_eq!(render_spec_centre(ctx, 0)?, pack(SPEC_COLORS[0]), "{damage}");
+            Ok(())
+        })?;
+        // Rebuilt: the next context loads it.
+        with_context_options("compile cache, rebuilt", cache_in(&dir.0), |ctx| {
+            let load = ctx.pipeline_cache_info().load;
+            anyhow::ensure!(matches!(load, CacheLoad::Loaded { .. }), "after {damage}, the rewritten cache was not loaded: {load:?}");
+            Ok(())
+        })?;
+    }
+    Ok(())
+}
+
+#[test]
+fn the_compile_cache_can_be_turned_off() -> anyhow::Result<()> {
+    with_context_options("compile cache off", ContextOptions { pipeline_cache: PipelineCacheLocation::Off, ..Default::default() }, |ctx| {
+        let info = ctx.pipeline_cache_info();
+        assert_eq!((info.path, info.load), (None, CacheLoad::Off));
+        assert_eq!(ctx.save_pipeline_cache()?, None);
+        assert_eq!(render_spec_centre(ctx, 1)?, pack(SPEC_COLORS[1]));
+        Ok(())
+    })
+}
+
+#[test]
+fn eight_threads_create_modules_and_pipelines_and_launch_concurrently() -> anyhow::Result<()> {
+    with_context("eight_threads_create_modules_and_pipelines_and_launch_concurrently", |ctx| {
+        let results: Vec<anyhow::Result<(u32, u32)>> = std::thread::scope(|scope| {
+            let threads: Vec<_> = (0..8u32)
+                .map(|i| scope.spawn(move || -> anyhow::Result<(u32, u32)> {
+                    // Each thread: its own GAS, IAS, module, groups, pipeline, SBT and launch.
+                    let mode = i % 2;
+                    Ok((mode, render_spec_centre(ctx, mode)?))
+                }))
+                .collect();
+            threads.into_iter().map(|t| t.join().unwrap_or_else(|_| Err(anyhow::anyhow!("a thread panicked")))).collect()
+        });
+        for result in results {
+            let (mode, centre) = result?;
+            assert_eq!(centre, pack(SPEC_COLORS[mode as usize]));
+        }
+        Ok(())
+    })
+}
+
+#[test]
+fn a_validation_message_reaches_the_log_callback_naming_its_object() -> anyhow::Result<()> {
+    if std::env::var("RAYKIT_VALIDATION").map_or(true, |v| v != "1") {
+        eprintln!("SKIPPED: needs the validation layer (RAYKIT_VALIDATION=1, as cargo xtask test sets)");
+        return Ok(());
+    }
+    let received = std::sync::Arc::new(std::sync::Mutex::new(Vec::<raykit::ValidationMessage>::new()));
+    let sink = received.clone();
+    let options = ContextOptions {
+        validation: Some(true),
+        pipeline_cache: PipelineCacheLocation::Off,
+        log_callback: Some(raykit::LogCallback::new(move |m| sink.lock().unwrap_or_else(|p| p.into_inner()).push(m.clone()))),
+        ..Default::default()
+    };
+    let ctx = Context::new(options)?;
+    // Creation calls that are valid report nothing.
+    let module = Module::from_device_crate(&ctx, "program-model-device")?;
+    let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+    let pipeline = Pipeline::<Params>::new(&ctx, &[&raygen], LinkOptions::default())?;
+    assert!(module.creation_log().is_empty() && pipeline.creation_log().is_empty());
+    // An invalid but harmless use, through the escape hatch: a named fence leaked
+    // until the context is destroyed.
+    // SAFETY: a fence on the context's device; it is deliberately leaked (the
+    // validation layer reports it when the device is destroyed).
+    let fence = unsafe { ctx.raw_device().create_fence(&raykit::ash::vk::FenceCreateInfo::default(), None) }?;
+    ctx.set_debug_name(fence, "deliberately leaked fence");
+    drop((pipeline, raygen, module));
+    assert!(received.lock().unwrap_or_else(|p| p.into_inner()).is_empty(), "messages before the leak");
+    drop(ctx);
+    let messages = received.lock().unwrap_or_else(|p| p.into_inner()).clone();
+    let leak = messages
+        .iter()
+        .find(|m| m.objects.iter().any(|o| o.name.as_deref() == Some("deliberately leaked fence")) || m.text.contains("deliberately leaked fence"));
+    let Some(leak) = leak else { anyhow::bail!("no message named the leaked fence; got: {messages:#?}") };
+    eprintln!("callback got: {leak}");
+    assert_eq!(leak.severity, raykit::Severity::Error);
+    Ok(())
 }
