@@ -96,6 +96,10 @@ pub(crate) struct ContextInner {
     queue: Mutex<vk::Queue>,
     queue_family: u32,
     command_pool: Mutex<vk::CommandPool>,
+    /// Finished command buffers and their (reset) fences, reused by later
+    /// submissions: allocating both for every launch costs more than the launch
+    /// on some drivers. Guarded with the pool's lock held too.
+    recycled: Mutex<Vec<(vk::CommandBuffer, vk::Fence)>>,
     pub(crate) allocator: ManuallyDrop<Mutex<gpu_allocator::vulkan::Allocator>>,
     pub(crate) buffer_table: ManuallyDrop<BufferTable>,
     pub(crate) limits: DeviceLimits,
@@ -425,6 +429,7 @@ impl Context {
                 queue: Mutex::new(queue),
                 queue_family,
                 command_pool: Mutex::new(command_pool),
+                recycled: Mutex::new(Vec::new()),
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 buffer_table: ManuallyDrop::new(buffer_table),
                 limits,
@@ -518,29 +523,39 @@ impl ContextInner {
     ) -> Result<Submission> {
         let device = &self.device;
         let pool = self.command_pool.lock().unwrap_or_else(|p| p.into_inner());
-        let alloc_info = vk::CommandBufferAllocateInfo::default()
-            .command_pool(*pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        // SAFETY: the pool is externally synchronised by the mutex held.
-        let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }
-            .map_err(Error::vk("vkAllocateCommandBuffers"))?[0];
-        let mut fence = vk::Fence::null();
+        let reused = self.recycled.lock().unwrap_or_else(|p| p.into_inner()).pop();
+        let (cmd, mut fence) = match reused {
+            Some(pair) => pair,
+            None => {
+                let alloc_info = vk::CommandBufferAllocateInfo::default()
+                    .command_pool(*pool)
+                    .level(vk::CommandBufferLevel::PRIMARY)
+                    .command_buffer_count(1);
+                // SAFETY: the pool is externally synchronised by the mutex held.
+                let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }
+                    .map_err(Error::vk("vkAllocateCommandBuffers"))?[0];
+                (cmd, vk::Fence::null())
+            }
+        };
         let result = (|| {
             let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-            // SAFETY: freshly allocated command buffer, recorded under the pool's lock.
+            // SAFETY: a fresh or finished (recycled) command buffer of a pool made
+            // with RESET_COMMAND_BUFFER, so beginning it resets it; recorded under
+            // the pool's lock.
             unsafe { device.begin_command_buffer(cmd, &begin) }.map_err(Error::vk("vkBeginCommandBuffer"))?;
             record(cmd);
             // SAFETY: as above.
             unsafe { device.end_command_buffer(cmd) }.map_err(Error::vk("vkEndCommandBuffer"))?;
-            // SAFETY: valid device.
-            fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
-                .map_err(Error::vk("vkCreateFence"))?;
+            if fence == vk::Fence::null() {
+                // SAFETY: valid device.
+                fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+                    .map_err(Error::vk("vkCreateFence"))?;
+            }
             let cmds = [cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
             let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
             // SAFETY: the queue is externally synchronised by its mutex; the command
-            // buffer is fully recorded.
+            // buffer is fully recorded; the fence is unsignalled (new or reset).
             unsafe { device.queue_submit(*queue, &submit, fence) }.map_err(|e| match e {
                 vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during },
                 other => Error::Vulkan { call: "vkQueueSubmit", result: other },
@@ -593,13 +608,22 @@ impl Submission {
 impl Drop for Submission {
     fn drop(&mut self) {
         // A failed wait means a lost device; destroying the objects is still allowed then.
-        let _ = self.wait();
+        let waited = self.wait().is_ok();
         let pool = self.ctx.command_pool.lock().unwrap_or_else(|p| p.into_inner());
-        // SAFETY: the work has finished (waited above), so the fence and command
-        // buffer are idle; the pool is locked.
+        let device = &self.ctx.device;
+        // Keep a few finished pairs for the next submissions.
+        const KEEP: usize = 8;
+        let mut recycled = self.ctx.recycled.lock().unwrap_or_else(|p| p.into_inner());
+        // SAFETY: the work has finished (waited above), so the fence is signalled
+        // and the command buffer idle.
+        if waited && recycled.len() < KEEP && unsafe { device.reset_fences(&[self.fence]) }.is_ok() {
+            recycled.push((self.cmd, self.fence));
+            return;
+        }
+        // SAFETY: as above; the pool is locked.
         unsafe {
-            self.ctx.device.destroy_fence(self.fence, None);
-            self.ctx.device.free_command_buffers(*pool, &[self.cmd]);
+            device.destroy_fence(self.fence, None);
+            device.free_command_buffers(*pool, &[self.cmd]);
         }
     }
 }
@@ -641,6 +665,10 @@ impl Drop for ContextInner {
             self.pipeline_cache.destroy(&self.device);
             ManuallyDrop::take(&mut self.buffer_table).destroy(&self.device);
             ManuallyDrop::drop(&mut self.allocator);
+            // Recycled fences; their command buffers go with the pool.
+            for (_, fence) in self.recycled.get_mut().unwrap_or_else(|p| p.into_inner()).drain(..) {
+                self.device.destroy_fence(fence, None);
+            }
             let pool = self.command_pool.get_mut().unwrap_or_else(|p| p.into_inner());
             self.device.destroy_command_pool(*pool, None);
             self.device.destroy_device(None);

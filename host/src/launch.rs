@@ -48,10 +48,26 @@ use crate::sbt::Sbt;
 pub struct Launch {
     // Field order matters: the submission (which waits in its drop) goes first.
     submission: Submission,
-    /// Host-visible copies of the pipeline's exception buffers, written by the launch.
-    readback: RawBuffer,
-    _pipeline: Arc<PipelineInner>,
+    /// Host-visible copies of the pipeline's exception buffers, written by the
+    /// launch; returned to the pipeline's pool when the launch is done.
+    readback: Option<RawBuffer>,
+    pipeline: Arc<PipelineInner>,
     _sbt: Arc<RawBuffer>,
+}
+
+impl Drop for Launch {
+    fn drop(&mut self) {
+        // The work is done once the submission has waited: only then may the
+        // readback buffer serve another launch.
+        if self.submission.wait().is_ok() {
+            if let Some(readback) = self.readback.take() {
+                let mut pool = self.pipeline.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                if pool.len() < 8 {
+                    pool.push(readback);
+                }
+            }
+        }
+    }
 }
 
 impl Launch {
@@ -64,7 +80,7 @@ impl Launch {
     /// results. Returns [`Error::UserExceptions`] if device programs threw any.
     pub fn wait(mut self) -> Result<()> {
         self.submission.wait()?;
-        let Some(bytes) = self.readback.mapped() else { return Ok(()) };
+        let Some(bytes) = self.readback.as_ref().and_then(|r| r.mapped()) else { return Ok(()) };
         let mut total = 0;
         let mut exceptions = Vec::new();
         for copy in bytes.chunks_exact(ExceptionBuffer::SIZE as usize) {
@@ -138,14 +154,18 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             Some((u.set, buffer.buffer, padded))
         });
         let stack_size = self.stack_size();
-        let readback = RawBuffer::new(
-            ctx,
-            "user exception readback",
-            ExceptionBuffer::SIZE * inner.exceptions.len() as u64,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            gpu_allocator::MemoryLocation::GpuToCpu,
-            16,
-        )?;
+        let pooled = inner.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
+        let readback = match pooled {
+            Some(buffer) => buffer,
+            None => RawBuffer::new(
+                ctx,
+                "user exception readback",
+                ExceptionBuffer::SIZE * inner.exceptions.len() as u64,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                gpu_allocator::MemoryLocation::GpuToCpu,
+                16,
+            )?,
+        };
         let submission = ctx.submit("a launch", |cmd| {
             // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
             // SBT buffers are alive until the work is done (the returned `Launch`
@@ -219,7 +239,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 full_barrier(device, cmd, vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
             }
         })?;
-        Ok(Launch { submission, readback, _pipeline: inner.clone(), _sbt: sbt.buffer.clone() })
+        Ok(Launch { submission, readback: Some(readback), pipeline: inner.clone(), _sbt: sbt.buffer.clone() })
     }
 }
 

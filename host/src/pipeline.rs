@@ -20,7 +20,7 @@
 
 use std::marker::PhantomData;
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use ash::vk;
 
@@ -104,6 +104,9 @@ pub(crate) struct PipelineInner {
     /// compiled together (the pipeline itself, or each linked library). Launches
     /// zero and copy them on the device (see [`crate::launch`]).
     pub(crate) exceptions: Vec<Arc<ExceptionBuffer>>,
+    /// Finished launches' exception readback buffers, reused by later launches
+    /// (an allocation per launch is slow on some drivers).
+    pub(crate) readbacks: Mutex<Vec<RawBuffer>>,
     /// Messages reported while it was created.
     pub(crate) log: Vec<crate::log::ValidationMessage>,
 }
@@ -386,6 +389,7 @@ impl<P: LaunchParams> Pipeline<P> {
             group_stacks: Vec::new(),
             stack_size: AtomicU32::new(0),
             exceptions: vec![Arc::new(exceptions)],
+            readbacks: Mutex::new(Vec::new()),
             log: Vec::new(),
         };
 
