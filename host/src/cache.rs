@@ -8,7 +8,7 @@
 //! atomically: to a temporary file in the same directory, then renamed over the old one.
 //!
 //! Where: [`PipelineCacheLocation`] in [`crate::ContextOptions`]. By default
-//! `$RAYKIT_CACHE_DIR` (`off` turns the disk cache off), else
+//! `$RAYKIT_PIPELINE_CACHE` (`off` turns the disk cache off), else
 //! `$XDG_CACHE_HOME/raykit/pipelines`, else `$HOME/.cache/raykit/pipelines`. One file
 //! per device, named by vendor, device and `pipelineCacheUUID`.
 //!
@@ -30,7 +30,7 @@ use crate::error::{Error, Result};
 /// Where the on-disk compile cache lives.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub enum PipelineCacheLocation {
-    /// `$RAYKIT_CACHE_DIR` if set (the value `off` turns the cache off), else
+    /// `$RAYKIT_PIPELINE_CACHE` if set (the value `off` turns the cache off), else
     /// `$XDG_CACHE_HOME/raykit/pipelines`, else `$HOME/.cache/raykit/pipelines`.
     #[default]
     Default,
@@ -48,7 +48,7 @@ impl PipelineCacheLocation {
             PipelineCacheLocation::Dir(dir) => Some(dir.clone()),
             PipelineCacheLocation::Default => {
                 let non_empty = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty());
-                if let Some(dir) = non_empty("RAYKIT_CACHE_DIR") {
+                if let Some(dir) = non_empty("RAYKIT_PIPELINE_CACHE") {
                     return (dir != "off" && dir != "0").then(|| PathBuf::from(dir));
                 }
                 if let Some(xdg) = non_empty("XDG_CACHE_HOME") {

@@ -307,7 +307,7 @@ pub enum Error {
     ParamsLayout(Box<raykit_device::layout::LayoutError>),
 
     /// Reading or writing the compile cache file failed.
-    #[error("pipeline cache file {path}: {source}; set ContextOptions::pipeline_cache (or RAYKIT_CACHE_DIR) to a writable directory, or turn the cache off")]
+    #[error("pipeline cache file {path}: {source}; set ContextOptions::pipeline_cache (or RAYKIT_PIPELINE_CACHE) to a writable directory, or turn the cache off")]
     PipelineCacheIo {
         /// The file.
         path: std::path::PathBuf,
