@@ -72,3 +72,28 @@ impl Drop for TempDir {
         let _ = std::fs::remove_dir_all(&self.0);
     }
 }
+
+/// Möller–Trumbore, the CPU references' ray–triangle test: `(t, (u, v))` of the
+/// hit of the ray with `tri` for `t` in `(t_min, t_max)`, with OptiX's
+/// barycentric convention (hit = (1-u-v)·v0 + u·v1 + v·v2).
+pub fn ray_triangle(
+    origin: raykit::glam::Vec3,
+    dir: raykit::glam::Vec3,
+    tri: [raykit::glam::Vec3; 3],
+    t_min: f32,
+    t_max: f32,
+) -> Option<(f32, raykit::glam::Vec2)> {
+    let e1 = tri[1] - tri[0];
+    let e2 = tri[2] - tri[0];
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let s = origin - tri[0];
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = dir.dot(q) / det;
+    let t = e2.dot(q) / det;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > t_min && t < t_max).then_some((t, raykit::glam::Vec2::new(u, v)))
+}

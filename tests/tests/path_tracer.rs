@@ -25,28 +25,9 @@ const BLOCK: u32 = 8;
 const SPP: u32 = 64;
 const SPP_PER_LAUNCH: u32 = 16;
 
-/// Möller–Trumbore: the distance to triangle `tri` along the ray, if in `(t_min, t_max)`.
+/// The distance to triangle `tri` along the ray, if in `(t_min, t_max)`.
 fn hit_triangle(origin: Vec3, dir: Vec3, tri: &[Vec3], t_min: f32, t_max: f32) -> Option<f32> {
-    let e1 = tri[1] - tri[0];
-    let e2 = tri[2] - tri[0];
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() < 1e-12 {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = origin - tri[0];
-    let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = dir.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
-    }
-    let t = e2.dot(q) * inv;
-    (t > t_min && t < t_max).then_some(t)
+    raykit_tests::ray_triangle(origin, dir, [tri[0], tri[1], tri[2]], t_min, t_max).map(|(t, _)| t)
 }
 
 /// The CPU scene: closest hit (what closest-hit + miss report) and visibility.

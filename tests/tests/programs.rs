@@ -157,21 +157,8 @@ fn callables_chosen_by_instance_custom_index_colour_each_instance() -> anyhow::R
     })
 }
 
-/// Möller–Trumbore on the host: the distance to `tri`, if hit in `(0, t_max)`.
 fn hit_triangle(origin: Vec3, dir: Vec3, tri: [Vec3; 3], t_max: f32) -> Option<f32> {
-    let e1 = tri[1] - tri[0];
-    let e2 = tri[2] - tri[0];
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() < 1e-12 {
-        return None;
-    }
-    let s = origin - tri[0];
-    let u = s.dot(p) / det;
-    let q = s.cross(e1);
-    let v = dir.dot(q) / det;
-    let t = e2.dot(q) / det;
-    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 && t < t_max).then_some(t)
+    raykit_tests::ray_triangle(origin, dir, tri, 0.0, t_max).map(|(t, _)| t)
 }
 
 #[test]

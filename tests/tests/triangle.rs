@@ -5,22 +5,9 @@ use raykit_tests::{channel_distance, with_context};
 use triangle::{BG_COLOR, VERTICES};
 use triangle_device::{barycentric_color, camera_ray, make_color, Params};
 
-/// Möller–Trumbore: `(t, u, v)` of the hit of the ray with triangle `tri`, with
-/// OptiX's barycentric convention (hit = (1-u-v)·v0 + u·v1 + v·v2).
+/// `(t, (u, v))` of the hit of the ray with triangle `tri`.
 fn intersect(origin: Vec3, dir: Vec3, tri: [Vec3; 3]) -> Option<(f32, Vec2)> {
-    let e1 = tri[1] - tri[0];
-    let e2 = tri[2] - tri[0];
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() < 1e-12 {
-        return None;
-    }
-    let s = origin - tri[0];
-    let u = s.dot(p) / det;
-    let q = s.cross(e1);
-    let v = dir.dot(q) / det;
-    let t = e2.dot(q) / det;
-    (t > 0.0 && u >= 0.0 && v >= 0.0 && u + v <= 1.0).then_some((t, Vec2::new(u, v)))
+    raykit_tests::ray_triangle(origin, dir, tri, 0.0, f32::INFINITY)
 }
 
 /// Distance of barycentrics `(u, v)` from the triangle's edges (negative outside).
