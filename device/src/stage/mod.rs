@@ -70,17 +70,19 @@ fn throw_exception(table: &mut BufferTable, slot: u32, launch_index: spirv_std::
     unreachable!("device programs run on the device")
 }
 
-/// The first word of element `index` of a `T` buffer of `len` words, when the
-/// whole element lies inside the buffer. One check per element, not one per
-/// word: a `Vec3` costs one compare-and-branch, as a hand-written `if` would.
+/// The first word of element `index` of a `T` buffer of `len` words; ends the
+/// program (as an out-of-range slice index does) unless the whole element lies
+/// inside the buffer. One check per element, not one per word: a `Vec3` costs
+/// one compare-and-branch, as a hand-written `if` would.
 #[allow(dead_code)]
-fn element_base<T: Element>(len: usize, index: u32) -> Option<usize> {
+fn element_base<T: Element>(len: usize, index: u32) -> usize {
     let base = index as usize * T::WORDS as usize;
-    if base < len && len - base >= T::WORDS as usize {
-        Some(base)
-    } else {
-        None
+    // `|`, not `||`: one branch. `len - base` wraps when `base > len`, and then
+    // the first test already fails.
+    if (base >= len) | (len.wrapping_sub(base) < T::WORDS as usize) {
+        panic!("buffer index out of range");
     }
+    base
 }
 
 /// Reads element `index` of `buffer` from the bindless table. An index past
@@ -91,11 +93,9 @@ fn load<T: Element>(table: &BufferTable, buffer: Buffer<T>, index: u32) -> T {
     {
         // SAFETY: the host fills every slot that a live `Buffer` handle names.
         let words: &[u32] = unsafe { table.index(buffer.table_index() as usize) };
-        match element_base::<T>(words.len(), index) {
-            // SAFETY: `element_base` checked `base + WORDS <= words.len()`.
-            Some(base) => unsafe { T::read_unchecked(words, base) },
-            None => panic!("buffer index out of range"),
-        }
+        let base = element_base::<T>(words.len(), index);
+        // SAFETY: `element_base` checked `base + WORDS <= words.len()`.
+        unsafe { T::read_unchecked(words, base) }
     }
     #[cfg(not(target_arch = "spirv"))]
     unreachable!("device buffers are only reachable on the device")
@@ -109,11 +109,9 @@ fn store<T: Element>(table: &mut BufferTable, buffer: Buffer<T>, index: u32, val
     {
         // SAFETY: the host fills every slot that a live `Buffer` handle names.
         let words: &mut [u32] = unsafe { table.index_mut(buffer.table_index() as usize) };
-        match element_base::<T>(words.len(), index) {
-            // SAFETY: `element_base` checked `base + WORDS <= words.len()`.
-            Some(base) => unsafe { value.write_unchecked(words, base) },
-            None => panic!("buffer index out of range"),
-        }
+        let base = element_base::<T>(words.len(), index);
+        // SAFETY: `element_base` checked `base + WORDS <= words.len()`.
+        unsafe { value.write_unchecked(words, base) }
     }
     #[cfg(not(target_arch = "spirv"))]
     unreachable!("device buffers are only reachable on the device")
