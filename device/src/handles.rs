@@ -101,6 +101,46 @@ pub trait Element: Copy + bytemuck::Pod {
     fn read(words: &[u32], base: usize) -> Self;
     /// Writes the element at word `base`.
     fn write(self, words: &mut [u32], base: usize);
+    /// Reads the element that starts at word `base` without checking the
+    /// words against the slice's length (raykit checks the whole element once
+    /// before calling it). The default calls [`Element::read`].
+    ///
+    /// # Safety
+    /// `base + WORDS` must not exceed `words.len()`.
+    unsafe fn read_unchecked(words: &[u32], base: usize) -> Self {
+        Self::read(words, base)
+    }
+    /// Writes the element at word `base` without checking the words against
+    /// the slice's length. The default calls [`Element::write`].
+    ///
+    /// # Safety
+    /// `base + WORDS` must not exceed `words.len()`.
+    unsafe fn write_unchecked(self, words: &mut [u32], base: usize) {
+        self.write(words, base)
+    }
+}
+
+/// `words[i]` without a bounds check (`OpAccessChain` only; slices' own
+/// `get_unchecked` does not compile to SPIR-V).
+///
+/// # Safety
+/// `i < words.len()`.
+#[inline(always)]
+unsafe fn word(words: &[u32], i: usize) -> u32 {
+    use spirv_std::arch::IndexUnchecked;
+    // SAFETY: the caller's.
+    unsafe { *words.index_unchecked(i) }
+}
+
+/// `words[i] = value` without a bounds check.
+///
+/// # Safety
+/// `i < words.len()`.
+#[inline(always)]
+unsafe fn set_word(words: &mut [u32], i: usize, value: u32) {
+    use spirv_std::arch::IndexUnchecked;
+    // SAFETY: the caller's.
+    unsafe { *words.index_unchecked_mut(i) = value }
 }
 
 impl Element for u32 {
@@ -110,6 +150,14 @@ impl Element for u32 {
     }
     fn write(self, words: &mut [u32], base: usize) {
         words[base] = self;
+    }
+    unsafe fn read_unchecked(words: &[u32], base: usize) -> Self {
+        // SAFETY: the caller's.
+        unsafe { word(words, base) }
+    }
+    unsafe fn write_unchecked(self, words: &mut [u32], base: usize) {
+        // SAFETY: the caller's.
+        unsafe { set_word(words, base, self) }
     }
 }
 
@@ -121,6 +169,14 @@ impl Element for i32 {
     fn write(self, words: &mut [u32], base: usize) {
         words[base] = self as u32;
     }
+    unsafe fn read_unchecked(words: &[u32], base: usize) -> Self {
+        // SAFETY: the caller's.
+        unsafe { word(words, base) as i32 }
+    }
+    unsafe fn write_unchecked(self, words: &mut [u32], base: usize) {
+        // SAFETY: the caller's.
+        unsafe { set_word(words, base, self as u32) }
+    }
 }
 
 impl Element for f32 {
@@ -130,6 +186,14 @@ impl Element for f32 {
     }
     fn write(self, words: &mut [u32], base: usize) {
         words[base] = self.to_bits();
+    }
+    unsafe fn read_unchecked(words: &[u32], base: usize) -> Self {
+        // SAFETY: the caller's.
+        f32::from_bits(unsafe { word(words, base) })
+    }
+    unsafe fn write_unchecked(self, words: &mut [u32], base: usize) {
+        // SAFETY: the caller's.
+        unsafe { set_word(words, base, self.to_bits()) }
     }
 }
 
@@ -146,6 +210,19 @@ macro_rules! float_vector_element {
             fn write(self, words: &mut [u32], base: usize) {
                 let mut i = base;
                 $(words[i] = self.$c.to_bits(); i += 1;)+
+                let _ = i;
+            }
+            unsafe fn read_unchecked(words: &[u32], base: usize) -> Self {
+                let mut i = base;
+                // SAFETY: the caller's: `base + WORDS <= words.len()`.
+                $(let $c = f32::from_bits(unsafe { word(words, i) }); i += 1;)+
+                let _ = i;
+                <$ty>::new($($c),+)
+            }
+            unsafe fn write_unchecked(self, words: &mut [u32], base: usize) {
+                let mut i = base;
+                // SAFETY: the caller's: `base + WORDS <= words.len()`.
+                $(unsafe { set_word(words, i, self.$c.to_bits()) }; i += 1;)+
                 let _ = i;
             }
         }

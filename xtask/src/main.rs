@@ -38,6 +38,10 @@ enum Cmd {
         /// Rebuild even crates that did not change.
         #[arg(long)]
         force: bool,
+        /// Post-optimise every module with `spirv-opt -O` (as the GLSL twins
+        /// are) and check it with `spirv-val`; also `RAYKIT_SPIRV_OPT=1`.
+        #[arg(long)]
+        spirv_opt: bool,
     },
     /// Render the Cornell box (path_tracer example) to a PNG and print where.
     Demo {
@@ -101,8 +105,11 @@ fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     let root = project_root();
     match cli.command {
-        Cmd::BuildShaders { force } => {
+        Cmd::BuildShaders { force, spirv_opt } => {
             setup::ensure_toolchain()?;
+            if spirv_opt {
+                shaders::SPIRV_OPT.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
             shaders::build_all(&root, force)?;
         }
         Cmd::Demo { example, output, size, spp } => {

@@ -241,7 +241,8 @@ pub fn build_all(root: &Path, force: bool) -> anyhow::Result<()> {
         let file = krate.name.replace('-', "_");
         let spv = out_dir.join(format!("{file}.spv"));
         let stamp = out_dir.join(format!("{file}.stamp"));
-        let print = fingerprint(root, krate, &builder)?;
+        let opt = spirv_opt_enabled();
+        let print = format!("{}{}", fingerprint(root, krate, &builder)?, if opt { "+spirv-opt" } else { "" });
         if !force && spv.exists() && std::fs::read_to_string(&stamp).is_ok_and(|s| s == print) {
             println!("xtask: {} is up to date ({})", krate.name, spv.display());
             continue;
@@ -251,6 +252,9 @@ pub fn build_all(root: &Path, force: bool) -> anyhow::Result<()> {
         cmd.arg(&krate.dir).arg(&spv).arg(&shader_target).env("LD_LIBRARY_PATH", &lib_path);
         cmd.env_remove("RUSTUP_TOOLCHAIN");
         crate::run(&mut cmd, &format!("building device crate {}", krate.name))?;
+        if opt {
+            spirv_opt(&spv)?;
+        }
         std::fs::write(&stamp, print)?;
         let size = std::fs::metadata(&spv).map(|m| m.len()).unwrap_or(0);
         println!(
@@ -261,6 +265,33 @@ pub fn build_all(root: &Path, force: bool) -> anyhow::Result<()> {
         );
     }
     check_params_layouts(&crates, &out_dir)
+}
+
+/// Set by `build-shaders --spirv-opt`.
+pub static SPIRV_OPT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether `RAYKIT_SPIRV_OPT` (or `build-shaders --spirv-opt`) asks for
+/// `spirv-opt -O` after rust-gpu.
+fn spirv_opt_enabled() -> bool {
+    SPIRV_OPT.load(std::sync::atomic::Ordering::Relaxed) || std::env::var("RAYKIT_SPIRV_OPT").is_ok_and(|v| !v.is_empty() && v != "0")
+}
+
+/// Runs `spirv-opt -O` over `spv` in place (the GLSL twins' pipeline) and checks
+/// the result with `spirv-val`; leaves the module as rust-gpu wrote it when
+/// either fails. rust-gpu already runs most of what `-O` does (inlining,
+/// mem2reg, scalar replacement, dead-code elimination); `-O` adds mainly FMA
+/// fusion and a few folds.
+fn spirv_opt(spv: &Path) -> anyhow::Result<()> {
+    let out = spv.with_extension("opt.spv");
+    let layout = ["--target-env=vulkan1.2", "--scalar-block-layout"];
+    crate::run(Command::new("spirv-opt").arg("-O").args(layout).arg(spv).arg("-o").arg(&out), "spirv-opt -O (apt-get install spirv-tools)")?;
+    let val = Command::new("spirv-val").args(["--target-env", "vulkan1.2", "--scalar-block-layout"]).arg(&out).output()?;
+    if !val.status.success() {
+        let _ = std::fs::remove_file(&out);
+        bail!("spirv-opt -O produced an invalid module from {}:\n{}", spv.display(), String::from_utf8_lossy(&val.stderr));
+    }
+    std::fs::rename(&out, spv)?;
+    Ok(())
 }
 
 /// Rebuilds device crate `name` (its dependencies already built) and returns
