@@ -208,13 +208,15 @@ impl Features {
                 .descriptor_binding_partially_bound(true)
                 .descriptor_binding_storage_buffer_update_after_bind(true)
                 .descriptor_indexing(true),
-            base: vk::PhysicalDeviceFeatures::default().shader_int64(true),
+            // Device programs access buffers without bounds checks and rely on
+            // robustBufferAccess for out-of-range indices (see raykit-device).
+            base: vk::PhysicalDeviceFeatures::default().shader_int64(true).robust_buffer_access(true),
         }
     }
 
     /// Names of required features `self` lacks.
     fn missing(&self) -> Vec<String> {
-        let checks: [(&str, vk::Bool32); 9] = [
+        let checks: [(&str, vk::Bool32); 10] = [
             ("vulkanMemoryModel", self.v12.vulkan_memory_model),
             ("rayTracingPipeline", self.rt.ray_tracing_pipeline),
             ("accelerationStructure", self.accel.acceleration_structure),
@@ -224,6 +226,7 @@ impl Features {
             ("descriptorBindingPartiallyBound", self.v12.descriptor_binding_partially_bound),
             ("descriptorBindingStorageBufferUpdateAfterBind", self.v12.descriptor_binding_storage_buffer_update_after_bind),
             ("shaderInt64", self.base.shader_int64),
+            ("robustBufferAccess", self.base.robust_buffer_access),
         ];
         checks.iter().filter(|(_, on)| *on == vk::FALSE).map(|(n, _)| format!("feature {n}")).collect()
     }

@@ -65,26 +65,7 @@ macro_rules! callable_common {
                 super::store(self.buffers, buffer, index, value)
             }
 
-            /// Reads element `index` of `buffer` without checking it against the
-            /// buffer's length (no `OpArrayLength`, no branch), as GLSL indexes buffers.
-            ///
-            /// # Safety
-            /// `index` must be less than the buffer's length in elements: past it, the
-            /// read is undefined unless the device enables `robustBufferAccess`.
-            pub unsafe fn load_unchecked<T: Element>(&self, buffer: Buffer<T>, index: u32) -> T {
-                // SAFETY: the caller's.
-                unsafe { super::load_unchecked(self.buffers, buffer, index) }
-            }
 
-            /// Writes element `index` of `buffer` without checking it against the
-            /// buffer's length.
-            ///
-            /// # Safety
-            /// As for [`Self::load_unchecked`]; an out-of-range write may corrupt memory.
-            pub unsafe fn store_unchecked<T: Element>(&mut self, buffer: Buffer<T>, index: u32, value: T) {
-                // SAFETY: the caller's.
-                unsafe { super::store_unchecked(self.buffers, buffer, index, value) }
-            }
 
             /// Runs the callable at `sbt_index` of the SBT's callable region with
             /// `data` (a `#[call_data]` parameter) (`optixDirectCall` /
