@@ -91,6 +91,9 @@ pub(crate) struct ContextInner {
     pub(crate) allocator: ManuallyDrop<Mutex<gpu_allocator::vulkan::Allocator>>,
     pub(crate) buffer_table: ManuallyDrop<BufferTable>,
     pub(crate) limits: DeviceLimits,
+    /// Largest launch width, height and depth: `maxComputeWorkGroupCount[i] ×
+    /// maxComputeWorkGroupSize[i]`, as `vkCmdTraceRaysKHR` requires.
+    pub(crate) launch_dimension_limits: [u64; 3],
     device_name: String,
 }
 
@@ -350,6 +353,11 @@ impl Context {
         let device_guard = DeviceGuard(Some(device.clone()));
 
         let limits = query_limits(instance, physical_device);
+        // SAFETY: `physical_device` came from this instance.
+        let base_limits = unsafe { instance.get_physical_device_properties(physical_device) }.limits;
+        let launch_dimension_limits: [u64; 3] = std::array::from_fn(|i| {
+            base_limits.max_compute_work_group_count[i] as u64 * base_limits.max_compute_work_group_size[i] as u64
+        });
         let rt = ash::khr::ray_tracing_pipeline::Device::new(instance, &device);
         let accel = ash::khr::acceleration_structure::Device::new(instance, &device);
         // SAFETY: queue family and index 0 were requested at device creation.
@@ -391,6 +399,7 @@ impl Context {
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 buffer_table: ManuallyDrop::new(buffer_table),
                 limits,
+                launch_dimension_limits,
                 device_name,
             }),
         })
@@ -416,6 +425,14 @@ impl Context {
     /// The queue family used for all work.
     pub fn queue_family(&self) -> u32 {
         self.inner.queue_family
+    }
+
+    /// The underlying `ash` device, for interoperation with other Vulkan code.
+    /// Objects made with it are the caller's: destroy them before the last
+    /// raykit object of this context is dropped (the validation layer reports
+    /// those left alive when the device is destroyed).
+    pub fn ash_device(&self) -> &ash::Device {
+        &self.inner.device
     }
 }
 
@@ -518,6 +535,7 @@ impl Drop for ContextInner {
             self.instance.destroy_instance(None);
             drop(Box::from_raw(self.log_ptr as *mut MessageLog));
         }
+        self.log.mark_destroyed();
     }
 }
 

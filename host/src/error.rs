@@ -108,14 +108,14 @@ pub enum Error {
     ValidationLayerMissing,
 
     /// The module has no ray-tracing entry point at all.
-    #[error("the SPIR-V module has no ray-tracing entry points (raygen, miss, closest-hit, any-hit, intersection, callable); it has: {}", list_entry_points(.available))]
+    #[error("the SPIR-V module has no ray-tracing entry points (raygen, miss, closest-hit, any-hit, intersection, callable); it has: {}. Compile the programs as ray-tracing stages (`#[raygen]`, `#[miss]`, … in Rust; `.rgen`, `.rmiss`, … in GLSL)", list_entry_points(.available))]
     NoRayTracingEntryPoints {
         /// The entry points it has.
         available: Vec<(String, Option<ProgramKind>)>,
     },
 
     /// The module has no entry point of that name.
-    #[error("module has no entry point `{name}`; it has: {}", list_entry_points(.available))]
+    #[error("module has no entry point `{name}`; it has: {}. Name one of these (Rust programs: use the entry-point constants the program macros generate)", list_entry_points(.available))]
     EntryPointNotFound {
         /// The name asked for.
         name: String,
@@ -142,8 +142,9 @@ pub enum Error {
     #[error("a hit group needs at least one of closest-hit, any-hit or intersection")]
     EmptyHitGroup,
 
-    /// A pipeline's program groups belong to different contexts.
-    #[error("program groups of one pipeline must come from the same Context")]
+    /// Objects of different contexts were combined: a pipeline's program groups,
+    /// or the GASes an IAS instances.
+    #[error("objects of different Contexts were combined (the program groups of one pipeline, or the GASes of an IAS); make them all with the same Context")]
     ContextMismatch,
 
     /// `max_trace_depth` is over the device's limit.
@@ -156,7 +157,7 @@ pub enum Error {
     },
 
     /// The pipeline has no raygen program group.
-    #[error("a pipeline needs a raygen program group")]
+    #[error("a pipeline needs a raygen program group; add one made with ProgramGroup::raygen to Pipeline::new")]
     NoRaygen,
 
     /// The launch params do not fit in a uniform buffer.
@@ -186,6 +187,10 @@ pub enum Error {
         actual: &'static str,
     },
 
+    /// A launch was given an SBT built for another pipeline.
+    #[error("the SBT was built for another pipeline; build one for the pipeline you launch with Sbt::builder(&pipeline)")]
+    SbtOfAnotherPipeline,
+
     /// An SBT region that must be present is missing.
     #[error("the SBT has no {region} record; add one with Sbt::builder(..).{region}(..)")]
     SbtMissing {
@@ -194,7 +199,7 @@ pub enum Error {
     },
 
     /// A record's data is too large for the device.
-    #[error("SBT record data of {size} bytes: record stride {stride} exceeds this device's maxShaderGroupStride {limit}")]
+    #[error("SBT record data of {size} bytes: record stride {stride} exceeds this device's maxShaderGroupStride {limit}; keep large data in a `Buffer<T>` and put its handle in the record")]
     SbtRecordTooLarge {
         /// Data size.
         size: usize,

@@ -24,6 +24,7 @@ pub use pipeline::{params_delivery, LinkOptions, Pipeline};
 pub use program_group::{EntryName, HitGroupBuilder, ProgramGroup};
 pub use sbt::{Sbt, SbtBuilder, SbtRecord};
 
+pub use ash;
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
 pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, Traversable};
