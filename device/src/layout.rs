@@ -467,6 +467,18 @@ fn compare(host: &ParamsLayout, members: &[BlockMember], path: &str, depth: usiz
                     return Err(mismatch(format!("matrix column stride {s} (host: {column_stride})")));
                 }
             }
+            // rust-gpu lays glam's matrices out as structs of column vectors.
+            (Shape::Matrix { columns, column_stride }, BlockType::Struct(cols)) => {
+                let stride_ok = cols.len() == *columns as usize
+                    && cols.iter().enumerate().all(|(k, c)| c.offset == k as u32 * column_stride && c.size <= *column_stride);
+                if !stride_ok {
+                    let offsets: Vec<u32> = cols.iter().map(|c| c.offset).collect();
+                    return Err(mismatch(format!(
+                        "offset {}, columns at relative offsets {offsets:?} (host: {columns} columns {column_stride} bytes apart)",
+                        member.offset
+                    )));
+                }
+            }
             (Shape::Plain, _) => {
                 if member.size > field.size {
                     return Err(mismatch(format!("offset {}, size {}", member.offset, member.size)));

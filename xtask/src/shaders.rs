@@ -273,7 +273,7 @@ fn check_params_layouts(crates: &[DeviceCrate], spirv_dir: &Path) -> anyhow::Res
     for krate in crates {
         cmd.args(["-p", &krate.name]);
     }
-    cmd.args(["--", "--quiet", "__raykit_params_layout_"]).env("RAYKIT_SPIRV_DIR", spirv_dir);
+    cmd.args(["--", "__raykit_params_layout_"]).env("RAYKIT_SPIRV_DIR", spirv_dir);
     let output = cmd.output().context("running the params layout checks")?;
     if !output.status.success() {
         let text = format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));

@@ -264,7 +264,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
     let mut wrapper_params = Vec::new();
     let mut call_args = Vec::new();
     let mut checks = Vec::new();
-    let mut prelude = Vec::new();
+    let mut params_choice = None;
     for p in &params {
         let name = &p.name;
         match &p.role {
@@ -281,9 +281,10 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 wrapper_params.push(quote! {
                     #[spirv(uniform, descriptor_set = 1, binding = 0)] #ubo: &#ty
                 });
-                prelude.push(quote! {
-                    let #name: &#ty = if ::raykit_device::uses_push_constants::<#ty>() { #pc } else { #ubo };
-                });
+                // rust-gpu gives every pointer one storage class, so the program
+                // is called from two branches, and the constant condition leaves
+                // only one of them (and one variable in use) in the SPIR-V.
+                params_choice = Some((name.clone(), ty.clone(), pc, ubo));
                 checks.push(quote_spanned! {ty.span()=>
                     const _: () = {
                         #[allow(dead_code)]
@@ -348,6 +349,24 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
         }
     }
 
+    let body = quote! {
+        #[allow(unused_mut)]
+        let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers);
+        #fn_name(#(#call_args),*);
+    };
+    let call = match params_choice {
+        Some((name, ty, pc, ubo)) => quote! {
+            if const { ::raykit_device::uses_push_constants::<#ty>() } {
+                let #name: &#ty = #pc;
+                #body
+            } else {
+                let #name: &#ty = #ubo;
+                #body
+            }
+        },
+        None => body,
+    };
+
     let doc = format!("The entry point `{entry_name}` (a {} program), for the host.", stage.context_type());
     Ok(quote! {
         #func
@@ -368,10 +387,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
             #[spirv(descriptor_set = 0, binding = 0, storage_buffer)] __buffers: &mut ::raykit_device::BufferTable,
             #(#wrapper_params,)*
         ) {
-            #(#prelude)*
-            #[allow(unused_mut)]
-            let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers);
-            #fn_name(#(#call_args),*);
+            #call
         }
     })
 }

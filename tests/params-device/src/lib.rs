@@ -23,17 +23,24 @@ impl Sink for Vec<u32> {
     }
 }
 
-/// A buffer written from its start by a raygen program.
-struct DeviceSink<'c, 'r> {
-    ctx: &'c mut Raygen<'r>,
-    out: Buffer<u32>,
-    next: u32,
+/// Words collected on the device before they are stored. (A sink holding the
+/// `&mut Raygen` itself would be simpler, but rust-gpu 0.11 cannot keep a
+/// pointer in a local struct: it compiles such code to loads of an
+/// uninitialised pointer, silently. Keep stage contexts out of structs.)
+struct ArraySink {
+    words: [u32; MAX_WORDS],
+    len: u32,
 }
 
-impl Sink for DeviceSink<'_, '_> {
+/// The most words a test struct has.
+pub const MAX_WORDS: usize = 64;
+
+impl Sink for ArraySink {
     fn put(&mut self, word: u32) {
-        self.ctx.store(self.out, self.next, word);
-        self.next += 1;
+        if (self.len as usize) < MAX_WORDS {
+            self.words[self.len as usize] = word;
+        }
+        self.len += 1;
     }
 }
 
@@ -229,35 +236,36 @@ impl Words for Large {
     }
 }
 
-/// A struct laid out differently on the host and on the SPIR-V target: `value`
-/// is at offset 8 on the host and 4 in the SPIR-V.
+/// A struct laid out differently on the host and on the SPIR-V target, as
+/// glam's `scalar-math` feature enabled on one side only does to a `Vec4`:
+/// `value` is 4-byte aligned at offset 4 on the host, 16-byte aligned at
+/// offset 16 (after explicit padding) in the SPIR-V.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
 pub struct TargetDependent {
     /// Where the program writes the words.
     pub out: Buffer<u32>,
-    /// Only on the host.
-    #[cfg(not(target_arch = "spirv"))]
-    pub host_only: u32,
-    /// The value the program reads.
-    pub value: f32,
-    /// Only on the device.
+    /// Padding, only on the device.
     #[cfg(target_arch = "spirv")]
-    pub device_only: u32,
+    pub _pad: [u32; 3],
+    /// The value the program reads: `[f32; 4]` on the host.
+    #[cfg(not(target_arch = "spirv"))]
+    pub value: [f32; 4],
+    /// The value the program reads: `Vec4` on the device.
+    #[cfg(target_arch = "spirv")]
+    pub value: Vec4,
 }
 
-/// A nested struct laid out differently on the two targets.
+/// A nested struct laid out differently on the two targets: 4 bytes on the
+/// host, 8 in the SPIR-V, where a field the host lacks comes first.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
 pub struct InnerDependent {
-    /// Only on the host.
-    #[cfg(not(target_arch = "spirv"))]
-    pub host_only: u32,
-    /// The value the program reads.
-    pub b: f32,
     /// Only on the device.
     #[cfg(target_arch = "spirv")]
     pub device_only: u32,
+    /// The value the program reads.
+    pub b: f32,
 }
 
 /// Params whose nested struct differs between the targets.
@@ -271,8 +279,13 @@ pub struct NestedDependent {
 }
 
 fn dump<T: Words>(ctx: &mut Raygen, out: Buffer<u32>, value: &T) {
-    let mut sink = DeviceSink { ctx, out, next: 0 };
+    let mut sink = ArraySink { words: [0; MAX_WORDS], len: 0 };
     value.words(&mut sink);
+    let mut i = 0;
+    while i < sink.len && (i as usize) < MAX_WORDS {
+        ctx.store(out, i, sink.words[i as usize]);
+        i += 1;
+    }
 }
 
 #[raygen]
@@ -294,10 +307,25 @@ fn rg_large(ctx: &mut Raygen, #[params] p: &Large) {
 // test expects the link-time error.
 #[raygen(skip_params_check)]
 fn rg_target_dependent(ctx: &mut Raygen, #[params] p: &TargetDependent) {
-    ctx.store(p.out, 0, p.value.to_bits());
+    // Not `p.value[0]`: rust-gpu 0.11 cannot index glam vectors in buffers
+    // (Rust-GPU/rust-gpu#432, a pointer OpPhi).
+    #[cfg(target_arch = "spirv")]
+    let x = p.value.x;
+    #[cfg(not(target_arch = "spirv"))]
+    let x = p.value[0];
+    ctx.store(p.out, 0, x.to_bits());
 }
 
 #[raygen(skip_params_check)]
 fn rg_nested_dependent(ctx: &mut Raygen, #[params] p: &NestedDependent) {
     ctx.store(p.out, 0, p.inner.b.to_bits());
+}
+
+#[raygen]
+fn rg_loop(ctx: &mut Raygen, #[params] p: &Mixed) {
+    let mut i = 0;
+    while i < 4 {
+        ctx.store(p.out, i, p.arr[i as usize]);
+        i += 1;
+    }
 }
