@@ -427,6 +427,14 @@ impl Context {
         self.inner.queue_family
     }
 
+    /// The largest launch width, height and depth each on its own:
+    /// `maxComputeWorkGroupCount[i] × maxComputeWorkGroupSize[i]`, which
+    /// `vkCmdTraceRaysKHR` requires besides the total of
+    /// [`DeviceLimits::max_ray_dispatch_invocation_count`].
+    pub fn max_launch_dimensions(&self) -> [u64; 3] {
+        self.inner.launch_dimension_limits
+    }
+
     /// The underlying `ash` device, for interoperation with other Vulkan code.
     /// Objects made with it are the caller's: destroy them before the last
     /// raykit object of this context is dropped (the validation layer reports
