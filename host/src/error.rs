@@ -77,7 +77,7 @@ pub enum Error {
     },
 
     /// Device memory could not be allocated.
-    #[error("allocating {what}: {source}")]
+    #[error("allocating {what}: {source}; drop buffers and acceleration structures that are no longer needed, or make smaller ones")]
     Allocation {
         /// What the memory was for.
         what: &'static str,

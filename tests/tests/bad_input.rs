@@ -779,3 +779,41 @@ fn buffer_write_longer_than_the_buffer() -> anyhow::Result<()> {
         |e| matches!(e, Error::BufferSize { len: 5, .. }),
     )
 }
+
+#[test]
+fn buffer_larger_than_device_memory() -> anyhow::Result<()> {
+    // 4 TiB: refused by the allocator with a typed error, not by a crash or a
+    // validation message.
+    case(
+        "buffer_larger_than_device_memory",
+        &["allocating DeviceBuffer: Out of memory", "make smaller ones"],
+        |ctx| refused(ctx.buffer::<u32>(1 << 40), "a 4 TiB buffer"),
+        |e| matches!(e, Error::Allocation { what: "DeviceBuffer", .. }),
+    )
+}
+
+#[test]
+fn more_live_buffers_than_the_buffer_table_holds() -> anyhow::Result<()> {
+    case(
+        "more_live_buffers_than_the_buffer_table_holds",
+        &["the buffer table is full", "drop buffers that are no longer needed"],
+        |ctx| {
+            let mut live = Vec::new();
+            let err = loop {
+                match ctx.buffer::<u32>(1) {
+                    Ok(b) => live.push(b),
+                    Err(e) => break e,
+                }
+                anyhow::ensure!(live.len() <= 1 << 20, "a million buffers and the table is not full");
+            };
+            anyhow::ensure!(matches!(err, Error::BufferTableFull { capacity } if capacity as usize == live.len()), "{err:?}");
+            // Freeing one slot makes room again.
+            live.pop();
+            live.push(ctx.buffer::<u32>(1)?);
+            let err = refused(ctx.buffer::<u32>(1), "one buffer more than the table holds")?;
+            drop(live);
+            Ok(err)
+        },
+        |e| matches!(e, Error::BufferTableFull { .. }),
+    )
+}
