@@ -19,6 +19,10 @@
 //! The reader is rspirv's data representation (naga's SPIR-V front-end rejects
 //! the ray-tracing stages); rspirv is a host-only dependency of this crate.
 
+// Layout errors carry the names and offsets that make them actionable; they are
+// rare and built once, so their size does not matter.
+#![allow(clippy::result_large_err)]
+
 use std::collections::HashMap;
 
 use rspirv::dr::{Instruction, Operand};
@@ -161,11 +165,14 @@ pub struct ParamsBlock {
     pub size: u32,
 }
 
+type Decorations = HashMap<u32, Vec<(Decoration, Option<u32>)>>;
+type MemberDecorations = HashMap<(u32, u32), Vec<(Decoration, Option<u32>)>>;
+
 /// Indexes of a parsed module that the reflection needs.
 struct Index<'m> {
     defs: HashMap<u32, &'m Instruction>,
-    decorations: HashMap<u32, Vec<(Decoration, Option<u32>)>>,
-    member_decorations: HashMap<(u32, u32), Vec<(Decoration, Option<u32>)>>,
+    decorations: Decorations,
+    member_decorations: MemberDecorations,
     member_names: HashMap<(u32, u32), String>,
 }
 
@@ -195,8 +202,8 @@ impl<'m> Index<'m> {
                 defs.insert(id, inst);
             }
         }
-        let mut decorations: HashMap<u32, Vec<(Decoration, Option<u32>)>> = HashMap::new();
-        let mut member_decorations: HashMap<(u32, u32), Vec<(Decoration, Option<u32>)>> = HashMap::new();
+        let mut decorations = Decorations::new();
+        let mut member_decorations = MemberDecorations::new();
         for inst in &module.annotations {
             match inst.class.opcode {
                 Op::Decorate => {

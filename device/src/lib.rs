@@ -28,6 +28,7 @@
 //! types, [`Buffer`] and [`Traversable`] handles and the [`EntryPoint`] constants the
 //! macros generate are shared between the two sides.
 #![cfg_attr(target_arch = "spirv", no_std)]
+#![cfg_attr(target_arch = "spirv", feature(asm_experimental_arch))]
 #![deny(missing_docs)]
 
 pub mod entry;
@@ -46,10 +47,16 @@ pub use params::{
     uses_push_constants, DeviceField, FieldLayout, LaunchParams, ParamsLayout, Shape, PARAMS_BINDING, PARAMS_SET,
     PUSH_CONSTANT_BUDGET,
 };
-pub use raykit_macros::{closest_hit, miss, raygen, LaunchParams};
+pub use raykit_macros::{
+    any_hit, closest_hit, continuation_callable, direct_callable, intersection, miss, raygen, LaunchParams,
+};
 pub use spirv_std;
 pub use spirv_std::glam;
-pub use stage::{ClosestHit, Miss, Raygen};
+pub use stage::{
+    AnyHit, ClosestHit, ContinuationCallable, DirectCallable, Intersection, Miss, Raygen,
+    HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE,
+};
+pub use spirv_std::matrix::Matrix4x3;
 
 /// The bindless storage-buffer table every program sees at descriptor set 0,
 /// binding 0. [`Buffer`] handles in launch params index it. Part of raykit's ABI

@@ -501,6 +501,113 @@ impl ContextInner {
     }
 }
 
+/// Work submitted to the queue and not yet waited for: a recorded command buffer
+/// and the fence it signals. Dropping it waits for the work first, so buffers
+/// the work uses may be freed after it.
+pub(crate) struct Submission {
+    ctx: Arc<ContextInner>,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+    during: &'static str,
+    waited: bool,
+}
+
+impl ContextInner {
+    /// Records commands with `record` and submits them without waiting; the
+    /// returned [`Submission`] is waited on (or dropped, which waits).
+    pub(crate) fn submit(
+        self: &Arc<Self>,
+        during: &'static str,
+        record: impl FnOnce(vk::CommandBuffer),
+    ) -> Result<Submission> {
+        let device = &self.device;
+        let pool = self.command_pool.lock().unwrap_or_else(|p| p.into_inner());
+        let alloc_info = vk::CommandBufferAllocateInfo::default()
+            .command_pool(*pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: the pool is externally synchronised by the mutex held.
+        let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }
+            .map_err(Error::vk("vkAllocateCommandBuffers"))?[0];
+        let mut fence = vk::Fence::null();
+        let result = (|| {
+            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            // SAFETY: freshly allocated command buffer, recorded under the pool's lock.
+            unsafe { device.begin_command_buffer(cmd, &begin) }.map_err(Error::vk("vkBeginCommandBuffer"))?;
+            record(cmd);
+            // SAFETY: as above.
+            unsafe { device.end_command_buffer(cmd) }.map_err(Error::vk("vkEndCommandBuffer"))?;
+            // SAFETY: valid device.
+            fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+                .map_err(Error::vk("vkCreateFence"))?;
+            let cmds = [cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
+            // SAFETY: the queue is externally synchronised by its mutex; the command
+            // buffer is fully recorded.
+            unsafe { device.queue_submit(*queue, &submit, fence) }.map_err(|e| match e {
+                vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during },
+                other => Error::Vulkan { call: "vkQueueSubmit", result: other },
+            })
+        })();
+        if let Err(e) = result {
+            // SAFETY: nothing was submitted: the command buffer and fence are idle.
+            unsafe {
+                if fence != vk::Fence::null() {
+                    device.destroy_fence(fence, None);
+                }
+                device.free_command_buffers(*pool, &[cmd]);
+            }
+            return Err(e);
+        }
+        drop(pool);
+        Ok(Submission { ctx: self.clone(), cmd, fence, during, waited: false })
+    }
+}
+
+impl Submission {
+    /// Whether the work has finished, without blocking.
+    pub(crate) fn is_done(&self) -> Result<bool> {
+        if self.waited {
+            return Ok(true);
+        }
+        // SAFETY: the fence belongs to this device and is alive.
+        unsafe { self.ctx.device.get_fence_status(self.fence) }.map_err(|e| match e {
+            vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during: self.during },
+            other => Error::Vulkan { call: "vkGetFenceStatus", result: other },
+        })
+    }
+
+    /// Blocks until the work has finished.
+    pub(crate) fn wait(&mut self) -> Result<()> {
+        if self.waited {
+            return Ok(());
+        }
+        // SAFETY: the fence belongs to this device and was submitted.
+        let waited = unsafe { self.ctx.device.wait_for_fences(&[self.fence], true, u64::MAX) };
+        waited.map_err(|e| match e {
+            vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during: self.during },
+            other => Error::Vulkan { call: "vkWaitForFences", result: other },
+        })?;
+        self.waited = true;
+        Ok(())
+    }
+}
+
+impl Drop for Submission {
+    fn drop(&mut self) {
+        // A failed wait means a lost device; destroying the objects is still allowed then.
+        let _ = self.wait();
+        let pool = self.ctx.command_pool.lock().unwrap_or_else(|p| p.into_inner());
+        // SAFETY: the work has finished (waited above), so the fence and command
+        // buffer are idle; the pool is locked.
+        unsafe {
+            self.ctx.device.destroy_fence(self.fence, None);
+            self.ctx.device.free_command_buffers(*pool, &[self.cmd]);
+        }
+    }
+}
+
 fn query_limits(instance: &ash::Instance, physical: vk::PhysicalDevice) -> DeviceLimits {
     let mut rt = vk::PhysicalDeviceRayTracingPipelinePropertiesKHR::default();
     let mut accel = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();

@@ -13,7 +13,7 @@ pub mod pipeline;
 pub mod program_group;
 pub mod sbt;
 
-pub use accel::{Gas, Ias, Instance};
+pub use accel::{Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance, InstanceFlags, PendingBuild, Triangles};
 pub use context::{Context, ContextOptions, DeviceLimits};
 pub use error::{DeviceReport, Error, Result};
 pub use raykit_device::layout::{BlockMember, BlockType, LayoutError, ParamsBlock, ParamsDelivery};

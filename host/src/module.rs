@@ -64,7 +64,7 @@ pub(crate) fn words_of(bytes: &[u8]) -> Result<Vec<u32>> {
     if bytes.len() < 20 {
         return Err(Error::InvalidSpirv { reason: format!("{} bytes is shorter than a SPIR-V header (20 bytes)", bytes.len()) });
     }
-    if bytes.len() % 4 != 0 {
+    if !bytes.len().is_multiple_of(4) {
         return Err(Error::InvalidSpirv { reason: format!("{} bytes is not a whole number of 32-bit words", bytes.len()) });
     }
     let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
@@ -123,10 +123,8 @@ fn check_structure(words: &[u32]) -> Result<()> {
                 }
                 open_function = Some(at);
             }
-            OP_FUNCTION_END => {
-                if open_function.take().is_none() {
-                    return invalid(format!("OpFunctionEnd at word {at} without OpFunction"));
-                }
+            OP_FUNCTION_END if open_function.take().is_none() => {
+                return invalid(format!("OpFunctionEnd at word {at} without OpFunction"));
             }
             _ => {}
         }

@@ -185,7 +185,7 @@ impl<P: LaunchParams> Pipeline<P> {
         let mut group_infos = Vec::with_capacity(groups.len());
         for group in groups {
             let info = match &group.programs {
-                GroupPrograms::Raygen(p) | GroupPrograms::Miss(p) => vk::RayTracingShaderGroupCreateInfoKHR::default()
+                GroupPrograms::Raygen(p) | GroupPrograms::Miss(p) | GroupPrograms::Callable(p) => vk::RayTracingShaderGroupCreateInfoKHR::default()
                     .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
                     .general_shader(stage_index(&Some(p.clone())))
                     .closest_hit_shader(vk::SHADER_UNUSED_KHR)

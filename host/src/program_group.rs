@@ -95,6 +95,7 @@ impl Program {
 pub(crate) enum GroupPrograms {
     Raygen(Program),
     Miss(Program),
+    Callable(Program),
     Hit { closest_hit: Option<Program>, any_hit: Option<Program>, intersection: Option<Program> },
 }
 
@@ -113,7 +114,7 @@ impl ProgramGroup {
     /// The programs of this group.
     pub(crate) fn programs(&self) -> Vec<&Program> {
         match &self.programs {
-            GroupPrograms::Raygen(p) | GroupPrograms::Miss(p) => vec![p],
+            GroupPrograms::Raygen(p) | GroupPrograms::Miss(p) | GroupPrograms::Callable(p) => vec![p],
             GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
                 [closest_hit, any_hit, intersection].into_iter().flatten().collect()
             }
@@ -136,16 +137,24 @@ impl ProgramGroup {
         Ok(Self::from_programs(module, GroupPrograms::Miss(program)))
     }
 
+    /// A callable group from `entry` of `module` (a `__direct_callable__` or
+    /// `__continuation_callable__` program, or a GLSL `callableEXT` shader).
+    pub fn callable(module: &Module, entry: impl EntryName) -> Result<ProgramGroup> {
+        let program = Program::resolve(module, &entry, ProgramKind::Callable, "ProgramGroup::callable")?;
+        Ok(Self::from_programs(module, GroupPrograms::Callable(program)))
+    }
+
     /// Starts a hit group whose programs come from `module`.
     pub fn hit_group(module: &Module) -> HitGroupBuilder<'_> {
         HitGroupBuilder { module, closest_hit: None, any_hit: None, intersection: None, error: None }
     }
 
-    /// The group's kind: `"raygen"`, `"miss"` or `"hit"`.
+    /// The group's kind: `"raygen"`, `"miss"`, `"callable"` or `"hit"`.
     pub fn kind_name(&self) -> &'static str {
         match self.programs {
             GroupPrograms::Raygen(_) => "raygen",
             GroupPrograms::Miss(_) => "miss",
+            GroupPrograms::Callable(_) => "callable",
             GroupPrograms::Hit { .. } => "hit",
         }
     }

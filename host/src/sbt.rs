@@ -17,6 +17,7 @@ use crate::error::{Error, Result};
 use crate::memory::RawBuffer;
 use crate::pipeline::{Pipeline, PipelineInner};
 use crate::program_group::{GroupPrograms, ProgramGroup};
+use raykit_device::RayType;
 
 /// One SBT record before packing: a group and its data.
 pub struct SbtRecord<'g, T: bytemuck::Pod> {
@@ -74,9 +75,22 @@ fn align_up(x: u64, a: u64) -> u64 {
 pub struct SbtBuilder<'p, P: raykit_device::LaunchParams> {
     pipeline: &'p Pipeline<P>,
     raygen: Option<PackedRecord>,
-    miss: Vec<PackedRecord>,
-    hit: Vec<PackedRecord>,
+    miss: Vec<Option<PackedRecord>>,
+    hit: Vec<Option<PackedRecord>>,
+    callable: Vec<PackedRecord>,
     error: Option<Error>,
+}
+
+/// Puts `record` at `index` of `region`, growing it; a taken slot is an error.
+fn place(slots: &mut Vec<Option<PackedRecord>>, index: usize, record: PackedRecord, region: &'static str) -> Result<()> {
+    if slots.len() <= index {
+        slots.resize_with(index + 1, || None);
+    }
+    if slots[index].is_some() {
+        return Err(Error::SbtSlotTaken { region, index });
+    }
+    slots[index] = Some(record);
+    Ok(())
 }
 
 impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
@@ -86,7 +100,10 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         }
         let kind_ok = matches!(
             (&group.programs, region),
-            (GroupPrograms::Raygen(_), "raygen") | (GroupPrograms::Miss(_), "miss") | (GroupPrograms::Hit { .. }, "hit")
+            (GroupPrograms::Raygen(_), "raygen")
+                | (GroupPrograms::Miss(_), "miss")
+                | (GroupPrograms::Hit { .. }, "hit")
+                | (GroupPrograms::Callable(_), "callable")
         );
         if !kind_ok {
             self.error = Some(Error::SbtGroupKind { region, expected, actual: group.kind_name() });
@@ -107,18 +124,56 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         self
     }
 
-    /// Appends a miss record; the n-th call is miss index n.
-    pub fn miss<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+    /// Appends a miss record at the end of the miss region.
+    pub fn miss<T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
+        let index = self.miss.len();
+        self.miss_at(index, group, data)
+    }
+
+    /// Places a miss record at miss index `index`.
+    pub fn miss_at<T: bytemuck::Pod>(mut self, index: usize, group: &ProgramGroup, data: T) -> Self {
         if let Some(r) = self.pack(group, &data, "miss", "miss") {
-            self.miss.push(r);
+            if let Err(e) = place(&mut self.miss, index, r, "miss") {
+                self.error = Some(e);
+            }
         }
         self
     }
 
-    /// Appends a hit record; the n-th call is hit record n.
-    pub fn hit<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+    /// Places ray type `R`'s miss record where `trace::<R>` looks for it
+    /// (`R::MISS_INDEX`).
+    pub fn miss_for<R: RayType, T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
+        self.miss_at(R::MISS_INDEX as usize, group, data)
+    }
+
+    /// Appends a hit record at the end of the hit region.
+    pub fn hit<T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
+        let index = self.hit.len();
+        self.hit_at(index, group, data)
+    }
+
+    /// Places a hit record at index `index` of the hit region.
+    pub fn hit_at<T: bytemuck::Pod>(mut self, index: usize, group: &ProgramGroup, data: T) -> Self {
         if let Some(r) = self.pack(group, &data, "hit", "hit") {
-            self.hit.push(r);
+            if let Err(e) = place(&mut self.hit, index, r, "hit") {
+                self.error = Some(e);
+            }
+        }
+        self
+    }
+
+    /// Places ray type `R`'s hit record for geometry slot `geometry` (an
+    /// instance's SBT offset plus the geometry's index in its GAS) where
+    /// `trace::<R>` looks for it: `geometry × R::SBT_STRIDE + R::SBT_OFFSET`.
+    pub fn hit_for<R: RayType, T: bytemuck::Pod>(self, geometry: usize, group: &ProgramGroup, data: T) -> Self {
+        self.hit_at(geometry * R::SBT_STRIDE as usize + R::SBT_OFFSET as usize, group, data)
+    }
+
+    /// Appends a callable record; the n-th call is callable index n (the
+    /// `sbt_index` of `ctx.call(sbt_index, data)` on the device).
+    pub fn callable<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+        if let Some(r) = self.pack(group, &data, "callable", "callable") {
+            self.callable.push(r);
         }
         self
     }
@@ -129,6 +184,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             GroupPrograms::Raygen(_) => self.raygen(record.group, record.data),
             GroupPrograms::Miss(_) => self.miss(record.group, record.data),
             GroupPrograms::Hit { .. } => self.hit(record.group, record.data),
+            GroupPrograms::Callable(_) => self.callable(record.group, record.data),
         }
     }
 
@@ -138,6 +194,16 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             return Err(e);
         }
         let raygen = self.raygen.ok_or(Error::SbtMissing { region: "raygen" })?;
+        // A hole would hand the device an empty record: refuse it.
+        let filled = |slots: Vec<Option<PackedRecord>>, region: &'static str| -> Result<Vec<PackedRecord>> {
+            slots
+                .into_iter()
+                .enumerate()
+                .map(|(index, r)| r.ok_or(Error::SbtHole { region, index }))
+                .collect()
+        };
+        let miss = filled(self.miss, "miss")?;
+        let hit = filled(self.hit, "hit")?;
         let pipeline = &self.pipeline.inner;
         let limits = pipeline.ctx.limits;
         let max_data = |records: &[PackedRecord]| records.iter().map(|r| r.data.len()).max().unwrap_or(0);
@@ -149,13 +215,14 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         };
         let raygen_records = std::slice::from_ref(&raygen);
         let rg = check(region_layout(&limits, 0, 1, raygen.data.len()), raygen.data.len())?;
-        let ms = check(region_layout(&limits, rg.offset + rg.size, self.miss.len(), max_data(&self.miss)), max_data(&self.miss))?;
-        let ht = check(region_layout(&limits, ms.offset + ms.size, self.hit.len(), max_data(&self.hit)), max_data(&self.hit))?;
-        let total = ht.offset + ht.size;
+        let ms = check(region_layout(&limits, rg.offset + rg.size, miss.len(), max_data(&miss)), max_data(&miss))?;
+        let ht = check(region_layout(&limits, ms.offset + ms.size, hit.len(), max_data(&hit)), max_data(&hit))?;
+        let cl = check(region_layout(&limits, ht.offset + ht.size, self.callable.len(), max_data(&self.callable)), max_data(&self.callable))?;
+        let total = cl.offset + cl.size;
 
         let mut bytes = vec![0u8; total as usize];
         let handle_size = limits.shader_group_handle_size as usize;
-        for (layout, records) in [(rg, raygen_records), (ms, &self.miss[..]), (ht, &self.hit[..])] {
+        for (layout, records) in [(rg, raygen_records), (ms, &miss[..]), (ht, &hit[..]), (cl, &self.callable[..])] {
             for (i, record) in records.iter().enumerate() {
                 let at = (layout.offset + layout.stride * i as u64) as usize;
                 let handle = &pipeline.handles[record.group_index * handle_size..][..handle_size];
@@ -182,8 +249,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             raygen: region(rg),
             miss: region(ms),
             hit: region(ht),
-            callable: vk::StridedDeviceAddressRegionKHR::default(),
-            layouts: [rg, ms, ht],
+            callable: region(cl),
+            layouts: [rg, ms, ht, cl],
             _buffer: buffer,
         })
     }
@@ -196,18 +263,18 @@ pub struct Sbt {
     pub(crate) miss: vk::StridedDeviceAddressRegionKHR,
     pub(crate) hit: vk::StridedDeviceAddressRegionKHR,
     pub(crate) callable: vk::StridedDeviceAddressRegionKHR,
-    layouts: [RegionLayout; 3],
+    layouts: [RegionLayout; 4],
     _buffer: RawBuffer,
 }
 
 impl Sbt {
     /// Starts an SBT for `pipeline`.
     pub fn builder<P: raykit_device::LaunchParams>(pipeline: &Pipeline<P>) -> SbtBuilder<'_, P> {
-        SbtBuilder { pipeline, raygen: None, miss: Vec::new(), hit: Vec::new(), error: None }
+        SbtBuilder { pipeline, raygen: None, miss: Vec::new(), hit: Vec::new(), callable: Vec::new(), error: None }
     }
 
-    /// Layouts of the raygen, miss and hit regions.
-    pub fn region_layouts(&self) -> [RegionLayout; 3] {
+    /// Layouts of the raygen, miss, hit and callable regions.
+    pub fn region_layouts(&self) -> [RegionLayout; 4] {
         self.layouts
     }
 }

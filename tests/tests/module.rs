@@ -78,7 +78,7 @@ fn bad_modules_and_link_options_are_typed_errors() -> anyhow::Result<()> {
         assert!(matches!(Module::new(ctx, b"definitely not SPIR-V"), Err(Error::InvalidSpirv { .. })));
         let bytes = include_bytes!("../data/raygen_main.rgen.spv");
         assert!(matches!(Module::new(ctx, &bytes[..bytes.len() - 2]), Err(Error::InvalidSpirv { .. })));
-        assert!(matches!(Module::new(ctx, &bytes[..bytes.len() / 2 & !3]), Err(Error::InvalidSpirv { .. })));
+        assert!(matches!(Module::new(ctx, &bytes[..(bytes.len() / 2) & !3]), Err(Error::InvalidSpirv { .. })));
         let missing = Module::from_file(ctx, "no/such/file.spv");
         assert!(matches!(missing, Err(Error::SpirvFile { .. })));
 

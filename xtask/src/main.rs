@@ -5,6 +5,10 @@
 //! * `demo`: render the triangle example to a PNG.
 //! * `test`: set up what is missing (nightly, lavapipe, validation layers), build
 //!   the shaders and run every test with validation on.
+//! * `bench`: build `raykit-bench` in release and run it (suites such as `accel`);
+//!   it writes `target/bench/bench.json` and `bench.md`. The binary needs only the
+//!   Vulkan loader and the SPIR-V files, so it can be copied to a GPU machine
+//!   without Rust.
 //!
 //! xtask never links rust-gpu's codegen backend: it builds the small
 //! `xtask/shader-builder` program with the pinned nightly into a per-user cache
@@ -48,6 +52,16 @@ enum Cmd {
     },
     /// Only install what is missing (toolchain, Vulkan driver, validation layers).
     Setup,
+    /// Build and run the benchmarks (target/bench/bench.{json,md}).
+    Bench {
+        /// Build the shaders first (suites that trace need them; `accel` does not).
+        #[arg(long)]
+        shaders: bool,
+        /// Arguments of raykit-bench: suites (`accel`) and options
+        /// (`--sizes 10000,100000`, `--reps N`, `--device NAME`).
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
 }
 
 /// The workspace root.
@@ -110,6 +124,25 @@ fn main() -> anyhow::Result<()> {
                 cmd.env("RAYKIT_REQUIRE_DEVICE", "1");
             }
             run(&mut cmd, "cargo test")?;
+        }
+        Cmd::Bench { shaders, args } => {
+            setup::ensure_vulkan(false)?;
+            if shaders {
+                setup::ensure_toolchain()?;
+                shaders::build_all(&root, false)?;
+            }
+            run(cargo().args(["build", "--release", "--quiet", "-p", "raykit-bench"]), "building raykit-bench")?;
+            let binary = root.join("target").join("release").join("raykit-bench");
+            run(
+                std::process::Command::new(&binary)
+                    .current_dir(&root)
+                    .args(&args)
+                    .arg("--out")
+                    .arg(root.join("target").join("bench"))
+                    .arg("--spirv-dir")
+                    .arg(shaders::spirv_dir(&root)),
+                "raykit-bench",
+            )?;
         }
         Cmd::Setup => {
             setup::ensure_toolchain()?;

@@ -12,10 +12,18 @@
 //! * `#[params] p: &P`: the launch params (push constants);
 //! * `#[record] r: &R`: the program's SBT record data;
 //! * `#[payload] p: &mut T`: the ray payload (raygen may have several, one per
-//!   ray type it traces; miss and closest-hit have at most one).
+//!   ray type it traces; miss, closest-hit and any-hit have one incoming);
+//! * `#[trace_payload] p: &mut T`: an outgoing payload, for `trace` in miss,
+//!   closest-hit and continuation-callable programs;
+//! * `#[call_data] d: &mut T`: outgoing data for `call` (callables);
+//! * `#[callable_data] d: &mut T`: a callable program's incoming data;
+//! * `#[attributes] a: &mut T` (intersection) / `a: &T` (any-hit, closest-hit):
+//!   typed hit attributes.
 //!
-//! `#[miss(ray = R)]` and `#[closest_hit(ray = R)]` check at compile time that the
-//! payload is `<R as RayType>::Payload`.
+//! `#[miss(ray = R)]`, `#[closest_hit(ray = R)]` and `#[any_hit(ray = R)]` check at
+//! compile time that the payload is `<R as RayType>::Payload`. A role a stage
+//! cannot have (a payload in an intersection program, tracing from a direct
+//! callable) is a compile error that says so.
 
 mod launch_params;
 mod program;
@@ -38,6 +46,30 @@ pub fn miss(attr: TokenStream, item: TokenStream) -> TokenStream {
 #[proc_macro_attribute]
 pub fn closest_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
     program::expand(program::Stage::ClosestHit, attr.into(), item.into()).into()
+}
+
+/// Marks an any-hit program (`__anyhit__<name>`). Optional `ray = RayType`.
+#[proc_macro_attribute]
+pub fn any_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
+    program::expand(program::Stage::AnyHit, attr.into(), item.into()).into()
+}
+
+/// Marks an intersection program (`__intersection__<name>`).
+#[proc_macro_attribute]
+pub fn intersection(attr: TokenStream, item: TokenStream) -> TokenStream {
+    program::expand(program::Stage::Intersection, attr.into(), item.into()).into()
+}
+
+/// Marks a direct callable (`__direct_callable__<name>`): may not trace.
+#[proc_macro_attribute]
+pub fn direct_callable(attr: TokenStream, item: TokenStream) -> TokenStream {
+    program::expand(program::Stage::DirectCallable, attr.into(), item.into()).into()
+}
+
+/// Marks a continuation callable (`__continuation_callable__<name>`): may trace.
+#[proc_macro_attribute]
+pub fn continuation_callable(attr: TokenStream, item: TokenStream) -> TokenStream {
+    program::expand(program::Stage::ContinuationCallable, attr.into(), item.into()).into()
 }
 
 /// Records the layout of a launch-params struct (`#[repr(C)]`, `Copy`,

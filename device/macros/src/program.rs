@@ -11,6 +11,10 @@ pub enum Stage {
     Raygen,
     Miss,
     ClosestHit,
+    AnyHit,
+    Intersection,
+    DirectCallable,
+    ContinuationCallable,
 }
 
 impl Stage {
@@ -19,6 +23,10 @@ impl Stage {
             Stage::Raygen => "__raygen__",
             Stage::Miss => "__miss__",
             Stage::ClosestHit => "__closesthit__",
+            Stage::AnyHit => "__anyhit__",
+            Stage::Intersection => "__intersection__",
+            Stage::DirectCallable => "__direct_callable__",
+            Stage::ContinuationCallable => "__continuation_callable__",
         }
     }
     fn macro_name(self) -> &'static str {
@@ -26,6 +34,10 @@ impl Stage {
             Stage::Raygen => "raygen",
             Stage::Miss => "miss",
             Stage::ClosestHit => "closest_hit",
+            Stage::AnyHit => "any_hit",
+            Stage::Intersection => "intersection",
+            Stage::DirectCallable => "direct_callable",
+            Stage::ContinuationCallable => "continuation_callable",
         }
     }
     fn spirv_execution_model(self) -> Ident {
@@ -33,6 +45,9 @@ impl Stage {
             Stage::Raygen => "ray_generation",
             Stage::Miss => "miss",
             Stage::ClosestHit => "closest_hit",
+            Stage::AnyHit => "any_hit",
+            Stage::Intersection => "intersection",
+            Stage::DirectCallable | Stage::ContinuationCallable => "callable",
         };
         Ident::new(name, Span::call_site())
     }
@@ -41,6 +56,9 @@ impl Stage {
             Stage::Raygen => quote!(::raykit_device::ProgramKind::Raygen),
             Stage::Miss => quote!(::raykit_device::ProgramKind::Miss),
             Stage::ClosestHit => quote!(::raykit_device::ProgramKind::ClosestHit),
+            Stage::AnyHit => quote!(::raykit_device::ProgramKind::AnyHit),
+            Stage::Intersection => quote!(::raykit_device::ProgramKind::Intersection),
+            Stage::DirectCallable | Stage::ContinuationCallable => quote!(::raykit_device::ProgramKind::Callable),
         }
     }
     fn context_type(self) -> &'static str {
@@ -48,6 +66,41 @@ impl Stage {
             Stage::Raygen => "Raygen",
             Stage::Miss => "Miss",
             Stage::ClosestHit => "ClosestHit",
+            Stage::AnyHit => "AnyHit",
+            Stage::Intersection => "Intersection",
+            Stage::DirectCallable => "DirectCallable",
+            Stage::ContinuationCallable => "ContinuationCallable",
+        }
+    }
+    fn is_hit(self) -> bool {
+        matches!(self, Stage::ClosestHit | Stage::AnyHit | Stage::Intersection)
+    }
+    fn is_callable(self) -> bool {
+        matches!(self, Stage::DirectCallable | Stage::ContinuationCallable)
+    }
+    /// Why a parameter role is not allowed in this stage, if it is not.
+    fn refuses(self, role: &str) -> Option<String> {
+        let name = self.macro_name();
+        match role {
+            "payload" if matches!(self, Stage::Intersection) || self.is_callable() => Some(format!(
+                "#[{name}] programs have no ray payload (Vulkan gives payloads to raygen, miss, closest-hit and any-hit)"
+            )),
+            "trace_payload" if matches!(self, Stage::DirectCallable) => Some(
+                "direct callables cannot trace rays; use #[continuation_callable] for a callable that traces".to_owned(),
+            ),
+            "trace_payload" if matches!(self, Stage::AnyHit | Stage::Intersection) => {
+                Some(format!("#[{name}] programs cannot trace rays"))
+            }
+            "call_data" if matches!(self, Stage::AnyHit | Stage::Intersection) => {
+                Some(format!("#[{name}] programs cannot call callables"))
+            }
+            "callable_data" if !self.is_callable() => {
+                Some("#[callable_data] is the incoming data of a callable program; callers use #[call_data]".to_owned())
+            }
+            "attributes" if !self.is_hit() => Some(format!(
+                "#[{name}] programs have no hit attributes (only intersection, any-hit and closest-hit do)"
+            )),
+            _ => None,
         }
     }
 }
@@ -57,7 +110,16 @@ enum Role {
     Context { by_ref: bool },
     Params(Type),
     Record(Type),
+    /// Incoming payload (miss, hit) or, in raygen, an outgoing one.
     Payload(Type),
+    /// An outgoing payload for `trace` in a non-raygen stage.
+    TracePayload(Type),
+    /// Outgoing callable data, for `call`.
+    CallData(Type),
+    /// A callable's incoming data.
+    CallableData(Type),
+    /// Hit attributes: written by intersection, read by any-hit and closest-hit.
+    Attributes(Type),
 }
 
 struct Param {
@@ -81,12 +143,12 @@ fn parse_args(stage: Stage, attr: TokenStream) -> syn::Result<Args> {
         if meta.path.is_ident("skip_params_check") {
             args.skip_params_check = true;
             Ok(())
-        } else if meta.path.is_ident("ray") && stage != Stage::Raygen {
+        } else if meta.path.is_ident("ray") && matches!(stage, Stage::Miss | Stage::ClosestHit | Stage::AnyHit) {
             let value: syn::Path = meta.value()?.parse()?;
             args.ray = Some(value);
             Ok(())
         } else if meta.path.is_ident("ray") {
-            Err(meta.error("`ray = …` belongs on miss and closest-hit programs; raygen names the ray type at each `trace::<R>` call"))
+            Err(meta.error("`ray = …` belongs on miss, closest-hit and any-hit programs (the ones with an incoming payload); raygen names the ray type at each `trace::<R>` call"))
         } else {
             Err(meta.error(format!(
                 "unknown argument of #[{}]; expected `ray = RayType`, `skip_params_check` or nothing",
@@ -133,7 +195,9 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
         let mut kept = Vec::new();
         for attr in arg.attrs.drain(..) {
             let path = attr.path();
-            let known = ["params", "record", "payload"].iter().find(|k| path.is_ident(k));
+            let known = ["params", "record", "payload", "trace_payload", "call_data", "callable_data", "attributes"]
+                .iter()
+                .find(|k| path.is_ident(k));
             match known {
                 Some(k) => {
                     if role_attr.is_some() {
@@ -146,6 +210,13 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
         }
         arg.attrs = kept;
         let ty = &*arg.ty;
+        if let Some((role, span)) = &role_attr {
+            if let Some(why) = stage.refuses(role) {
+                push_error(syn::Error::new(*span, why));
+                continue;
+            }
+        }
+        let attributes_mutable = stage == Stage::Intersection;
         let role = match role_attr.as_ref().map(|(s, _)| s.as_str()) {
             None => {
                 let by_ref = matches!(ty, Type::Reference(_));
@@ -153,6 +224,13 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
             }
             Some("params") => referent(ty, false, "#[params]").map(Role::Params),
             Some("record") => referent(ty, false, "#[record]").map(Role::Record),
+            Some("trace_payload") => referent(ty, true, "#[trace_payload]").map(Role::TracePayload),
+            Some("call_data") => referent(ty, true, "#[call_data]").map(Role::CallData),
+            Some("callable_data") => referent(ty, true, "#[callable_data]").map(Role::CallableData),
+            Some("attributes") if attributes_mutable => {
+                referent(ty, true, "#[attributes] of an intersection program").map(Role::Attributes)
+            }
+            Some("attributes") => referent(ty, false, "#[attributes] of a hit program").map(Role::Attributes),
             Some(_) => referent(ty, true, "#[payload]").map(Role::Payload),
         };
         match role {
@@ -173,6 +251,8 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
     for (what, n) in [
         ("#[params]", count(|r| matches!(r, Role::Params(_)))),
         ("#[record]", count(|r| matches!(r, Role::Record(_)))),
+        ("#[callable_data]", count(|r| matches!(r, Role::CallableData(_)))),
+        ("#[attributes]", count(|r| matches!(r, Role::Attributes(_)))),
     ] {
         if n > 1 {
             push_error(syn::Error::new(func.sig.inputs.span(), format!("at most one {what} parameter")));
@@ -181,7 +261,7 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
     if stage != Stage::Raygen && count(|r| matches!(r, Role::Payload(_))) > 1 {
         push_error(syn::Error::new(
             func.sig.inputs.span(),
-            "a miss or closest-hit program has one incoming payload; only raygen may declare several",
+            "a miss or hit program has one incoming #[payload]; declare outgoing ones as #[trace_payload]",
         ));
     }
     match errors {
@@ -229,36 +309,78 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
     let ctx_ty = format_ident!("{}", stage.context_type());
 
     // Built-ins each stage's context is made of.
+    let has_attributes = params.iter().any(|p| matches!(p.role, Role::Attributes(_)));
+    let launch = quote! {
+        #[spirv(launch_id)] __launch_id: ::raykit_device::glam::UVec3,
+        #[spirv(launch_size)] __launch_size: ::raykit_device::glam::UVec3,
+    };
     let (builtin_params, ctx_args) = match stage {
-        Stage::Raygen => (
-            quote! {
-                #[spirv(launch_id)] __launch_id: ::raykit_device::glam::UVec3,
-                #[spirv(launch_size)] __launch_size: ::raykit_device::glam::UVec3,
-            },
-            quote! { __launch_id, __launch_size },
-        ),
+        Stage::Raygen | Stage::DirectCallable | Stage::ContinuationCallable => {
+            (launch, quote! { __launch_id, __launch_size })
+        }
         Stage::Miss => (
             quote! {
-                #[spirv(launch_id)] __launch_id: ::raykit_device::glam::UVec3,
-                #[spirv(launch_size)] __launch_size: ::raykit_device::glam::UVec3,
+                #launch
                 #[spirv(world_ray_origin)] __world_ray_origin: ::raykit_device::glam::Vec3,
                 #[spirv(world_ray_direction)] __world_ray_direction: ::raykit_device::glam::Vec3,
             },
             quote! { __launch_id, __launch_size, __world_ray_origin, __world_ray_direction },
         ),
-        Stage::ClosestHit => (
-            quote! {
-                #[spirv(launch_id)] __launch_id: ::raykit_device::glam::UVec3,
-                #[spirv(launch_size)] __launch_size: ::raykit_device::glam::UVec3,
+        Stage::ClosestHit | Stage::AnyHit | Stage::Intersection => {
+            // Vulkan has no hit kind in intersection programs (it is what they report).
+            let (hit_kind_param, hit_kind) = if stage == Stage::Intersection {
+                (quote!(), quote!(0))
+            } else {
+                (quote! { #[spirv(hit_kind)] __hit_kind: u32, }, quote!(__hit_kind))
+            };
+            let params = quote! {
+                #launch
                 #[spirv(world_ray_origin)] __world_ray_origin: ::raykit_device::glam::Vec3,
                 #[spirv(world_ray_direction)] __world_ray_direction: ::raykit_device::glam::Vec3,
+                #[spirv(object_ray_origin)] __object_ray_origin: ::raykit_device::glam::Vec3,
+                #[spirv(object_ray_direction)] __object_ray_direction: ::raykit_device::glam::Vec3,
+                #[spirv(ray_tmin)] __ray_tmin: f32,
                 #[spirv(ray_tmax)] __ray_tmax: f32,
+                #[spirv(incoming_ray_flags)] __ray_flags: u32,
+                #hit_kind_param
                 #[spirv(primitive_id)] __primitive_id: u32,
-                #[spirv(hit_attribute)] __barycentrics: &mut ::raykit_device::glam::Vec2,
-            },
-            quote! { __launch_id, __launch_size, __world_ray_origin, __world_ray_direction,
-                     __ray_tmax, __primitive_id, *__barycentrics },
-        ),
+                #[spirv(instance_id)] __instance_id: u32,
+                #[spirv(instance_custom_index)] __instance_custom_index: u32,
+                #[spirv(ray_geometry_index)] __geometry_index: u32,
+                #[spirv(object_to_world)] __object_to_world: ::raykit_device::Matrix4x3,
+                #[spirv(world_to_object)] __world_to_object: ::raykit_device::Matrix4x3,
+            };
+            let hit = quote! {
+                ::raykit_device::stage::HitBuiltins {
+                    launch_index: __launch_id,
+                    launch_dimensions: __launch_size,
+                    world_ray_origin: __world_ray_origin,
+                    world_ray_direction: __world_ray_direction,
+                    object_ray_origin: __object_ray_origin,
+                    object_ray_direction: __object_ray_direction,
+                    ray_tmin: __ray_tmin,
+                    ray_tmax: __ray_tmax,
+                    ray_flags: __ray_flags,
+                    hit_kind: #hit_kind,
+                    primitive_index: __primitive_id,
+                    instance_id: __instance_id,
+                    instance_custom_index: __instance_custom_index,
+                    geometry_index: __geometry_index,
+                    object_to_world: __object_to_world,
+                    world_to_object: __world_to_object,
+                }
+            };
+            match stage {
+                // Triangles' barycentrics are the hit attributes unless the
+                // program declares its own.
+                Stage::ClosestHit if !has_attributes => (
+                    quote! { #params #[spirv(hit_attribute)] __barycentrics: &mut ::raykit_device::glam::Vec2, },
+                    quote! { #hit, *__barycentrics },
+                ),
+                Stage::ClosestHit => (params, quote! { #hit, ::raykit_device::glam::Vec2::ZERO }),
+                _ => (params, hit),
+            }
+        }
     };
 
     let mut wrapper_params = Vec::new();
@@ -328,6 +450,26 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                     #[spirv(shader_record_buffer)] #name: &::raykit_device::spirv_std::TypedBuffer<#ty>
                 });
                 call_args.push(quote!(::core::ops::Deref::deref(#name)));
+            }
+            Role::TracePayload(ty) => {
+                wrapper_params.push(quote! { #[spirv(ray_payload)] #name: &mut #ty });
+                call_args.push(quote!(#name));
+            }
+            Role::CallData(ty) => {
+                wrapper_params.push(quote! { #[spirv(callable_data)] #name: &mut #ty });
+                call_args.push(quote!(#name));
+            }
+            Role::CallableData(ty) => {
+                wrapper_params.push(quote! { #[spirv(incoming_callable_data)] #name: &mut #ty });
+                call_args.push(quote!(#name));
+            }
+            Role::Attributes(ty) => {
+                if stage == Stage::Intersection {
+                    wrapper_params.push(quote! { #[spirv(hit_attribute)] #name: &mut #ty });
+                } else {
+                    wrapper_params.push(quote! { #[spirv(hit_attribute)] #name: &#ty });
+                }
+                call_args.push(quote!(#name));
             }
             Role::Payload(ty) => {
                 let storage = if stage == Stage::Raygen { quote!(ray_payload) } else { quote!(incoming_ray_payload) };

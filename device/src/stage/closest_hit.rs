@@ -1,90 +1,51 @@
-//! The closest-hit stage (`__closesthit__`).
+//! The closest-hit stage (`__closesthit__`): runs once for the closest hit a
+//! ray accepted; may trace further rays and call callables.
 
-use spirv_std::glam::{UVec3, Vec2, Vec3};
+use spirv_std::glam::Vec2;
 
-use crate::{Buffer, BufferTable, Element};
+use crate::{BufferTable, Ray, RayType, Traversable};
 
-/// What a closest-hit program may use: launch index and size, the ray, the hit
-/// (distance, primitive, barycentrics), buffers.
+use super::hit::{hit_accessors, hit_kind_accessors, HitBuiltins};
+
+/// What a closest-hit program may use: the ray, the hit, buffers, tracing and
+/// callables. Typed hit attributes (from an intersection program) are an
+/// `#[attributes] a: &T` parameter; for triangles without one,
+/// [`ClosestHit::barycentrics`] gives the built-in attributes.
 pub struct ClosestHit<'a> {
-    launch_index: UVec3,
-    launch_dimensions: UVec3,
-    world_ray_origin: Vec3,
-    world_ray_direction: Vec3,
-    hit_t: f32,
-    primitive_index: u32,
+    hit: HitBuiltins,
     barycentrics: Vec2,
     buffers: &'a mut BufferTable,
 }
 
 impl<'a> ClosestHit<'a> {
     #[doc(hidden)]
-    #[allow(clippy::too_many_arguments)]
-    pub fn __new(
-        launch_index: UVec3,
-        launch_dimensions: UVec3,
-        world_ray_origin: Vec3,
-        world_ray_direction: Vec3,
-        hit_t: f32,
-        primitive_index: u32,
-        barycentrics: Vec2,
-        buffers: &'a mut BufferTable,
-    ) -> Self {
-        ClosestHit {
-            launch_index,
-            launch_dimensions,
-            world_ray_origin,
-            world_ray_direction,
-            hit_t,
-            primitive_index,
-            barycentrics,
-            buffers,
-        }
+    pub fn __new(hit: HitBuiltins, barycentrics: Vec2, buffers: &'a mut BufferTable) -> Self {
+        ClosestHit { hit, barycentrics, buffers }
     }
 
-    /// This invocation's index in the launch grid.
-    pub fn launch_index(&self) -> UVec3 {
-        self.launch_index
-    }
-
-    /// The launch grid's size.
-    pub fn launch_dimensions(&self) -> UVec3 {
-        self.launch_dimensions
-    }
-
-    /// The ray's origin in world space.
-    pub fn world_ray_origin(&self) -> Vec3 {
-        self.world_ray_origin
-    }
-
-    /// The ray's direction in world space.
-    pub fn world_ray_direction(&self) -> Vec3 {
-        self.world_ray_direction
-    }
+    hit_accessors!();
+    hit_kind_accessors!();
 
     /// Distance along the ray to the hit (`optixGetRayTmax` in closest-hit).
     pub fn hit_t(&self) -> f32 {
-        self.hit_t
-    }
-
-    /// Index of the hit primitive in its geometry (`optixGetPrimitiveIndex`).
-    pub fn primitive_index(&self) -> u32 {
-        self.primitive_index
+        self.hit.ray_tmax
     }
 
     /// The triangle barycentrics `(u, v)` of the hit (`optixGetTriangleBarycentrics`):
-    /// the hit point is `(1-u-v)·v0 + u·v1 + v·v2`.
+    /// the hit point is `(1-u-v)·v0 + u·v1 + v·v2`. Zero in programs that declare
+    /// `#[attributes]` (they read their attributes there).
     pub fn barycentrics(&self) -> Vec2 {
         self.barycentrics
     }
 
-    /// Reads element `index` of `buffer`.
-    pub fn load<T: Element>(&self, buffer: Buffer<T>, index: u32) -> T {
-        super::load(self.buffers, buffer, index)
+    /// Traces `ray` of ray type `R` into `scene` (`optixTrace`); `payload` is a
+    /// `#[trace_payload]` parameter of this program.
+    pub fn trace<R: RayType>(&mut self, scene: Traversable, ray: Ray, payload: &mut R::Payload) {
+        super::trace::<R>(scene, ray, payload)
     }
 
-    /// Writes element `index` of `buffer`.
-    pub fn store<T: Element>(&mut self, buffer: Buffer<T>, index: u32, value: T) {
-        super::store(self.buffers, buffer, index, value)
+    /// Runs the callable at `sbt_index` with `data` (a `#[call_data]` parameter).
+    pub fn call<T>(&mut self, sbt_index: u32, data: &mut T) {
+        super::execute_callable(sbt_index, data)
     }
 }

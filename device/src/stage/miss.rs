@@ -2,9 +2,10 @@
 
 use spirv_std::glam::{UVec3, Vec3};
 
-use crate::{Buffer, BufferTable, Element};
+use crate::{Buffer, BufferTable, Element, Ray, RayType, Traversable};
 
-/// What a miss program may use: launch index and size, the ray, buffers.
+/// What a miss program may use: launch index and size, the ray, buffers,
+/// tracing and callables.
 pub struct Miss<'a> {
     launch_index: UVec3,
     launch_dimensions: UVec3,
@@ -43,6 +44,17 @@ impl<'a> Miss<'a> {
     /// The ray's direction in world space (`optixGetWorldRayDirection`).
     pub fn world_ray_direction(&self) -> Vec3 {
         self.world_ray_direction
+    }
+
+    /// Traces `ray` of ray type `R` into `scene` (`optixTrace`); `payload` is a
+    /// `#[trace_payload]` parameter of this program.
+    pub fn trace<R: RayType>(&mut self, scene: Traversable, ray: Ray, payload: &mut R::Payload) {
+        super::trace::<R>(scene, ray, payload)
+    }
+
+    /// Runs the callable at `sbt_index` with `data` (a `#[call_data]` parameter).
+    pub fn call<T>(&mut self, sbt_index: u32, data: &mut T) {
+        super::execute_callable(sbt_index, data)
     }
 
     /// Reads element `index` of `buffer`.

@@ -7,15 +7,40 @@
 //! the user's function, so programs never touch free-standing globals: that keeps
 //! the door open for running the same programs on a CPU backend.
 
+mod any_hit;
+mod callable;
 mod closest_hit;
+mod hit;
+mod intersection;
 mod miss;
 mod raygen;
 
+pub use any_hit::AnyHit;
+pub use callable::{ContinuationCallable, DirectCallable};
 pub use closest_hit::ClosestHit;
+#[doc(hidden)]
+pub use hit::HitBuiltins;
+pub use hit::{HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE};
+pub use intersection::Intersection;
 pub use miss::Miss;
 pub use raygen::Raygen;
 
 use crate::{Buffer, BufferTable, Element, Ray, RayType, Traversable};
+
+/// `OpExecuteCallableKHR` with a run-time SBT index (spirv-std's
+/// `execute_callable` takes it as a const generic). `data` must be a
+/// `CallableDataKHR` variable: the macros only hand out `#[call_data]` ones.
+#[allow(unused_variables)]
+fn execute_callable<T>(sbt_index: u32, data: &mut T) {
+    #[cfg(target_arch = "spirv")]
+    // SAFETY: `data` is the entry point's callable-data variable; the index is
+    // checked by the driver against the callable region.
+    unsafe {
+        core::arch::asm!("OpExecuteCallableKHR {id} {data}", id = in(reg) sbt_index, data = in(reg) data);
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    unreachable!("device programs run on the device")
+}
 
 /// Reads element `index` of `buffer` from the bindless table.
 #[allow(unused_variables)]

@@ -4,7 +4,8 @@ use spirv_std::glam::{UVec3, Vec3};
 
 use crate::{Buffer, BufferTable, Element, Ray, RayType, Traversable};
 
-/// What a raygen program may use: launch index and size, tracing, buffers.
+/// What a raygen program may use: launch index and size, tracing, callables,
+/// buffers.
 pub struct Raygen<'a> {
     launch_index: UVec3,
     launch_dimensions: UVec3,
@@ -49,6 +50,12 @@ impl<'a> Raygen<'a> {
         payload: &mut R::Payload,
     ) {
         self.trace::<R>(scene, Ray::new(origin, direction), payload)
+    }
+
+    /// Runs the callable at `sbt_index` of the SBT's callable region with `data`
+    /// (a `#[call_data]` parameter) (`optixDirectCall`).
+    pub fn call<T>(&mut self, sbt_index: u32, data: &mut T) {
+        super::execute_callable(sbt_index, data)
     }
 
     /// Reads element `index` of `buffer`.

@@ -1,0 +1,417 @@
+//! The hand-written baseline: the same GAS build written directly against ash,
+//! the way a careful Vulkan programmer would without raykit: its own instance and
+//! device; a persistent, persistently mapped host-visible input buffer and a
+//! persistent scratch buffer, both grown on demand (so no allocation per build);
+//! structure storage from `vkAllocateMemory`, reused after a structure is
+//! destroyed (as an allocator reuses freed memory); one submission with the
+//! compacted-size query; fence wait.
+
+use std::cell::RefCell;
+use std::ffi::CStr;
+
+use anyhow::{bail, Context as _};
+use ash::vk;
+
+/// A Vulkan device set up for acceleration-structure builds.
+pub struct AshDevice {
+    _entry: ash::Entry,
+    instance: ash::Instance,
+    device: ash::Device,
+    accel: ash::khr::acceleration_structure::Device,
+    queue: vk::Queue,
+    pool: vk::CommandPool,
+    memory_props: vk::PhysicalDeviceMemoryProperties,
+    scratch_alignment: u64,
+    timestamp_period_ns: f64,
+    timestamps: bool,
+    arena: RefCell<Arena>,
+}
+
+/// Buffers kept from build to build.
+#[derive(Default)]
+struct Arena {
+    /// Host-visible input buffer, its capacity and mapping.
+    input: Option<(Buffer, u64, *mut u8)>,
+    /// Scratch buffer and its capacity.
+    scratch: Option<(Buffer, u64)>,
+    /// Storage of destroyed structures, with their sizes, for reuse (as an
+    /// allocator would reuse freed memory).
+    free_storage: Vec<(Buffer, u64)>,
+}
+
+/// A buffer with its own memory.
+struct Buffer {
+    buffer: vk::Buffer,
+    memory: vk::DeviceMemory,
+    address: u64,
+}
+
+/// One built GAS.
+pub struct AshGas {
+    accel: vk::AccelerationStructureKHR,
+    storage: (Buffer, u64),
+    /// Bytes of the structure.
+    pub size: u64,
+    /// Compacted size queried after the build.
+    pub compacted_size: u64,
+    /// GPU time of the build command alone, when the queue has timestamps.
+    pub gpu_ns: Option<f64>,
+}
+
+impl AshDevice {
+    /// Creates a device on the first physical device whose name contains `name`.
+    pub fn new(name: &str) -> anyhow::Result<AshDevice> {
+        // SAFETY: loading the system Vulkan loader.
+        let entry = unsafe { ash::Entry::load() }.context("loading libvulkan")?;
+        let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
+        // SAFETY: valid create info.
+        let instance = unsafe { entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None) }?;
+        // SAFETY: live instance.
+        let physicals = unsafe { instance.enumerate_physical_devices() }?;
+        let mut chosen = None;
+        for p in physicals {
+            // SAFETY: `p` belongs to `instance`.
+            let props = unsafe { instance.get_physical_device_properties(p) };
+            let n = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            if n.contains(name) {
+                chosen = Some((p, props));
+                break;
+            }
+        }
+        let Some((physical, props)) = chosen else {
+            // SAFETY: nothing else uses the instance.
+            unsafe { instance.destroy_instance(None) };
+            bail!("no Vulkan device named like {name:?} for the ash baseline");
+        };
+        // SAFETY: as above.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+        let family = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)).context("no compute queue")?;
+        let timestamps = families[family].timestamp_valid_bits > 0 && props.limits.timestamp_period > 0.0;
+        let mut accel_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut accel_props);
+        // SAFETY: as above.
+        unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+        let scratch_alignment = accel_props.min_acceleration_structure_scratch_offset_alignment.max(1) as u64;
+
+        let extensions: [&CStr; 2] = [ash::khr::acceleration_structure::NAME, ash::khr::deferred_host_operations::NAME];
+        let extension_ptrs: Vec<_> = extensions.iter().map(|e| e.as_ptr()).collect();
+        let mut accel_features = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+        let mut v12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
+        let priorities = [1.0f32];
+        let queues = [vk::DeviceQueueCreateInfo::default().queue_family_index(family as u32).queue_priorities(&priorities)];
+        let info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queues)
+            .enabled_extension_names(&extension_ptrs)
+            .push_next(&mut accel_features)
+            .push_next(&mut v12);
+        // SAFETY: the extensions and features are those raykit also requires of this device.
+        let device = unsafe { instance.create_device(physical, &info, None) }?;
+        let accel = ash::khr::acceleration_structure::Device::new(&instance, &device);
+        // SAFETY: the queue was requested above.
+        let queue = unsafe { device.get_device_queue(family as u32, 0) };
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(family as u32)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: valid create info.
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }?;
+        // SAFETY: as above.
+        let memory_props = unsafe { instance.get_physical_device_memory_properties(physical) };
+        Ok(AshDevice {
+            _entry: entry,
+            instance,
+            device,
+            accel,
+            queue,
+            pool,
+            memory_props,
+            scratch_alignment,
+            timestamp_period_ns: props.limits.timestamp_period as f64,
+            timestamps,
+            arena: RefCell::new(Arena::default()),
+        })
+    }
+
+    fn memory_type(&self, bits: u32, wanted: vk::MemoryPropertyFlags) -> anyhow::Result<u32> {
+        let types = &self.memory_props.memory_types[..self.memory_props.memory_type_count as usize];
+        let find = |flags: vk::MemoryPropertyFlags| {
+            types.iter().enumerate().position(|(i, t)| bits & (1 << i) != 0 && t.property_flags.contains(flags))
+        };
+        find(wanted)
+            .or_else(|| if wanted.contains(vk::MemoryPropertyFlags::HOST_VISIBLE) { None } else { find(vk::MemoryPropertyFlags::empty()) })
+            .map(|i| i as u32)
+            .context("no suitable memory type")
+    }
+
+    fn buffer(&self, size: u64, usage: vk::BufferUsageFlags, host: bool) -> anyhow::Result<Buffer> {
+        let info = vk::BufferCreateInfo::default().size(size.max(4)).usage(usage | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS);
+        // SAFETY: valid create info.
+        let buffer = unsafe { self.device.create_buffer(&info, None) }?;
+        // SAFETY: live buffer.
+        let req = unsafe { self.device.get_buffer_memory_requirements(buffer) };
+        let props = if host {
+            vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT
+        } else {
+            vk::MemoryPropertyFlags::DEVICE_LOCAL
+        };
+        let mut flags = vk::MemoryAllocateFlagsInfo::default().flags(vk::MemoryAllocateFlags::DEVICE_ADDRESS);
+        let alloc = vk::MemoryAllocateInfo::default()
+            .allocation_size(req.size)
+            .memory_type_index(self.memory_type(req.memory_type_bits, props)?)
+            .push_next(&mut flags);
+        // SAFETY: valid allocate info.
+        let memory = unsafe { self.device.allocate_memory(&alloc, None) }?;
+        // SAFETY: fresh buffer and memory of the required size and type.
+        unsafe { self.device.bind_buffer_memory(buffer, memory, 0) }?;
+        // SAFETY: the buffer has the device-address usage and is bound.
+        let address = unsafe { self.device.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(buffer)) };
+        Ok(Buffer { buffer, memory, address })
+    }
+
+    /// Copies `parts` into the persistent input buffer (grown when too small), each
+    /// at a 16-byte-aligned offset; returns their device addresses.
+    fn upload(&self, parts: &[&[u8]]) -> anyhow::Result<Vec<u64>> {
+        let mut offsets = Vec::new();
+        let mut len = 0u64;
+        for p in parts {
+            offsets.push(len);
+            len = (len + p.len() as u64).div_ceil(16) * 16;
+        }
+        let mut arena = self.arena.borrow_mut();
+        if arena.input.as_ref().is_none_or(|(_, cap, _)| *cap < len) {
+            if let Some((old, _, _)) = arena.input.take() {
+                self.free(old);
+            }
+            let b = self.buffer(len, vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR, true)?;
+            // SAFETY: host-visible memory, mapped once for the buffer's lifetime.
+            let ptr = unsafe { self.device.map_memory(b.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }? as *mut u8;
+            arena.input = Some((b, len, ptr));
+        }
+        let Some((b, _, ptr)) = &arena.input else { bail!("no input buffer") };
+        for (p, &at) in parts.iter().zip(&offsets) {
+            // SAFETY: the mapping covers `len` bytes; no submission is using the buffer.
+            unsafe { std::ptr::copy_nonoverlapping(p.as_ptr(), ptr.add(at as usize), p.len()) };
+        }
+        Ok(offsets.iter().map(|o| b.address + o).collect())
+    }
+
+    /// A storage buffer of at least `size` bytes: a freed one when one fits.
+    fn storage(&self, size: u64) -> anyhow::Result<(Buffer, u64)> {
+        let mut arena = self.arena.borrow_mut();
+        if let Some(i) = arena.free_storage.iter().position(|(_, cap)| *cap >= size && *cap <= size * 2) {
+            return Ok(arena.free_storage.swap_remove(i));
+        }
+        Ok((self.buffer(size, vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR, false)?, size))
+    }
+
+    /// The persistent scratch buffer's aligned address, grown to `size` when smaller.
+    fn scratch(&self, size: u64) -> anyhow::Result<u64> {
+        let mut arena = self.arena.borrow_mut();
+        let size = size + self.scratch_alignment;
+        if arena.scratch.as_ref().is_none_or(|(_, cap)| *cap < size) {
+            if let Some((old, _)) = arena.scratch.take() {
+                self.free(old);
+            }
+            arena.scratch = Some((self.buffer(size, vk::BufferUsageFlags::STORAGE_BUFFER, false)?, size));
+        }
+        let Some((b, _)) = &arena.scratch else { bail!("no scratch buffer") };
+        Ok(b.address.div_ceil(self.scratch_alignment) * self.scratch_alignment)
+    }
+
+    fn free(&self, b: Buffer) {
+        // SAFETY: the work using the buffer has finished.
+        unsafe {
+            self.device.destroy_buffer(b.buffer, None);
+            self.device.free_memory(b.memory, None);
+        }
+    }
+
+    /// Records `record` into a one-time command buffer, submits it and waits.
+    fn submit_and_wait(&self, record: impl FnOnce(vk::CommandBuffer)) -> anyhow::Result<()> {
+        let info = vk::CommandBufferAllocateInfo::default().command_pool(self.pool).command_buffer_count(1);
+        // SAFETY: single-threaded use of the pool.
+        let cmd = unsafe { self.device.allocate_command_buffers(&info) }?[0];
+        // SAFETY: fresh command buffer; the fence is waited before everything is freed.
+        unsafe {
+            self.device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
+            record(cmd);
+            self.device.end_command_buffer(cmd)?;
+            let fence = self.device.create_fence(&vk::FenceCreateInfo::default(), None)?;
+            let cmds = [cmd];
+            self.device.queue_submit(self.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], fence)?;
+            self.device.wait_for_fences(&[fence], true, u64::MAX)?;
+            self.device.destroy_fence(fence, None);
+            self.device.free_command_buffers(self.pool, &cmds);
+        }
+        Ok(())
+    }
+
+    /// Builds a GAS over `vertices` (f32×3) and `indices` (u32) with fast trace
+    /// and compaction allowed, querying the compacted size in the same submission;
+    /// with `timed`, GPU timestamps bracket the build command (they cost time
+    /// themselves, so timed builds are kept out of the wall-clock comparison).
+    ///
+    /// With `reuse_storage`, the structure's memory comes from a destroyed
+    /// structure's when one fits; otherwise from a fresh `vkAllocateMemory`.
+    pub fn build_gas(&self, vertices: &[[f32; 3]], indices: &[u32], timed: bool, reuse_storage: bool) -> anyhow::Result<AshGas> {
+        let addresses = self.upload(&[as_bytes(vertices), as_bytes(indices)])?;
+        let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+            .vertex_format(vk::Format::R32G32B32_SFLOAT)
+            .vertex_data(vk::DeviceOrHostAddressConstKHR { device_address: addresses[0] })
+            .vertex_stride(12)
+            .max_vertex(vertices.len() as u32 - 1)
+            .index_type(vk::IndexType::UINT32)
+            .index_data(vk::DeviceOrHostAddressConstKHR { device_address: addresses[1] });
+        let geometry = [vk::AccelerationStructureGeometryKHR::default()
+            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+            .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })];
+        let flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE | vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION;
+        let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+            .flags(flags)
+            .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+            .geometries(&geometry);
+        let count = (indices.len() / 3) as u32;
+        let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
+        // SAFETY: valid build info and one count per geometry.
+        unsafe {
+            self.accel.get_acceleration_structure_build_sizes(vk::AccelerationStructureBuildTypeKHR::DEVICE, &info, &[count], &mut sizes)
+        };
+        let storage = if reuse_storage {
+            self.storage(sizes.acceleration_structure_size)?
+        } else {
+            let size = sizes.acceleration_structure_size;
+            (self.buffer(size, vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR, false)?, size)
+        };
+        let create = vk::AccelerationStructureCreateInfoKHR::default()
+            .buffer(storage.0.buffer)
+            .size(sizes.acceleration_structure_size)
+            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
+        // SAFETY: the storage buffer is large enough.
+        let accel = unsafe { self.accel.create_acceleration_structure(&create, None) }?;
+        let scratch_address = self.scratch(sizes.build_scratch_size)?;
+        info = info.dst_acceleration_structure(accel).scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+        let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
+
+        let pool_info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR).query_count(1);
+        // SAFETY: valid create info.
+        let query = unsafe { self.device.create_query_pool(&pool_info, None) }?;
+        let time_pool = if timed && self.timestamps {
+            // SAFETY: valid create info.
+            Some(unsafe { self.device.create_query_pool(&vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2), None) }?)
+        } else {
+            None
+        };
+        self.submit_and_wait(|cmd| {
+            // SAFETY: everything referenced lives until the wait ends.
+            unsafe {
+                self.device.cmd_reset_query_pool(cmd, query, 0, 1);
+                if let Some(t) = time_pool {
+                    self.device.cmd_reset_query_pool(cmd, t, 0, 2);
+                    self.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, t, 0);
+                }
+                self.accel.cmd_build_acceleration_structures(cmd, &[info], &[&range]);
+                if let Some(t) = time_pool {
+                    self.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR, t, 1);
+                }
+                let barrier = vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR)
+                    .dst_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR);
+                self.device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+                    vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+                    vk::DependencyFlags::empty(),
+                    &[barrier],
+                    &[],
+                    &[],
+                );
+                self.accel.cmd_write_acceleration_structures_properties(
+                    cmd,
+                    &[accel],
+                    vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
+                    query,
+                    0,
+                );
+            }
+        })?;
+        let mut compacted = [0u64; 1];
+        // SAFETY: the query was written by the finished submission.
+        unsafe { self.device.get_query_pool_results(query, 0, &mut compacted, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT) }?;
+        let gpu_ns = match time_pool {
+            Some(t) => {
+                let mut stamps = [0u64; 2];
+                // SAFETY: as above.
+                unsafe { self.device.get_query_pool_results(t, 0, &mut stamps, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT) }?;
+                // SAFETY: no longer used.
+                unsafe { self.device.destroy_query_pool(t, None) };
+                Some(stamps[1].saturating_sub(stamps[0]) as f64 * self.timestamp_period_ns)
+            }
+            None => None,
+        };
+        // SAFETY: no longer used.
+        unsafe { self.device.destroy_query_pool(query, None) };
+        Ok(AshGas { accel, storage, size: sizes.acceleration_structure_size, compacted_size: compacted[0], gpu_ns })
+    }
+
+    /// Compacts `gas` into a new structure of its compacted size; returns that size.
+    pub fn compact(&self, gas: &AshGas) -> anyhow::Result<u64> {
+        let storage = self.storage(gas.compacted_size)?;
+        let create = vk::AccelerationStructureCreateInfoKHR::default()
+            .buffer(storage.0.buffer)
+            .size(gas.compacted_size)
+            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
+        // SAFETY: the storage buffer is large enough.
+        let accel = unsafe { self.accel.create_acceleration_structure(&create, None) }?;
+        let copy = vk::CopyAccelerationStructureInfoKHR::default().src(gas.accel).dst(accel).mode(vk::CopyAccelerationStructureModeKHR::COMPACT);
+        // SAFETY: both structures live until the wait ends.
+        self.submit_and_wait(|cmd| unsafe { self.accel.cmd_copy_acceleration_structure(cmd, &copy) })?;
+        // SAFETY: the copy has finished.
+        unsafe { self.accel.destroy_acceleration_structure(accel, None) };
+        self.free(storage.0);
+        Ok(gas.compacted_size)
+    }
+
+    /// Destroys a GAS.
+    pub fn destroy(&self, gas: AshGas) {
+        // SAFETY: nothing uses it any more.
+        unsafe { self.accel.destroy_acceleration_structure(gas.accel, None) };
+        let mut arena = self.arena.borrow_mut();
+        if arena.free_storage.len() < 4 {
+            arena.free_storage.push(gas.storage);
+        } else {
+            self.free(gas.storage.0);
+        }
+    }
+
+    /// Whether GPU timestamps of the build are available.
+    pub fn has_timestamps(&self) -> bool {
+        self.timestamps
+    }
+}
+
+impl Drop for AshDevice {
+    fn drop(&mut self) {
+        let arena = std::mem::take(self.arena.get_mut());
+        // SAFETY: all work has finished; objects are destroyed child first.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            if let Some((b, _, _)) = arena.input {
+                self.free(b);
+            }
+            if let Some((b, _)) = arena.scratch {
+                self.free(b);
+            }
+            for (b, _) in arena.free_storage {
+                self.free(b);
+            }
+            self.device.destroy_command_pool(self.pool, None);
+            self.device.destroy_device(None);
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+fn as_bytes<T: Copy>(data: &[T]) -> &[u8] {
+    // SAFETY: `T` is plain data here (f32 arrays, u32) without padding.
+    unsafe { std::slice::from_raw_parts(data.as_ptr() as *const u8, std::mem::size_of_val(data)) }
+}

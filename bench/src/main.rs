@@ -1,0 +1,104 @@
+//! `raykit-bench [SUITE...] [options]`: raykit's benchmarks.
+//!
+//! Suites (all when none is named): `accel` — GAS build throughput, raykit
+//! against a hand-written ash build, and memory before/after compaction.
+//!
+//! Options:
+//! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
+//!   `$RAYKIT_SPIRV_DIR`); suites that trace need them, `accel` does not.
+//! * `--out DIR` — where the JSON and Markdown reports go (default `target/bench`).
+//! * `--sizes 10000,100000,1000000` — triangle counts of `accel`.
+//! * `--reps N` — repetitions per size (default: 15, 9, 5 by size).
+//! * `--device NAME` — use the first ray-tracing device whose name contains NAME.
+//!
+//! The binary needs only the Vulkan loader (and the SPIR-V files for suites that
+//! trace): build it here with `cargo build --release -p raykit-bench` and copy
+//! `target/release/raykit-bench` to a GPU machine without Rust.
+
+mod accel;
+mod ash_baseline;
+mod stats;
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context as _};
+use raykit::{Context, ContextOptions};
+
+const SUITES: [&str; 1] = ["accel"];
+
+struct Args {
+    suites: Vec<String>,
+    out: PathBuf,
+    sizes: Vec<usize>,
+    reps: Option<usize>,
+    device: Option<String>,
+}
+
+fn parse() -> anyhow::Result<Args> {
+    let mut args = Args {
+        suites: Vec::new(),
+        out: PathBuf::from("target/bench"),
+        sizes: vec![10_000, 100_000, 1_000_000],
+        reps: None,
+        device: None,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(a) = it.next() {
+        let mut value = |name: &str| it.next().with_context(|| format!("{name} needs a value"));
+        match a.as_str() {
+            "--spirv-dir" => {
+                let dir = value("--spirv-dir")?;
+                // raykit reads the directory from the environment (`Module::from_device_crate`).
+                std::env::set_var("RAYKIT_SPIRV_DIR", dir);
+            }
+            "--out" => args.out = PathBuf::from(value("--out")?),
+            "--sizes" => {
+                args.sizes = value("--sizes")?
+                    .split(',')
+                    .map(|s| s.trim().replace('_', "").parse::<usize>())
+                    .collect::<Result<_, _>>()
+                    .context("--sizes takes comma-separated triangle counts")?;
+            }
+            "--reps" => args.reps = Some(value("--reps")?.parse().context("--reps takes a number")?),
+            "--device" => args.device = Some(value("--device")?),
+            "-h" | "--help" => {
+                println!("raykit-bench [SUITE...] [--spirv-dir DIR] [--out DIR] [--sizes N,N,..] [--reps N] [--device NAME]\nsuites: {}", SUITES.join(", "));
+                std::process::exit(0);
+            }
+            s if s.starts_with('-') => bail!("unknown option {s}; see --help"),
+            s if SUITES.contains(&s) => args.suites.push(s.to_owned()),
+            s => bail!("unknown suite {s:?}; suites: {}", SUITES.join(", ")),
+        }
+    }
+    if args.suites.is_empty() {
+        args.suites = SUITES.iter().map(|s| s.to_string()).collect();
+    }
+    Ok(args)
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = parse()?;
+    let ctx = Context::new(ContextOptions { validation: Some(false), device_name_contains: args.device.clone() })?;
+    let device = ctx.device_name().to_owned();
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let mut report = serde_json::json!({ "device": device, "suites": {} });
+    let mut markdown = format!("# raykit benchmarks on {device}\n\n");
+    for suite in &args.suites {
+        if suite == "accel" {
+            let ash = ash_baseline::AshDevice::new(&device)?;
+            eprintln!("accel: GPU timestamps {}", if ash.has_timestamps() { "available" } else { "not available" });
+            let rows = accel::run(&ctx, &ash, &args.sizes, args.reps)?;
+            let table = accel::markdown(&rows, &device);
+            println!("{table}");
+            markdown.push_str("## accel\n\n");
+            markdown.push_str(&table);
+            report["suites"]["accel"] = accel::json(&rows);
+        }
+    }
+    let json_path = args.out.join("bench.json");
+    let md_path = args.out.join("bench.md");
+    std::fs::write(&json_path, serde_json::to_string_pretty(&report)?)?;
+    std::fs::write(&md_path, markdown)?;
+    eprintln!("wrote {} and {}", json_path.display(), md_path.display());
+    Ok(())
+}

@@ -1,0 +1,46 @@
+//! The any-hit stage (`__anyhit__`): runs for each candidate hit along a ray
+//! (unless the geometry is opaque) and may reject it or end the traversal.
+
+use crate::BufferTable;
+
+use super::hit::{hit_accessors, hit_kind_accessors, HitBuiltins};
+
+/// What an any-hit program may use: the ray, the candidate hit, buffers, and
+/// [`AnyHit::ignore_intersection`] / [`AnyHit::terminate_ray`].
+pub struct AnyHit<'a> {
+    hit: HitBuiltins,
+    buffers: &'a mut BufferTable,
+}
+
+impl<'a> AnyHit<'a> {
+    #[doc(hidden)]
+    pub fn __new(hit: HitBuiltins, buffers: &'a mut BufferTable) -> Self {
+        AnyHit { hit, buffers }
+    }
+
+    hit_accessors!();
+    hit_kind_accessors!();
+
+    /// Rejects this candidate hit; traversal goes on (`optixIgnoreIntersection`).
+    pub fn ignore_intersection(&mut self) -> ! {
+        #[cfg(target_arch = "spirv")]
+        // SAFETY: only any-hit programs have an `AnyHit` context.
+        unsafe {
+            spirv_std::arch::ignore_intersection()
+        }
+        #[cfg(not(target_arch = "spirv"))]
+        unreachable!("device programs run on the device")
+    }
+
+    /// Accepts this hit and ends the traversal: the closest-hit program of this
+    /// hit runs next (`optixTerminateRay`).
+    pub fn terminate_ray(&mut self) -> ! {
+        #[cfg(target_arch = "spirv")]
+        // SAFETY: only any-hit programs have an `AnyHit` context.
+        unsafe {
+            spirv_std::arch::terminate_ray()
+        }
+        #[cfg(not(target_arch = "spirv"))]
+        unreachable!("device programs run on the device")
+    }
+}

@@ -1,0 +1,73 @@
+//! Callable programs (`__direct_callable__`, `__continuation_callable__`), run
+//! through the SBT's callable region by index.
+//!
+//! Vulkan has one callable stage. OptiX's distinction is kept where it can be
+//! enforced: a [`DirectCallable`] has no `trace` method (a direct callable
+//! cannot trace, so it needs no continuation stack); a [`ContinuationCallable`]
+//! may trace. Both may call further callables.
+
+use spirv_std::glam::UVec3;
+
+use crate::{Buffer, BufferTable, Element, Ray, RayType, Traversable};
+
+/// What a direct callable may use: launch index and size, buffers, callables.
+pub struct DirectCallable<'a> {
+    launch_index: UVec3,
+    launch_dimensions: UVec3,
+    buffers: &'a mut BufferTable,
+}
+
+/// What a continuation callable may use: a direct callable's, and tracing.
+pub struct ContinuationCallable<'a> {
+    launch_index: UVec3,
+    launch_dimensions: UVec3,
+    buffers: &'a mut BufferTable,
+}
+
+macro_rules! callable_common {
+    ($ty:ident) => {
+        impl<'a> $ty<'a> {
+            #[doc(hidden)]
+            pub fn __new(launch_index: UVec3, launch_dimensions: UVec3, buffers: &'a mut BufferTable) -> Self {
+                $ty { launch_index, launch_dimensions, buffers }
+            }
+
+            /// This invocation's index in the launch grid.
+            pub fn launch_index(&self) -> UVec3 {
+                self.launch_index
+            }
+
+            /// The launch grid's size.
+            pub fn launch_dimensions(&self) -> UVec3 {
+                self.launch_dimensions
+            }
+
+            /// Reads element `index` of `buffer`.
+            pub fn load<T: Element>(&self, buffer: Buffer<T>, index: u32) -> T {
+                super::load(self.buffers, buffer, index)
+            }
+
+            /// Writes element `index` of `buffer`.
+            pub fn store<T: Element>(&mut self, buffer: Buffer<T>, index: u32, value: T) {
+                super::store(self.buffers, buffer, index, value)
+            }
+
+            /// Runs the callable at `sbt_index` of the SBT's callable region with
+            /// `data` (a `#[call_data]` parameter) (`optixDirectCall` /
+            /// `optixContinuationCall`).
+            pub fn call<T>(&mut self, sbt_index: u32, data: &mut T) {
+                super::execute_callable(sbt_index, data)
+            }
+        }
+    };
+}
+callable_common!(DirectCallable);
+callable_common!(ContinuationCallable);
+
+impl ContinuationCallable<'_> {
+    /// Traces `ray` of ray type `R` into `scene` (`optixTrace`); `payload` is a
+    /// `#[trace_payload]` parameter.
+    pub fn trace<R: RayType>(&mut self, scene: Traversable, ray: Ray, payload: &mut R::Payload) {
+        super::trace::<R>(scene, ray, payload)
+    }
+}

@@ -1,0 +1,40 @@
+//! The intersection stage (`__intersection__`): computes hits with custom
+//! primitives (AABBs in the GAS) and reports them with typed attributes.
+
+use crate::BufferTable;
+
+use super::hit::{hit_accessors, HitBuiltins};
+
+/// What an intersection program may use: the ray, the primitive, buffers, and
+/// [`Intersection::report_intersection`]. Its hit attributes are a
+/// `#[attributes] a: &mut T` parameter, written before reporting.
+pub struct Intersection<'a> {
+    hit: HitBuiltins,
+    buffers: &'a mut BufferTable,
+}
+
+impl<'a> Intersection<'a> {
+    #[doc(hidden)]
+    pub fn __new(hit: HitBuiltins, buffers: &'a mut BufferTable) -> Self {
+        Intersection { hit, buffers }
+    }
+
+    hit_accessors!();
+
+    /// Reports a hit at distance `t` with `hit_kind` (`0..=127`; larger values
+    /// are reserved by Vulkan and are masked to 7 bits). The hit attributes are
+    /// the values in the `#[attributes]` parameter at this moment. Returns
+    /// whether the hit was accepted (`optixReportIntersection`).
+    pub fn report_intersection(&mut self, t: f32, hit_kind: u32) -> bool {
+        #[cfg(target_arch = "spirv")]
+        // SAFETY: only intersection programs have an `Intersection` context.
+        unsafe {
+            spirv_std::arch::report_intersection(t, hit_kind & 0x7f)
+        }
+        #[cfg(not(target_arch = "spirv"))]
+        {
+            let _ = (t, hit_kind);
+            unreachable!("device programs run on the device")
+        }
+    }
+}

@@ -1,0 +1,324 @@
+//! Instance acceleration structures (top level), OptiX's IAS: what device
+//! programs trace. Each [`Instance`] places a [`Gas`] with a transform, a custom
+//! index, a visibility mask, an SBT offset and flags
+//! ([`VkAccelerationStructureInstanceKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkAccelerationStructureInstanceKHR.html)).
+
+use std::sync::Arc;
+
+use ash::vk;
+use glam::Affine3A;
+use raykit_device::Traversable;
+
+use super::build::{self, Geometry, InputPacker, Job, PendingBuild};
+use super::{AccelSizes, AccelStructure, BuildOptions, Gas};
+use crate::context::{Context, ContextInner};
+use crate::error::{Error, Result};
+
+const TOP: vk::AccelerationStructureTypeKHR = vk::AccelerationStructureTypeKHR::TOP_LEVEL;
+
+/// Per-instance flags (`VkGeometryInstanceFlagsKHR`, OptiX's `OPTIX_INSTANCE_FLAG_*`).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct InstanceFlags(u8);
+
+impl InstanceFlags {
+    /// No flags.
+    pub const NONE: InstanceFlags = InstanceFlags(0);
+    /// Disable face culling for this instance's triangles.
+    pub const DISABLE_TRIANGLE_CULLING: InstanceFlags =
+        InstanceFlags(vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE.as_raw() as u8);
+    /// Swap front and back faces.
+    pub const FLIP_TRIANGLE_FACING: InstanceFlags =
+        InstanceFlags(vk::GeometryInstanceFlagsKHR::TRIANGLE_FLIP_FACING.as_raw() as u8);
+    /// Treat every geometry as opaque (no any-hit).
+    pub const FORCE_OPAQUE: InstanceFlags = InstanceFlags(vk::GeometryInstanceFlagsKHR::FORCE_OPAQUE.as_raw() as u8);
+    /// Treat every geometry as non-opaque (any-hit runs).
+    pub const FORCE_NON_OPAQUE: InstanceFlags =
+        InstanceFlags(vk::GeometryInstanceFlagsKHR::FORCE_NO_OPAQUE.as_raw() as u8);
+
+    /// Whether every flag of `other` is set.
+    pub fn contains(self, other: InstanceFlags) -> bool {
+        self.0 & other.0 == other.0
+    }
+}
+
+impl std::ops::BitOr for InstanceFlags {
+    type Output = InstanceFlags;
+    fn bitor(self, rhs: InstanceFlags) -> InstanceFlags {
+        InstanceFlags(self.0 | rhs.0)
+    }
+}
+
+/// One instance of a [`Gas`] in an [`Ias`] (OptiX's `OptixInstance`).
+#[derive(Clone)]
+#[must_use]
+pub struct Instance {
+    accel: Arc<AccelStructure>,
+    transform: [f32; 12],
+    custom_index: u32,
+    mask: u8,
+    sbt_offset: u32,
+    flags: InstanceFlags,
+}
+
+impl Instance {
+    /// `gas` at the identity transform, custom index 0, mask 0xff, SBT offset 0.
+    pub fn new(gas: &Gas) -> Instance {
+        Instance {
+            accel: gas.accel.clone(),
+            transform: build::transform_rows(&Affine3A::IDENTITY),
+            custom_index: 0,
+            mask: 0xff,
+            sbt_offset: 0,
+            flags: InstanceFlags::NONE,
+        }
+    }
+
+    /// Object-to-world transform.
+    pub fn transform(mut self, transform: Affine3A) -> Self {
+        self.transform = build::transform_rows(&transform);
+        self
+    }
+
+    /// Object-to-world transform as a row-major 3×4 matrix (OptiX's `transform[12]`).
+    pub fn transform_rows(mut self, rows: [[f32; 4]; 3]) -> Self {
+        self.transform = bytemuck::cast(rows);
+        self
+    }
+
+    /// The value device programs read as the instance's custom index (24 bits).
+    pub fn custom_index(mut self, index: u32) -> Self {
+        self.custom_index = index;
+        self
+    }
+
+    /// Visibility mask, tested against each ray's cull mask.
+    pub fn mask(mut self, mask: u8) -> Self {
+        self.mask = mask;
+        self
+    }
+
+    /// Offset of this instance's first hit record in the SBT (24 bits).
+    pub fn sbt_offset(mut self, offset: u32) -> Self {
+        self.sbt_offset = offset;
+        self
+    }
+
+    /// Instance flags.
+    pub fn flags(mut self, flags: InstanceFlags) -> Self {
+        self.flags = flags;
+        self
+    }
+
+    fn record(&self) -> vk::AccelerationStructureInstanceKHR {
+        vk::AccelerationStructureInstanceKHR {
+            transform: vk::TransformMatrixKHR { matrix: self.transform },
+            instance_custom_index_and_mask: vk::Packed24_8::new(self.custom_index, self.mask),
+            instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(self.sbt_offset, self.flags.0),
+            acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
+                device_handle: self.accel.address,
+            },
+        }
+    }
+}
+
+impl std::fmt::Debug for Instance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Instance")
+            .field("transform", &self.transform)
+            .field("custom_index", &self.custom_index)
+            .field("mask", &self.mask)
+            .field("sbt_offset", &self.sbt_offset)
+            .field("flags", &self.flags)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Checks instances; returns their device records.
+fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<Vec<vk::AccelerationStructureInstanceKHR>> {
+    if instances.is_empty() {
+        return Err(Error::AccelEmpty { what: "the IAS build has no instances".to_owned() });
+    }
+    let limit = ctx.limits.max_instance_count;
+    if instances.len() as u64 > limit {
+        return Err(Error::AccelLimit {
+            what: "instances",
+            count: instances.len() as u64,
+            limit,
+            limit_name: "maxInstanceCount",
+        });
+    }
+    for (i, instance) in instances.iter().enumerate() {
+        if !Arc::ptr_eq(&instance.accel.ctx, ctx) {
+            return Err(Error::ContextMismatch);
+        }
+        for (field, value) in [("custom_index", instance.custom_index), ("sbt_offset", instance.sbt_offset)] {
+            if value >= 1 << 24 {
+                return Err(Error::InstanceField { instance: i, field, value, max: (1 << 24) - 1 });
+            }
+        }
+        if !instance.transform.iter().all(|c| c.is_finite()) {
+            return Err(Error::NonFiniteTransform { what: format!("the transform of instance {i}") });
+        }
+    }
+    Ok(instances.iter().map(Instance::record).collect())
+}
+
+/// Uploads instance records; returns the buffer and the geometry naming it.
+fn upload(ctx: &Arc<ContextInner>, records: &[vk::AccelerationStructureInstanceKHR]) -> Result<(crate::memory::RawBuffer, Geometry)> {
+    // SAFETY: `AccelerationStructureInstanceKHR` is plain data (floats, packed
+    // integers and a u64 address) with no padding: 64 bytes each.
+    let bytes = unsafe {
+        std::slice::from_raw_parts(records.as_ptr() as *const u8, std::mem::size_of_val(records))
+    };
+    let mut packer = InputPacker::default();
+    let at = packer.push(bytes, 16);
+    let buffer = packer.upload(ctx, "IAS instances")?;
+    let geometry = Geometry::Instances { data: buffer.address + at };
+    Ok((buffer, geometry))
+}
+
+/// Describes an IAS build: instances and options.
+#[must_use]
+#[derive(Clone, Debug)]
+pub struct IasBuilder<'a> {
+    instances: &'a [Instance],
+    options: BuildOptions,
+}
+
+impl IasBuilder<'_> {
+    /// Sets the build options.
+    pub fn options(mut self, options: BuildOptions) -> Self {
+        self.options = options;
+        self
+    }
+
+    /// Builds and waits.
+    pub fn build(self, ctx: &Context) -> Result<Ias> {
+        self.submit(ctx)?.wait()
+    }
+
+    /// Submits the build and returns without waiting.
+    pub fn submit(self, ctx: &Context) -> Result<PendingBuild<Ias>> {
+        let inner = &ctx.inner;
+        let records = validate(inner, self.instances)?;
+        let (buffer, geometry) = upload(inner, &records)?;
+        let counts = [records.len() as u32];
+        let sizes = build::query_sizes(inner, TOP, self.options.vk_flags(), &[geometry], &counts);
+        let accel = AccelStructure::new(inner, TOP, sizes.structure)?;
+        let job = Job {
+            ty: TOP,
+            flags: self.options.vk_flags(),
+            update_from: None,
+            dst: accel.handle,
+            geometries: vec![geometry],
+            counts: counts.to_vec(),
+            scratch: sizes.build_scratch,
+            query_compacted: false,
+        };
+        let in_flight = build::submit(inner, &[job], vec![buffer])?;
+        let ias = Ias {
+            accel,
+            gases: self.instances.iter().map(|i| i.accel.clone()).collect(),
+            options: self.options,
+            sizes,
+        };
+        Ok(PendingBuild::new(in_flight, ias, |_, _| {}))
+    }
+}
+
+/// An instance acceleration structure (top level): what device programs trace.
+pub struct Ias {
+    // Field order: the structure goes before the GASes it references.
+    accel: AccelStructure,
+    gases: Vec<Arc<AccelStructure>>,
+    options: BuildOptions,
+    sizes: AccelSizes,
+}
+
+impl Ias {
+    /// Starts describing a build over `instances`.
+    pub fn builder(instances: &[Instance]) -> IasBuilder<'_> {
+        IasBuilder { instances, options: BuildOptions::default() }
+    }
+
+    /// An IAS over one instance of `gas` at the identity transform.
+    pub fn single(ctx: &Context, gas: &Gas) -> Result<Ias> {
+        Ias::new(ctx, &[Instance::new(gas)])
+    }
+
+    /// An IAS over `instances`, built for fast trace, and waited for.
+    pub fn new(ctx: &Context, instances: &[Instance]) -> Result<Ias> {
+        Ias::builder(instances).build(ctx)
+    }
+
+    /// Refits the IAS to `instances` in place: transforms, masks, offsets, flags
+    /// and the GASes referenced may change, the instance count may not. Refused
+    /// with [`Error::UpdateRefused`], saying why, when the build did not allow
+    /// updates or the count changed. Also the way to follow a refitted GAS.
+    pub fn update(&mut self, instances: &[Instance]) -> Result<()> {
+        let ctx = self.accel.ctx.clone();
+        if !self.options.allow_update {
+            return Err(Error::UpdateRefused {
+                what: "IAS",
+                reason: "it was built without BuildOptions::allow_update".to_owned(),
+            });
+        }
+        if instances.len() != self.gases.len() {
+            return Err(Error::UpdateRefused {
+                what: "IAS",
+                reason: format!("the instance count changed from {} to {}", self.gases.len(), instances.len()),
+            });
+        }
+        let records = validate(&ctx, instances)?;
+        let (buffer, geometry) = upload(&ctx, &records)?;
+        let counts = [records.len() as u32];
+        let sizes = build::query_sizes(&ctx, TOP, self.options.vk_flags(), &[geometry], &counts);
+        let job = Job {
+            ty: TOP,
+            flags: self.options.vk_flags(),
+            update_from: Some(self.accel.handle),
+            dst: self.accel.handle,
+            geometries: vec![geometry],
+            counts: counts.to_vec(),
+            scratch: sizes.update_scratch,
+            query_compacted: false,
+        };
+        build::submit(&ctx, &[job], vec![buffer])?.wait()?;
+        self.gases = instances.iter().map(|i| i.accel.clone()).collect();
+        Ok(())
+    }
+
+    /// Rebuilds the IAS over `instances` with its options; the count may change.
+    /// The handle changes: put the new [`Ias::handle`] in the launch params.
+    pub fn rebuild(&mut self, instances: &[Instance]) -> Result<()> {
+        let ctx = Context { inner: self.accel.ctx.clone() };
+        *self = Ias::builder(instances).options(self.options).build(&ctx)?;
+        Ok(())
+    }
+
+    /// The handle device programs trace against (put it in the launch params).
+    pub fn handle(&self) -> Traversable {
+        Traversable::from_device_address(self.accel.address)
+    }
+
+    /// Number of instances.
+    pub fn instance_count(&self) -> usize {
+        self.gases.len()
+    }
+
+    /// Bytes of device memory the structure takes.
+    pub fn size(&self) -> u64 {
+        self.accel.size
+    }
+
+    /// The sizes the driver reported for the build.
+    pub fn build_sizes(&self) -> AccelSizes {
+        self.sizes
+    }
+}
+
+impl std::fmt::Debug for Ias {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ias").field("instances", &self.gases.len()).field("size", &self.accel.size).finish()
+    }
+}

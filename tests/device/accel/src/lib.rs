@@ -1,0 +1,181 @@
+//! Device programs of the acceleration-structure tests, and what the host's CPU
+//! reference shares with them.
+//!
+//! The camera is orthographic: the ray of pixel `(x, y)` starts at
+//! `(px, py, 10)` and goes along -z, so a CPU reference only needs 2-D tests.
+//! Intersection and the custom-index closest-hit are raw `spirv_std` entry points
+//! (raykit's macros cover raygen, miss and closest-hit so far).
+#![cfg_attr(target_arch = "spirv", no_std)]
+
+use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
+use raykit_device::spirv_std::spirv;
+use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, RayType, Raygen, Traversable};
+
+/// Launch params.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
+pub struct Params {
+    /// RGBA8 pixels, row-major, row 0 at the top.
+    pub image: Buffer<u32>,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Padding to keep the window on 16 bytes.
+    pub _pad: u32,
+    /// Left edge of the orthographic window (world x).
+    pub x0: f32,
+    /// Bottom edge (world y).
+    pub y0: f32,
+    /// Right edge.
+    pub x1: f32,
+    /// Top edge.
+    pub y1: f32,
+    /// The scene.
+    pub scene: Traversable,
+}
+
+/// SBT data of hit groups and of the miss program: a colour.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ColorData {
+    /// Linear RGB in `[0, 1]`.
+    pub color: Vec3,
+}
+
+/// The one ray type. Its cull mask is 0x01: instances whose mask lacks bit 0
+/// are invisible to it.
+pub struct Radiance;
+impl RayType for Radiance {
+    type Payload = Vec3;
+    const SBT_OFFSET: u32 = 0;
+    const SBT_STRIDE: u32 = 1;
+    const MISS_INDEX: u32 = 0;
+    const CULL_MASK: u32 = 0x01;
+}
+
+/// Height the camera's rays start from.
+pub const CAMERA_Z: f32 = 10.0;
+
+/// World `(x, y)` of the centre of pixel `index` (row 0 at the top).
+pub fn pixel_position(index: UVec2, params: &Params) -> Vec2 {
+    let fx = (index.x as f32 + 0.5) / params.width as f32;
+    let fy = (index.y as f32 + 0.5) / params.height as f32;
+    Vec2::new(params.x0 + fx * (params.x1 - params.x0), params.y1 - fy * (params.y1 - params.y0))
+}
+
+/// Packs a colour in `[0, 1]` as RGBA8 without any transfer function.
+pub fn pack_unorm(c: Vec3) -> u32 {
+    let q = |v: f32| -> u32 { (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u32 };
+    q(c.x) | (q(c.y) << 8) | (q(c.z) << 16) | (255 << 24)
+}
+
+/// The barycentric colour `(1 - u - v, u, v)`.
+pub fn barycentric_color(b: Vec2) -> Vec3 {
+    Vec3::new(1.0 - b.x - b.y, b.x, b.y)
+}
+
+/// Centre and radius of the sphere inside AABB `primitive` of the procedural tests.
+pub fn sphere(primitive: u32) -> (Vec3, f32) {
+    (Vec3::new(primitive as f32 - 1.0, 0.0, 0.0), 0.4)
+}
+
+fn sqrt(x: f32) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    {
+        use raykit_device::spirv_std::num_traits::Float;
+        x.sqrt()
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        x.sqrt()
+    }
+}
+
+/// Distance along the ray to the first hit with the sphere within
+/// `[t_min, t_max]`, or a negative value for none.
+pub fn hit_sphere(origin: Vec3, direction: Vec3, center: Vec3, radius: f32, t_min: f32, t_max: f32) -> f32 {
+    let oc = origin - center;
+    let a = direction.dot(direction);
+    let b = oc.dot(direction);
+    let c = oc.dot(oc) - radius * radius;
+    let disc = b * b - a * c;
+    if disc < 0.0 {
+        return -1.0;
+    }
+    let s = sqrt(disc);
+    let t0 = (-b - s) / a;
+    let t1 = (-b + s) / a;
+    if t0 >= t_min && t0 <= t_max {
+        t0
+    } else if t1 >= t_min && t1 <= t_max {
+        t1
+    } else {
+        -1.0
+    }
+}
+
+#[raygen]
+fn rg(ctx: &mut Raygen, #[params] params: &Params, #[payload] color: &mut Vec3) {
+    let index: UVec3 = ctx.launch_index();
+    let p = pixel_position(index.truncate(), params);
+    *color = Vec3::ZERO;
+    ctx.trace_from::<Radiance>(params.scene, Vec3::new(p.x, p.y, CAMERA_Z), Vec3::new(0.0, 0.0, -1.0), color);
+    let pixel = ctx.launch_linear_index();
+    ctx.store(params.image, pixel, pack_unorm(*color));
+}
+
+#[miss(ray = Radiance)]
+fn ms(_ctx: &mut Miss, #[record] data: &ColorData, #[payload] color: &mut Vec3) {
+    *color = data.color;
+}
+
+/// Colours a hit with its hit group record's colour.
+#[closest_hit(ray = Radiance)]
+fn ch_record(_ctx: &mut ClosestHit, #[record] data: &ColorData, #[payload] color: &mut Vec3) {
+    *color = data.color;
+}
+
+/// Colours a triangle hit by its barycentrics.
+#[closest_hit(ray = Radiance)]
+fn ch_bary(ctx: &mut ClosestHit, #[payload] color: &mut Vec3) {
+    *color = barycentric_color(ctx.barycentrics());
+}
+
+/// Entry name of [`is_sphere`].
+pub const IS_SPHERE: &str = "__intersection__sphere";
+
+/// Intersection program: the sphere of [`sphere`] inside each AABB, in object space.
+#[spirv(intersection(entry_point_name = "__intersection__sphere"))]
+pub fn is_sphere(
+    #[spirv(object_ray_origin)] origin: Vec3,
+    #[spirv(object_ray_direction)] direction: Vec3,
+    #[spirv(ray_tmin)] t_min: f32,
+    #[spirv(ray_tmax)] t_max: f32,
+    #[spirv(primitive_id)] primitive: u32,
+    #[spirv(hit_attribute)] attribute: &mut Vec2,
+) {
+    let (center, radius) = sphere(primitive);
+    let t = hit_sphere(origin, direction, center, radius, t_min, t_max);
+    if t >= 0.0 {
+        *attribute = Vec2::new(0.0, 0.0);
+        #[cfg(target_arch = "spirv")]
+        // SAFETY: called from an intersection program, the only stage that may report.
+        unsafe {
+            raykit_device::spirv_std::arch::report_intersection(t, 0);
+        }
+    }
+}
+
+/// Entry name of [`ch_custom_index`].
+pub const CH_CUSTOM_INDEX: &str = "__closesthit__custom_index";
+
+/// Closest-hit that writes the instance's custom index into the red channel
+/// (as `index / 255`) and 1 into blue.
+#[spirv(closest_hit(entry_point_name = "__closesthit__custom_index"))]
+pub fn ch_custom_index(
+    #[spirv(instance_custom_index)] index: u32,
+    #[spirv(incoming_ray_payload)] color: &mut Vec3,
+) {
+    *color = Vec3::new(index as f32 / 255.0, 0.0, 1.0);
+}
