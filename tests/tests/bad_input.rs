@@ -5,22 +5,19 @@
 //! with `cargo xtask test` the validation layer is on and any message, or any
 //! object left alive, fails it.
 //!
-//! Cases the API cannot express, or that cannot be provoked here:
-//! * a hit group for a ray type that does not exist: the SBT builder takes hit
-//!   records in order and knows nothing of ray types (their SBT offset and stride
-//!   are device-side constants of `RayType`), so there is no host input to refuse;
-//! * misaligned vertex or index strides: `Gas::triangles` takes `&[Vec3]` and
-//!   `&[u32]`, whose strides are fixed by their types; an index list that is not
-//!   whole triangles is the nearest case and is covered;
-//! * refit with a changed topology: there is no refit API yet;
+//! Cases that cannot be provoked here:
 //! * device lost during a launch: lavapipe cannot lose its device. A lost device
 //!   is mapped to [`Error::DeviceLost`] in `submit_and_wait`, whose fence wait
 //!   returns `VK_ERROR_DEVICE_LOST` rather than hanging.
+//!
+//! A hit group "for a ray type that does not exist" is caught by what it leaves
+//! behind (an SBT with a hole); raykit does not know which ray types the programs
+//! trace, so a ray type placed right after the last one is accepted.
 
 use raykit::glam::{Affine3A, Vec3};
 use raykit::{
-    Context, ContextOptions, Error, Gas, Ias, Instance, LayoutError, LinkOptions, Module, Pipeline, ProgramGroup,
-    ProgramKind, Sbt,
+    BuildOptions, Context, ContextOptions, Error, Gas, Ias, Instance, LayoutError, LinkOptions, Module, Pipeline,
+    ProgramGroup, ProgramKind, Sbt, Triangles,
 };
 use raykit_tests::with_context;
 use triangle::BG_COLOR;
@@ -321,7 +318,7 @@ fn params_layout_differs_from_the_spirv() -> anyhow::Result<()> {
             let raygen = ProgramGroup::raygen(&module, params_device::RG_TARGET_DEPENDENT)?;
             refused(Pipeline::<TargetDependent>::new(ctx, &[&raygen], LinkOptions::default()), "a moved field")
         },
-        |e| matches!(e, Error::ParamsLayout(LayoutError::Mismatch { struct_name: "TargetDependent", .. })),
+        |e| matches!(e, Error::ParamsLayout(l) if matches!(**l, LayoutError::Mismatch { struct_name: "TargetDependent", .. })),
     )
 }
 
@@ -337,7 +334,7 @@ fn params_type_differs_between_modules_of_a_pipeline() -> anyhow::Result<()> {
             let miss = ProgramGroup::miss(&other, "main")?;
             refused(Pipeline::<Params>::new(ctx, &[&raygen, &miss], LinkOptions::default()), "two params types")
         },
-        |e| matches!(e, Error::ParamsLayout(LayoutError::Mismatch { entry, .. }) if entry == "main"),
+        |e| matches!(e, Error::ParamsLayout(l) if matches!(&**l, LayoutError::Mismatch { entry, .. } if entry == "main")),
     )
 }
 
@@ -354,7 +351,7 @@ fn params_read_another_way_than_delivered() -> anyhow::Result<()> {
             let miss = ProgramGroup::miss(&other, "main")?;
             refused(Pipeline::<Large>::new(ctx, &[&raygen, &miss], LinkOptions::default()), "push constants for a UBO struct")
         },
-        |e| matches!(e, Error::ParamsLayout(LayoutError::Delivery { .. })),
+        |e| matches!(e, Error::ParamsLayout(l) if matches!(**l, LayoutError::Delivery { .. })),
     )
 }
 
@@ -500,6 +497,48 @@ fn sbt_record_data_too_large() -> anyhow::Result<()> {
     )
 }
 
+/// A ray type the triangle's programs never trace: hit records at offset 2 of a
+/// stride of 3, miss index 1.
+struct Ghost;
+impl raykit::device::RayType for Ghost {
+    type Payload = Vec3;
+    const SBT_OFFSET: u32 = 2;
+    const SBT_STRIDE: u32 = 3;
+    const MISS_INDEX: u32 = 1;
+}
+
+#[test]
+fn hit_record_for_a_ray_type_the_sbt_does_not_have() -> anyhow::Result<()> {
+    // raykit cannot know which ray types the programs trace; what it refuses is
+    // the SBT this leaves: slot 1 (the radiance ray's second slot) is empty while
+    // slot 2 is filled, so a trace reaching slot 1 would read garbage.
+    case(
+        "hit_record_for_a_ray_type_the_sbt_does_not_have",
+        &["SBT hit slot 1 is empty", "every slot a trace can reach needs a record", "hit_at(1, ..)"],
+        |ctx| {
+            let l = linked(ctx)?;
+            let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR });
+            refused(builder.hit(&l.hit, ()).hit_for::<Ghost, _>(0, &l.hit, ()).build(), "a ghost ray type's hit record")
+        },
+        |e| matches!(e, Error::SbtHole { region: "hit", index: 1 }),
+    )
+}
+
+#[test]
+fn two_records_in_one_sbt_slot() -> anyhow::Result<()> {
+    case(
+        "two_records_in_one_sbt_slot",
+        &["SBT miss slot 0 already holds a record", "MISS_INDEX"],
+        |ctx| {
+            let l = linked(ctx)?;
+            let bg = MissData { bg_color: BG_COLOR };
+            let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, bg).hit(&l.hit, ());
+            refused(builder.miss_for::<triangle_device::Radiance, _>(&l.miss, bg).build(), "two radiance miss records")
+        },
+        |e| matches!(e, Error::SbtSlotTaken { region: "miss", index: 0 }),
+    )
+}
+
 #[test]
 fn launch_with_the_sbt_of_another_pipeline() -> anyhow::Result<()> {
     case(
@@ -599,9 +638,9 @@ const TRI: [Vec3; 3] = triangle::VERTICES;
 fn gas_with_zero_primitives() -> anyhow::Result<()> {
     case(
         "gas_with_zero_primitives",
-        &["no vertices", "at least one triangle"],
+        &["at least one triangle"],
         |ctx| refused(Gas::triangles(ctx, &[], None), "a GAS without triangles"),
-        |e| matches!(e, Error::Geometry(_)),
+        |e| matches!(e, Error::AccelEmpty { .. }),
     )
 }
 
@@ -609,9 +648,9 @@ fn gas_with_zero_primitives() -> anyhow::Result<()> {
 fn gas_with_an_empty_index_list() -> anyhow::Result<()> {
     case(
         "gas_with_an_empty_index_list",
-        &["0 indices is not a positive multiple of 3"],
+        &["at least one triangle"],
         |ctx| refused(Gas::triangles(ctx, &TRI, Some(&[])), "an empty index list"),
-        |e| matches!(e, Error::Geometry(_)),
+        |e| matches!(e, Error::AccelEmpty { .. }),
     )
 }
 
@@ -619,9 +658,9 @@ fn gas_with_an_empty_index_list() -> anyhow::Result<()> {
 fn gas_with_indices_out_of_range() -> anyhow::Result<()> {
     case(
         "gas_with_indices_out_of_range",
-        &["index 2 is 3, out of range for 3 vertices"],
+        &["index 2 is 3, but the geometry has 3 vertices", "fix the index buffer"],
         |ctx| refused(Gas::triangles(ctx, &TRI, Some(&[0, 1, 3])), "index 3 of 3 vertices"),
-        |e| matches!(e, Error::Geometry(_)),
+        |e| matches!(e, Error::IndexOutOfRange { position: 2, index: 3, vertex_count: 3, .. }),
     )
 }
 
@@ -629,13 +668,13 @@ fn gas_with_indices_out_of_range() -> anyhow::Result<()> {
 fn gas_with_non_finite_vertices() -> anyhow::Result<()> {
     case(
         "gas_with_non_finite_vertices",
-        &["vertex 1 is not finite"],
+        &["vertex 1 is not finite", "finite positions"],
         |ctx| {
             let nan = refused(Gas::triangles(ctx, &[TRI[0], TRI[1], Vec3::new(f32::NAN, 0.0, 0.0)], None), "a NaN")?;
-            anyhow::ensure!(matches!(&nan, Error::Geometry(m) if m.contains("vertex 2 is not finite")), "{nan:?}");
+            anyhow::ensure!(matches!(nan, Error::NonFiniteVertex { vertex: 2, .. }), "{nan:?}");
             refused(Gas::triangles(ctx, &[TRI[0], Vec3::new(0.0, f32::INFINITY, 0.0), TRI[2]], None), "an infinity")
         },
-        |e| matches!(e, Error::Geometry(_)),
+        |e| matches!(e, Error::NonFiniteVertex { vertex: 1, .. }),
     )
 }
 
@@ -643,9 +682,9 @@ fn gas_with_non_finite_vertices() -> anyhow::Result<()> {
 fn gas_with_an_index_list_that_is_not_whole_triangles() -> anyhow::Result<()> {
     case(
         "gas_with_an_index_list_that_is_not_whole_triangles",
-        &["4 indices is not a positive multiple of 3", "three per triangle"],
+        &["4 indices is not a multiple of 3", "each triangle takes three"],
         |ctx| refused(Gas::triangles(ctx, &TRI, Some(&[0, 1, 2, 0])), "four indices"),
-        |e| matches!(e, Error::Geometry(_)),
+        |e| matches!(e, Error::TriangleCount { count: 4, .. }),
     )
 }
 
@@ -655,7 +694,58 @@ fn gas_with_a_vertex_list_that_is_not_whole_triangles() -> anyhow::Result<()> {
         "gas_with_a_vertex_list_that_is_not_whole_triangles",
         &["2 vertices without indices is not a multiple of 3"],
         |ctx| refused(Gas::triangles(ctx, &TRI[..2], None), "two vertices"),
-        |e| matches!(e, Error::Geometry(_)),
+        |e| matches!(e, Error::TriangleCount { count: 2, .. }),
+    )
+}
+
+#[test]
+fn gas_with_a_misaligned_vertex_stride() -> anyhow::Result<()> {
+    case(
+        "gas_with_a_misaligned_vertex_stride",
+        &["vertex stride of 14 bytes must be a multiple of 4 and at least 12", "pad the struct"],
+        |ctx| {
+            let bytes = [0u8; 14 * 3];
+            // Too short a stride is refused the same way.
+            let short = refused(Gas::builder().triangles(Triangles::strided(&bytes, 8, 3)).build(ctx), "stride 8")?;
+            anyhow::ensure!(matches!(short, Error::MisalignedStride { stride: 8, .. }), "{short:?}");
+            refused(Gas::builder().triangles(Triangles::strided(&bytes, 14, 3)).build(ctx), "stride 14")
+        },
+        |e| matches!(e, Error::MisalignedStride { stride: 14, alignment: 4, min: 12, .. }),
+    )
+}
+
+#[test]
+fn gas_with_fewer_vertex_bytes_than_count_and_stride_need() -> anyhow::Result<()> {
+    case(
+        "gas_with_fewer_vertex_bytes_than_count_and_stride_need",
+        &["vertex data of 24 bytes is too short", "need 36"],
+        |ctx| {
+            let bytes: &[u8] = bytemuck::cast_slice(&TRI[..2]);
+            refused(Gas::builder().triangles(Triangles::strided(bytes, 12, 3)).build(ctx), "two vertices' bytes for three")
+        },
+        |e| matches!(e, Error::InputTooShort { needed: 36, len: 24, .. }),
+    )
+}
+
+#[test]
+fn refit_with_a_changed_topology() -> anyhow::Result<()> {
+    case(
+        "refit_with_a_changed_topology",
+        &["cannot update (refit) this GAS", "use rebuild instead"],
+        |ctx| {
+            let six = [TRI, TRI].concat();
+            // Built without allowing updates: refused as well.
+            let mut fixed = Gas::triangles(ctx, &TRI, None)?;
+            let err = refused(fixed.update(&[Triangles::new(&TRI).into()]), "a refit without allow_update")?;
+            anyhow::ensure!(matches!(err, Error::UpdateRefused { .. }), "{err:?}");
+            let options = BuildOptions { allow_update: true, ..Default::default() };
+            let mut gas = Gas::builder().triangles(Triangles::new(&TRI)).options(options).build(ctx)?;
+            // Same topology, moved vertices: accepted.
+            let moved = TRI.map(|v| v + Vec3::new(0.0, 0.0, 0.1));
+            gas.update(&[Triangles::new(&moved).into()])?;
+            refused(gas.update(&[Triangles::new(&six).into()]), "a refit to twice the triangles")
+        },
+        |e| matches!(e, Error::UpdateRefused { what: "GAS", .. }),
     )
 }
 
@@ -663,9 +753,9 @@ fn gas_with_a_vertex_list_that_is_not_whole_triangles() -> anyhow::Result<()> {
 fn ias_without_instances() -> anyhow::Result<()> {
     case(
         "ias_without_instances",
-        &["no instances", "at least one"],
+        &["instance"],
         |ctx| refused(Ias::new(ctx, &[]), "an empty IAS"),
-        |e| matches!(e, Error::Geometry(_)),
+        |e| matches!(e, Error::AccelEmpty { .. }),
     )
 }
 
@@ -673,16 +763,16 @@ fn ias_without_instances() -> anyhow::Result<()> {
 fn ias_instance_fields_over_24_bits() -> anyhow::Result<()> {
     case(
         "ias_instance_fields_over_24_bits",
-        &["instance 1", "24 bits"],
+        &["instance 1: sbt_offset is 4294967295, over its 24-bit maximum"],
         |ctx| {
             let gas = Gas::triangles(ctx, &TRI, None)?;
-            let bad = Instance { custom_index: 1 << 24, ..Instance::new(&gas) };
+            let bad = Instance::new(&gas).custom_index(1 << 24);
             let err = refused(Ias::new(ctx, &[Instance::new(&gas), bad]), "a 25-bit custom index")?;
-            anyhow::ensure!(matches!(err, Error::Geometry(_)), "{err:?}");
-            let bad = Instance { sbt_offset: u32::MAX, ..Instance::new(&gas) };
+            anyhow::ensure!(matches!(err, Error::InstanceField { instance: 1, .. }), "{err:?}");
+            let bad = Instance::new(&gas).sbt_offset(u32::MAX);
             refused(Ias::new(ctx, &[Instance::new(&gas), bad]), "a 32-bit SBT offset")
         },
-        |e| matches!(e, Error::Geometry(_)),
+        |e| matches!(e, Error::InstanceField { instance: 1, .. }),
     )
 }
 
@@ -690,13 +780,13 @@ fn ias_instance_fields_over_24_bits() -> anyhow::Result<()> {
 fn ias_instance_with_a_non_finite_transform() -> anyhow::Result<()> {
     case(
         "ias_instance_with_a_non_finite_transform",
-        &["instance 0: transform is not finite"],
+        &["not finite", "give a finite affine transform"],
         |ctx| {
             let gas = Gas::triangles(ctx, &TRI, None)?;
             let transform = Affine3A::from_translation(Vec3::new(0.0, f32::NAN, 0.0));
-            refused(Ias::new(ctx, &[Instance { transform, ..Instance::new(&gas) }]), "a NaN translation")
+            refused(Ias::new(ctx, &[Instance::new(&gas).transform(transform)]), "a NaN translation")
         },
-        |e| matches!(e, Error::Geometry(_)),
+        |e| matches!(e, Error::NonFiniteTransform { .. }),
     )
 }
 
