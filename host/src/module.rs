@@ -143,7 +143,43 @@ fn check_structure(words: &[u32]) -> Result<()> {
 /// operands become errors).
 fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
     check_structure(words)?;
-    Ok(raykit_device::layout::parse(words)?)
+    let module = raykit_device::layout::parse(words)?;
+    check_ids(&module, words[3])?;
+    Ok(module)
+}
+
+/// Checks what rspirv's parser leaves alone: every result id is below the
+/// module's ID bound and defined once, and every id an instruction uses is
+/// defined somewhere in the module. A flipped bit in an id is the most common
+/// corruption that keeps a module well formed; without this check it reaches the
+/// driver as invalid SPIR-V. (Still not a full validator: that is spirv-val.)
+fn check_ids(module: &rspirv::dr::Module, bound: u32) -> Result<()> {
+    let invalid = |reason: String| Err(Error::InvalidSpirv { reason });
+    let mut defined = std::collections::HashSet::new();
+    for inst in module.all_inst_iter() {
+        if let Some(id) = inst.result_id {
+            if id == 0 || id >= bound {
+                return invalid(format!("{:?} defines %{id}, outside the module's ID bound {bound}", inst.class.opcode));
+            }
+            if !defined.insert(id) {
+                return invalid(format!("%{id} is defined twice (again by {:?})", inst.class.opcode));
+            }
+        }
+    }
+    for inst in module.all_inst_iter() {
+        let used = inst.result_type.into_iter().chain(inst.operands.iter().filter_map(|op| match op {
+            rspirv::dr::Operand::IdRef(id) | rspirv::dr::Operand::IdScope(id) | rspirv::dr::Operand::IdMemorySemantics(id) => {
+                Some(*id)
+            }
+            _ => None,
+        }));
+        for id in used {
+            if !defined.contains(&id) {
+                return invalid(format!("{:?} uses %{id}, which the module never defines", inst.class.opcode));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Lists the entry points of a SPIR-V module, with their stages and params blocks.

@@ -276,6 +276,38 @@ fn spirv_entry_point_naming_an_undefined_function() -> anyhow::Result<()> {
 }
 
 #[test]
+fn spirv_defining_an_id_outside_its_bound() -> anyhow::Result<()> {
+    case(
+        "spirv_defining_an_id_outside_its_bound",
+        &["TypeVoid defines %", "outside the module's ID bound"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            let at = find_instruction(&w, 19).ok_or_else(|| anyhow::anyhow!("no OpTypeVoid"))?;
+            w[at + 1] = w[3] + 5;
+            refused(Module::new(ctx, &bytes(&w)), "an id over the bound")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_using_an_id_it_never_defines() -> anyhow::Result<()> {
+    case(
+        "spirv_using_an_id_it_never_defines",
+        &["which the module never defines"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            // OpTypePointer %ptr StorageClass %pointee: point it at nothing.
+            let at = find_instruction(&w, 32).ok_or_else(|| anyhow::anyhow!("no OpTypePointer"))?;
+            w[at + 3] = w[3]; // the old bound: an id nothing defines …
+            w[3] += 1; // … made legal by a larger bound
+            refused(Module::new(ctx, &bytes(&w)), "a pointer to an undefined type")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
 fn spirv_without_ray_tracing_entry_points() -> anyhow::Result<()> {
     case(
         "spirv_without_ray_tracing_entry_points",
