@@ -213,7 +213,7 @@ fn spirv_truncated_between_words() -> anyhow::Result<()> {
     case(
         "spirv_truncated_between_words",
         &["truncated"],
-        |ctx| refused(Module::new(ctx, &RAYGEN_MAIN[..RAYGEN_MAIN.len() / 2 & !3]), "half a module"),
+        |ctx| refused(Module::new(ctx, &RAYGEN_MAIN[..(RAYGEN_MAIN.len() / 2) & !3]), "half a module"),
         |e| matches!(e, Error::InvalidSpirv { .. }),
     )
 }
