@@ -94,6 +94,9 @@ pub(crate) struct ContextInner {
     /// Largest launch width, height and depth: `maxComputeWorkGroupCount[i] ×
     /// maxComputeWorkGroupSize[i]`, as `vkCmdTraceRaysKHR` requires.
     pub(crate) launch_dimension_limits: [u64; 3],
+    /// Whether `VK_KHR_shader_non_semantic_info` is enabled, which modules with
+    /// debug info (`SPV_KHR_non_semantic_info`) need.
+    pub(crate) non_semantic_info: bool,
     device_name: String,
 }
 
@@ -338,7 +341,16 @@ impl Context {
         let mut features = Features::required();
         let priorities = [1.0f32];
         let queue_infos = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
-        let extension_ptrs: Vec<_> = REQUIRED_EXTENSIONS.iter().map(|e| e.as_ptr()).collect();
+        let mut extension_ptrs: Vec<_> = REQUIRED_EXTENSIONS.iter().map(|e| e.as_ptr()).collect();
+        // Optional: lets modules carry debug info (glslang's -gVS, NonSemantic.Shader.DebugInfo.100).
+        // SAFETY: `physical_device` came from this instance.
+        let non_semantic_info = unsafe { instance.enumerate_device_extension_properties(physical_device) }
+            .map_err(Error::vk("vkEnumerateDeviceExtensionProperties"))?
+            .iter()
+            .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::khr::shader_non_semantic_info::NAME));
+        if non_semantic_info {
+            extension_ptrs.push(ash::khr::shader_non_semantic_info::NAME.as_ptr());
+        }
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
             .enabled_extension_names(&extension_ptrs)
@@ -400,6 +412,7 @@ impl Context {
                 buffer_table: ManuallyDrop::new(buffer_table),
                 limits,
                 launch_dimension_limits,
+                non_semantic_info,
                 device_name,
             }),
         })

@@ -107,6 +107,18 @@ pub enum Error {
     #[error("validation requested but VK_LAYER_KHRONOS_validation is not installed (Debian: `apt-get install vulkan-validationlayers`)")]
     ValidationLayerMissing,
 
+    /// The module declares a SPIR-V extension whose device extension this device
+    /// lacks.
+    #[error("the module uses SPIR-V extension {spirv_extension}, which needs {device_extension}; this device lacks it. {fix}")]
+    SpirvExtensionUnsupported {
+        /// The `OpExtension` name.
+        spirv_extension: String,
+        /// The Vulkan device extension it needs.
+        device_extension: &'static str,
+        /// What to do instead.
+        fix: &'static str,
+    },
+
     /// The module has no ray-tracing entry point at all.
     #[error("the SPIR-V module has no ray-tracing entry points (raygen, miss, closest-hit, any-hit, intersection, callable); it has: {}. Compile the programs as ray-tracing stages (`#[raygen]`, `#[miss]`, … in Rust; `.rgen`, `.rmiss`, … in GLSL)", list_entry_points(.available))]
     NoRayTracingEntryPoints {

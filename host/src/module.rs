@@ -148,7 +148,24 @@ fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
     Ok(module)
 }
 
+const OP_EXTENSION: u32 = 10;
 const OP_EXT_INST_IMPORT: u32 = 11;
+
+/// Whether a structurally checked module declares `OpExtension name`.
+fn declares_extension(words: &[u32], name: &str) -> bool {
+    let mut at = 5;
+    while let Some(&first) = words.get(at) {
+        let word_count = (first >> 16) as usize;
+        if first & 0xffff == OP_EXTENSION {
+            let bytes: Vec<u8> = words.get(at + 1..at + word_count).unwrap_or(&[]).iter().flat_map(|w| w.to_le_bytes()).collect();
+            if bytes.split(|&b| b == 0).next() == Some(name.as_bytes()) {
+                return true;
+            }
+        }
+        at += word_count.max(1);
+    }
+    false
+}
 const OP_EXT_INST: u32 = 12;
 const OP_SPEC_CONSTANT_OP: u32 = 52;
 
@@ -272,6 +289,13 @@ impl Module {
             });
         }
         let words = words_of(spirv)?;
+        if !ctx.inner.non_semantic_info && declares_extension(&words, "SPV_KHR_non_semantic_info") {
+            return Err(Error::SpirvExtensionUnsupported {
+                spirv_extension: "SPV_KHR_non_semantic_info".to_owned(),
+                device_extension: "VK_KHR_shader_non_semantic_info",
+                fix: "Compile the module without debug info (no -gVS)",
+            });
+        }
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
         // SAFETY: `words` is a parsed SPIR-V module; the device is live.
         let shader = unsafe { ctx.inner.device.create_shader_module(&info, None) }

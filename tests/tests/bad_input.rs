@@ -308,6 +308,27 @@ fn spirv_using_an_id_it_never_defines() -> anyhow::Result<()> {
 }
 
 #[test]
+fn spirv_with_a_spec_constant_op_it_cannot_compute() -> anyhow::Result<()> {
+    // Found by fuzzing: rspirv's parser panics on this (raykit caught the panic,
+    // but printed it and gave a vague reason); now refused before parsing.
+    case(
+        "spirv_with_a_spec_constant_op_it_cannot_compute",
+        &["OpSpecConstantOp at word", "computes opcode 52"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            let at = find_instruction(&w, 21).ok_or_else(|| anyhow::anyhow!("no OpTypeInt"))?; // %uint
+            let (uint, bound) = (w[at + 1], w[3]);
+            // `%bound = OpSpecConstantOp %uint OpSpecConstantOp`, after the types.
+            let after = find_instruction(&w, 54).ok_or_else(|| anyhow::anyhow!("no OpFunction"))?;
+            w.splice(after..after, [(4 << 16) | 52, uint, bound, 52]);
+            w[3] += 1;
+            refused(Module::new(ctx, &bytes(&w)), "an OpSpecConstantOp of an OpSpecConstantOp")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
 fn spirv_without_ray_tracing_entry_points() -> anyhow::Result<()> {
     case(
         "spirv_without_ray_tracing_entry_points",
