@@ -806,7 +806,7 @@ fn refit_with_a_changed_topology() -> anyhow::Result<()> {
 fn ias_without_instances() -> anyhow::Result<()> {
     case(
         "ias_without_instances",
-        &["instance"],
+        &["give at least one triangle, AABB or instance"],
         |ctx| refused(Ias::new(ctx, &[]), "an empty IAS"),
         |e| matches!(e, Error::AccelEmpty { .. }),
     )
