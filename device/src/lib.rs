@@ -32,6 +32,7 @@
 #![deny(missing_docs)]
 
 pub mod entry;
+pub mod exception;
 pub mod handles;
 #[cfg(not(target_arch = "spirv"))]
 pub mod layout;

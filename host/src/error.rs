@@ -52,6 +52,21 @@ fn list_entry_points(entries: &[(String, Option<ProgramKind>)]) -> String {
         .join(", ")
 }
 
+/// One user exception thrown by a device program (`ctx.throw_exception`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct UserException {
+    /// The code the program threw.
+    pub code: u32,
+    /// The launch index of the invocation that threw it.
+    pub launch_index: [u32; 3],
+}
+
+fn list_exceptions(exceptions: &[UserException]) -> String {
+    let shown: Vec<String> =
+        exceptions.iter().take(8).map(|e| format!("code {:#x} at {:?}", e.code, e.launch_index)).collect();
+    shown.join(", ")
+}
+
 /// Everything that can go wrong in raykit.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -210,6 +225,15 @@ pub enum Error {
         region: &'static str,
     },
 
+    /// An SBT record could not be updated in place.
+    #[error("cannot update SBT {region} record: {reason}")]
+    SbtUpdate {
+        /// The region.
+        region: &'static str,
+        /// Why not.
+        reason: String,
+    },
+
     /// Two records were placed in one SBT slot.
     #[error("SBT {region} slot {index} already holds a record; each ray type × geometry slot takes one (check the ray types' SBT_OFFSET/SBT_STRIDE/MISS_INDEX)")]
     SbtSlotTaken {
@@ -268,6 +292,16 @@ pub enum Error {
         element_size: usize,
         /// Why not.
         reason: &'static str,
+    },
+
+    /// Device programs threw user exceptions during a launch. The launch ran to
+    /// its end: buffers hold what the programs wrote.
+    #[error("the launch raised {total} user exception(s): {} (the first {} are recorded; each was thrown with ctx.throw_exception)", list_exceptions(.exceptions), .exceptions.len())]
+    UserExceptions {
+        /// How many were thrown.
+        total: u32,
+        /// The first `EXCEPTION_CAPACITY` of them, in the order they were recorded.
+        exceptions: Vec<UserException>,
     },
 
     /// A program's params block differs from the host's launch-params struct, or

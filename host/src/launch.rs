@@ -64,6 +64,10 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             None => None,
         };
         let params_set = uniform_guard.as_ref().map(|(_, set)| *set);
+        // User exceptions: the counter is zeroed now and read after the launch;
+        // the lock keeps concurrent launches of this pipeline apart.
+        let mut exceptions = inner.exceptions.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        exceptions.reset()?;
         let result = ctx.submit_and_wait("a launch", |cmd| {
             // SAFETY: the pipeline, layout, descriptor set and SBT buffer are alive
             // for the whole submission (held by `self` and `sbt`, and waited on).
@@ -107,6 +111,11 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             }
         });
         uniform_guard.take();
-        result
+        result?;
+        let (total, thrown) = exceptions.read();
+        if total > 0 {
+            return Err(Error::UserExceptions { total, exceptions: thrown });
+        }
+        Ok(())
     }
 }

@@ -55,6 +55,60 @@ pub(crate) struct PipelineInner {
     pub(crate) push_constant_size: u32,
     /// The params uniform buffer, for params over the push-constant budget.
     pub(crate) params_uniform: Option<ParamsUniform>,
+    /// Where programs record user exceptions; launches hold the lock.
+    pub(crate) exceptions: Mutex<ExceptionBuffer>,
+}
+
+/// A pipeline's user-exception buffer (see `raykit_device::exception`): a
+/// host-visible buffer in the bindless table.
+pub(crate) struct ExceptionBuffer {
+    ctx: Arc<ContextInner>,
+    pub(crate) buffer: RawBuffer,
+    pub(crate) slot: u32,
+}
+
+impl ExceptionBuffer {
+    fn new(ctx: &Arc<ContextInner>) -> Result<ExceptionBuffer> {
+        let size = raykit_device::exception::EXCEPTION_BUFFER_WORDS as u64 * 4;
+        let buffer = RawBuffer::new(
+            ctx,
+            "user exception buffer",
+            size,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            gpu_allocator::MemoryLocation::GpuToCpu,
+            16,
+        )?;
+        let slot = ctx.buffer_table.insert(&ctx.device, buffer.buffer)?;
+        Ok(ExceptionBuffer { ctx: ctx.clone(), buffer, slot })
+    }
+
+    /// Zeroes the counter before a launch.
+    pub(crate) fn reset(&mut self) -> Result<()> {
+        self.buffer.write_bytes(&0u32.to_ne_bytes())
+    }
+
+    /// The exceptions recorded by the last launch: `(total thrown, records)`.
+    pub(crate) fn read(&self) -> (u32, Vec<crate::error::UserException>) {
+        use raykit_device::exception::{EXCEPTION_CAPACITY, EXCEPTION_RECORD_WORDS};
+        let Some(bytes) = self.buffer.mapped() else { return (0, Vec::new()) };
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(bytes);
+        let total = words.first().copied().unwrap_or(0);
+        let stored = total.min(EXCEPTION_CAPACITY) as usize;
+        let records = (0..stored)
+            .filter_map(|i| {
+                let at = 1 + i * EXCEPTION_RECORD_WORDS as usize;
+                let r = words.get(at..at + 4)?;
+                Some(crate::error::UserException { code: r[0], launch_index: [r[1], r[2], r[3]] })
+            })
+            .collect();
+        (total, records)
+    }
+}
+
+impl Drop for ExceptionBuffer {
+    fn drop(&mut self) {
+        self.ctx.buffer_table.remove(self.slot);
+    }
 }
 
 /// A uniform buffer holding the launch params, with its descriptor set.
@@ -207,10 +261,24 @@ impl<P: LaunchParams> Pipeline<P> {
             };
             group_infos.push(info);
         }
+        // The user-exception buffer, and its slot for every program as a
+        // specialization constant (modules without that constant ignore it).
+        let exceptions = ExceptionBuffer::new(inner)?;
+        let slot_bytes = exceptions.slot.to_ne_bytes();
+        let spec_entries = [vk::SpecializationMapEntry {
+            constant_id: raykit_device::exception::EXCEPTION_SLOT_SPEC_ID,
+            offset: 0,
+            size: std::mem::size_of::<u32>(),
+        }];
+        let specialization = vk::SpecializationInfo::default().map_entries(&spec_entries).data(&slot_bytes);
         let stages: Vec<vk::PipelineShaderStageCreateInfo<'_>> = programs
             .iter()
             .map(|p| {
-                vk::PipelineShaderStageCreateInfo::default().stage(stage_flag(p.kind)).module(p.module.shader).name(&p.name)
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(stage_flag(p.kind))
+                    .module(p.module.shader)
+                    .name(&p.name)
+                    .specialization_info(&specialization)
             })
             .collect();
 
@@ -239,6 +307,7 @@ impl<P: LaunchParams> Pipeline<P> {
             handles: Vec::new(),
             push_constant_size,
             params_uniform,
+            exceptions: Mutex::new(exceptions),
         };
 
         let create_info = [vk::RayTracingPipelineCreateInfoKHR::default()

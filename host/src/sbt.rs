@@ -251,7 +251,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             hit: region(ht),
             callable: region(cl),
             layouts: [rg, ms, ht, cl],
-            _buffer: buffer,
+            counts: [1, miss.len(), hit.len(), self.callable.len()],
+            buffer,
         })
     }
 }
@@ -264,13 +265,63 @@ pub struct Sbt {
     pub(crate) hit: vk::StridedDeviceAddressRegionKHR,
     pub(crate) callable: vk::StridedDeviceAddressRegionKHR,
     layouts: [RegionLayout; 4],
-    _buffer: RawBuffer,
+    /// Record counts per region (raygen, miss, hit, callable).
+    counts: [usize; 4],
+    buffer: RawBuffer,
+}
+
+/// An SBT region, for [`Sbt::update`].
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum SbtRegion {
+    /// The raygen record.
+    Raygen,
+    /// The miss records.
+    Miss,
+    /// The hit records.
+    Hit,
+    /// The callable records.
+    Callable,
 }
 
 impl Sbt {
     /// Starts an SBT for `pipeline`.
     pub fn builder<P: raykit_device::LaunchParams>(pipeline: &Pipeline<P>) -> SbtBuilder<'_, P> {
         SbtBuilder { pipeline, raygen: None, miss: Vec::new(), hit: Vec::new(), callable: Vec::new(), error: None }
+    }
+
+    /// Overwrites the data of record `index` of `region` (the group stays),
+    /// without rebuilding the SBT or the pipeline — OptiX's way of changing a
+    /// material between launches. Call it between launches: launches wait for
+    /// their end, so no launch is reading the record.
+    pub fn update<T: bytemuck::Pod>(&mut self, region: SbtRegion, index: usize, data: T) -> Result<()> {
+        let r = region as usize;
+        let name = ["raygen", "miss", "hit", "callable"][r];
+        if index >= self.counts[r] {
+            return Err(Error::SbtUpdate {
+                region: name,
+                reason: format!("index {index} is past the region's {} record(s)", self.counts[r]),
+            });
+        }
+        let layout = self.layouts[r];
+        let handle = self.pipeline.ctx.limits.shader_group_handle_size as u64;
+        let room = layout.stride - handle;
+        let bytes = bytemuck::bytes_of(&data);
+        if bytes.len() as u64 > room {
+            return Err(Error::SbtUpdate {
+                region: name,
+                reason: format!(
+                    "{} bytes of data do not fit the region's {room}-byte records; build a new SBT for larger data",
+                    bytes.len()
+                ),
+            });
+        }
+        let at = (layout.offset + layout.stride * index as u64 + handle) as usize;
+        let mapped = self.buffer.mapped_mut().ok_or(Error::SbtUpdate {
+            region: name,
+            reason: "the SBT buffer is not host-visible".to_owned(),
+        })?;
+        mapped[at..at + bytes.len()].copy_from_slice(bytes);
+        Ok(())
     }
 
     /// Layouts of the raygen, miss, hit and callable regions.

@@ -18,7 +18,9 @@
 //! * `#[call_data] d: &mut T`: outgoing data for `call` (callables);
 //! * `#[callable_data] d: &mut T`: a callable program's incoming data;
 //! * `#[attributes] a: &mut T` (intersection) / `a: &T` (any-hit, closest-hit):
-//!   typed hit attributes.
+//!   typed hit attributes;
+//! * `#[spec_constant(id = N, default = D)] x: u32`: a specialization constant
+//!   (OptiX's bound launch-params values), set per pipeline by the host.
 //!
 //! `#[miss(ray = R)]`, `#[closest_hit(ray = R)]` and `#[any_hit(ray = R)]` check at
 //! compile time that the payload is `<R as RayType>::Payload`. A role a stage

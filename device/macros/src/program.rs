@@ -120,6 +120,8 @@ enum Role {
     CallableData(Type),
     /// Hit attributes: written by intersection, read by any-hit and closest-hit.
     Attributes(Type),
+    /// A specialization constant (`u32`), set per pipeline by the host.
+    SpecConstant { id: u32, default: u32 },
 }
 
 struct Param {
@@ -160,6 +162,30 @@ fn parse_args(stage: Stage, attr: TokenStream) -> syn::Result<Args> {
     Ok(args)
 }
 
+/// `#[spec_constant(id = N)]` or `#[spec_constant(id = N, default = D)]`.
+fn parse_spec_constant(attr: &syn::Attribute) -> syn::Result<(u32, u32)> {
+    let mut id = None;
+    let mut default = 0u32;
+    attr.parse_nested_meta(|meta| {
+        let value: syn::LitInt = meta.value()?.parse()?;
+        if meta.path.is_ident("id") {
+            id = Some(value.base10_parse::<u32>()?);
+            Ok(())
+        } else if meta.path.is_ident("default") {
+            default = value.base10_parse::<u32>()?;
+            Ok(())
+        } else {
+            Err(meta.error("expected `id = N` or `default = D`"))
+        }
+    })?;
+    let id = id.ok_or_else(|| syn::Error::new(attr.span(), "#[spec_constant] needs `id = N`"))?;
+    // raykit_device::exception::EXCEPTION_SLOT_SPEC_ID
+    if id == 0x7261_0000 {
+        return Err(syn::Error::new(attr.span(), "specialization constant ID 0x72610000 is reserved by raykit"));
+    }
+    Ok((id, default))
+}
+
 /// `&T` (shared) or `&mut T` (exclusive) → `T`.
 fn referent(ty: &Type, mutable: bool, what: &str) -> syn::Result<Type> {
     match ty {
@@ -192,9 +218,21 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
             }
         };
         let mut role_attr: Option<(String, Span)> = None;
+        let mut spec: Option<(u32, u32)> = None;
         let mut kept = Vec::new();
         for attr in arg.attrs.drain(..) {
             let path = attr.path();
+            if path.is_ident("spec_constant") {
+                match parse_spec_constant(&attr) {
+                    Ok(v) => spec = Some(v),
+                    Err(e) => push_error(e),
+                }
+                if role_attr.is_some() {
+                    push_error(syn::Error::new(attr.span(), "a parameter has at most one role attribute"));
+                }
+                role_attr = Some(("spec_constant".to_owned(), attr.span()));
+                continue;
+            }
             let known = ["params", "record", "payload", "trace_payload", "call_data", "callable_data", "attributes"]
                 .iter()
                 .find(|k| path.is_ident(k));
@@ -231,6 +269,14 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
                 referent(ty, true, "#[attributes] of an intersection program").map(Role::Attributes)
             }
             Some("attributes") => referent(ty, false, "#[attributes] of a hit program").map(Role::Attributes),
+            Some("spec_constant") => match (ty, spec) {
+                (Type::Path(p), Some((id, default))) if p.path.is_ident("u32") => Ok(Role::SpecConstant { id, default }),
+                (_, Some(_)) => Err(syn::Error::new(
+                    ty.span(),
+                    "a #[spec_constant] is a `u32` (Vulkan specialization constants are 32-bit; use f32::from_bits for floats)",
+                )),
+                (_, None) => continue,
+            },
             Some(_) => referent(ty, true, "#[payload]").map(Role::Payload),
         };
         match role {
@@ -451,6 +497,12 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 });
                 call_args.push(quote!(::core::ops::Deref::deref(#name)));
             }
+            Role::SpecConstant { id, default } => {
+                let id = proc_macro2::Literal::u32_unsuffixed(*id);
+                let default = proc_macro2::Literal::u32_unsuffixed(*default);
+                wrapper_params.push(quote! { #[spirv(spec_constant(id = #id, default = #default))] #name: u32 });
+                call_args.push(quote!(#name));
+            }
             Role::TracePayload(ty) => {
                 wrapper_params.push(quote! { #[spirv(ray_payload)] #name: &mut #ty });
                 call_args.push(quote!(#name));
@@ -493,7 +545,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
 
     let body = quote! {
         #[allow(unused_mut)]
-        let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers);
+        let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers, __exception_slot);
         #fn_name(#(#call_args),*);
     };
     let call = match params_choice {
@@ -527,6 +579,8 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
         pub fn #wrapper(
             #builtin_params
             #[spirv(descriptor_set = 0, binding = 0, storage_buffer)] __buffers: &mut ::raykit_device::BufferTable,
+            // The exception buffer's slot (`raykit_device::exception::EXCEPTION_SLOT_SPEC_ID`).
+            #[spirv(spec_constant(id = 1918959616, default = 0))] __exception_slot: u32,
             #(#wrapper_params,)*
         ) {
             #call

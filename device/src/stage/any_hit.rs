@@ -10,12 +10,13 @@ use super::hit::{hit_accessors, hit_kind_accessors, HitBuiltins};
 pub struct AnyHit<'a> {
     hit: HitBuiltins,
     buffers: &'a mut BufferTable,
+    exception_slot: u32,
 }
 
 impl<'a> AnyHit<'a> {
     #[doc(hidden)]
-    pub fn __new(hit: HitBuiltins, buffers: &'a mut BufferTable) -> Self {
-        AnyHit { hit, buffers }
+    pub fn __new(hit: HitBuiltins, buffers: &'a mut BufferTable, exception_slot: u32) -> Self {
+        AnyHit { hit, buffers, exception_slot }
     }
 
     hit_accessors!();

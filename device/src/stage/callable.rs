@@ -15,6 +15,7 @@ pub struct DirectCallable<'a> {
     launch_index: UVec3,
     launch_dimensions: UVec3,
     buffers: &'a mut BufferTable,
+    exception_slot: u32,
 }
 
 /// What a continuation callable may use: a direct callable's, and tracing.
@@ -22,14 +23,26 @@ pub struct ContinuationCallable<'a> {
     launch_index: UVec3,
     launch_dimensions: UVec3,
     buffers: &'a mut BufferTable,
+    exception_slot: u32,
 }
 
 macro_rules! callable_common {
     ($ty:ident) => {
         impl<'a> $ty<'a> {
             #[doc(hidden)]
-            pub fn __new(launch_index: UVec3, launch_dimensions: UVec3, buffers: &'a mut BufferTable) -> Self {
-                $ty { launch_index, launch_dimensions, buffers }
+            pub fn __new(
+                launch_index: UVec3,
+                launch_dimensions: UVec3,
+                buffers: &'a mut BufferTable,
+                exception_slot: u32,
+            ) -> Self {
+                $ty { launch_index, launch_dimensions, buffers, exception_slot }
+            }
+
+            /// Throws user exception `code`: the launch returns it to the host with
+            /// this launch index. The program goes on: return after it.
+            pub fn throw_exception(&mut self, code: u32) {
+                super::throw_exception(self.buffers, self.exception_slot, self.launch_index, code)
             }
 
             /// This invocation's index in the launch grid.

@@ -15,12 +15,13 @@ pub struct ClosestHit<'a> {
     hit: HitBuiltins,
     barycentrics: Vec2,
     buffers: &'a mut BufferTable,
+    exception_slot: u32,
 }
 
 impl<'a> ClosestHit<'a> {
     #[doc(hidden)]
-    pub fn __new(hit: HitBuiltins, barycentrics: Vec2, buffers: &'a mut BufferTable) -> Self {
-        ClosestHit { hit, barycentrics, buffers }
+    pub fn __new(hit: HitBuiltins, barycentrics: Vec2, buffers: &'a mut BufferTable, exception_slot: u32) -> Self {
+        ClosestHit { hit, barycentrics, buffers, exception_slot }
     }
 
     hit_accessors!();

@@ -11,12 +11,13 @@ use super::hit::{hit_accessors, HitBuiltins};
 pub struct Intersection<'a> {
     hit: HitBuiltins,
     buffers: &'a mut BufferTable,
+    exception_slot: u32,
 }
 
 impl<'a> Intersection<'a> {
     #[doc(hidden)]
-    pub fn __new(hit: HitBuiltins, buffers: &'a mut BufferTable) -> Self {
-        Intersection { hit, buffers }
+    pub fn __new(hit: HitBuiltins, buffers: &'a mut BufferTable, exception_slot: u32) -> Self {
+        Intersection { hit, buffers, exception_slot }
     }
 
     hit_accessors!();

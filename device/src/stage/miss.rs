@@ -12,6 +12,7 @@ pub struct Miss<'a> {
     world_ray_origin: Vec3,
     world_ray_direction: Vec3,
     buffers: &'a mut BufferTable,
+    exception_slot: u32,
 }
 
 impl<'a> Miss<'a> {
@@ -22,8 +23,16 @@ impl<'a> Miss<'a> {
         world_ray_origin: Vec3,
         world_ray_direction: Vec3,
         buffers: &'a mut BufferTable,
+        exception_slot: u32,
     ) -> Self {
-        Miss { launch_index, launch_dimensions, world_ray_origin, world_ray_direction, buffers }
+        Miss { launch_index, launch_dimensions, world_ray_origin, world_ray_direction, buffers, exception_slot }
+    }
+
+    /// Throws user exception `code` (OptiX's `optixThrowException`): the
+    /// launch returns it to the host with this launch index. The program goes
+    /// on: return after it (see [`crate::exception`]).
+    pub fn throw_exception(&mut self, code: u32) {
+        super::throw_exception(self.buffers, self.exception_slot, self.launch_index, code)
     }
 
     /// This invocation's index in the launch grid.

@@ -42,6 +42,34 @@ fn execute_callable<T>(sbt_index: u32, data: &mut T) {
     unreachable!("device programs run on the device")
 }
 
+/// Records user exception `code` thrown at `launch_index` in the exception
+/// buffer at `slot` of the table (see [`crate::exception`]).
+#[allow(unused_variables)]
+fn throw_exception(table: &mut BufferTable, slot: u32, launch_index: spirv_std::glam::UVec3, code: u32) {
+    #[cfg(target_arch = "spirv")]
+    {
+        use crate::exception::{EXCEPTION_CAPACITY, EXCEPTION_RECORD_WORDS};
+        // SAFETY: raykit fills `slot` with the pipeline's exception buffer of
+        // EXCEPTION_BUFFER_WORDS words before every launch.
+        let words: &mut [u32] = unsafe { table.index_mut(slot as usize) };
+        // SAFETY: an atomic increment of the counter; queue-family scope covers
+        // every invocation of the launch (device scope would need
+        // VulkanMemoryModelDeviceScope), and no ordering is needed.
+        let index = unsafe {
+            spirv_std::arch::atomic_i_increment::<u32, { spirv_std::memory::Scope::QueueFamily as u32 }, 0>(&mut words[0])
+        };
+        if index < EXCEPTION_CAPACITY {
+            let base = (1 + index * EXCEPTION_RECORD_WORDS) as usize;
+            words[base] = code;
+            words[base + 1] = launch_index.x;
+            words[base + 2] = launch_index.y;
+            words[base + 3] = launch_index.z;
+        }
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    unreachable!("device programs run on the device")
+}
+
 /// Reads element `index` of `buffer` from the bindless table.
 #[allow(unused_variables)]
 fn load<T: Element>(table: &BufferTable, buffer: Buffer<T>, index: u32) -> T {

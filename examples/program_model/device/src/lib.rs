@@ -109,7 +109,7 @@ pub struct SphereHit {
 pub fn cutout_solid(b: Vec2) -> bool {
     let cx = (b.x * 8.0) as u32;
     let cy = (b.y * 8.0) as u32;
-    (cx + cy) % 2 == 0
+    (cx + cy) & 1 == 0
 }
 
 /// The colours of the material callables, by SBT callable index.
@@ -294,4 +294,38 @@ pub struct ColorRecord {
 #[closest_hit(ray = Radiance)]
 fn record_color(_ctx: &mut ClosestHit, #[record] record: &ColorRecord, #[payload] color: &mut Vec3) {
     *color = record.color;
+}
+
+// ------------------------------------------------------------- exceptions ---
+
+/// The launch indices where `rg_throw` throws, with their codes.
+pub const THROWN: [(UVec2, u32); 2] = [(UVec2::new(3, 5), 0xBAD), (UVec2::new(7, 1), 0xF00D)];
+
+#[raygen]
+fn rg_throw(ctx: &mut Raygen, #[params] p: &Params) {
+    let index = ctx.launch_index().truncate();
+    let pixel = ctx.launch_linear_index();
+    if index == THROWN[0].0 {
+        ctx.throw_exception(THROWN[0].1);
+        return;
+    }
+    if index == THROWN[1].0 {
+        ctx.throw_exception(THROWN[1].1);
+        return;
+    }
+    ctx.store(p.image, pixel, 1);
+}
+
+// ------------------------------------------------ specialization constants ---
+
+/// The specialization constant that picks [`spec_shade`]'s colour.
+pub const SHADE_MODE_SPEC_ID: u32 = 7;
+
+/// Colours of [`spec_shade`] by the value of specialization constant
+/// [`SHADE_MODE_SPEC_ID`] (0 unless the pipeline sets it).
+pub const SPEC_COLORS: [Vec3; 2] = [Vec3::new(1.0, 0.5, 0.0), Vec3::new(0.0, 0.5, 1.0)];
+
+#[closest_hit(ray = Radiance)]
+fn spec_shade(_ctx: &mut ClosestHit, #[spec_constant(id = 7, default = 0)] mode: u32, #[payload] color: &mut Vec3) {
+    *color = if mode == 0 { SPEC_COLORS[0] } else { SPEC_COLORS[1] };
 }

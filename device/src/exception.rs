@@ -1,0 +1,37 @@
+//! User exceptions: OptiX's `optixThrowException` on Vulkan.
+//!
+//! Vulkan has no exception programs. raykit gives each pipeline a small buffer
+//! in the bindless table; a program that calls `ctx.throw_exception(code)`
+//! appends `(code, launch index)` to it with an atomic counter, and the host's
+//! launch returns what was thrown as `raykit::Error::UserExceptions`. The
+//! buffer's slot reaches the programs as a specialization constant
+//! ([`EXCEPTION_SLOT_SPEC_ID`]) that raykit sets when it links the pipeline.
+//!
+//! What is *not* caught, unlike OptiX: stack overflow, trace-depth overflow,
+//! invalid traversables and out-of-range SBT indices are not observable on
+//! Vulkan (they are undefined behaviour there, and validation layers do not see
+//! them at run time); and throwing does not end the program — it records the
+//! exception and returns, so the program should return after it (in an any-hit
+//! program, follow it with `ignore_intersection` or `terminate_ray`).
+
+/// Specialization-constant ID carrying the exception buffer's slot in the
+/// bindless table. Reserved by raykit.
+pub const EXCEPTION_SLOT_SPEC_ID: u32 = 0x7261_0000;
+
+/// How many exceptions a launch records (later ones are counted, not stored).
+pub const EXCEPTION_CAPACITY: u32 = 64;
+
+/// 32-bit words per recorded exception: code, launch index x, y, z.
+pub const EXCEPTION_RECORD_WORDS: u32 = 4;
+
+/// Words of the exception buffer: the counter, then the records.
+pub const EXCEPTION_BUFFER_WORDS: u32 = 1 + EXCEPTION_CAPACITY * EXCEPTION_RECORD_WORDS;
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_macros_use_the_reserved_spec_id() {
+        // `#[raygen]` & co. write the ID as a literal (attributes need one).
+        assert_eq!(super::EXCEPTION_SLOT_SPEC_ID, 1_918_959_616);
+    }
+}
