@@ -150,6 +150,8 @@ fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
 
 const OP_EXTENSION: u32 = 10;
 const OP_EXT_INST_IMPORT: u32 = 11;
+const OP_EXT_INST: u32 = 12;
+const OP_SPEC_CONSTANT_OP: u32 = 52;
 
 /// Whether a structurally checked module declares `OpExtension name`.
 fn declares_extension(words: &[u32], name: &str) -> bool {
@@ -166,8 +168,6 @@ fn declares_extension(words: &[u32], name: &str) -> bool {
     }
     false
 }
-const OP_EXT_INST: u32 = 12;
-const OP_SPEC_CONSTANT_OP: u32 = 52;
 
 /// The words of a structurally checked module that rspirv reads, and the checks
 /// that keep its parser from panicking (found by fuzzing):
