@@ -174,7 +174,14 @@ struct Index<'m> {
     decorations: Decorations,
     member_decorations: MemberDecorations,
     member_names: HashMap<(u32, u32), String>,
+    /// Types still to be described in this module: a struct may use another
+    /// twice, so a few dozen types can describe 2^n members; this bounds the work.
+    budget: std::cell::Cell<u32>,
 }
+
+/// Most type descriptions reflection makes per module (all params blocks of all
+/// entry points together).
+const DESCRIBE_BUDGET: u32 = 1 << 14;
 
 fn id_operand(inst: &Instruction, i: usize) -> Option<u32> {
     match inst.operands.get(i)? {
@@ -231,7 +238,7 @@ impl<'m> Index<'m> {
                 }
             }
         }
-        Index { defs, decorations, member_decorations, member_names }
+        Index { defs, decorations, member_decorations, member_names, budget: std::cell::Cell::new(DESCRIBE_BUDGET) }
     }
 
     fn decoration(&self, id: u32, which: Decoration) -> Option<Option<u32>> {
@@ -260,6 +267,14 @@ impl<'m> Index<'m> {
     fn describe(&self, id: u32, depth: u32) -> Result<(BlockType, u32)> {
         if depth > 32 {
             return Err(bad("types nested more than 32 levels deep"));
+        }
+        match self.budget.get().checked_sub(1) {
+            Some(left) => self.budget.set(left),
+            None => {
+                return Err(bad(format!(
+                    "the params blocks have too many members (over {DESCRIBE_BUDGET} types described); launch params must be a plain struct"
+                )))
+            }
         }
         let inst = self.def(id)?;
         let plain = |size: u32| Ok((BlockType::Plain(format!("{:?}", inst.class.opcode)), size));
@@ -660,5 +675,57 @@ mod tests {
         let ubo = ParamsDelivery::UniformBuffer { set: 1, binding: 0 };
         let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4), plain(16, 16)])], ubo).unwrap_err();
         assert!(matches!(err, LayoutError::Delivery { .. }), "{err}");
+    }
+}
+
+/// Reflection of hostile modules (found while fuzzing `raykit::module`): the
+/// work must stay bounded whatever the types.
+#[cfg(test)]
+mod bounded {
+    use super::*;
+    use rspirv::binary::Assemble;
+    use rspirv::spirv::{AddressingModel, Capability, ExecutionModel, FunctionControl, MemoryModel};
+
+    /// A push-constant block whose type is a chain of `levels` structs, each with
+    /// two members of the previous one: `levels` + 1 types, 2^`levels` leaves.
+    fn doubling_struct_module(levels: u32) -> Vec<u32> {
+        let mut b = rspirv::dr::Builder::new();
+        b.capability(Capability::Shader);
+        b.capability(Capability::RayTracingKHR);
+        b.memory_model(AddressingModel::Logical, MemoryModel::GLSL450);
+        let mut ty = b.type_int(32, 0);
+        let mut size = 4;
+        for _ in 0..levels {
+            let s = b.type_struct([ty, ty]);
+            b.decorate(s, Decoration::Block, []);
+            b.member_decorate(s, 0, Decoration::Offset, [Operand::LiteralBit32(0)]);
+            b.member_decorate(s, 1, Decoration::Offset, [Operand::LiteralBit32(size)]);
+            size = size.saturating_mul(2);
+            ty = s;
+        }
+        let pointer = b.type_pointer(None, StorageClass::PushConstant, ty);
+        let var = b.variable(pointer, None, StorageClass::PushConstant, None);
+        let void = b.type_void();
+        let fn_ty = b.type_function(void, []);
+        let f = b.begin_function(void, None, FunctionControl::NONE, fn_ty).unwrap_or_default();
+        let _ = b.begin_block(None);
+        let _ = b.ret();
+        let _ = b.end_function();
+        b.entry_point(ExecutionModel::RayGenerationKHR, f, "main", [var]);
+        b.module().assemble()
+    }
+
+    #[test]
+    fn a_type_dag_of_exponential_size_is_refused_quickly() {
+        let words = doubling_struct_module(30);
+        let started = std::time::Instant::now();
+        let module = parse(&words).unwrap_or_else(|e| panic!("{e}"));
+        let result = reflect_params(&module);
+        assert!(started.elapsed().as_secs() < 2, "reflection took {:?}", started.elapsed());
+        let err = result.err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(err.contains("too many members"), "{err}");
+        // A small one of the same shape still reflects.
+        let module = parse(&doubling_struct_module(3)).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(reflect_params(&module).map(|blocks| blocks.len()).ok(), Some(1));
     }
 }

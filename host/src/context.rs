@@ -103,6 +103,12 @@ pub(crate) struct ContextInner {
     pub(crate) allocator: ManuallyDrop<Mutex<gpu_allocator::vulkan::Allocator>>,
     pub(crate) buffer_table: ManuallyDrop<BufferTable>,
     pub(crate) limits: DeviceLimits,
+    /// Largest launch width, height and depth: `maxComputeWorkGroupCount[i] ×
+    /// maxComputeWorkGroupSize[i]`, as `vkCmdTraceRaysKHR` requires.
+    pub(crate) launch_dimension_limits: [u64; 3],
+    /// Whether `VK_KHR_shader_non_semantic_info` is enabled, which modules with
+    /// debug info (`SPV_KHR_non_semantic_info`) need.
+    pub(crate) non_semantic_info: bool,
     device_name: String,
     /// The compile cache every pipeline creation goes through.
     pub(crate) pipeline_cache: DiskCache,
@@ -375,7 +381,16 @@ impl Context {
         let mut features = Features::required();
         let priorities = [1.0f32];
         let queue_infos = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
-        let extension_ptrs: Vec<_> = REQUIRED_EXTENSIONS.iter().map(|e| e.as_ptr()).collect();
+        let mut extension_ptrs: Vec<_> = REQUIRED_EXTENSIONS.iter().map(|e| e.as_ptr()).collect();
+        // Optional: lets modules carry debug info (glslang's -gVS, NonSemantic.Shader.DebugInfo.100).
+        // SAFETY: `physical_device` came from this instance.
+        let non_semantic_info = unsafe { instance.enumerate_device_extension_properties(physical_device) }
+            .map_err(Error::vk("vkEnumerateDeviceExtensionProperties"))?
+            .iter()
+            .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::khr::shader_non_semantic_info::NAME));
+        if non_semantic_info {
+            extension_ptrs.push(ash::khr::shader_non_semantic_info::NAME.as_ptr());
+        }
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
             .enabled_extension_names(&extension_ptrs)
@@ -391,6 +406,11 @@ impl Context {
 
         let limits = query_limits(instance, physical_device);
         let debug_names = debug.then(|| ash::ext::debug_utils::Device::new(instance, &device));
+        // SAFETY: `physical_device` came from this instance.
+        let base_limits = unsafe { instance.get_physical_device_properties(physical_device) }.limits;
+        let launch_dimension_limits: [u64; 3] = std::array::from_fn(|i| {
+            base_limits.max_compute_work_group_count[i] as u64 * base_limits.max_compute_work_group_size[i] as u64
+        });
         let rt = ash::khr::ray_tracing_pipeline::Device::new(instance, &device);
         let accel = ash::khr::acceleration_structure::Device::new(instance, &device);
         // SAFETY: queue family and index 0 were requested at device creation.
@@ -436,6 +456,8 @@ impl Context {
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 buffer_table: ManuallyDrop::new(buffer_table),
                 limits,
+                launch_dimension_limits,
+                non_semantic_info,
                 device_name,
                 pipeline_cache,
                 debug_names,
@@ -483,6 +505,14 @@ impl Context {
     /// empty.
     pub fn save_pipeline_cache(&self) -> Result<Option<std::path::PathBuf>> {
         self.inner.pipeline_cache.save(&self.inner.device)
+    }
+
+    /// The largest launch width, height and depth each on its own:
+    /// `maxComputeWorkGroupCount[i] × maxComputeWorkGroupSize[i]`, which
+    /// `vkCmdTraceRaysKHR` requires besides the total of
+    /// [`DeviceLimits::max_ray_dispatch_invocation_count`].
+    pub fn max_launch_dimensions(&self) -> [u64; 3] {
+        self.inner.launch_dimension_limits
     }
 }
 
@@ -681,6 +711,7 @@ impl Drop for ContextInner {
             self.instance.destroy_instance(None);
             drop(Box::from_raw(self.log_ptr as *mut MessageLog));
         }
+        self.log.mark_destroyed();
     }
 }
 

@@ -92,7 +92,7 @@ pub enum Error {
     },
 
     /// Device memory could not be allocated.
-    #[error("allocating {what}: {source}")]
+    #[error("allocating {what}: {source}; drop buffers and acceleration structures that are no longer needed, or make smaller ones")]
     Allocation {
         /// What the memory was for.
         what: &'static str,
@@ -122,15 +122,27 @@ pub enum Error {
     #[error("validation requested but VK_LAYER_KHRONOS_validation is not installed (Debian: `apt-get install vulkan-validationlayers`)")]
     ValidationLayerMissing,
 
+    /// The module declares a SPIR-V extension whose device extension this device
+    /// lacks.
+    #[error("the module uses SPIR-V extension {spirv_extension}, which needs {device_extension}; this device lacks it. {fix}")]
+    SpirvExtensionUnsupported {
+        /// The `OpExtension` name.
+        spirv_extension: String,
+        /// The Vulkan device extension it needs.
+        device_extension: &'static str,
+        /// What to do instead.
+        fix: &'static str,
+    },
+
     /// The module has no ray-tracing entry point at all.
-    #[error("the SPIR-V module has no ray-tracing entry points (raygen, miss, closest-hit, any-hit, intersection, callable); it has: {}", list_entry_points(.available))]
+    #[error("the SPIR-V module has no ray-tracing entry points (raygen, miss, closest-hit, any-hit, intersection, callable); it has: {}. Compile the programs as ray-tracing stages (`#[raygen]`, `#[miss]`, … in Rust; `.rgen`, `.rmiss`, … in GLSL)", list_entry_points(.available))]
     NoRayTracingEntryPoints {
         /// The entry points it has.
         available: Vec<(String, Option<ProgramKind>)>,
     },
 
     /// The module has no entry point of that name.
-    #[error("module has no entry point `{name}`; it has: {}", list_entry_points(.available))]
+    #[error("module has no entry point `{name}`; it has: {}. Name one of these (Rust programs: use the entry-point constants the program macros generate)", list_entry_points(.available))]
     EntryPointNotFound {
         /// The name asked for.
         name: String,
@@ -157,8 +169,9 @@ pub enum Error {
     #[error("a hit group needs at least one of closest-hit, any-hit or intersection")]
     EmptyHitGroup,
 
-    /// A pipeline's program groups belong to different contexts.
-    #[error("program groups of one pipeline must come from the same Context")]
+    /// Objects of different contexts were combined: a pipeline's program groups,
+    /// or the GASes an IAS instances.
+    #[error("objects of different Contexts were combined (the program groups of one pipeline, or the GASes of an IAS); make them all with the same Context")]
     ContextMismatch,
 
     /// `max_trace_depth` is over the device's limit.
@@ -171,7 +184,7 @@ pub enum Error {
     },
 
     /// The pipeline has no raygen program group.
-    #[error("a pipeline needs a raygen program group")]
+    #[error("a pipeline needs a raygen program group; add one made with ProgramGroup::raygen to Pipeline::new")]
     NoRaygen,
 
     /// A stack-size call graph cannot be evaluated.
@@ -215,6 +228,10 @@ pub enum Error {
         actual: &'static str,
     },
 
+    /// A launch was given an SBT built for another pipeline.
+    #[error("the SBT was built for another pipeline; build one for the pipeline you launch with Sbt::builder(&pipeline)")]
+    SbtOfAnotherPipeline,
+
     /// An SBT region that must be present is missing.
     #[error("the SBT has no {region} record; add one with Sbt::builder(..).{region}(..)")]
     SbtMissing {
@@ -250,7 +267,7 @@ pub enum Error {
     },
 
     /// A record's data is too large for the device.
-    #[error("SBT record data of {size} bytes: record stride {stride} exceeds this device's maxShaderGroupStride {limit}")]
+    #[error("SBT record data of {size} bytes: record stride {stride} exceeds this device's maxShaderGroupStride {limit}; keep large data in a `Buffer<T>` and put its handle in the record")]
     SbtRecordTooLarge {
         /// Data size.
         size: usize,

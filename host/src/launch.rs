@@ -131,17 +131,32 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         let inner = &self.inner;
         let ctx = &inner.ctx;
         if !Arc::ptr_eq(&sbt.pipeline, inner) {
-            return Err(Error::GroupNotInPipeline { kind: "the SBT's" });
+            return Err(Error::SbtOfAnotherPipeline);
         }
-        let invocations = dims.iter().map(|&d| d as u64).product::<u64>();
-        if invocations == 0 {
+        if dims.contains(&0) {
             return Err(Error::LaunchDimensions { dims, reason: "every dimension must be at least 1".to_owned() });
         }
+        // Three u32s can overflow u64 (2^96): an overflowing product is over any limit.
+        let invocations = dims.iter().try_fold(1u64, |n, &d| n.checked_mul(d as u64));
         let limit = ctx.limits.max_ray_dispatch_invocation_count as u64;
-        if invocations > limit {
+        if invocations.is_none_or(|n| n > limit) {
+            let count = invocations.map_or_else(|| "more than 2^64".to_owned(), |n| n.to_string());
             return Err(Error::LaunchDimensions {
                 dims,
-                reason: format!("{invocations} invocations exceed maxRayDispatchInvocationCount {limit}; split the launch into tiles"),
+                reason: format!("{count} invocations exceed maxRayDispatchInvocationCount {limit}; split the launch into tiles"),
+            });
+        }
+        // vkCmdTraceRaysKHR also bounds each dimension (VUID-vkCmdTraceRaysKHR-width-03638 …
+        // depth-03640): maxComputeWorkGroupCount[i] × maxComputeWorkGroupSize[i].
+        if let Some(i) = (0..3).find(|&i| dims[i] as u64 > ctx.launch_dimension_limits[i]) {
+            return Err(Error::LaunchDimensions {
+                dims,
+                reason: format!(
+                    "{} {} is over this device's limit of {} (maxComputeWorkGroupCount[{i}] × maxComputeWorkGroupSize[{i}]); split the launch into tiles",
+                    ["width", "height", "depth"][i],
+                    dims[i],
+                    ctx.launch_dimension_limits[i],
+                ),
             });
         }
         let device = &ctx.device;

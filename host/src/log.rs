@@ -14,6 +14,7 @@
 //! `optixModuleCreate` and `optixPipelineCreate`).
 
 use std::cell::RefCell;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// How serious a message is.
@@ -110,16 +111,18 @@ impl std::fmt::Display for ValidationMessage {
     }
 }
 
-/// A shared, growing list of validation messages.
+/// A shared, growing list of validation messages, which also records whether
+/// its context has been destroyed.
 #[derive(Clone, Debug, Default)]
 pub struct MessageLog {
     messages: Arc<Mutex<Vec<ValidationMessage>>>,
     callback: Option<LogCallback>,
+    destroyed: Arc<AtomicBool>,
 }
 
 impl MessageLog {
     pub(crate) fn with_callback(callback: Option<LogCallback>) -> MessageLog {
-        MessageLog { messages: Arc::default(), callback }
+        MessageLog { messages: Arc::default(), callback, destroyed: Arc::default() }
     }
 
     pub(crate) fn push(&self, message: ValidationMessage) {
@@ -139,5 +142,19 @@ impl MessageLog {
     /// Removes and returns every message so far.
     pub fn take(&self) -> Vec<ValidationMessage> {
         std::mem::take(&mut *self.messages.lock().unwrap_or_else(|p| p.into_inner()))
+    }
+
+    /// Whether the context this log belongs to has been destroyed: its device and
+    /// instance are gone, and the validation layer has said what it had to say
+    /// about objects left alive. `false` after the last [`crate::Context`] handle
+    /// was dropped means some raykit object (a buffer, a pipeline, …) still holds
+    /// the context — leaked with `std::mem::forget`, kept in a static, or in a
+    /// reference cycle.
+    pub fn context_destroyed(&self) -> bool {
+        self.destroyed.load(Ordering::Acquire)
+    }
+
+    pub(crate) fn mark_destroyed(&self) {
+        self.destroyed.store(true, Ordering::Release);
     }
 }

@@ -43,7 +43,13 @@ impl RawBuffer {
             .usage(usage | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS)
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid create info on a live device.
-        let buffer = unsafe { device.create_buffer(&info, None) }.map_err(Error::vk("vkCreateBuffer"))?;
+        let buffer = unsafe { device.create_buffer(&info, None) }.map_err(|result| match result {
+            // Drivers may refuse a buffer too large for any heap already here.
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+                Error::Allocation { what, source: gpu_allocator::AllocationError::OutOfMemory }
+            }
+            other => Error::Vulkan { call: "vkCreateBuffer", result: other },
+        })?;
         // Wrapped at once, so an early return frees it.
         let mut raw = RawBuffer { ctx: ctx.clone(), buffer, allocation: None, size, address: 0 };
         ctx.set_name(buffer, what);

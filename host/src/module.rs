@@ -145,7 +145,118 @@ fn check_structure(words: &[u32]) -> Result<()> {
 /// operands become errors).
 fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
     check_structure(words)?;
-    Ok(raykit_device::layout::parse(words)?)
+    let module = raykit_device::layout::parse(&reflection_words(words)?)?;
+    check_ids(&module, words[3])?;
+    Ok(module)
+}
+
+const OP_EXTENSION: u32 = 10;
+const OP_EXT_INST_IMPORT: u32 = 11;
+const OP_EXT_INST: u32 = 12;
+const OP_SPEC_CONSTANT_OP: u32 = 52;
+
+/// Whether a structurally checked module declares `OpExtension name`.
+fn declares_extension(words: &[u32], name: &str) -> bool {
+    let mut at = 5;
+    while let Some(&first) = words.get(at) {
+        let word_count = (first >> 16) as usize;
+        if first & 0xffff == OP_EXTENSION {
+            let bytes: Vec<u8> = words.get(at + 1..at + word_count).unwrap_or(&[]).iter().flat_map(|w| w.to_le_bytes()).collect();
+            if bytes.split(|&b| b == 0).next() == Some(name.as_bytes()) {
+                return true;
+            }
+        }
+        at += word_count.max(1);
+    }
+    false
+}
+
+/// The words of a structurally checked module that rspirv reads, and the checks
+/// that keep its parser from panicking (found by fuzzing):
+/// * debug-info instructions (`OpExtInst` of the `NonSemantic.*`, `DebugInfo` and
+///   `OpenCL.DebugInfo.100` sets, as `glslangValidator -gVS` emits) are left out:
+///   reflection does not need them, and rspirv rejects them outside functions or
+///   panics on some of their operands. Vulkan still gets the module as given.
+/// * an `OpSpecConstantOp` must compute an opcode whose operands it can hold
+///   (rspirv panics on, e.g., an `OpSpecConstantOp` of an `OpSpecConstantOp`).
+fn reflection_words(words: &[u32]) -> Result<Vec<u32>> {
+    use rspirv::grammar::OperandKind as K;
+    let instructions = || {
+        let mut at = 5;
+        std::iter::from_fn(move || {
+            // `check_structure` made sure every instruction fits.
+            let word_count = (*words.get(at)? >> 16) as usize;
+            let inst = words.get(at..at + word_count)?;
+            at += word_count.max(1);
+            Some((at - word_count.max(1), inst))
+        })
+    };
+    let mut debug_sets = std::collections::HashSet::new();
+    for (_, inst) in instructions() {
+        if inst[0] & 0xffff == OP_EXT_INST_IMPORT && inst.len() >= 3 {
+            let name: Vec<u8> = inst[2..].iter().flat_map(|w| w.to_le_bytes()).take_while(|&b| b != 0).collect();
+            let name = String::from_utf8_lossy(&name);
+            if name.starts_with("NonSemantic.") || name == "DebugInfo" || name == "OpenCL.DebugInfo.100" {
+                debug_sets.insert(inst[1]);
+            }
+        }
+    }
+    let mut kept = words[..5].to_vec();
+    for (at, inst) in instructions() {
+        match inst[0] & 0xffff {
+            OP_EXT_INST if inst.len() >= 4 && debug_sets.contains(&inst[3]) => continue,
+            OP_SPEC_CONSTANT_OP if inst.len() >= 4 => {
+                let computed = rspirv::grammar::INSTRUCTION_TABLE.lookup_opcode(inst[3]);
+                let holdable = computed.is_none_or(|g| {
+                    !g.operands.iter().any(|o| {
+                        matches!(o.kind, K::LiteralContextDependentNumber | K::LiteralSpecConstantOpInteger | K::PairLiteralIntegerIdRef)
+                    })
+                });
+                if !holdable {
+                    return Err(Error::InvalidSpirv {
+                        reason: format!("OpSpecConstantOp at word {at} computes opcode {}, which it cannot", inst[3]),
+                    });
+                }
+            }
+            _ => {}
+        }
+        kept.extend_from_slice(inst);
+    }
+    Ok(kept)
+}
+
+/// Checks what rspirv's parser leaves alone: every result id is below the
+/// module's ID bound and defined once, and every id an instruction uses is
+/// defined somewhere in the module. A flipped bit in an id is the most common
+/// corruption that keeps a module well formed; without this check it reaches the
+/// driver as invalid SPIR-V. (Still not a full validator: that is spirv-val.)
+fn check_ids(module: &rspirv::dr::Module, bound: u32) -> Result<()> {
+    let invalid = |reason: String| Err(Error::InvalidSpirv { reason });
+    let mut defined = std::collections::HashSet::new();
+    for inst in module.all_inst_iter() {
+        if let Some(id) = inst.result_id {
+            if id == 0 || id >= bound {
+                return invalid(format!("{:?} defines %{id}, outside the module's ID bound {bound}", inst.class.opcode));
+            }
+            if !defined.insert(id) {
+                return invalid(format!("%{id} is defined twice (again by {:?})", inst.class.opcode));
+            }
+        }
+    }
+    for inst in module.all_inst_iter() {
+        let used = inst.result_type.into_iter().chain(inst.operands.iter().filter_map(|op| match op {
+            rspirv::dr::Operand::IdRef(id) | rspirv::dr::Operand::IdScope(id) | rspirv::dr::Operand::IdMemorySemantics(id) => {
+                Some(*id)
+            }
+            _ => None,
+        }));
+        for id in used {
+            if !defined.contains(&id) {
+                return invalid(format!("{:?} uses %{id}, which the module never defines", inst.class.opcode));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Lists the entry points of a SPIR-V module, with their stages and params blocks.
@@ -184,6 +295,13 @@ impl Module {
             });
         }
         let words = words_of(spirv)?;
+        if !ctx.inner.non_semantic_info && declares_extension(&words, "SPV_KHR_non_semantic_info") {
+            return Err(Error::SpirvExtensionUnsupported {
+                spirv_extension: "SPV_KHR_non_semantic_info".to_owned(),
+                device_extension: "VK_KHR_shader_non_semantic_info",
+                fix: "Compile the module without debug info (no -gVS)",
+            });
+        }
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
         let (shader, log) = crate::log::capture(|| {
             // SAFETY: `words` is a parsed SPIR-V module; the device is live.
@@ -273,6 +391,38 @@ mod tests {
             w.extend([(5 << 16) | OP_FUNCTION, 2, 1, 0, 3, (1 << 16) | OP_FUNCTION_END]);
         }
         w
+    }
+
+    /// Header, `OpCapability Shader`, `OpMemoryModel Logical GLSL450`,
+    /// `%1 = OpTypeInt 32 0`, then `extra`.
+    fn module_with(extra: &[u32]) -> Vec<u8> {
+        let mut w = vec![SPIRV_MAGIC, 0x0001_0400, 0, 10, 0];
+        w.extend([(2 << 16) | 17, 1, (3 << 16) | 14, 0, 1, (4 << 16) | 21, 1, 32, 0]);
+        w.extend(extra);
+        w.iter().flat_map(|w| w.to_le_bytes()).collect()
+    }
+
+    /// Found by fuzzing: rspirv's parser panics (`explicit panic`) on an
+    /// `OpSpecConstantOp` that computes an `OpSpecConstantOp`.
+    #[test]
+    fn spec_constant_op_of_a_spec_constant_op_is_refused_before_the_parser() {
+        let bytes = module_with(&[(4 << 16) | OP_SPEC_CONSTANT_OP, 1, 2, OP_SPEC_CONSTANT_OP]);
+        let err = reflect_entry_points(&bytes).map(|_| ()).unwrap_err().to_string();
+        assert!(err.contains("OpSpecConstantOp at word 14 computes opcode 52"), "{err}");
+        // A computable one parses.
+        let iadd = 128;
+        let ok = module_with(&[(4 << 16) | 43, 1, 3, 7, (6 << 16) | OP_SPEC_CONSTANT_OP, 1, 2, iadd, 3, 3]);
+        assert!(reflect_entry_points(&ok).is_ok(), "{:?}", reflect_entry_points(&ok).err());
+    }
+
+    /// Debug info (`glslangValidator -gVS`) is left out of reflection: rspirv
+    /// rejects it outside functions, which refused valid modules.
+    #[test]
+    fn debug_info_does_not_stop_reflection() {
+        let bytes = include_bytes!("../../tests/data/raygen_debug_info.rgen.spv");
+        let entries = reflect_entry_points(bytes).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(entries.len(), 1);
+        assert_eq!(entries[0].kind, Some(ProgramKind::Raygen));
     }
 
     #[test]

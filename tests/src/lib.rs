@@ -3,8 +3,11 @@
 //! [`with_context`] creates a [`Context`] with the Khronos validation layer on
 //! (when `RAYKIT_VALIDATION=1`, as `cargo xtask test` sets it), runs the test,
 //! destroys the context and fails if the layer said anything — during the test or
-//! at destruction, where it reports leaked objects. Without a ray-tracing device
-//! the test fails when `RAYKIT_REQUIRE_DEVICE=1` (CI and `cargo xtask test`), and
+//! at destruction, where it reports Vulkan objects left alive (the debug messenger
+//! is destroyed after the device for this reason). It also fails when the context
+//! could not be destroyed because a raykit object still holds it (leaked with
+//! `std::mem::forget`, or kept past the test). Without a ray-tracing device the
+//! test fails when `RAYKIT_REQUIRE_DEVICE=1` (CI and `cargo xtask test`), and
 //! otherwise prints a loud SKIPPED line.
 
 use raykit::{Context, ContextOptions, Error, PipelineCacheLocation};
@@ -22,7 +25,20 @@ pub fn with_context_options(
     test: impl FnOnce(&Context) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
     let validation = std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1");
-    let ctx = match Context::new(ContextOptions { validation: Some(validation), ..options }) {
+    run(name, ContextOptions { validation: Some(validation), ..options }, test)
+}
+
+/// [`with_context`] with validation on or off whatever the environment says.
+pub fn with_context_validation(
+    name: &str,
+    validation: bool,
+    test: impl FnOnce(&Context) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    run(name, ContextOptions { validation: Some(validation), pipeline_cache: PipelineCacheLocation::Off, ..Default::default() }, test)
+}
+
+fn run(name: &str, options: ContextOptions, test: impl FnOnce(&Context) -> anyhow::Result<()>) -> anyhow::Result<()> {
+    let ctx = match Context::new(options) {
         Ok(ctx) => ctx,
         Err(e @ (Error::NoRayTracingDevice { .. } | Error::LoaderMissing(_))) => {
             if std::env::var("RAYKIT_REQUIRE_DEVICE").is_ok_and(|v| v == "1") {
@@ -36,8 +52,15 @@ pub fn with_context_options(
     let log = ctx.messages();
     let result = test(&ctx);
     drop(ctx);
+    let destroyed = log.context_destroyed();
     let messages = log.take();
     result?;
+    if !destroyed {
+        anyhow::bail!(
+            "{name}: the context was not destroyed at the end of the test: a raykit object still holds it \
+             (leaked with std::mem::forget, kept in a static or past the test, or in a reference cycle)"
+        );
+    }
     if !messages.is_empty() {
         let text: Vec<String> = messages.iter().map(|m| m.to_string()).collect();
         anyhow::bail!("{name}: {} validation message(s):\n{}", messages.len(), text.join("\n"));

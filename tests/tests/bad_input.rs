@@ -1,0 +1,963 @@
+//! The catalogue of bad inputs (issue 8): one test per case. Each feeds raykit a
+//! wrong input, checks the typed error — its variant, and a message that names the
+//! problem and the fix — and then renders optixTriangle with the same context, to
+//! show the error left it usable. Like every test, each runs under the harness:
+//! with `cargo xtask test` the validation layer is on and any message, or any
+//! object left alive, fails it.
+//!
+//! Cases that cannot be provoked here:
+//! * device lost during a launch: lavapipe cannot lose its device. Every fence
+//!   wait in `context.rs` maps `VK_ERROR_DEVICE_LOST` to [`Error::DeviceLost`].
+//!   The waits have no timeout: on a GPU the driver's watchdog turns a program
+//!   that never ends into a lost device; on lavapipe such a launch hangs.
+//!
+//! A hit group "for a ray type that does not exist" is caught by what it leaves
+//! behind (an SBT with a hole); raykit does not know which ray types the programs
+//! trace, so a ray type placed right after the last one is accepted.
+
+use raykit::glam::{Affine3A, Vec3};
+use raykit::{
+    BuildOptions, Context, ContextOptions, Error, Gas, Ias, Instance, LayoutError, LinkOptions, Module, Pipeline,
+    ProgramGroup, ProgramKind, Sbt, Triangles,
+};
+use raykit_tests::with_context;
+use triangle::BG_COLOR;
+use triangle_device::{make_color, MissData, Params};
+
+/// Renders the triangle at 16 × 16: a corner must be background and the centre
+/// the triangle.
+fn still_usable(ctx: &Context) -> anyhow::Result<()> {
+    let pixels = triangle::render(ctx, 16, 16)?;
+    let bg = make_color(BG_COLOR);
+    anyhow::ensure!(pixels.len() == 256, "{} pixels", pixels.len());
+    anyhow::ensure!(pixels[0] == bg, "corner pixel {:#010x} is not background after the error", pixels[0]);
+    anyhow::ensure!(pixels[8 * 16 + 8] != bg, "centre pixel is background after the error");
+    Ok(())
+}
+
+/// The error of `result`, or a failure saying what was wrongly accepted.
+fn refused<T>(result: raykit::Result<T>, what: &str) -> anyhow::Result<Error> {
+    match result {
+        Ok(_) => anyhow::bail!("{what} was accepted"),
+        Err(e) => Ok(e),
+    }
+}
+
+/// One catalogue case: `provoke` returns the error raykit gave; `expected` checks
+/// its variant; its message must contain each of `mentions`; then the context
+/// must still render.
+fn case(
+    name: &str,
+    mentions: &[&str],
+    provoke: impl FnOnce(&Context) -> anyhow::Result<Error>,
+    expected: impl FnOnce(&Error) -> bool,
+) -> anyhow::Result<()> {
+    with_context(name, |ctx| {
+        let err = provoke(ctx)?;
+        anyhow::ensure!(expected(&err), "{name}: unexpected error {err:?}");
+        let text = err.to_string();
+        for m in mentions {
+            anyhow::ensure!(text.contains(m), "{name}: the message does not mention {m:?}: {text}");
+        }
+        still_usable(ctx)
+    })
+}
+
+fn triangle_module(ctx: &Context) -> anyhow::Result<Module> {
+    Ok(Module::from_device_crate(ctx, "triangle-device")?)
+}
+
+const RAYGEN_MAIN: &[u8] = include_bytes!("../data/raygen_main.rgen.spv");
+
+/// SPIR-V words of `bytes` (little-endian).
+fn words(bytes: &[u8]) -> Vec<u32> {
+    bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
+}
+
+fn bytes(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+}
+
+/// Index of the first instruction with `opcode` in a module's words.
+fn find_instruction(words: &[u32], opcode: u32) -> Option<usize> {
+    let mut at = 5;
+    while at < words.len() {
+        if words[at] & 0xffff == opcode {
+            return Some(at);
+        }
+        at += (words[at] >> 16).max(1) as usize;
+    }
+    None
+}
+
+// ---------------------------------------------------------------- program groups
+
+#[test]
+fn entry_point_missing() -> anyhow::Result<()> {
+    case(
+        "entry_point_missing",
+        &["`__raygen__nope`", "`__raygen__rg` (raygen)", "entry-point constants"],
+        |ctx| refused(ProgramGroup::raygen(&triangle_module(ctx)?, "__raygen__nope"), "a missing entry point"),
+        |e| matches!(e, Error::EntryPointNotFound { name, .. } if name == "__raygen__nope"),
+    )
+}
+
+#[test]
+fn entry_point_of_another_stage_named_as_raygen() -> anyhow::Result<()> {
+    case(
+        "entry_point_of_another_stage_named_as_raygen",
+        &["`__miss__ms` is a miss program, not a raygen program", "ProgramGroup::raygen"],
+        |ctx| refused(ProgramGroup::raygen(&triangle_module(ctx)?, "__miss__ms"), "a miss entry as raygen"),
+        |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::Raygen, .. }),
+    )
+}
+
+#[test]
+fn entry_point_constant_of_another_kind() -> anyhow::Result<()> {
+    case(
+        "entry_point_constant_of_another_kind",
+        &["`__closesthit__ch`", "ProgramGroup::miss"],
+        |ctx| refused(ProgramGroup::miss(&triangle_module(ctx)?, triangle_device::CH), "a closest-hit constant as miss"),
+        |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::Miss, .. }),
+    )
+}
+
+#[test]
+fn closest_hit_slot_given_a_raygen() -> anyhow::Result<()> {
+    case(
+        "closest_hit_slot_given_a_raygen",
+        &["`__raygen__rg`", "HitGroupBuilder::closest_hit"],
+        |ctx| {
+            let module = triangle_module(ctx)?;
+            refused(ProgramGroup::hit_group(&module).closest_hit(triangle_device::RG).build(), "a raygen as closest-hit")
+        },
+        |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::ClosestHit, .. }),
+    )
+}
+
+#[test]
+fn optix_prefix_disagrees_with_the_stage() -> anyhow::Result<()> {
+    // A GLSL raygen stage whose entry point is called `__miss__named_wrong`.
+    case(
+        "optix_prefix_disagrees_with_the_stage",
+        &["`__miss__named_wrong`", "by its `__miss__` prefix"],
+        |ctx| {
+            let module = Module::new(ctx, include_bytes!("../data/raygen_named_miss.rgen.spv"))?;
+            // As a miss it is refused by its stage …
+            let err = refused(ProgramGroup::miss(&module, "__miss__named_wrong"), "a raygen stage as miss")?;
+            anyhow::ensure!(matches!(err, Error::ProgramKindMismatch { expected: ProgramKind::Miss, .. }), "{err:?}");
+            // … and as a raygen by its name.
+            refused(ProgramGroup::raygen(&module, "__miss__named_wrong"), "a `__miss__` name as raygen")
+        },
+        |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::Raygen, actual, .. } if actual.contains("prefix")),
+    )
+}
+
+#[test]
+fn glsl_main_used_as_another_stage() -> anyhow::Result<()> {
+    case(
+        "glsl_main_used_as_another_stage",
+        &["`main` is a raygen program, not a miss program"],
+        |ctx| refused(ProgramGroup::miss(&Module::new(ctx, RAYGEN_MAIN)?, "main"), "a GLSL raygen as miss"),
+        |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::Miss, .. }),
+    )
+}
+
+#[test]
+fn hit_group_without_programs() -> anyhow::Result<()> {
+    case(
+        "hit_group_without_programs",
+        &["at least one of closest-hit, any-hit or intersection"],
+        |ctx| refused(ProgramGroup::hit_group(&triangle_module(ctx)?).build(), "an empty hit group"),
+        |e| matches!(e, Error::EmptyHitGroup),
+    )
+}
+
+// ---------------------------------------------------------------- SPIR-V intake
+
+#[test]
+fn module_that_is_not_spirv() -> anyhow::Result<()> {
+    case(
+        "module_that_is_not_spirv",
+        &["not a SPIR-V module", "magic number", "cargo xtask build-shaders"],
+        |ctx| {
+            let mut source = b"#version 460\nvoid main() {}\n".to_vec();
+            source.resize(source.len().next_multiple_of(4), b' ');
+            refused(Module::new(ctx, &source), "GLSL source as SPIR-V")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn empty_module() -> anyhow::Result<()> {
+    case(
+        "empty_module",
+        &["0 bytes is shorter than a SPIR-V header", "cargo xtask build-shaders"],
+        |ctx| refused(Module::new(ctx, &[]), "an empty module"),
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_cut_inside_a_word() -> anyhow::Result<()> {
+    case(
+        "spirv_cut_inside_a_word",
+        &["not a whole number of 32-bit words"],
+        |ctx| refused(Module::new(ctx, &RAYGEN_MAIN[..RAYGEN_MAIN.len() - 2]), "a module cut inside a word"),
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_truncated_between_words() -> anyhow::Result<()> {
+    case(
+        "spirv_truncated_between_words",
+        &["truncated"],
+        |ctx| refused(Module::new(ctx, &RAYGEN_MAIN[..(RAYGEN_MAIN.len() / 2) & !3]), "half a module"),
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_with_a_zero_word_count() -> anyhow::Result<()> {
+    case(
+        "spirv_with_a_zero_word_count",
+        &["claims 0 words"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            w[5] &= 0xffff; // the first instruction's word count
+            refused(Module::new(ctx, &bytes(&w)), "an instruction of zero words")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_with_an_unknown_version() -> anyhow::Result<()> {
+    case(
+        "spirv_with_an_unknown_version",
+        &["unknown SPIR-V version word 0x00020000"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            w[1] = 0x0002_0000;
+            refused(Module::new(ctx, &bytes(&w)), "SPIR-V 2.0")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_with_an_absurd_id_bound() -> anyhow::Result<()> {
+    case(
+        "spirv_with_an_absurd_id_bound",
+        &["ID bound 4294967295 is out of range"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            w[3] = u32::MAX;
+            refused(Module::new(ctx, &bytes(&w)), "an ID bound of 2^32 - 1")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_entry_point_naming_an_undefined_function() -> anyhow::Result<()> {
+    case(
+        "spirv_entry_point_naming_an_undefined_function",
+        &["which the module does not define"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            let at = find_instruction(&w, 15).ok_or_else(|| anyhow::anyhow!("no OpEntryPoint"))?;
+            w[at + 2] = w[3] - 1; // an id below the bound that names no function
+            refused(Module::new(ctx, &bytes(&w)), "an entry point without its function")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_defining_an_id_outside_its_bound() -> anyhow::Result<()> {
+    case(
+        "spirv_defining_an_id_outside_its_bound",
+        &["TypeVoid defines %", "outside the module's ID bound"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            let at = find_instruction(&w, 19).ok_or_else(|| anyhow::anyhow!("no OpTypeVoid"))?;
+            w[at + 1] = w[3] + 5;
+            refused(Module::new(ctx, &bytes(&w)), "an id over the bound")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_using_an_id_it_never_defines() -> anyhow::Result<()> {
+    case(
+        "spirv_using_an_id_it_never_defines",
+        &["which the module never defines"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            // OpTypePointer %ptr StorageClass %pointee: point it at nothing.
+            let at = find_instruction(&w, 32).ok_or_else(|| anyhow::anyhow!("no OpTypePointer"))?;
+            w[at + 3] = w[3]; // the old bound: an id nothing defines …
+            w[3] += 1; // … made legal by a larger bound
+            refused(Module::new(ctx, &bytes(&w)), "a pointer to an undefined type")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_with_a_spec_constant_op_it_cannot_compute() -> anyhow::Result<()> {
+    // Found by fuzzing: rspirv's parser panics on this (raykit caught the panic,
+    // but printed it and gave a vague reason); now refused before parsing.
+    case(
+        "spirv_with_a_spec_constant_op_it_cannot_compute",
+        &["OpSpecConstantOp at word", "computes opcode 52"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            let at = find_instruction(&w, 21).ok_or_else(|| anyhow::anyhow!("no OpTypeInt"))?; // %uint
+            let (uint, bound) = (w[at + 1], w[3]);
+            // `%bound = OpSpecConstantOp %uint OpSpecConstantOp`, after the types.
+            let after = find_instruction(&w, 54).ok_or_else(|| anyhow::anyhow!("no OpFunction"))?;
+            w.splice(after..after, [(4 << 16) | 52, uint, bound, 52]);
+            w[3] += 1;
+            refused(Module::new(ctx, &bytes(&w)), "an OpSpecConstantOp of an OpSpecConstantOp")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn spirv_without_ray_tracing_entry_points() -> anyhow::Result<()> {
+    case(
+        "spirv_without_ray_tracing_entry_points",
+        &["no ray-tracing entry points", "`main` (not a ray-tracing stage)", "Compile the programs as ray-tracing stages"],
+        |ctx| refused(Module::new(ctx, include_bytes!("../data/compute_only.comp.spv")), "a compute shader"),
+        |e| matches!(e, Error::NoRayTracingEntryPoints { available } if available.len() == 1),
+    )
+}
+
+#[test]
+fn spirv_without_any_entry_point() -> anyhow::Result<()> {
+    case(
+        "spirv_without_any_entry_point",
+        &["no ray-tracing entry points", "it has: none"],
+        |ctx| refused(Module::new(ctx, include_bytes!("../data/no_entry_points.spv")), "a library module"),
+        |e| matches!(e, Error::NoRayTracingEntryPoints { available } if available.is_empty()),
+    )
+}
+
+#[test]
+fn spirv_file_that_does_not_exist() -> anyhow::Result<()> {
+    case(
+        "spirv_file_that_does_not_exist",
+        &["no/such/file.spv", "cargo xtask build-shaders"],
+        |ctx| refused(Module::from_file(ctx, "no/such/file.spv"), "a missing file"),
+        |e| matches!(e, Error::SpirvFile { .. }),
+    )
+}
+
+// ---------------------------------------------------------------- launch params
+
+#[test]
+fn params_layout_differs_from_the_spirv() -> anyhow::Result<()> {
+    use params_device::TargetDependent;
+    case(
+        "params_layout_differs_from_the_spirv",
+        &["`TargetDependent`", "`__raygen__rg_target_dependent`", "field `value`", "Likely cause"],
+        |ctx| {
+            let module = Module::from_device_crate(ctx, "params-device")?;
+            let raygen = ProgramGroup::raygen(&module, params_device::RG_TARGET_DEPENDENT)?;
+            refused(Pipeline::<TargetDependent>::new(ctx, &[&raygen], LinkOptions::default()), "a moved field")
+        },
+        |e| matches!(e, Error::ParamsLayout(l) if matches!(**l, LayoutError::Mismatch { struct_name: "TargetDependent", .. })),
+    )
+}
+
+#[test]
+fn params_type_differs_between_modules_of_a_pipeline() -> anyhow::Result<()> {
+    case(
+        "params_type_differs_between_modules_of_a_pipeline",
+        &["launch params `Params` do not match the SPIR-V of `main`"],
+        |ctx| {
+            let raygen = ProgramGroup::raygen(&triangle_module(ctx)?, triangle_device::RG)?;
+            // A GLSL miss program whose push-constant block is `{ vec4 tint; float scale; }`.
+            let other = Module::new(ctx, include_bytes!("../data/miss_other_params.rmiss.spv"))?;
+            let miss = ProgramGroup::miss(&other, "main")?;
+            refused(Pipeline::<Params>::new(ctx, &[&raygen, &miss], LinkOptions::default()), "two params types")
+        },
+        |e| matches!(e, Error::ParamsLayout(l) if matches!(&**l, LayoutError::Mismatch { entry, .. } if entry == "main")),
+    )
+}
+
+#[test]
+fn params_read_another_way_than_delivered() -> anyhow::Result<()> {
+    use params_device::Large;
+    case(
+        "params_read_another_way_than_delivered",
+        &["`main` reads its params from push constants", "a uniform buffer (set 1, binding 0)"],
+        |ctx| {
+            let module = Module::from_device_crate(ctx, "params-device")?;
+            let raygen = ProgramGroup::raygen(&module, params_device::RG_LARGE)?;
+            let other = Module::new(ctx, include_bytes!("../data/miss_other_params.rmiss.spv"))?;
+            let miss = ProgramGroup::miss(&other, "main")?;
+            refused(Pipeline::<Large>::new(ctx, &[&raygen, &miss], LinkOptions::default()), "push constants for a UBO struct")
+        },
+        |e| matches!(e, Error::ParamsLayout(l) if matches!(**l, LayoutError::Delivery { .. })),
+    )
+}
+
+// ---------------------------------------------------------------- linking
+
+#[test]
+fn max_trace_depth_above_the_device_limit() -> anyhow::Result<()> {
+    case(
+        "max_trace_depth_above_the_device_limit",
+        &["maxRayRecursionDepth", "restructure recursive tracing as a loop"],
+        |ctx| {
+            let raygen = ProgramGroup::raygen(&triangle_module(ctx)?, triangle_device::RG)?;
+            let limit = ctx.limits().max_ray_recursion_depth;
+            for depth in [limit + 1, u32::MAX] {
+                let err = refused(Pipeline::<Params>::new(ctx, &[&raygen], LinkOptions { max_trace_depth: depth }), "depth")?;
+                anyhow::ensure!(
+                    matches!(err, Error::TraceDepthTooLarge { requested, limit: l } if requested == depth && l == limit),
+                    "{err:?}"
+                );
+            }
+            refused(Pipeline::<Params>::new(ctx, &[&raygen], LinkOptions { max_trace_depth: limit + 1 }), "depth")
+        },
+        |e| matches!(e, Error::TraceDepthTooLarge { .. }),
+    )
+}
+
+#[test]
+fn pipeline_without_a_raygen_group() -> anyhow::Result<()> {
+    case(
+        "pipeline_without_a_raygen_group",
+        &["needs a raygen program group", "ProgramGroup::raygen"],
+        |ctx| {
+            let miss = ProgramGroup::miss(&triangle_module(ctx)?, triangle_device::MS)?;
+            refused(Pipeline::<Params>::new(ctx, &[&miss], LinkOptions::default()), "a pipeline without raygen")
+        },
+        |e| matches!(e, Error::NoRaygen),
+    )
+}
+
+/// A second context on the same device; its own log must stay empty too.
+fn with_second_context<T>(f: impl FnOnce(&Context) -> anyhow::Result<T>) -> anyhow::Result<T> {
+    let validation = std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1");
+    let other = Context::new(ContextOptions { validation: Some(validation), ..Default::default() })?;
+    let log = other.messages();
+    let result = f(&other);
+    drop(other);
+    let messages = log.take();
+    anyhow::ensure!(messages.is_empty(), "the second context: {messages:?}");
+    anyhow::ensure!(log.context_destroyed(), "the second context was not destroyed");
+    result
+}
+
+#[test]
+fn pipeline_from_groups_of_another_context() -> anyhow::Result<()> {
+    case(
+        "pipeline_from_groups_of_another_context",
+        &["different Contexts", "same Context"],
+        |ctx| {
+            let raygen = ProgramGroup::raygen(&triangle_module(ctx)?, triangle_device::RG)?;
+            with_second_context(|other| {
+                let miss = ProgramGroup::miss(&triangle_module(other)?, triangle_device::MS)?;
+                refused(Pipeline::<Params>::new(ctx, &[&raygen, &miss], LinkOptions::default()), "groups of two contexts")
+            })
+        },
+        |e| matches!(e, Error::ContextMismatch),
+    )
+}
+
+// ---------------------------------------------------------------- shader binding table
+
+/// The triangle's pipeline and groups, for SBT and launch cases.
+struct Linked {
+    raygen: ProgramGroup,
+    miss: ProgramGroup,
+    hit: ProgramGroup,
+    pipeline: Pipeline<Params>,
+}
+
+fn linked(ctx: &Context) -> anyhow::Result<Linked> {
+    let p = triangle::Programs::rust(ctx)?;
+    let pipeline = Pipeline::<Params>::new(ctx, &[&p.raygen, &p.miss, &p.hit], LinkOptions::default())?;
+    Ok(Linked { raygen: p.raygen, miss: p.miss, hit: p.hit, pipeline })
+}
+
+#[test]
+fn sbt_without_a_raygen_record() -> anyhow::Result<()> {
+    case(
+        "sbt_without_a_raygen_record",
+        &["no raygen record", "Sbt::builder(..).raygen(..)"],
+        |ctx| {
+            let l = linked(ctx)?;
+            refused(Sbt::builder(&l.pipeline).miss(&l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()).build(), "an SBT without raygen")
+        },
+        |e| matches!(e, Error::SbtMissing { region: "raygen" }),
+    )
+}
+
+#[test]
+fn sbt_record_of_the_wrong_kind_of_group() -> anyhow::Result<()> {
+    case(
+        "sbt_record_of_the_wrong_kind_of_group",
+        &["SBT raygen record needs a raygen program group, got a miss group"],
+        |ctx| {
+            let l = linked(ctx)?;
+            refused(Sbt::builder(&l.pipeline).raygen(&l.miss, ()).build(), "a miss group as raygen record")
+        },
+        |e| matches!(e, Error::SbtGroupKind { region: "raygen", .. }),
+    )
+}
+
+#[test]
+fn sbt_record_of_a_group_not_in_the_pipeline() -> anyhow::Result<()> {
+    case(
+        "sbt_record_of_a_group_not_in_the_pipeline",
+        &["not part of the pipeline", "add it to Pipeline::new"],
+        |ctx| {
+            let l = linked(ctx)?;
+            // The same entry point, but a group the pipeline was not linked with.
+            let stranger = ProgramGroup::miss(&triangle_module(ctx)?, triangle_device::MS)?;
+            refused(Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&stranger, MissData { bg_color: BG_COLOR }).build(), "a foreign group")
+        },
+        |e| matches!(e, Error::GroupNotInPipeline { kind: "miss" }),
+    )
+}
+
+/// 64 KiB of record data.
+#[repr(C)]
+#[derive(Copy, Clone, bytemuck::Pod, bytemuck::Zeroable)]
+struct HugeRecord([[u32; 4096]; 4]);
+
+#[test]
+fn sbt_record_data_too_large() -> anyhow::Result<()> {
+    case(
+        "sbt_record_data_too_large",
+        &["SBT record data of 65536 bytes", "maxShaderGroupStride", "`Buffer<T>`"],
+        |ctx| {
+            anyhow::ensure!(ctx.limits().max_shader_group_stride < 65536, "this device allows 64 KiB records");
+            let l = linked(ctx)?;
+            let huge: HugeRecord = bytemuck::Zeroable::zeroed();
+            refused(Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).hit(&l.hit, huge).build(), "a 64 KiB record")
+        },
+        |e| matches!(e, Error::SbtRecordTooLarge { size: 65536, .. }),
+    )
+}
+
+/// A ray type the triangle's programs never trace: hit records at offset 2 of a
+/// stride of 3, miss index 1.
+struct Ghost;
+impl raykit::device::RayType for Ghost {
+    type Payload = Vec3;
+    const SBT_OFFSET: u32 = 2;
+    const SBT_STRIDE: u32 = 3;
+    const MISS_INDEX: u32 = 1;
+}
+
+#[test]
+fn hit_record_for_a_ray_type_the_sbt_does_not_have() -> anyhow::Result<()> {
+    // raykit cannot know which ray types the programs trace; what it refuses is
+    // the SBT this leaves: slot 1 (the radiance ray's second slot) is empty while
+    // slot 2 is filled, so a trace reaching slot 1 would read garbage.
+    case(
+        "hit_record_for_a_ray_type_the_sbt_does_not_have",
+        &["SBT hit slot 1 is empty", "every slot a trace can reach needs a record", "hit_at(1, ..)"],
+        |ctx| {
+            let l = linked(ctx)?;
+            let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR });
+            refused(builder.hit(&l.hit, ()).hit_for::<Ghost, _>(0, &l.hit, ()).build(), "a ghost ray type's hit record")
+        },
+        |e| matches!(e, Error::SbtHole { region: "hit", index: 1 }),
+    )
+}
+
+#[test]
+fn two_records_in_one_sbt_slot() -> anyhow::Result<()> {
+    case(
+        "two_records_in_one_sbt_slot",
+        &["SBT miss slot 0 already holds a record", "MISS_INDEX"],
+        |ctx| {
+            let l = linked(ctx)?;
+            let bg = MissData { bg_color: BG_COLOR };
+            let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, bg).hit(&l.hit, ());
+            refused(builder.miss_for::<triangle_device::Radiance, _>(&l.miss, bg).build(), "two radiance miss records")
+        },
+        |e| matches!(e, Error::SbtSlotTaken { region: "miss", index: 0 }),
+    )
+}
+
+#[test]
+fn launch_with_the_sbt_of_another_pipeline() -> anyhow::Result<()> {
+    case(
+        "launch_with_the_sbt_of_another_pipeline",
+        &["the SBT was built for another pipeline", "Sbt::builder(&pipeline)"],
+        |ctx| {
+            let a = linked(ctx)?;
+            let b = linked(ctx)?;
+            let sbt = Sbt::builder(&b.pipeline).raygen(&b.raygen, ()).miss(&b.miss, MissData { bg_color: BG_COLOR }).hit(&b.hit, ()).build()?;
+            let image = ctx.buffer::<u32>(1)?;
+            let params = triangle::params(1, 1, image.handle(), raykit::Traversable::NULL);
+            refused(a.pipeline.launch(&sbt, &params, [1, 1, 1]), "another pipeline's SBT")
+        },
+        |e| matches!(e, Error::SbtOfAnotherPipeline),
+    )
+}
+
+// ---------------------------------------------------------------- launches
+
+/// Launches the triangle pipeline over `dims` (nothing is traced when refused).
+fn launch(ctx: &Context, dims: [u32; 3]) -> anyhow::Result<raykit::Result<()>> {
+    let l = linked(ctx)?;
+    let sbt = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()).build()?;
+    let image = ctx.buffer::<u32>(1)?;
+    let params = triangle::params(1, 1, image.handle(), raykit::Traversable::NULL);
+    Ok(l.pipeline.launch(&sbt, &params, dims))
+}
+
+#[test]
+fn launch_with_a_zero_dimension() -> anyhow::Result<()> {
+    case(
+        "launch_with_a_zero_dimension",
+        &["every dimension must be at least 1"],
+        |ctx| {
+            for dims in [[0, 1, 1], [1, 0, 1], [1, 1, 0], [0, 0, 0]] {
+                let err = refused(launch(ctx, dims)?, "a zero dimension")?;
+                anyhow::ensure!(matches!(err, Error::LaunchDimensions { dims: d, .. } if d == dims), "{err:?}");
+            }
+            refused(launch(ctx, [16, 0, 1])?, "a zero height")
+        },
+        |e| matches!(e, Error::LaunchDimensions { .. }),
+    )
+}
+
+#[test]
+fn launch_over_max_ray_dispatch_invocation_count() -> anyhow::Result<()> {
+    case(
+        "launch_over_max_ray_dispatch_invocation_count",
+        &["invocations exceed maxRayDispatchInvocationCount", "split the launch into tiles"],
+        |ctx| {
+            // Each dimension within its own limit, the product over the total.
+            let max = ctx.max_launch_dimensions();
+            let total = ctx.limits().max_ray_dispatch_invocation_count as u64;
+            let side = ((total as f64).sqrt() as u64 + 1).min(max[0]).min(max[1]);
+            anyhow::ensure!(side * side > total, "cannot exceed {total} invocations within {max:?}");
+            refused(launch(ctx, [side as u32, side as u32, 1])?, "too many invocations")
+        },
+        |e| matches!(e, Error::LaunchDimensions { .. }),
+    )
+}
+
+#[test]
+fn launch_whose_invocation_count_overflows_64_bits() -> anyhow::Result<()> {
+    // (2^32 - 1)^3 does not fit in a u64: raykit used to overflow here (a panic in
+    // debug builds; in release, a product that wraps can look small).
+    case(
+        "launch_whose_invocation_count_overflows_64_bits",
+        &["more than 2^64 invocations exceed maxRayDispatchInvocationCount"],
+        |ctx| refused(launch(ctx, [u32::MAX; 3])?, "2^96 invocations"),
+        |e| matches!(e, Error::LaunchDimensions { .. }),
+    )
+}
+
+#[test]
+fn launch_wider_than_the_device_allows() -> anyhow::Result<()> {
+    // Within maxRayDispatchInvocationCount in total, but wider than
+    // maxComputeWorkGroupCount[0] × maxComputeWorkGroupSize[0]: raykit used to pass
+    // this to vkCmdTraceRaysKHR (VUID-vkCmdTraceRaysKHR-width-03638).
+    case(
+        "launch_wider_than_the_device_allows",
+        &["width", "maxComputeWorkGroupCount[0] × maxComputeWorkGroupSize[0]", "split the launch into tiles"],
+        |ctx| {
+            let width = ctx.max_launch_dimensions()[0] + 1;
+            let total = ctx.limits().max_ray_dispatch_invocation_count as u64;
+            anyhow::ensure!(width <= total && width <= u32::MAX as u64, "this device's width limit is its total limit");
+            refused(launch(ctx, [width as u32, 1, 1])?, "a launch wider than the device allows")
+        },
+        |e| matches!(e, Error::LaunchDimensions { .. }),
+    )
+}
+
+// ---------------------------------------------------------------- geometry
+
+const TRI: [Vec3; 3] = triangle::VERTICES;
+
+#[test]
+fn gas_with_zero_primitives() -> anyhow::Result<()> {
+    case(
+        "gas_with_zero_primitives",
+        &["at least one triangle"],
+        |ctx| refused(Gas::triangles(ctx, &[], None), "a GAS without triangles"),
+        |e| matches!(e, Error::AccelEmpty { .. }),
+    )
+}
+
+#[test]
+fn gas_with_an_empty_index_list() -> anyhow::Result<()> {
+    case(
+        "gas_with_an_empty_index_list",
+        &["at least one triangle"],
+        |ctx| refused(Gas::triangles(ctx, &TRI, Some(&[])), "an empty index list"),
+        |e| matches!(e, Error::AccelEmpty { .. }),
+    )
+}
+
+#[test]
+fn gas_with_indices_out_of_range() -> anyhow::Result<()> {
+    case(
+        "gas_with_indices_out_of_range",
+        &["index 2 is 3, but the geometry has 3 vertices", "fix the index buffer"],
+        |ctx| refused(Gas::triangles(ctx, &TRI, Some(&[0, 1, 3])), "index 3 of 3 vertices"),
+        |e| matches!(e, Error::IndexOutOfRange { position: 2, index: 3, vertex_count: 3, .. }),
+    )
+}
+
+#[test]
+fn gas_with_non_finite_vertices() -> anyhow::Result<()> {
+    case(
+        "gas_with_non_finite_vertices",
+        &["vertex 1 is not finite", "finite positions"],
+        |ctx| {
+            let nan = refused(Gas::triangles(ctx, &[TRI[0], TRI[1], Vec3::new(f32::NAN, 0.0, 0.0)], None), "a NaN")?;
+            anyhow::ensure!(matches!(nan, Error::NonFiniteVertex { vertex: 2, .. }), "{nan:?}");
+            refused(Gas::triangles(ctx, &[TRI[0], Vec3::new(0.0, f32::INFINITY, 0.0), TRI[2]], None), "an infinity")
+        },
+        |e| matches!(e, Error::NonFiniteVertex { vertex: 1, .. }),
+    )
+}
+
+#[test]
+fn gas_with_an_index_list_that_is_not_whole_triangles() -> anyhow::Result<()> {
+    case(
+        "gas_with_an_index_list_that_is_not_whole_triangles",
+        &["4 indices is not a multiple of 3", "each triangle takes three"],
+        |ctx| refused(Gas::triangles(ctx, &TRI, Some(&[0, 1, 2, 0])), "four indices"),
+        |e| matches!(e, Error::TriangleCount { count: 4, .. }),
+    )
+}
+
+#[test]
+fn gas_with_a_vertex_list_that_is_not_whole_triangles() -> anyhow::Result<()> {
+    case(
+        "gas_with_a_vertex_list_that_is_not_whole_triangles",
+        &["2 vertices without indices is not a multiple of 3"],
+        |ctx| refused(Gas::triangles(ctx, &TRI[..2], None), "two vertices"),
+        |e| matches!(e, Error::TriangleCount { count: 2, .. }),
+    )
+}
+
+#[test]
+fn gas_with_a_misaligned_vertex_stride() -> anyhow::Result<()> {
+    case(
+        "gas_with_a_misaligned_vertex_stride",
+        &["vertex stride of 14 bytes must be a multiple of 4 and at least 12", "pad the struct"],
+        |ctx| {
+            let bytes = [0u8; 14 * 3];
+            // Too short a stride is refused the same way.
+            let short = refused(Gas::builder().triangles(Triangles::strided(&bytes, 8, 3)).build(ctx), "stride 8")?;
+            anyhow::ensure!(matches!(short, Error::MisalignedStride { stride: 8, .. }), "{short:?}");
+            refused(Gas::builder().triangles(Triangles::strided(&bytes, 14, 3)).build(ctx), "stride 14")
+        },
+        |e| matches!(e, Error::MisalignedStride { stride: 14, alignment: 4, min: 12, .. }),
+    )
+}
+
+#[test]
+fn gas_with_fewer_vertex_bytes_than_count_and_stride_need() -> anyhow::Result<()> {
+    case(
+        "gas_with_fewer_vertex_bytes_than_count_and_stride_need",
+        &["vertex data of 24 bytes is too short", "need 36"],
+        |ctx| {
+            let bytes: &[u8] = bytemuck::cast_slice(&TRI[..2]);
+            refused(Gas::builder().triangles(Triangles::strided(bytes, 12, 3)).build(ctx), "two vertices' bytes for three")
+        },
+        |e| matches!(e, Error::InputTooShort { needed: 36, len: 24, .. }),
+    )
+}
+
+#[test]
+fn refit_with_a_changed_topology() -> anyhow::Result<()> {
+    case(
+        "refit_with_a_changed_topology",
+        &["cannot update (refit) this GAS", "use rebuild instead"],
+        |ctx| {
+            let six = [TRI, TRI].concat();
+            // Built without allowing updates: refused as well.
+            let mut fixed = Gas::triangles(ctx, &TRI, None)?;
+            let err = refused(fixed.update(&[Triangles::new(&TRI).into()]), "a refit without allow_update")?;
+            anyhow::ensure!(matches!(err, Error::UpdateRefused { .. }), "{err:?}");
+            let options = BuildOptions { allow_update: true, ..Default::default() };
+            let mut gas = Gas::builder().triangles(Triangles::new(&TRI)).options(options).build(ctx)?;
+            // Same topology, moved vertices: accepted.
+            let moved = TRI.map(|v| v + Vec3::new(0.0, 0.0, 0.1));
+            gas.update(&[Triangles::new(&moved).into()])?;
+            refused(gas.update(&[Triangles::new(&six).into()]), "a refit to twice the triangles")
+        },
+        |e| matches!(e, Error::UpdateRefused { what: "GAS", .. }),
+    )
+}
+
+#[test]
+fn ias_without_instances() -> anyhow::Result<()> {
+    case(
+        "ias_without_instances",
+        &["give at least one triangle, AABB or instance"],
+        |ctx| refused(Ias::new(ctx, &[]), "an empty IAS"),
+        |e| matches!(e, Error::AccelEmpty { .. }),
+    )
+}
+
+#[test]
+fn ias_instance_fields_over_24_bits() -> anyhow::Result<()> {
+    case(
+        "ias_instance_fields_over_24_bits",
+        &["instance 1: sbt_offset is 4294967295, over its 24-bit maximum"],
+        |ctx| {
+            let gas = Gas::triangles(ctx, &TRI, None)?;
+            let bad = Instance::new(&gas).custom_index(1 << 24);
+            let err = refused(Ias::new(ctx, &[Instance::new(&gas), bad]), "a 25-bit custom index")?;
+            anyhow::ensure!(matches!(err, Error::InstanceField { instance: 1, .. }), "{err:?}");
+            let bad = Instance::new(&gas).sbt_offset(u32::MAX);
+            refused(Ias::new(ctx, &[Instance::new(&gas), bad]), "a 32-bit SBT offset")
+        },
+        |e| matches!(e, Error::InstanceField { instance: 1, .. }),
+    )
+}
+
+#[test]
+fn ias_instance_with_a_non_finite_transform() -> anyhow::Result<()> {
+    case(
+        "ias_instance_with_a_non_finite_transform",
+        &["not finite", "give a finite affine transform"],
+        |ctx| {
+            let gas = Gas::triangles(ctx, &TRI, None)?;
+            let transform = Affine3A::from_translation(Vec3::new(0.0, f32::NAN, 0.0));
+            refused(Ias::new(ctx, &[Instance::new(&gas).transform(transform)]), "a NaN translation")
+        },
+        |e| matches!(e, Error::NonFiniteTransform { .. }),
+    )
+}
+
+#[test]
+fn ias_instancing_a_gas_of_another_context() -> anyhow::Result<()> {
+    case(
+        "ias_instancing_a_gas_of_another_context",
+        &["different Contexts", "GASes of an IAS"],
+        |ctx| with_second_context(|other| refused(Ias::single(ctx, &Gas::triangles(other, &TRI, None)?), "a foreign GAS")),
+        |e| matches!(e, Error::ContextMismatch),
+    )
+}
+
+/// An instance cannot reference a destroyed GAS: the `Ias` owns its `Gas`es.
+/// Dropping every handle to the GAS before the launch still renders it.
+#[test]
+fn instance_of_a_dropped_gas_handle_still_renders() -> anyhow::Result<()> {
+    with_context("instance_of_a_dropped_gas_handle_still_renders", |ctx| {
+        let l = linked(ctx)?;
+        let sbt = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()).build()?;
+        let gas = Gas::triangles(ctx, &TRI, None)?;
+        let scene = Ias::single(ctx, &gas)?;
+        drop(gas);
+        let image = ctx.buffer::<u32>(256)?;
+        l.pipeline.launch(&sbt, &triangle::params(16, 16, image.handle(), scene.handle()), [16, 16, 1])?;
+        let pixels = image.read()?;
+        let bg = make_color(BG_COLOR);
+        anyhow::ensure!(pixels[0] == bg && pixels[8 * 16 + 8] != bg, "the triangle is gone once its Gas handle was dropped");
+        Ok(())
+    })
+}
+
+// ---------------------------------------------------------------- context and memory
+
+#[test]
+fn no_device_matches_the_requested_name() -> anyhow::Result<()> {
+    case(
+        "no_device_matches_the_requested_name",
+        &["no Vulkan device with ray-tracing pipelines", "a name containing \"no such device\"", "mesa-vulkan-drivers"],
+        |ctx| {
+            let options = ContextOptions { device_name_contains: Some("no such device".to_owned()), ..Default::default() };
+            let err = refused(Context::new(options), "a device name nothing has")?;
+            // The message lists every device seen, the usable one included.
+            anyhow::ensure!(err.to_string().contains(ctx.device_name()), "{err}");
+            Ok(err)
+        },
+        |e| matches!(e, Error::NoRayTracingDevice { devices } if !devices.is_empty()),
+    )
+}
+
+#[test]
+fn buffer_of_zero_elements() -> anyhow::Result<()> {
+    case(
+        "buffer_of_zero_elements",
+        &["buffer of 0 elements", "at least one element"],
+        |ctx| refused(ctx.buffer::<u32>(0), "an empty buffer"),
+        |e| matches!(e, Error::BufferSize { len: 0, .. }),
+    )
+}
+
+#[test]
+fn buffer_whose_size_overflows() -> anyhow::Result<()> {
+    case(
+        "buffer_whose_size_overflows",
+        &["overflows 64 bits"],
+        |ctx| refused(ctx.buffer::<u32>(usize::MAX), "usize::MAX elements"),
+        |e| matches!(e, Error::BufferSize { .. }),
+    )
+}
+
+#[test]
+fn buffer_write_longer_than_the_buffer() -> anyhow::Result<()> {
+    case(
+        "buffer_write_longer_than_the_buffer",
+        &["more elements than the buffer holds"],
+        |ctx| {
+            let mut buffer = ctx.buffer::<u32>(4)?;
+            refused(buffer.write(&[1, 2, 3, 4, 5]), "five elements into four")
+        },
+        |e| matches!(e, Error::BufferSize { len: 5, .. }),
+    )
+}
+
+#[test]
+fn buffer_larger_than_device_memory() -> anyhow::Result<()> {
+    // 4 TiB: refused by the allocator with a typed error, not by a crash or a
+    // validation message.
+    case(
+        "buffer_larger_than_device_memory",
+        &["allocating DeviceBuffer: Out of memory", "make smaller ones"],
+        |ctx| refused(ctx.buffer::<u32>(1 << 40), "a 4 TiB buffer"),
+        |e| matches!(e, Error::Allocation { what: "DeviceBuffer", .. }),
+    )
+}
+
+#[test]
+fn more_live_buffers_than_the_buffer_table_holds() -> anyhow::Result<()> {
+    case(
+        "more_live_buffers_than_the_buffer_table_holds",
+        &["the buffer table is full", "drop buffers that are no longer needed"],
+        |ctx| {
+            let mut live = Vec::new();
+            let err = loop {
+                match ctx.buffer::<u32>(1) {
+                    Ok(b) => live.push(b),
+                    Err(e) => break e,
+                }
+                anyhow::ensure!(live.len() <= 1 << 20, "a million buffers and the table is not full");
+            };
+            anyhow::ensure!(matches!(err, Error::BufferTableFull { capacity } if capacity as usize == live.len()), "{err:?}");
+            // Freeing one slot makes room again.
+            live.pop();
+            live.push(ctx.buffer::<u32>(1)?);
+            let err = refused(ctx.buffer::<u32>(1), "one buffer more than the table holds")?;
+            drop(live);
+            Ok(err)
+        },
+        |e| matches!(e, Error::BufferTableFull { .. }),
+    )
+}
