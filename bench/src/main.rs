@@ -10,6 +10,9 @@
 //! sizes (and build times measured by `cargo xtask bench`). `pipeline` — pipeline creation with the compile
 //! cache off, cold and warm. See `bench/README.md`.
 //!
+//! `soak` — 10,000 launches (`--soak-launches N`) with SBT updates, GAS refits and
+//! IAS updates, host and device memory sampled.
+//!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
 //!   `$RAYKIT_SPIRV_DIR`); suites that trace need them, `accel` does not.
@@ -29,6 +32,7 @@ mod ash_baseline;
 mod launch;
 mod pipeline;
 mod shaders;
+mod soak;
 mod stack;
 mod stats;
 mod suites;
@@ -39,7 +43,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 7] = ["accel", "stack", "pipeline", "primary", "path", "launch", "shaders"];
+const SUITES: [&str; 8] = ["accel", "stack", "pipeline", "primary", "path", "launch", "shaders", "soak"];
 
 struct Args {
     suites: Vec<String>,
@@ -48,6 +52,8 @@ struct Args {
     reps: Option<usize>,
     device: Option<String>,
     trace: trace::Options,
+    /// Launches of the `soak` suite.
+    soak_launches: usize,
 }
 
 fn parse() -> anyhow::Result<Args> {
@@ -58,6 +64,7 @@ fn parse() -> anyhow::Result<Args> {
         reps: None,
         device: None,
         trace: suites::default_options(),
+        soak_launches: 10_000,
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -75,6 +82,9 @@ fn parse() -> anyhow::Result<Args> {
                     .map(|s| s.trim().replace('_', "").parse::<usize>())
                     .collect::<Result<_, _>>()
                     .context("--sizes takes comma-separated triangle counts")?;
+            }
+            "--soak-launches" => {
+                args.soak_launches = value("--soak-launches")?.parse().context("--soak-launches takes a number")?
             }
             "--reps" => args.reps = Some(value("--reps")?.parse().context("--reps takes a number")?),
             "--device" => args.device = Some(value("--device")?),
@@ -121,6 +131,13 @@ fn main() -> anyhow::Result<()> {
             markdown.push_str("## stack\n\n");
             markdown.push_str(&table);
             report["suites"]["stack"] = stack::json(&rows);
+        } else if suite == "soak" {
+            let samples = soak::run(&ctx, args.soak_launches)?;
+            let table = soak::markdown(&samples, &device);
+            println!("{table}");
+            markdown.push_str("## soak\n\n");
+            markdown.push_str(&table);
+            report["suites"]["soak"] = soak::json(&samples);
         } else if suite == "pipeline" {
             let rows = pipeline::run(args.device.as_deref(), args.reps)?;
             let table = pipeline::markdown(&rows, &device);

@@ -514,6 +514,32 @@ impl Context {
     pub fn max_launch_dimensions(&self) -> [u64; 3] {
         self.inner.launch_dimension_limits
     }
+
+    /// Device memory raykit holds now, from its allocator (gpu-allocator): what
+    /// live buffers and acceleration structures use, and the memory blocks
+    /// reserved for them.
+    pub fn memory_usage(&self) -> MemoryUsage {
+        let report = self.inner.allocator().generate_report();
+        MemoryUsage {
+            allocations: report.allocations.len(),
+            allocated_bytes: report.total_allocated_bytes,
+            reserved_bytes: report.total_capacity_bytes,
+            blocks: report.blocks.len(),
+        }
+    }
+}
+
+/// Device memory in use by one [`Context`] ([`Context::memory_usage`]).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct MemoryUsage {
+    /// Live allocations.
+    pub allocations: usize,
+    /// Bytes they use.
+    pub allocated_bytes: u64,
+    /// Memory blocks reserved from the driver.
+    pub blocks: usize,
+    /// Bytes of those blocks.
+    pub reserved_bytes: u64,
 }
 
 impl ContextInner {

@@ -19,7 +19,7 @@ pub mod timing;
 
 pub use accel::{Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance, InstanceFlags, PendingBuild, Triangles};
 pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
-pub use context::{Context, ContextOptions, DeviceLimits};
+pub use context::{Context, ContextOptions, DeviceLimits, MemoryUsage};
 pub use error::{DeviceReport, Error, Result, UserException};
 pub use raykit_device::layout::{BlockMember, BlockType, LayoutError, ParamsBlock, ParamsDelivery};
 pub use log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
