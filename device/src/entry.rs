@@ -19,17 +19,20 @@ pub enum ProgramKind {
     Intersection,
     /// `__direct_callable__` and `__continuation_callable__`: `CallableKHR`.
     Callable,
+    /// `__exception__`: run by raykit as a `CallableKHR` after a user exception.
+    Exception,
 }
 
 impl ProgramKind {
     /// Every kind, in a fixed order.
-    pub const ALL: [ProgramKind; 6] = [
+    pub const ALL: [ProgramKind; 7] = [
         ProgramKind::Raygen,
         ProgramKind::Miss,
         ProgramKind::ClosestHit,
         ProgramKind::AnyHit,
         ProgramKind::Intersection,
         ProgramKind::Callable,
+        ProgramKind::Exception,
     ];
 
     /// The OptiX name prefixes of this kind.
@@ -41,6 +44,7 @@ impl ProgramKind {
             ProgramKind::AnyHit => &["__anyhit__"],
             ProgramKind::Intersection => &["__intersection__"],
             ProgramKind::Callable => &["__direct_callable__", "__continuation_callable__"],
+            ProgramKind::Exception => &["__exception__"],
         }
     }
 
@@ -60,6 +64,7 @@ impl ProgramKind {
             ProgramKind::AnyHit => "any-hit",
             ProgramKind::Intersection => "intersection",
             ProgramKind::Callable => "callable",
+            ProgramKind::Exception => "exception",
         }
     }
 }

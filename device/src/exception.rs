@@ -13,6 +13,12 @@
 //! them at run time); and throwing does not end the program — it records the
 //! exception and returns, so the program should return after it (in an any-hit
 //! program, follow it with `ignore_intersection` or `terminate_ray`).
+//!
+//! An `#[exception]` program (OptiX's `__exception__`), when the pipeline has
+//! one, runs right after each throw from raygen, miss, closest-hit and callable
+//! programs, with the [`ExceptionDetails`]: it is a callable program that raykit
+//! places at the end of the SBT's callable region. Vulkan forbids calls from
+//! any-hit and intersection programs, so their exceptions are only recorded.
 
 /// Specialization-constant ID carrying the exception buffer's slot in the
 /// bindless table. Reserved by raykit.
@@ -24,8 +30,28 @@ pub const EXCEPTION_CAPACITY: u32 = 64;
 /// 32-bit words per recorded exception: code, launch index x, y, z.
 pub const EXCEPTION_RECORD_WORDS: u32 = 4;
 
-/// Words of the exception buffer: the counter, then the records.
-pub const EXCEPTION_BUFFER_WORDS: u32 = 1 + EXCEPTION_CAPACITY * EXCEPTION_RECORD_WORDS;
+/// Word of the exception buffer holding the exception program's index in the
+/// SBT's callable region ([`NO_EXCEPTION_PROGRAM`] when the pipeline has none);
+/// word 0 is the counter.
+pub const EXCEPTION_HANDLER_WORD: u32 = 1;
+
+/// The first word of the records.
+pub const EXCEPTION_RECORDS_WORD: u32 = 2;
+
+/// [`EXCEPTION_HANDLER_WORD`] when there is no exception program.
+pub const NO_EXCEPTION_PROGRAM: u32 = u32::MAX;
+
+/// Words of the exception buffer: the counter, the handler, then the records.
+pub const EXCEPTION_BUFFER_WORDS: u32 = EXCEPTION_RECORDS_WORD + EXCEPTION_CAPACITY * EXCEPTION_RECORD_WORDS;
+
+/// What an `#[exception]` program is called with: the exception thrown.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct ExceptionDetails {
+    /// The code given to `throw_exception`.
+    pub code: u32,
+    /// The launch index of the invocation that threw it.
+    pub launch_index: spirv_std::glam::UVec3,
+}
 
 #[cfg(test)]
 mod tests {

@@ -49,12 +49,12 @@ pub use params::{
     PUSH_CONSTANT_BUDGET,
 };
 pub use raykit_macros::{
-    any_hit, closest_hit, continuation_callable, direct_callable, intersection, miss, raygen, LaunchParams,
+    any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, LaunchParams,
 };
 pub use spirv_std;
 pub use spirv_std::glam;
 pub use stage::{
-    AnyHit, ClosestHit, ContinuationCallable, DirectCallable, Intersection, Miss, Raygen,
+    AnyHit, ClosestHit, ContinuationCallable, DirectCallable, Exception, Intersection, Miss, Raygen,
     HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE,
 };
 pub use spirv_std::matrix::Matrix4x3;

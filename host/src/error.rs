@@ -239,6 +239,10 @@ pub enum Error {
         region: &'static str,
     },
 
+    /// A pipeline was given more than one exception program group.
+    #[error("a pipeline has at most one exception program group (ProgramGroup::exception); link one")]
+    SeveralExceptionPrograms,
+
     /// An SBT record could not be updated in place.
     #[error("cannot update SBT {region} record: {reason}")]
     SbtUpdate {

@@ -193,6 +193,9 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 for exceptions in &inner.exceptions {
                     // The counter is the first word.
                     device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
+                    // Then where the exception program sits in the callable region.
+                    let handler = sbt.exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
+                    device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 4, 4, handler);
                 }
                 if let Some((_, buffer, bytes)) = &uniform {
                     device.cmd_update_buffer(cmd, *buffer, 0, bytes);

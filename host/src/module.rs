@@ -273,7 +273,11 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
         };
         entries.push(EntryPointInfo {
             name: name.clone(),
-            kind: kind_of(*model),
+            // A callable named `__exception__…` is an exception program.
+            kind: match kind_of(*model) {
+                Some(ProgramKind::Callable) if name.starts_with("__exception__") => Some(ProgramKind::Exception),
+                other => other,
+            },
             execution_model: format!("{model:?}"),
             params: params.remove(name).unwrap_or_default(),
         });

@@ -146,7 +146,7 @@ impl ExceptionBuffer {
         let stored = total.min(EXCEPTION_CAPACITY) as usize;
         let records = (0..stored)
             .filter_map(|i| {
-                let at = 1 + i * EXCEPTION_RECORD_WORDS as usize;
+                let at = (raykit_device::exception::EXCEPTION_RECORDS_WORD + i as u32 * EXCEPTION_RECORD_WORDS) as usize;
                 let r = words.get(at..at + 4)?;
                 Some(crate::error::UserException { code: r[0], launch_index: [r[1], r[2], r[3]] })
             })
@@ -275,6 +275,9 @@ impl<P: LaunchParams> Pipeline<P> {
         if groups.iter().any(|g| !Arc::ptr_eq(&g.ctx, inner)) {
             return Err(Error::ContextMismatch);
         }
+        if groups.iter().filter(|g| matches!(g.programs, GroupPrograms::Exception(_))).count() > 1 {
+            return Err(Error::SeveralExceptionPrograms);
+        }
         if !groups.iter().any(|g| matches!(g.programs, GroupPrograms::Raygen(_))) {
             return Err(Error::NoRaygen);
         }
@@ -311,7 +314,10 @@ impl<P: LaunchParams> Pipeline<P> {
         let mut group_infos = Vec::with_capacity(groups.len());
         for group in groups {
             let info = match &group.programs {
-                GroupPrograms::Raygen(p) | GroupPrograms::Miss(p) | GroupPrograms::Callable(p) => vk::RayTracingShaderGroupCreateInfoKHR::default()
+                GroupPrograms::Raygen(p)
+                | GroupPrograms::Miss(p)
+                | GroupPrograms::Callable(p)
+                | GroupPrograms::Exception(p) => vk::RayTracingShaderGroupCreateInfoKHR::default()
                     .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
                     .general_shader(stage_index(&Some(p.clone())))
                     .closest_hit_shader(vk::SHADER_UNUSED_KHR)
@@ -549,6 +555,7 @@ fn group_role(programs: &GroupPrograms) -> GroupRole {
         GroupPrograms::Raygen(_) => GroupRole::Raygen,
         GroupPrograms::Miss(_) => GroupRole::Miss,
         GroupPrograms::Hit { .. } => GroupRole::Hit,
+        GroupPrograms::Exception(_) => GroupRole::DirectCallable,
         GroupPrograms::Callable(p) => {
             let name = p.name.to_bytes();
             if name.starts_with(b"__direct_callable__") {
@@ -570,7 +577,7 @@ fn query_group_stack_sizes(ctx: &ContextInner, pipeline: vk::Pipeline, index: u3
         unsafe { ctx.rt.get_ray_tracing_shader_group_stack_size(pipeline, index, shader) }
     };
     match programs {
-        GroupPrograms::Raygen(_) | GroupPrograms::Miss(_) | GroupPrograms::Callable(_) => {
+        GroupPrograms::Raygen(_) | GroupPrograms::Miss(_) | GroupPrograms::Callable(_) | GroupPrograms::Exception(_) => {
             GroupStackSizes { general: query(vk::ShaderGroupShaderKHR::GENERAL), ..Default::default() }
         }
         GroupPrograms::Hit { closest_hit, any_hit, intersection } => GroupStackSizes {
@@ -590,7 +597,7 @@ fn stage_flag(kind: raykit_device::ProgramKind) -> vk::ShaderStageFlags {
         K::ClosestHit => vk::ShaderStageFlags::CLOSEST_HIT_KHR,
         K::AnyHit => vk::ShaderStageFlags::ANY_HIT_KHR,
         K::Intersection => vk::ShaderStageFlags::INTERSECTION_KHR,
-        K::Callable => vk::ShaderStageFlags::CALLABLE_KHR,
+        K::Callable | K::Exception => vk::ShaderStageFlags::CALLABLE_KHR,
     }
 }
 

@@ -72,6 +72,8 @@ impl Program {
         };
         match info.kind {
             Some(kind) if kind == expected => {}
+            // Exception programs run as callables.
+            Some(ProgramKind::Callable) if expected == ProgramKind::Exception => {}
             Some(kind) => return Err(mismatch(kind.to_string())),
             None => return Err(mismatch(format!("{} (not ray tracing)", info.execution_model))),
         }
@@ -96,6 +98,8 @@ pub(crate) enum GroupPrograms {
     Raygen(Program),
     Miss(Program),
     Callable(Program),
+    /// An `#[exception]` program: a callable raykit places in the SBT itself.
+    Exception(Program),
     Hit { closest_hit: Option<Program>, any_hit: Option<Program>, intersection: Option<Program> },
 }
 
@@ -114,7 +118,9 @@ impl ProgramGroup {
     /// The programs of this group.
     pub(crate) fn programs(&self) -> Vec<&Program> {
         match &self.programs {
-            GroupPrograms::Raygen(p) | GroupPrograms::Miss(p) | GroupPrograms::Callable(p) => vec![p],
+            GroupPrograms::Raygen(p) | GroupPrograms::Miss(p) | GroupPrograms::Callable(p) | GroupPrograms::Exception(p) => {
+                vec![p]
+            }
             GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
                 [closest_hit, any_hit, intersection].into_iter().flatten().collect()
             }
@@ -144,6 +150,14 @@ impl ProgramGroup {
         Ok(Self::from_programs(module, GroupPrograms::Callable(program)))
     }
 
+    /// The pipeline's exception program (`__exception__`, OptiX's exception
+    /// program group): run after a device program throws a user exception. raykit
+    /// places its record at the end of the SBT's callable region.
+    pub fn exception(module: &Module, entry: impl EntryName) -> Result<ProgramGroup> {
+        let program = Program::resolve(module, &entry, ProgramKind::Exception, "ProgramGroup::exception")?;
+        Ok(Self::from_programs(module, GroupPrograms::Exception(program)))
+    }
+
     /// Starts a hit group whose programs come from `module`.
     pub fn hit_group(module: &Module) -> HitGroupBuilder<'_> {
         HitGroupBuilder { module, closest_hit: None, any_hit: None, intersection: None, error: None }
@@ -165,6 +179,7 @@ impl ProgramGroup {
             GroupPrograms::Raygen(_) => "raygen",
             GroupPrograms::Miss(_) => "miss",
             GroupPrograms::Callable(_) => "callable",
+            GroupPrograms::Exception(_) => "exception",
             GroupPrograms::Hit { .. } => "hit",
         }
     }

@@ -184,7 +184,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             GroupPrograms::Raygen(_) => self.raygen(record.group, record.data),
             GroupPrograms::Miss(_) => self.miss(record.group, record.data),
             GroupPrograms::Hit { .. } => self.hit(record.group, record.data),
-            GroupPrograms::Callable(_) => self.callable(record.group, record.data),
+            // Refused by `callable`: raykit places the exception record itself.
+            GroupPrograms::Callable(_) | GroupPrograms::Exception(_) => self.callable(record.group, record.data),
         }
     }
 
@@ -217,12 +218,22 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         let rg = check(region_layout(&limits, 0, 1, raygen.data.len()), raygen.data.len())?;
         let ms = check(region_layout(&limits, rg.offset + rg.size, miss.len(), max_data(&miss)), max_data(&miss))?;
         let ht = check(region_layout(&limits, ms.offset + ms.size, hit.len(), max_data(&hit)), max_data(&hit))?;
-        let cl = check(region_layout(&limits, ht.offset + ht.size, self.callable.len(), max_data(&self.callable)), max_data(&self.callable))?;
+        // The exception program, if the pipeline has one, goes after the user's
+        // callables; its index reaches the device through the exception buffer.
+        let mut callable = self.callable;
+        let exception_index = match pipeline.groups.iter().position(|(_, kind)| *kind == "exception") {
+            Some(group_index) => {
+                callable.push(PackedRecord { group_index, data: Vec::new() });
+                Some(callable.len() as u32 - 1)
+            }
+            None => None,
+        };
+        let cl = check(region_layout(&limits, ht.offset + ht.size, callable.len(), max_data(&callable)), max_data(&callable))?;
         let total = cl.offset + cl.size;
 
         let mut bytes = vec![0u8; total as usize];
         let handle_size = limits.shader_group_handle_size as usize;
-        for (layout, records) in [(rg, raygen_records), (ms, &miss[..]), (ht, &hit[..]), (cl, &self.callable[..])] {
+        for (layout, records) in [(rg, raygen_records), (ms, &miss[..]), (ht, &hit[..]), (cl, &callable[..])] {
             for (i, record) in records.iter().enumerate() {
                 let at = (layout.offset + layout.stride * i as u64) as usize;
                 let handle = &pipeline.handles[record.group_index * handle_size..][..handle_size];
@@ -251,7 +262,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             hit: region(ht),
             callable: region(cl),
             layouts: [rg, ms, ht, cl],
-            counts: [1, miss.len(), hit.len(), self.callable.len()],
+            counts: [1, miss.len(), hit.len(), callable.len()],
+            exception_index,
             buffer: Arc::new(buffer),
         })
     }
@@ -267,6 +279,8 @@ pub struct Sbt {
     layouts: [RegionLayout; 4],
     /// Record counts per region (raygen, miss, hit, callable).
     counts: [usize; 4],
+    /// The exception program's index in the callable region, if the pipeline has one.
+    pub(crate) exception_index: Option<u32>,
     /// Shared with launches in flight ([`crate::Launch`]), which keep it alive.
     pub(crate) buffer: Arc<RawBuffer>,
 }

@@ -56,6 +56,7 @@ fn every_program_kind_has_its_prefix_and_wrong_pairings_are_refused() -> anyhow:
             (program_model_device::SPHERE_SHADE, ProgramKind::ClosestHit),
             (program_model_device::RED, ProgramKind::Callable),
             (program_model_device::BLUE, ProgramKind::Callable),
+            (program_model_device::ON_EXCEPTION, ProgramKind::Exception),
         ] {
             assert_eq!(entry.kind, kind);
             assert!(entry.name.starts_with(kind.prefixes().iter().find(|p| entry.name.starts_with(*p)).copied().unwrap_or("?")));
@@ -65,6 +66,10 @@ fn every_program_kind_has_its_prefix_and_wrong_pairings_are_refused() -> anyhow:
         assert_eq!(program_model_device::BLUE.name, "__continuation_callable__blue");
         assert_eq!(program_model_device::SPHERE.name, "__intersection__sphere");
         assert_eq!(program_model_device::CUTOUT.name, "__anyhit__cutout");
+        assert_eq!(program_model_device::ON_EXCEPTION.name, "__exception__on_exception");
+        assert_eq!(program_model_device::RG.name, "__raygen__rg");
+        assert_eq!(program_model_device::MS.name, "__miss__ms");
+        assert_eq!(program_model_device::SPHERE_SHADE.name, "__closesthit__sphere_shade");
 
         // Every entry point refused by every group constructor of another kind.
         let all = [
@@ -74,13 +79,15 @@ fn every_program_kind_has_its_prefix_and_wrong_pairings_are_refused() -> anyhow:
             program_model_device::CUTOUT,
             program_model_device::SPHERE_SHADE,
             program_model_device::RED,
+            program_model_device::ON_EXCEPTION,
         ];
         let mut refusals = 0;
         for entry in all {
-            let attempts: [(ProgramKind, raykit::Result<ProgramGroup>); 6] = [
+            let attempts: [(ProgramKind, raykit::Result<ProgramGroup>); 7] = [
                 (ProgramKind::Raygen, ProgramGroup::raygen(&module, entry)),
                 (ProgramKind::Miss, ProgramGroup::miss(&module, entry)),
                 (ProgramKind::Callable, ProgramGroup::callable(&module, entry)),
+                (ProgramKind::Exception, ProgramGroup::exception(&module, entry)),
                 (ProgramKind::ClosestHit, ProgramGroup::hit_group(&module).closest_hit(entry).build()),
                 (ProgramKind::AnyHit, ProgramGroup::hit_group(&module).any_hit(entry).build()),
                 (ProgramKind::Intersection, ProgramGroup::hit_group(&module).intersection(entry).build()),
@@ -95,7 +102,10 @@ fn every_program_kind_has_its_prefix_and_wrong_pairings_are_refused() -> anyhow:
                 }
             }
         }
-        assert_eq!(refusals, 30);
+        // Seven entry points, each refused by the six constructors of other kinds:
+        // all eight OptiX prefixes are produced (direct and continuation callables
+        // above) and every wrong pairing is an error.
+        assert_eq!(refusals, 42);
         Ok(())
     })
 }
@@ -277,6 +287,38 @@ fn sbt_records_are_updated_between_launches_without_a_new_pipeline() -> anyhow::
         assert!(matches!(sbt.update(raykit::SbtRegion::Hit, 0, [0u8; 4096]), Err(Error::SbtUpdate { .. })));
         pipeline.launch(&sbt, &params, [16, 16, 1])?;
         assert_eq!(image.read()?[centre], pack(Vec3::new(0.0, 0.0, 1.0)));
+        Ok(())
+    })
+}
+
+#[test]
+fn an_exception_program_runs_where_a_user_exception_was_thrown() -> anyhow::Result<()> {
+    use program_model_device::{EXCEPTION_MARKER, THROWN};
+    with_context("an_exception_program_runs_where_a_user_exception_was_thrown", |ctx| {
+        let module = module(ctx)?;
+        let raygen = ProgramGroup::raygen(&module, program_model_device::RG_THROW)?;
+        let handler = ProgramGroup::exception(&module, program_model_device::ON_EXCEPTION)?;
+        let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &handler], LinkOptions::default())?;
+        let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).build()?;
+        let image = ctx.buffer::<u32>(16 * 16)?;
+        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+        let gas = Gas::triangles(ctx, &[Vec3::ZERO, Vec3::X, Vec3::Y], None)?;
+        let scene = Ias::single(ctx, &gas)?;
+        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+        let err = pipeline.launch(&sbt, &params, [16, 16, 1]).err();
+        assert!(matches!(err, Some(Error::UserExceptions { total: 2, .. })), "{err:?}");
+        let pixels = image.read()?;
+        for (at, code) in THROWN {
+            assert_eq!(pixels[(at.y * 16 + at.x) as usize], EXCEPTION_MARKER | code, "at {at}");
+        }
+        assert_eq!(pixels.iter().filter(|&&p| p == 1).count(), 16 * 16 - 2);
+        // The exception program is raykit's to place: users cannot add it as a callable.
+        let err = Sbt::builder(&pipeline).raygen(&raygen, ()).callable(&handler, ()).build().err();
+        assert!(matches!(err, Some(Error::SbtGroupKind { .. })), "{err:?}");
+        // Two are refused at link time.
+        let second = ProgramGroup::exception(&module, program_model_device::ON_EXCEPTION)?;
+        let err = Pipeline::<Params>::new(ctx, &[&raygen, &handler, &second], LinkOptions::default()).err();
+        assert!(matches!(err, Some(Error::SeveralExceptionPrograms)), "{err:?}");
         Ok(())
     })
 }

@@ -74,6 +74,13 @@ pub fn continuation_callable(attr: TokenStream, item: TokenStream) -> TokenStrea
     program::expand(program::Stage::ContinuationCallable, attr.into(), item.into()).into()
 }
 
+/// Marks an exception program (`__exception__<name>`), run after a user
+/// exception is thrown (see `raykit_device::exception`).
+#[proc_macro_attribute]
+pub fn exception(attr: TokenStream, item: TokenStream) -> TokenStream {
+    program::expand(program::Stage::Exception, attr.into(), item.into()).into()
+}
+
 /// Records the layout of a launch-params struct (`#[repr(C)]`, `Copy`,
 /// `bytemuck::Pod`) so the host can check it against the SPIR-V. Fields that
 /// cannot cross to the device (references, pointers, `bool`, `usize`) are

@@ -15,6 +15,7 @@ pub enum Stage {
     Intersection,
     DirectCallable,
     ContinuationCallable,
+    Exception,
 }
 
 impl Stage {
@@ -27,6 +28,7 @@ impl Stage {
             Stage::Intersection => "__intersection__",
             Stage::DirectCallable => "__direct_callable__",
             Stage::ContinuationCallable => "__continuation_callable__",
+            Stage::Exception => "__exception__",
         }
     }
     fn macro_name(self) -> &'static str {
@@ -38,6 +40,7 @@ impl Stage {
             Stage::Intersection => "intersection",
             Stage::DirectCallable => "direct_callable",
             Stage::ContinuationCallable => "continuation_callable",
+            Stage::Exception => "exception",
         }
     }
     fn spirv_execution_model(self) -> Ident {
@@ -47,7 +50,7 @@ impl Stage {
             Stage::ClosestHit => "closest_hit",
             Stage::AnyHit => "any_hit",
             Stage::Intersection => "intersection",
-            Stage::DirectCallable | Stage::ContinuationCallable => "callable",
+            Stage::DirectCallable | Stage::ContinuationCallable | Stage::Exception => "callable",
         };
         Ident::new(name, Span::call_site())
     }
@@ -59,6 +62,7 @@ impl Stage {
             Stage::AnyHit => quote!(::raykit_device::ProgramKind::AnyHit),
             Stage::Intersection => quote!(::raykit_device::ProgramKind::Intersection),
             Stage::DirectCallable | Stage::ContinuationCallable => quote!(::raykit_device::ProgramKind::Callable),
+            Stage::Exception => quote!(::raykit_device::ProgramKind::Exception),
         }
     }
     fn context_type(self) -> &'static str {
@@ -70,6 +74,7 @@ impl Stage {
             Stage::Intersection => "Intersection",
             Stage::DirectCallable => "DirectCallable",
             Stage::ContinuationCallable => "ContinuationCallable",
+            Stage::Exception => "Exception",
         }
     }
     fn is_hit(self) -> bool {
@@ -81,6 +86,12 @@ impl Stage {
     /// Why a parameter role is not allowed in this stage, if it is not.
     fn refuses(self, role: &str) -> Option<String> {
         let name = self.macro_name();
+        if self == Stage::Exception && !matches!(role, "params" | "record") {
+            return Some(
+                "an #[exception] program takes its context, #[params] and #[record]; the exception is `ctx.exception_code()`"
+                    .to_owned(),
+            );
+        }
         match role {
             "payload" if matches!(self, Stage::Intersection) || self.is_callable() => Some(format!(
                 "#[{name}] programs have no ray payload (Vulkan gives payloads to raygen, miss, closest-hit and any-hit)"
@@ -364,6 +375,13 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
         Stage::Raygen | Stage::DirectCallable | Stage::ContinuationCallable => {
             (launch, quote! { __launch_id, __launch_size })
         }
+        Stage::Exception => (
+            quote! {
+                #[spirv(launch_size)] __launch_size: ::raykit_device::glam::UVec3,
+                #[spirv(incoming_callable_data)] __raykit_exception: &mut ::raykit_device::exception::ExceptionDetails,
+            },
+            quote! { *__raykit_exception, __launch_size },
+        ),
         Stage::Miss => (
             quote! {
                 #launch
@@ -543,9 +561,22 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
         }
     }
 
+    // Stages that may call callables run the exception program through a hidden
+    // callable-data variable; any-hit and intersection only record.
+    let exception_args = match stage {
+        Stage::Exception => quote!(),
+        Stage::AnyHit | Stage::Intersection => quote!(, __exception_slot),
+        _ => quote!(, __exception_slot, __raykit_exception_call),
+    };
+    let exception_call_param = match stage {
+        Stage::Exception | Stage::AnyHit | Stage::Intersection => quote!(),
+        _ => quote! {
+            #[spirv(callable_data)] __raykit_exception_call: &mut ::raykit_device::exception::ExceptionDetails,
+        },
+    };
     let body = quote! {
         #[allow(unused_mut)]
-        let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers, __exception_slot);
+        let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers #exception_args);
         #fn_name(#(#call_args),*);
     };
     let call = match params_choice {
@@ -581,6 +612,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
             #[spirv(descriptor_set = 0, binding = 0, storage_buffer)] __buffers: &mut ::raykit_device::BufferTable,
             // The exception buffer's slot (`raykit_device::exception::EXCEPTION_SLOT_SPEC_ID`).
             #[spirv(spec_constant(id = 1918959616, default = 0))] __exception_slot: u32,
+            #exception_call_param
             #(#wrapper_params,)*
         ) {
             #call

@@ -20,6 +20,14 @@ impl<'a> AnyHit<'a> {
     }
 
     hit_accessors!();
+
+    /// Throws user exception `code` (OptiX's `optixThrowException`): the launch
+    /// returns it to the host with this launch index. Vulkan forbids calls from
+    /// this stage, so no `#[exception]` program runs. The program goes on:
+    /// follow it with `ignore_intersection`, `terminate_ray` or a return.
+    pub fn throw_exception(&mut self, code: u32) {
+        super::throw_exception(self.buffers, self.exception_slot, self.hit.launch_index, code);
+    }
     hit_kind_accessors!();
 
     /// Rejects this candidate hit; traversal goes on (`optixIgnoreIntersection`).

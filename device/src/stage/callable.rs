@@ -16,6 +16,7 @@ pub struct DirectCallable<'a> {
     launch_dimensions: UVec3,
     buffers: &'a mut BufferTable,
     exception_slot: u32,
+    exception_call: &'a mut crate::exception::ExceptionDetails,
 }
 
 /// What a continuation callable may use: a direct callable's, and tracing.
@@ -24,6 +25,7 @@ pub struct ContinuationCallable<'a> {
     launch_dimensions: UVec3,
     buffers: &'a mut BufferTable,
     exception_slot: u32,
+    exception_call: &'a mut crate::exception::ExceptionDetails,
 }
 
 macro_rules! callable_common {
@@ -35,14 +37,15 @@ macro_rules! callable_common {
                 launch_dimensions: UVec3,
                 buffers: &'a mut BufferTable,
                 exception_slot: u32,
+                exception_call: &'a mut crate::exception::ExceptionDetails,
             ) -> Self {
-                $ty { launch_index, launch_dimensions, buffers, exception_slot }
+                $ty { launch_index, launch_dimensions, buffers, exception_slot, exception_call }
             }
 
             /// Throws user exception `code`: the launch returns it to the host with
             /// this launch index. The program goes on: return after it.
             pub fn throw_exception(&mut self, code: u32) {
-                super::throw_exception(self.buffers, self.exception_slot, self.launch_index, code)
+                super::throw_and_handle(self.buffers, self.exception_slot, self.launch_index, code, self.exception_call)
             }
 
             /// This invocation's index in the launch grid.

@@ -16,12 +16,27 @@ pub struct ClosestHit<'a> {
     barycentrics: Vec2,
     buffers: &'a mut BufferTable,
     exception_slot: u32,
+    exception_call: &'a mut crate::exception::ExceptionDetails,
 }
 
 impl<'a> ClosestHit<'a> {
     #[doc(hidden)]
-    pub fn __new(hit: HitBuiltins, barycentrics: Vec2, buffers: &'a mut BufferTable, exception_slot: u32) -> Self {
-        ClosestHit { hit, barycentrics, buffers, exception_slot }
+    pub fn __new(
+        hit: HitBuiltins,
+        barycentrics: Vec2,
+        buffers: &'a mut BufferTable,
+        exception_slot: u32,
+        exception_call: &'a mut crate::exception::ExceptionDetails,
+    ) -> Self {
+        ClosestHit { hit, barycentrics, buffers, exception_slot, exception_call }
+    }
+
+    /// Throws user exception `code` (OptiX's `optixThrowException`): the launch
+    /// returns it to the host with this launch index, and the pipeline's
+    /// `#[exception]` program, if any, runs now. The program goes on: return
+    /// after it (see [`crate::exception`]).
+    pub fn throw_exception(&mut self, code: u32) {
+        super::throw_and_handle(self.buffers, self.exception_slot, self.hit.launch_index, code, self.exception_call)
     }
 
     hit_accessors!();

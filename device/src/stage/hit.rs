@@ -111,13 +111,6 @@ macro_rules! hit_accessors {
             self.hit.world_to_object
         }
 
-        /// Throws user exception `code` (OptiX's `optixThrowException`): the
-        /// launch returns it to the host with this launch index. The program goes
-        /// on: return after it (see [`crate::exception`]).
-        pub fn throw_exception(&mut self, code: u32) {
-            super::throw_exception(self.buffers, self.exception_slot, self.hit.launch_index, code)
-        }
-
         /// Reads element `index` of `buffer`.
         pub fn load<T: $crate::Element>(&self, buffer: $crate::Buffer<T>, index: u32) -> T {
             super::load(self.buffers, buffer, index)

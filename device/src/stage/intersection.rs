@@ -22,6 +22,14 @@ impl<'a> Intersection<'a> {
 
     hit_accessors!();
 
+    /// Throws user exception `code` (OptiX's `optixThrowException`): the launch
+    /// returns it to the host with this launch index. Vulkan forbids calls from
+    /// this stage, so no `#[exception]` program runs. The program goes on:
+    /// follow it with `ignore_intersection`, `terminate_ray` or a return.
+    pub fn throw_exception(&mut self, code: u32) {
+        super::throw_exception(self.buffers, self.exception_slot, self.hit.launch_index, code);
+    }
+
     /// Reports a hit at distance `t` with `hit_kind` (`0..=127`; larger values
     /// are reserved by Vulkan and are masked to 7 bits). The hit attributes are
     /// the values in the `#[attributes]` parameter at this moment. Returns

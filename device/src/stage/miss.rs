@@ -13,6 +13,7 @@ pub struct Miss<'a> {
     world_ray_direction: Vec3,
     buffers: &'a mut BufferTable,
     exception_slot: u32,
+    exception_call: &'a mut crate::exception::ExceptionDetails,
 }
 
 impl<'a> Miss<'a> {
@@ -24,15 +25,16 @@ impl<'a> Miss<'a> {
         world_ray_direction: Vec3,
         buffers: &'a mut BufferTable,
         exception_slot: u32,
+        exception_call: &'a mut crate::exception::ExceptionDetails,
     ) -> Self {
-        Miss { launch_index, launch_dimensions, world_ray_origin, world_ray_direction, buffers, exception_slot }
+        Miss { launch_index, launch_dimensions, world_ray_origin, world_ray_direction, buffers, exception_slot, exception_call }
     }
 
     /// Throws user exception `code` (OptiX's `optixThrowException`): the
     /// launch returns it to the host with this launch index. The program goes
     /// on: return after it (see [`crate::exception`]).
     pub fn throw_exception(&mut self, code: u32) {
-        super::throw_exception(self.buffers, self.exception_slot, self.launch_index, code)
+        super::throw_and_handle(self.buffers, self.exception_slot, self.launch_index, code, self.exception_call)
     }
 
     /// This invocation's index in the launch grid.

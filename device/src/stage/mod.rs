@@ -9,6 +9,7 @@
 
 mod any_hit;
 mod callable;
+mod exception;
 mod closest_hit;
 mod hit;
 mod intersection;
@@ -18,6 +19,7 @@ mod raygen;
 pub use any_hit::AnyHit;
 pub use callable::{ContinuationCallable, DirectCallable};
 pub use closest_hit::ClosestHit;
+pub use exception::Exception;
 #[doc(hidden)]
 pub use hit::HitBuiltins;
 pub use hit::{HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE};
@@ -43,12 +45,16 @@ fn execute_callable<T>(sbt_index: u32, data: &mut T) {
 }
 
 /// Records user exception `code` thrown at `launch_index` in the exception
-/// buffer at `slot` of the table (see [`crate::exception`]).
+/// buffer at `slot` of the table (see [`crate::exception`]); returns the
+/// exception program's callable index ([`crate::exception::NO_EXCEPTION_PROGRAM`]
+/// when the pipeline has none).
 #[allow(unused_variables)]
-fn throw_exception(table: &mut BufferTable, slot: u32, launch_index: spirv_std::glam::UVec3, code: u32) {
+fn throw_exception(table: &mut BufferTable, slot: u32, launch_index: spirv_std::glam::UVec3, code: u32) -> u32 {
     #[cfg(target_arch = "spirv")]
     {
-        use crate::exception::{EXCEPTION_CAPACITY, EXCEPTION_RECORD_WORDS};
+        use crate::exception::{
+            EXCEPTION_CAPACITY, EXCEPTION_HANDLER_WORD, EXCEPTION_RECORDS_WORD, EXCEPTION_RECORD_WORDS,
+        };
         // SAFETY: raykit fills `slot` with the pipeline's exception buffer of
         // EXCEPTION_BUFFER_WORDS words before every launch.
         let words: &mut [u32] = unsafe { table.index_mut(slot as usize) };
@@ -59,15 +65,33 @@ fn throw_exception(table: &mut BufferTable, slot: u32, launch_index: spirv_std::
             spirv_std::arch::atomic_i_increment::<u32, { spirv_std::memory::Scope::QueueFamily as u32 }, 0>(&mut words[0])
         };
         if index < EXCEPTION_CAPACITY {
-            let base = (1 + index * EXCEPTION_RECORD_WORDS) as usize;
+            let base = (EXCEPTION_RECORDS_WORD + index * EXCEPTION_RECORD_WORDS) as usize;
             words[base] = code;
             words[base + 1] = launch_index.x;
             words[base + 2] = launch_index.y;
             words[base + 3] = launch_index.z;
         }
+        words[EXCEPTION_HANDLER_WORD as usize]
     }
     #[cfg(not(target_arch = "spirv"))]
     unreachable!("device programs run on the device")
+}
+
+/// [`throw_exception`], then the exception program, if the pipeline has one,
+/// called with the details through `call` (the entry point's hidden
+/// callable-data variable).
+fn throw_and_handle(
+    table: &mut BufferTable,
+    slot: u32,
+    launch_index: spirv_std::glam::UVec3,
+    code: u32,
+    call: &mut crate::exception::ExceptionDetails,
+) {
+    let handler = throw_exception(table, slot, launch_index, code);
+    if handler != crate::exception::NO_EXCEPTION_PROGRAM {
+        *call = crate::exception::ExceptionDetails { code, launch_index };
+        execute_callable(handler, call);
+    }
 }
 
 /// Reads element `index` of `buffer` from the bindless table.

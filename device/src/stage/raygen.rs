@@ -11,19 +11,26 @@ pub struct Raygen<'a> {
     launch_dimensions: UVec3,
     buffers: &'a mut BufferTable,
     exception_slot: u32,
+    exception_call: &'a mut crate::exception::ExceptionDetails,
 }
 
 impl<'a> Raygen<'a> {
     #[doc(hidden)]
-    pub fn __new(launch_index: UVec3, launch_dimensions: UVec3, buffers: &'a mut BufferTable, exception_slot: u32) -> Self {
-        Raygen { launch_index, launch_dimensions, buffers, exception_slot }
+    pub fn __new(
+        launch_index: UVec3,
+        launch_dimensions: UVec3,
+        buffers: &'a mut BufferTable,
+        exception_slot: u32,
+        exception_call: &'a mut crate::exception::ExceptionDetails,
+    ) -> Self {
+        Raygen { launch_index, launch_dimensions, buffers, exception_slot, exception_call }
     }
 
     /// Throws user exception `code` (OptiX's `optixThrowException`): the
     /// launch returns it to the host with this launch index. The program goes
     /// on: return after it (see [`crate::exception`]).
     pub fn throw_exception(&mut self, code: u32) {
-        super::throw_exception(self.buffers, self.exception_slot, self.launch_index, code)
+        super::throw_and_handle(self.buffers, self.exception_slot, self.launch_index, code, self.exception_call)
     }
 
     /// This invocation's index in the launch grid (`optixGetLaunchIndex`).

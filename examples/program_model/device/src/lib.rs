@@ -12,8 +12,9 @@
 
 use raykit_device::glam::{UVec2, Vec2, Vec3, Vec4};
 use raykit_device::{
-    any_hit, closest_hit, continuation_callable, direct_callable, intersection, miss, raygen, AnyHit, Buffer,
-    ClosestHit, ContinuationCallable, DirectCallable, Intersection, LaunchParams, Miss, Ray, RayFlags, RayType, Raygen,
+    any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, AnyHit, Buffer,
+    ClosestHit, ContinuationCallable, DirectCallable, Exception, Intersection, LaunchParams, Miss, Ray, RayFlags, RayType,
+    Raygen,
     Traversable,
 };
 
@@ -328,4 +329,15 @@ pub const SPEC_COLORS: [Vec3; 2] = [Vec3::new(1.0, 0.5, 0.0), Vec3::new(0.0, 0.5
 #[closest_hit(ray = Radiance)]
 fn spec_shade(_ctx: &mut ClosestHit, #[spec_constant(id = 7, default = 0)] mode: u32, #[payload] color: &mut Vec3) {
     *color = if mode == 0 { SPEC_COLORS[0] } else { SPEC_COLORS[1] };
+}
+
+/// What [`on_exception`] writes at the pixel of an invocation that threw: this
+/// marker with the exception code in its low bits.
+pub const EXCEPTION_MARKER: u32 = 0xE000_0000;
+
+#[exception]
+fn on_exception(ctx: &mut Exception, #[params] p: &Params) {
+    let pixel = ctx.launch_linear_index();
+    let code = ctx.exception_code();
+    ctx.store(p.image, pixel, EXCEPTION_MARKER | code);
 }
