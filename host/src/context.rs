@@ -171,6 +171,26 @@ unsafe extern "system" fn debug_callback(
     vk::FALSE
 }
 
+/// Keeps the Vulkan loader and the drivers it loads in memory for the life of
+/// the process, through one instance made on the first [`Context::new`] and never
+/// destroyed (no layers, no devices: it holds nothing else).
+///
+/// The loader unloads a driver's library when the last instance using it is
+/// destroyed, and loads it again for the next one. NVIDIA's driver (580 on an
+/// H100) does not survive that: after about thirty contexts made and destroyed
+/// one after the other in one process, `vkCreateInstance` fails with "Unable to
+/// find a Vulkan driver". Keeping one instance alive keeps the library loaded.
+fn keep_driver_loaded(entry: &ash::Entry) {
+    static KEEP_ALIVE: std::sync::OnceLock<Option<(ash::Entry, ash::Instance)>> = std::sync::OnceLock::new();
+    KEEP_ALIVE.get_or_init(|| {
+        let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
+        let info = vk::InstanceCreateInfo::default().application_info(&app);
+        // SAFETY: a valid create info with no layers or extensions; the instance is
+        // intentionally never destroyed (see above).
+        unsafe { entry.create_instance(&info, None) }.ok().map(|instance| (entry.clone(), instance))
+    });
+}
+
 fn version_string(v: u32) -> String {
     format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v))
 }
@@ -283,6 +303,7 @@ impl Context {
         // SAFETY: loading the system Vulkan loader runs its initialisation code; we
         // trust the installed loader as every Vulkan program does.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::LoaderMissing(e.to_string()))?;
+        keep_driver_loaded(&entry);
 
         let mut layers: Vec<*const std::ffi::c_char> = Vec::new();
         let mut instance_extensions: Vec<*const std::ffi::c_char> = Vec::new();

@@ -673,12 +673,18 @@ fn launch_wider_than_the_device_allows() -> anyhow::Result<()> {
     // this to vkCmdTraceRaysKHR (VUID-vkCmdTraceRaysKHR-width-03638).
     case(
         "launch_wider_than_the_device_allows",
-        &["width", "maxComputeWorkGroupCount[0] × maxComputeWorkGroupSize[0]", "split the launch into tiles"],
+        &["maxComputeWorkGroupCount[", "split the launch into tiles"],
         |ctx| {
-            let width = ctx.max_launch_dimensions()[0] + 1;
+            // The first dimension whose own limit is below the total and fits a u32
+            // (lavapipe: width; NVIDIA: height, its width limit being 2^31 × 1024).
             let total = ctx.limits().max_ray_dispatch_invocation_count as u64;
-            anyhow::ensure!(width <= total && width <= u32::MAX as u64, "this device's width limit is its total limit");
-            refused(launch(ctx, [width as u32, 1, 1])?, "a launch wider than the device allows")
+            let limits = ctx.max_launch_dimensions();
+            let Some(axis) = (0..3).find(|&i| limits[i] < total && limits[i] < u32::MAX as u64) else {
+                anyhow::bail!("every per-dimension limit of this device is at or above its total {total}: {limits:?}");
+            };
+            let mut dims = [1u32; 3];
+            dims[axis] = (limits[axis] + 1) as u32;
+            refused(launch(ctx, dims)?, "a launch wider than the device allows")
         },
         |e| matches!(e, Error::LaunchDimensions { .. }),
     )
