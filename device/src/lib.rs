@@ -36,6 +36,7 @@ pub mod exception;
 pub mod handles;
 #[cfg(not(target_arch = "spirv"))]
 pub mod layout;
+pub mod math;
 pub mod params;
 pub mod ray;
 pub mod stage;

@@ -8,7 +8,7 @@
 
 use spirv_std::glam::UVec3;
 
-use crate::{Buffer, BufferTable, Element, Ray, RayType, Traversable};
+use crate::{BufferTable, Ray, RayType, Traversable};
 
 /// What a direct callable may use: launch index and size, buffers, callables.
 pub struct DirectCallable<'a> {
@@ -42,40 +42,7 @@ macro_rules! callable_common {
                 $ty { launch_index, launch_dimensions, buffers, exception_slot, exception_call }
             }
 
-            /// Throws user exception `code`: the launch returns it to the host with
-            /// this launch index. The program goes on: return after it.
-            pub fn throw_exception(&mut self, code: u32) {
-                super::throw_and_handle(self.buffers, self.exception_slot, self.launch_index, code, self.exception_call)
-            }
-
-            /// This invocation's index in the launch grid.
-            pub fn launch_index(&self) -> UVec3 {
-                self.launch_index
-            }
-
-            /// The launch grid's size.
-            pub fn launch_dimensions(&self) -> UVec3 {
-                self.launch_dimensions
-            }
-
-            /// Reads element `index` of `buffer`.
-            pub fn load<T: Element>(&self, buffer: Buffer<T>, index: u32) -> T {
-                super::load(self.buffers, buffer, index)
-            }
-
-            /// Writes element `index` of `buffer`.
-            pub fn store<T: Element>(&mut self, buffer: Buffer<T>, index: u32, value: T) {
-                super::store(self.buffers, buffer, index, value)
-            }
-
-
-
-            /// Runs the callable at `sbt_index` of the SBT's callable region with
-            /// `data` (a `#[call_data]` parameter) (`optixDirectCall` /
-            /// `optixContinuationCall`).
-            pub fn call<T>(&mut self, sbt_index: u32, data: &mut T) {
-                super::execute_callable(sbt_index, data)
-            }
+            super::launch_accessors!();
         }
     };
 }

@@ -29,6 +29,49 @@ pub use raygen::Raygen;
 
 use crate::{Buffer, BufferTable, Element, Ray, RayType, Traversable};
 
+/// The methods of the stages that may call callables and have no hit:
+/// raygen, miss and the callables (fields `launch_index`, `launch_dimensions`,
+/// `buffers`, `exception_slot`, `exception_call`).
+macro_rules! launch_accessors {
+    () => {
+        /// This invocation's index in the launch grid (`optixGetLaunchIndex`).
+        pub fn launch_index(&self) -> spirv_std::glam::UVec3 {
+            self.launch_index
+        }
+
+        /// The launch grid's size (`optixGetLaunchDimensions`).
+        pub fn launch_dimensions(&self) -> spirv_std::glam::UVec3 {
+            self.launch_dimensions
+        }
+
+        /// Throws user exception `code` (OptiX's `optixThrowException`): the
+        /// launch returns it to the host with this launch index, and the
+        /// pipeline's `#[exception]` program, if any, runs now. The program goes
+        /// on: return after it (see [`crate::exception`]).
+        pub fn throw_exception(&mut self, code: u32) {
+            super::throw_and_handle(self.buffers, self.exception_slot, self.launch_index, code, self.exception_call)
+        }
+
+        /// Runs the callable at `sbt_index` of the SBT's callable region with
+        /// `data` (a `#[call_data]` parameter) (`optixDirectCall` /
+        /// `optixContinuationCall`).
+        pub fn call<T>(&mut self, sbt_index: u32, data: &mut T) {
+            super::execute_callable(sbt_index, data)
+        }
+
+        /// Reads element `index` of `buffer`.
+        pub fn load<T: $crate::Element>(&self, buffer: $crate::Buffer<T>, index: u32) -> T {
+            super::load(self.buffers, buffer, index)
+        }
+
+        /// Writes element `index` of `buffer`.
+        pub fn store<T: $crate::Element>(&mut self, buffer: $crate::Buffer<T>, index: u32, value: T) {
+            super::store(self.buffers, buffer, index, value)
+        }
+    };
+}
+pub(crate) use launch_accessors;
+
 /// `OpExecuteCallableKHR` with a run-time SBT index (spirv-std's
 /// `execute_callable` takes it as a const generic). `data` must be a
 /// `CallableDataKHR` variable: the macros only hand out `#[call_data]` ones.

@@ -2,7 +2,7 @@
 
 use spirv_std::glam::{UVec3, Vec3};
 
-use crate::{Buffer, BufferTable, Element, Ray, RayType, Traversable};
+use crate::{BufferTable, Ray, RayType, Traversable};
 
 /// What a raygen program may use: launch index and size, tracing, callables,
 /// buffers.
@@ -26,22 +26,7 @@ impl<'a> Raygen<'a> {
         Raygen { launch_index, launch_dimensions, buffers, exception_slot, exception_call }
     }
 
-    /// Throws user exception `code` (OptiX's `optixThrowException`): the
-    /// launch returns it to the host with this launch index. The program goes
-    /// on: return after it (see [`crate::exception`]).
-    pub fn throw_exception(&mut self, code: u32) {
-        super::throw_and_handle(self.buffers, self.exception_slot, self.launch_index, code, self.exception_call)
-    }
-
-    /// This invocation's index in the launch grid (`optixGetLaunchIndex`).
-    pub fn launch_index(&self) -> UVec3 {
-        self.launch_index
-    }
-
-    /// The launch grid's size (`optixGetLaunchDimensions`).
-    pub fn launch_dimensions(&self) -> UVec3 {
-        self.launch_dimensions
-    }
+    super::launch_accessors!();
 
     /// `x + y * width + z * width * height`: the index of this invocation's pixel in
     /// a row-major image.
@@ -66,22 +51,4 @@ impl<'a> Raygen<'a> {
     ) {
         self.trace::<R>(scene, Ray::new(origin, direction), payload)
     }
-
-    /// Runs the callable at `sbt_index` of the SBT's callable region with `data`
-    /// (a `#[call_data]` parameter) (`optixDirectCall`).
-    pub fn call<T>(&mut self, sbt_index: u32, data: &mut T) {
-        super::execute_callable(sbt_index, data)
-    }
-
-    /// Reads element `index` of `buffer`.
-    pub fn load<T: Element>(&self, buffer: Buffer<T>, index: u32) -> T {
-        super::load(self.buffers, buffer, index)
-    }
-
-    /// Writes element `index` of `buffer`.
-    pub fn store<T: Element>(&mut self, buffer: Buffer<T>, index: u32, value: T) {
-        super::store(self.buffers, buffer, index, value)
-    }
-
-
 }

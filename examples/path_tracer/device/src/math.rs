@@ -8,6 +8,7 @@
 //! as the device.
 
 use raykit_device::glam::{UVec2, Vec3};
+pub use raykit_device::math::{powf, sin_cos, sqrt};
 
 /// π.
 pub const PI: f32 = core::f32::consts::PI;
@@ -22,44 +23,8 @@ pub const ROULETTE_AFTER: u32 = 2;
 /// The largest survival probability of Russian roulette.
 pub const ROULETTE_MAX_SURVIVAL: f32 = 0.95;
 
-/// Square root (the platform's, on each side).
-pub fn sqrt(x: f32) -> f32 {
-    #[cfg(target_arch = "spirv")]
-    {
-        use raykit_device::spirv_std::num_traits::Float;
-        x.sqrt()
-    }
-    #[cfg(not(target_arch = "spirv"))]
-    {
-        x.sqrt()
-    }
-}
 
-/// `(sin x, cos x)`.
-pub fn sin_cos(x: f32) -> (f32, f32) {
-    #[cfg(target_arch = "spirv")]
-    {
-        use raykit_device::spirv_std::num_traits::Float;
-        (x.sin(), x.cos())
-    }
-    #[cfg(not(target_arch = "spirv"))]
-    {
-        x.sin_cos()
-    }
-}
 
-/// `x^y`.
-pub fn powf(x: f32, y: f32) -> f32 {
-    #[cfg(target_arch = "spirv")]
-    {
-        use raykit_device::spirv_std::num_traits::Float;
-        x.powf(y)
-    }
-    #[cfg(not(target_arch = "spirv"))]
-    {
-        x.powf(y)
-    }
-}
 
 /// The Tiny Encryption Algorithm with 4 rounds (sutil's `tea<4>`): a seed from
 /// two integers (pixel index and launch index).

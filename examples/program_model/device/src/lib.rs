@@ -10,6 +10,7 @@
 //! The scene helpers are shared with the host tests' CPU references.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
+use raykit_device::math::sqrt;
 use raykit_device::glam::{UVec2, Vec2, Vec3, Vec4};
 use raykit_device::{
     any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, AnyHit, Buffer,
@@ -81,17 +82,6 @@ pub fn ray_sphere(origin: Vec3, dir: Vec3, sphere: Vec4, t_min: f32) -> Option<f
     }
 }
 
-fn sqrt(x: f32) -> f32 {
-    #[cfg(target_arch = "spirv")]
-    {
-        use raykit_device::spirv_std::num_traits::Float;
-        x.sqrt()
-    }
-    #[cfg(not(target_arch = "spirv"))]
-    {
-        x.sqrt()
-    }
-}
 
 /// A normal's colour: `n * 0.5 + 0.5`.
 pub fn normal_color(n: Vec3) -> Vec3 {

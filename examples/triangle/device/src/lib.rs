@@ -8,6 +8,7 @@
 //! the CPU reference of the tests.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
+use raykit_device::math::powf;
 use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
 use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, RayType, Raygen, Traversable};
 
@@ -75,17 +76,6 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
-fn powf(x: f32, y: f32) -> f32 {
-    #[cfg(target_arch = "spirv")]
-    {
-        use raykit_device::spirv_std::num_traits::Float;
-        x.powf(y)
-    }
-    #[cfg(not(target_arch = "spirv"))]
-    {
-        x.powf(y)
-    }
-}
 
 /// sutil's `make_color`: clamp, sRGB-encode, quantise to 8 bits, pack as RGBA8
 /// (red in the lowest byte, alpha 255).

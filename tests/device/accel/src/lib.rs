@@ -7,6 +7,7 @@
 //! (raykit's macros cover raygen, miss and closest-hit so far).
 #![cfg_attr(target_arch = "spirv", no_std)]
 
+use raykit_device::math::sqrt;
 use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
 use raykit_device::spirv_std::spirv;
 use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, RayType, Raygen, Traversable};
@@ -80,17 +81,6 @@ pub fn sphere(primitive: u32) -> (Vec3, f32) {
     (Vec3::new(primitive as f32 - 1.0, 0.0, 0.0), 0.4)
 }
 
-fn sqrt(x: f32) -> f32 {
-    #[cfg(target_arch = "spirv")]
-    {
-        use raykit_device::spirv_std::num_traits::Float;
-        x.sqrt()
-    }
-    #[cfg(not(target_arch = "spirv"))]
-    {
-        x.sqrt()
-    }
-}
 
 /// Distance along the ray to the first hit with the sphere within
 /// `[t_min, t_max]`, or a negative value for none.
