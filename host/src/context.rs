@@ -61,6 +61,8 @@ pub struct DeviceLimits {
     pub max_ray_recursion_depth: u32,
     /// `maxRayDispatchInvocationCount`.
     pub max_ray_dispatch_invocation_count: u32,
+    /// `maxRayHitAttributeSize`.
+    pub max_ray_hit_attribute_size: u32,
     /// `maxPushConstantsSize`.
     pub max_push_constants_size: u32,
     /// `maxUniformBufferRange`.
@@ -109,6 +111,11 @@ pub(crate) struct ContextInner {
     /// Whether `VK_KHR_shader_non_semantic_info` is enabled, which modules with
     /// debug info (`SPV_KHR_non_semantic_info`) need.
     pub(crate) non_semantic_info: bool,
+    /// Whether `VK_KHR_pipeline_library` is enabled (see [`crate::PipelineLibrary`]).
+    pub(crate) pipeline_library: bool,
+    /// Whether the driver is lavapipe (Mesa's CPU driver), whose workarounds
+    /// raykit applies (see `crate::library`).
+    pub(crate) lavapipe: bool,
     device_name: String,
     /// The compile cache every pipeline creation goes through.
     pub(crate) pipeline_cache: DiskCache,
@@ -405,12 +412,18 @@ impl Context {
         let mut extension_ptrs: Vec<_> = REQUIRED_EXTENSIONS.iter().map(|e| e.as_ptr()).collect();
         // Optional: lets modules carry debug info (glslang's -gVS, NonSemantic.Shader.DebugInfo.100).
         // SAFETY: `physical_device` came from this instance.
-        let non_semantic_info = unsafe { instance.enumerate_device_extension_properties(physical_device) }
-            .map_err(Error::vk("vkEnumerateDeviceExtensionProperties"))?
-            .iter()
-            .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::khr::shader_non_semantic_info::NAME));
+        let device_extensions = unsafe { instance.enumerate_device_extension_properties(physical_device) }
+            .map_err(Error::vk("vkEnumerateDeviceExtensionProperties"))?;
+        let has_extension =
+            |name: &std::ffi::CStr| device_extensions.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name));
+        let non_semantic_info = has_extension(ash::khr::shader_non_semantic_info::NAME);
         if non_semantic_info {
             extension_ptrs.push(ash::khr::shader_non_semantic_info::NAME.as_ptr());
+        }
+        // Optional: pipeline libraries (`PipelineLibrary`, `Pipeline::link`).
+        let pipeline_library = has_extension(ash::khr::pipeline_library::NAME);
+        if pipeline_library {
+            extension_ptrs.push(ash::khr::pipeline_library::NAME.as_ptr());
         }
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
@@ -426,6 +439,11 @@ impl Context {
         let device_guard = DeviceGuard(Some(device.clone()));
 
         let limits = query_limits(instance, physical_device);
+        let mut driver = vk::PhysicalDeviceDriverProperties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+        // SAFETY: the chain is well formed; `physical_device` came from this instance.
+        unsafe { instance.get_physical_device_properties2(physical_device, &mut props2) };
+        let lavapipe = driver.driver_id == vk::DriverId::MESA_LLVMPIPE;
         let debug_names = debug.then(|| ash::ext::debug_utils::Device::new(instance, &device));
         // SAFETY: `physical_device` came from this instance.
         let base_limits = unsafe { instance.get_physical_device_properties(physical_device) }.limits;
@@ -479,6 +497,8 @@ impl Context {
                 limits,
                 launch_dimension_limits,
                 non_semantic_info,
+                pipeline_library,
+                lavapipe,
                 device_name,
                 pipeline_cache,
                 debug_names,
@@ -489,6 +509,12 @@ impl Context {
     /// The name of the device in use.
     pub fn device_name(&self) -> &str {
         &self.inner.device_name
+    }
+
+    /// Whether this device links pipelines from libraries
+    /// (`VK_KHR_pipeline_library`; see [`crate::PipelineLibrary`]).
+    pub fn supports_pipeline_libraries(&self) -> bool {
+        self.inner.pipeline_library
     }
 
     /// The device's ray-tracing limits.
@@ -722,6 +748,7 @@ fn query_limits(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Devic
         max_shader_group_stride: rt.max_shader_group_stride,
         max_ray_recursion_depth: rt.max_ray_recursion_depth,
         max_ray_dispatch_invocation_count: rt.max_ray_dispatch_invocation_count,
+        max_ray_hit_attribute_size: rt.max_ray_hit_attribute_size,
         max_push_constants_size: limits.max_push_constants_size,
         max_uniform_buffer_range: limits.max_uniform_buffer_range,
         min_uniform_buffer_offset_alignment: limits.min_uniform_buffer_offset_alignment,

@@ -239,6 +239,62 @@ pub enum Error {
         region: &'static str,
     },
 
+    /// The device cannot link pipelines from libraries.
+    #[error("this device lacks VK_KHR_pipeline_library, so pipelines cannot be linked from libraries; link the program groups into one pipeline with Pipeline::new (Context::supports_pipeline_libraries tells beforehand)")]
+    PipelineLibrariesUnsupported,
+
+    /// A pipeline library was given no program groups.
+    #[error("a pipeline library needs at least one program group")]
+    EmptyLibrary,
+
+    /// Libraries linked into one pipeline were made with different settings.
+    #[error("library {index} was made with {what} {found}, but {expected} is needed to link it with the others: every library of a pipeline and the pipeline itself must agree on {what}. {fix}")]
+    LibraryMismatch {
+        /// What differs: `"max_trace_depth"` or `"interface"`.
+        what: &'static str,
+        /// The position of the library in the list given to `Pipeline::link`.
+        index: usize,
+        /// What the library has.
+        found: String,
+        /// What the pipeline (or the first library) has.
+        expected: String,
+        /// How to make them agree.
+        fix: &'static str,
+    },
+
+    /// A library's interface does not cover what one of its programs declares.
+    #[error("`{program}` declares {needed} bytes of {what}, over the {given} bytes of the library's interface; raise LibraryOptions::interface, or leave it None to size it from the programs")]
+    LibraryInterfaceTooSmall {
+        /// The program.
+        program: String,
+        /// `"ray payload"` or `"hit attributes"`.
+        what: &'static str,
+        /// Bytes the program declares.
+        needed: u32,
+        /// Bytes of the interface.
+        given: u32,
+    },
+
+    /// Hit attributes over the device's `maxRayHitAttributeSize`.
+    #[error("an interface of {size} bytes of hit attributes is over this device's maxRayHitAttributeSize {limit}; report fewer attributes")]
+    HitAttributesTooLarge {
+        /// The bytes asked for.
+        size: u32,
+        /// `maxRayHitAttributeSize`.
+        limit: u32,
+    },
+
+    /// One program group was put in more than one of the libraries linked together.
+    #[error("a {kind} program group is in libraries {first} and {second} of this link; each group may be in one of the libraries linked together (the SBT places groups by identity)")]
+    GroupInSeveralLibraries {
+        /// The group's kind.
+        kind: &'static str,
+        /// The first library holding it.
+        first: usize,
+        /// Another library holding it.
+        second: usize,
+    },
+
     /// A pipeline was given more than one exception program group.
     #[error("a pipeline has at most one exception program group (ProgramGroup::exception); link one")]
     SeveralExceptionPrograms,

@@ -16,7 +16,7 @@ use rspirv::spirv::ExecutionModel;
 
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use raykit_device::layout::ParamsBlock;
+use raykit_device::layout::{InterfaceSizes, ParamsBlock};
 
 const SPIRV_MAGIC: u32 = 0x0723_0203;
 
@@ -33,6 +33,9 @@ pub struct EntryPointInfo {
     /// The launch-params blocks it declares (push constants, or the uniform
     /// buffer at set 1), with their layouts; empty when it takes no params.
     pub params: Vec<ParamsBlock>,
+    /// The bytes of ray payload and hit attributes it declares, which a
+    /// [`crate::PipelineLibrary`]'s interface must cover.
+    pub interface: InterfaceSizes,
 }
 
 /// A SPIR-V module on the device, with its entry points.
@@ -264,6 +267,7 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
     let words = words_of(bytes)?;
     let module = parse(&words)?;
     let mut params = raykit_device::layout::reflect_params(&module)?;
+    let mut interfaces = raykit_device::layout::reflect_interface_sizes(&module)?;
     let mut entries = Vec::new();
     for inst in &module.entry_points {
         let (Some(rspirv::dr::Operand::ExecutionModel(model)), Some(rspirv::dr::Operand::LiteralString(name))) =
@@ -280,6 +284,7 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
             },
             execution_model: format!("{model:?}"),
             params: params.remove(name).unwrap_or_default(),
+            interface: interfaces.remove(name).unwrap_or_default(),
         });
     }
     Ok(entries)

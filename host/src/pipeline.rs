@@ -29,7 +29,9 @@ use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
 use raykit_device::layout::ParamsDelivery;
 use crate::memory::RawBuffer;
+use crate::library::{InterfaceSizesExt, LibraryInner, PipelineLibrary, PushConstantCarrier};
 use crate::program_group::{GroupPrograms, Program, ProgramGroup};
+use raykit_device::layout::InterfaceSizes;
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
 use raykit_device::LaunchParams;
 
@@ -104,6 +106,8 @@ pub(crate) struct PipelineInner {
     /// compiled together (the pipeline itself, or each linked library). Launches
     /// zero and copy them on the device (see [`crate::launch`]).
     pub(crate) exceptions: Vec<Arc<ExceptionBuffer>>,
+    /// The libraries it was linked from, kept alive as long as it is.
+    pub(crate) libraries: Vec<Arc<LibraryInner>>,
     /// Finished launches' exception readback buffers, reused by later launches
     /// (an allocation per launch is slow on some drivers).
     pub(crate) readbacks: Mutex<Vec<RawBuffer>>,
@@ -179,15 +183,7 @@ pub(crate) struct ParamsUniform {
 impl ParamsUniform {
     fn new(ctx: &Arc<ContextInner>, size: u64) -> Result<ParamsUniform> {
         let device = &ctx.device;
-        let bindings = [vk::DescriptorSetLayoutBinding::default()
-            .binding(raykit_device::PARAMS_BINDING)
-            .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
-            .descriptor_count(1)
-            .stage_flags(RT_STAGES)];
-        let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
-        // SAFETY: valid create info on a live device.
-        let set_layout = unsafe { device.create_descriptor_set_layout(&info, None) }
-            .map_err(Error::vk("vkCreateDescriptorSetLayout"))?;
+        let set_layout = params_set_layout(ctx)?;
         // Wrapped at once, so an early return frees what exists.
         let mut uniform = ParamsUniform {
             ctx: ctx.clone(),
@@ -265,188 +261,110 @@ impl<P: LaunchParams> Pipeline<P> {
         constants: &Specialization,
     ) -> Result<Pipeline<P>> {
         let inner = &ctx.inner;
-        let limits = inner.limits;
-        if options.max_trace_depth > limits.max_ray_recursion_depth {
-            return Err(Error::TraceDepthTooLarge {
-                requested: options.max_trace_depth,
-                limit: limits.max_ray_recursion_depth,
-            });
-        }
-        if groups.iter().any(|g| !Arc::ptr_eq(&g.ctx, inner)) {
-            return Err(Error::ContextMismatch);
-        }
-        if groups.iter().filter(|g| matches!(g.programs, GroupPrograms::Exception(_))).count() > 1 {
-            return Err(Error::SeveralExceptionPrograms);
-        }
-        if !groups.iter().any(|g| matches!(g.programs, GroupPrograms::Raygen(_))) {
-            return Err(Error::NoRaygen);
-        }
-        let params_size = std::mem::size_of::<P>();
-        let delivery = params_delivery::<P>();
-        // Launches write uniform params with `vkCmdUpdateBuffer`, which takes at most 65536 bytes.
-        let uniform_limit = limits.max_uniform_buffer_range.min(65536);
-        if delivery != ParamsDelivery::PushConstants && params_size > uniform_limit as usize {
-            return Err(Error::ParamsTooLarge { size: params_size, limit: uniform_limit });
-        }
-        // OptiX's rule that all modules agree on the compile options: every
-        // program's params block must be `P`, laid out as on the host.
-        for group in groups {
-            for program in group.programs() {
-                let name = program.name.to_string_lossy();
-                let Some(info) = program.module.entry_points.iter().find(|e| e.name == name) else { continue };
-                if !info.params.is_empty() {
-                    raykit_device::layout::check(&P::LAYOUT, &name, &info.params, delivery)?;
-                }
-            }
-        }
-
-        // One shader stage per program; groups refer to stages by index.
-        let mut programs: Vec<Program> = Vec::new();
-        let mut stage_index = |p: &Option<Program>| -> u32 {
-            match p {
-                Some(p) => {
-                    programs.push(p.clone());
-                    programs.len() as u32 - 1
-                }
-                None => vk::SHADER_UNUSED_KHR,
-            }
-        };
-        let mut group_infos = Vec::with_capacity(groups.len());
-        for group in groups {
-            let info = match &group.programs {
-                GroupPrograms::Raygen(p)
-                | GroupPrograms::Miss(p)
-                | GroupPrograms::Callable(p)
-                | GroupPrograms::Exception(p) => vk::RayTracingShaderGroupCreateInfoKHR::default()
-                    .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
-                    .general_shader(stage_index(&Some(p.clone())))
-                    .closest_hit_shader(vk::SHADER_UNUSED_KHR)
-                    .any_hit_shader(vk::SHADER_UNUSED_KHR)
-                    .intersection_shader(vk::SHADER_UNUSED_KHR),
-                GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
-                    let ty = if intersection.is_some() {
-                        vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP
-                    } else {
-                        vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP
-                    };
-                    vk::RayTracingShaderGroupCreateInfoKHR::default()
-                        .ty(ty)
-                        .general_shader(vk::SHADER_UNUSED_KHR)
-                        .closest_hit_shader(stage_index(closest_hit))
-                        .any_hit_shader(stage_index(any_hit))
-                        .intersection_shader(stage_index(intersection))
-                }
-            };
-            group_infos.push(info);
-        }
-        // The user-exception buffer, and its slot for every program as a
-        // specialization constant (modules without that constant ignore it).
-        let exceptions = ExceptionBuffer::new(inner)?;
-        let mut values = vec![(raykit_device::exception::EXCEPTION_SLOT_SPEC_ID, exceptions.slot)];
-        values.extend(constants.values.iter().copied());
-        let spec_data: Vec<u8> = values.iter().flat_map(|(_, v)| v.to_ne_bytes()).collect();
-        let spec_entries: Vec<vk::SpecializationMapEntry> = values
-            .iter()
-            .enumerate()
-            .map(|(i, (id, _))| vk::SpecializationMapEntry {
-                constant_id: *id,
-                offset: (i * std::mem::size_of::<u32>()) as u32,
-                size: std::mem::size_of::<u32>(),
-            })
-            .collect();
-        let specialization = vk::SpecializationInfo::default().map_entries(&spec_entries).data(&spec_data);
-        let stages: Vec<vk::PipelineShaderStageCreateInfo<'_>> = programs
-            .iter()
-            .map(|p| {
-                vk::PipelineShaderStageCreateInfo::default()
-                    .stage(stage_flag(p.kind))
-                    .module(p.module.shader)
-                    .name(&p.name)
-                    .specialization_info(&specialization)
-            })
-            .collect();
-
-        let params_uniform = match delivery {
-            ParamsDelivery::PushConstants => None,
-            ParamsDelivery::UniformBuffer { .. } => Some(ParamsUniform::new(inner, (params_size as u64).next_multiple_of(4))?),
-        };
-        let mut set_layouts = vec![inner.buffer_table.layout];
-        if let Some(uniform) = &params_uniform {
-            set_layouts.push(uniform.set_layout);
-        }
-        let push_constant_size = if params_uniform.is_some() { 0 } else { params_size as u32 };
-        let push_ranges = [vk::PushConstantRange { stage_flags: RT_STAGES, offset: 0, size: push_constant_size }];
-        let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
-        if push_constant_size > 0 {
-            layout_info = layout_info.push_constant_ranges(&push_ranges);
-        }
-        // SAFETY: valid create info; the set layouts live as long as the pipeline.
-        let layout = unsafe { inner.device.create_pipeline_layout(&layout_info, None) }
-            .map_err(Error::vk("vkCreatePipelineLayout"))?;
-        let mut pipeline_inner = PipelineInner {
-            ctx: inner.clone(),
-            pipeline: vk::Pipeline::null(),
-            layout,
-            groups: groups.iter().map(|g| (g.id, g.kind_name())).collect(),
-            handles: Vec::new(),
-            push_constant_size,
-            params_uniform,
-            max_trace_depth: options.max_trace_depth,
-            group_stacks: Vec::new(),
-            stack_size: AtomicU32::new(0),
-            exceptions: vec![Arc::new(exceptions)],
-            readbacks: Mutex::new(Vec::new()),
-            log: Vec::new(),
-        };
-
-        // The stack size is set by every launch (see `crate::stack`).
+        check_groups::<P>(inner, groups, options.max_trace_depth)?;
+        check_linkable(groups.iter().copied())?;
+        let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
+        let params_uniform = new_params_uniform::<P>(inner)?;
+        let layout = create_layout::<P>(inner, params_uniform.as_ref().map(|u| u.set_layout))?;
+        // Wrapped at once, so an early return frees what exists.
+        let mut pipeline_inner = PipelineInner::new::<P>(inner, layout, params_uniform, options.max_trace_depth);
+        pipeline_inner.exceptions.push(exceptions.clone());
+        let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
+        let specialization = shaders.specialization();
+        let stages = shaders.stages(&specialization);
         let dynamic_states = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
         let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        let create_info = [vk::RayTracingPipelineCreateInfoKHR::default()
+        let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
             .stages(&stages)
-            .groups(&group_infos)
+            .groups(&shaders.group_infos)
             .max_pipeline_ray_recursion_depth(options.max_trace_depth)
             .dynamic_state(&dynamic_state)
-            .layout(layout)];
-        let (pipelines, log) = crate::log::capture(|| {
-            // SAFETY: every stage's module is alive (held by `programs`); the create
-            // info is valid; the recursion depth was checked against the device limit.
-            unsafe {
-                inner.rt.create_ray_tracing_pipelines(
-                    vk::DeferredOperationKHR::null(),
-                    inner.pipeline_cache.handle,
-                    &create_info,
-                    None,
-                )
-            }
-        });
-        pipeline_inner.log = log;
-        let pipeline = match pipelines {
-            Ok(p) => p[0],
-            Err((p, e)) => {
-                for pipeline in p.into_iter().filter(|p| *p != vk::Pipeline::null()) {
-                    // SAFETY: never used.
-                    unsafe { inner.device.destroy_pipeline(pipeline, None) };
-                }
-                return Err(Error::vk("vkCreateRayTracingPipelinesKHR")(e));
-            }
-        };
+            .layout(layout);
+        let (pipeline, log) = create_ray_tracing_pipeline(inner, &create_info)?;
         pipeline_inner.pipeline = pipeline;
-        let names: Vec<&str> = programs.iter().filter_map(|p| p.name.to_str().ok()).collect();
-        inner.set_name(pipeline, &format!("raykit pipeline [{}]", names.join(", ")));
-        inner.set_name(layout, "raykit pipeline layout");
-        let handle_size = inner.limits.shader_group_handle_size as usize;
-        // SAFETY: `pipeline` has exactly `groups.len()` groups.
-        pipeline_inner.handles = unsafe {
-            inner.rt.get_ray_tracing_shader_group_handles(pipeline, 0, groups.len() as u32, groups.len() * handle_size)
+        pipeline_inner.log = log;
+        inner.set_name(pipeline, &format!("raykit pipeline [{}]", shaders.names().join(", ")));
+        pipeline_inner.finish(groups.iter().enumerate().map(|(i, g)| (*g, vk::Pipeline::null(), i as u32)))?;
+        Ok(Pipeline { inner: Arc::new(pipeline_inner), _params: PhantomData })
+    }
+
+    /// Links a pipeline from `libraries` (OptiX's "program groups can be used
+    /// across pipelines", on `VK_KHR_pipeline_library`): their program groups,
+    /// compiled when each [`PipelineLibrary`] was made, become this pipeline's
+    /// groups, so linking compiles nothing again. One library may go into many
+    /// pipelines. Together the libraries need one raygen group, at most one
+    /// exception group, and no group twice; every library must have been made with
+    /// `options.max_trace_depth` and the same [`InterfaceSizes`]. The SBT, stack
+    /// sizing and launches work as for [`Pipeline::new`].
+    pub fn link(ctx: &Context, libraries: &[&PipelineLibrary<P>], options: LinkOptions) -> Result<Pipeline<P>> {
+        let inner = &ctx.inner;
+        if !inner.pipeline_library {
+            return Err(Error::PipelineLibrariesUnsupported);
         }
-        .map_err(Error::vk("vkGetRayTracingShaderGroupHandlesKHR"))?;
-        for (index, group) in groups.iter().enumerate() {
-            let sizes = query_group_stack_sizes(inner, pipeline, index as u32, &group.programs);
-            pipeline_inner.group_stacks.push((group_role(&group.programs), sizes));
+        if libraries.iter().any(|l| !Arc::ptr_eq(&l.inner.ctx, inner)) {
+            return Err(Error::ContextMismatch);
         }
-        let default = stack::vulkan_default(&StackSizes::from_groups(pipeline_inner.group_stacks.iter().copied()), options.max_trace_depth);
-        pipeline_inner.stack_size = AtomicU32::new(stack_bytes(default)?);
+        let interface = libraries.first().map(|l| l.inner.interface).unwrap_or_default();
+        for (index, library) in libraries.iter().enumerate() {
+            if library.inner.max_trace_depth != options.max_trace_depth {
+                return Err(Error::LibraryMismatch {
+                    what: "max_trace_depth",
+                    index,
+                    found: library.inner.max_trace_depth.to_string(),
+                    expected: options.max_trace_depth.to_string(),
+                    fix: "Give LibraryOptions::max_trace_depth the pipeline's LinkOptions::max_trace_depth.",
+                });
+            }
+            if library.inner.interface != interface {
+                return Err(Error::LibraryMismatch {
+                    what: "interface",
+                    index,
+                    found: describe_interface(library.inner.interface),
+                    expected: describe_interface(interface),
+                    fix: "Make every library with LibraryOptions { interface: Some(PipelineLibrary::interface_for(&[every group of every library])), .. }.",
+                });
+            }
+        }
+        let groups: Vec<&ProgramGroup> = libraries.iter().flat_map(|l| l.inner.groups.iter()).collect();
+        let mut owner: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
+        for (index, library) in libraries.iter().enumerate() {
+            for group in &library.inner.groups {
+                if let Some(first) = owner.insert(group.id, index) {
+                    return Err(Error::GroupInSeveralLibraries { kind: group.kind_name(), first, second: index });
+                }
+            }
+        }
+        check_linkable(groups.iter().copied())?;
+        let params_uniform = new_params_uniform::<P>(inner)?;
+        let layout = create_layout::<P>(inner, params_uniform.as_ref().map(|u| u.set_layout))?;
+        let mut pipeline_inner = PipelineInner::new::<P>(inner, layout, params_uniform, options.max_trace_depth);
+        pipeline_inner.exceptions = libraries.iter().map(|l| l.inner.exceptions.clone()).collect();
+        pipeline_inner.libraries = libraries.iter().map(|l| l.inner.clone()).collect();
+        let library_pipelines: Vec<vk::Pipeline> = libraries.iter().map(|l| l.inner.pipeline).collect();
+        let library_info = vk::PipelineLibraryCreateInfoKHR::default().libraries(&library_pipelines);
+        let interface_info = interface.create_info();
+        let dynamic_states = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
+        let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        // lavapipe gives push constants only to pipelines that compile a stage
+        // themselves (see `crate::library`); give it one that does nothing.
+        let carrier = if inner.lavapipe { Some(PushConstantCarrier::new(inner)?) } else { None };
+        let carrier_stage: Vec<vk::PipelineShaderStageCreateInfo<'_>> = carrier.iter().map(PushConstantCarrier::stage).collect();
+        let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
+            .stages(&carrier_stage)
+            .library_info(&library_info)
+            .library_interface(&interface_info)
+            .max_pipeline_ray_recursion_depth(options.max_trace_depth)
+            .dynamic_state(&dynamic_state)
+            .layout(layout);
+        let (pipeline, log) = create_ray_tracing_pipeline(inner, &create_info)?;
+        pipeline_inner.pipeline = pipeline;
+        pipeline_inner.log = log;
+        drop(carrier);
+        inner.set_name(pipeline, &format!("raykit pipeline linked from {} libraries", libraries.len()));
+        let compiled = libraries
+            .iter()
+            .flat_map(|l| l.inner.groups.iter().enumerate().map(|(i, g)| (g, l.inner.pipeline, i as u32)));
+        pipeline_inner.finish(compiled)?;
         Ok(Pipeline { inner: Arc::new(pipeline_inner), _params: PhantomData })
     }
 
@@ -541,6 +459,273 @@ impl<P: LaunchParams> Pipeline<P> {
     /// The position of `group` in this pipeline, if it was linked into it.
     pub(crate) fn group_index(&self, group: &ProgramGroup) -> Option<usize> {
         self.inner.groups.iter().position(|(id, _)| *id == group.id)
+    }
+}
+
+fn describe_interface(sizes: InterfaceSizes) -> String {
+    format!("an interface of {} B of ray payload and {} B of hit attributes", sizes.payload, sizes.hit_attributes)
+}
+
+/// What every set of program groups compiled together (a pipeline or a library)
+/// must satisfy: one context, a trace depth within the device's limit, and
+/// every program's params block laid out as `P` (OptiX's rule that all modules
+/// agree on their `PipelineCompileOptions`).
+pub(crate) fn check_groups<P: LaunchParams>(inner: &Arc<ContextInner>, groups: &[&ProgramGroup], max_trace_depth: u32) -> Result<()> {
+    let limits = inner.limits;
+    if max_trace_depth > limits.max_ray_recursion_depth {
+        return Err(Error::TraceDepthTooLarge { requested: max_trace_depth, limit: limits.max_ray_recursion_depth });
+    }
+    if groups.iter().any(|g| !Arc::ptr_eq(&g.ctx, inner)) {
+        return Err(Error::ContextMismatch);
+    }
+    let params_size = std::mem::size_of::<P>();
+    let delivery = params_delivery::<P>();
+    // Launches write uniform params with `vkCmdUpdateBuffer`, which takes at most 65536 bytes.
+    let uniform_limit = limits.max_uniform_buffer_range.min(65536);
+    if delivery != ParamsDelivery::PushConstants && params_size > uniform_limit as usize {
+        return Err(Error::ParamsTooLarge { size: params_size, limit: uniform_limit });
+    }
+    for group in groups {
+        for program in group.programs() {
+            let name = program.name.to_string_lossy();
+            let Some(info) = program.module.entry_points.iter().find(|e| e.name == name) else { continue };
+            if !info.params.is_empty() {
+                raykit_device::layout::check(&P::LAYOUT, &name, &info.params, delivery)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// What the groups of a launchable pipeline must have: a raygen group, and at
+/// most one exception group.
+fn check_linkable<'g>(groups: impl Iterator<Item = &'g ProgramGroup> + Clone) -> Result<()> {
+    if groups.clone().filter(|g| matches!(g.programs, GroupPrograms::Exception(_))).count() > 1 {
+        return Err(Error::SeveralExceptionPrograms);
+    }
+    if !groups.clone().any(|g| matches!(g.programs, GroupPrograms::Raygen(_))) {
+        return Err(Error::NoRaygen);
+    }
+    Ok(())
+}
+
+/// The params uniform buffer, when `P` is over the push-constant budget.
+fn new_params_uniform<P: LaunchParams>(inner: &Arc<ContextInner>) -> Result<Option<ParamsUniform>> {
+    match params_delivery::<P>() {
+        ParamsDelivery::PushConstants => Ok(None),
+        ParamsDelivery::UniformBuffer { .. } => {
+            Ok(Some(ParamsUniform::new(inner, (std::mem::size_of::<P>() as u64).next_multiple_of(4))?))
+        }
+    }
+}
+
+/// The set layout of the params uniform buffer (set 1).
+pub(crate) fn params_set_layout(inner: &ContextInner) -> Result<vk::DescriptorSetLayout> {
+    let bindings = [vk::DescriptorSetLayoutBinding::default()
+        .binding(raykit_device::PARAMS_BINDING)
+        .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+        .descriptor_count(1)
+        .stage_flags(RT_STAGES)];
+    let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+    // SAFETY: valid create info on a live device.
+    unsafe { inner.device.create_descriptor_set_layout(&info, None) }.map_err(Error::vk("vkCreateDescriptorSetLayout"))
+}
+
+/// The pipeline layout for params `P`: the bindless table at set 0, and either a
+/// push-constant range or `params_set` (the uniform's set layout) at set 1.
+/// Pipelines and libraries made for the same `P` get compatible layouts, as
+/// linking requires.
+pub(crate) fn create_layout<P: LaunchParams>(
+    inner: &ContextInner,
+    params_set: Option<vk::DescriptorSetLayout>,
+) -> Result<vk::PipelineLayout> {
+    let mut set_layouts = vec![inner.buffer_table.layout];
+    set_layouts.extend(params_set);
+    let push_constant_size = if params_set.is_some() { 0 } else { std::mem::size_of::<P>() as u32 };
+    let push_ranges = [vk::PushConstantRange { stage_flags: RT_STAGES, offset: 0, size: push_constant_size }];
+    let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+    if push_constant_size > 0 {
+        layout_info = layout_info.push_constant_ranges(&push_ranges);
+    }
+    // SAFETY: valid create info; the set layouts outlive the layout's users.
+    let layout =
+        unsafe { inner.device.create_pipeline_layout(&layout_info, None) }.map_err(Error::vk("vkCreatePipelineLayout"))?;
+    inner.set_name(layout, "raykit pipeline layout");
+    Ok(layout)
+}
+
+/// Creates one ray-tracing pipeline (or library) through the context's pipeline
+/// cache; returns it with what was reported during the call.
+pub(crate) fn create_ray_tracing_pipeline(
+    inner: &ContextInner,
+    create_info: &vk::RayTracingPipelineCreateInfoKHR<'_>,
+) -> Result<(vk::Pipeline, Vec<crate::log::ValidationMessage>)> {
+    let (pipelines, log) = crate::log::capture(|| {
+        // SAFETY: the callers' create infos are valid: every stage's module is
+        // alive, libraries are live pipeline libraries of this device, and the
+        // recursion depth was checked against the device limit.
+        unsafe {
+            inner.rt.create_ray_tracing_pipelines(
+                vk::DeferredOperationKHR::null(),
+                inner.pipeline_cache.handle,
+                std::slice::from_ref(create_info),
+                None,
+            )
+        }
+    });
+    match pipelines {
+        Ok(p) => Ok((p[0], log)),
+        Err((p, e)) => {
+            for pipeline in p.into_iter().filter(|p| *p != vk::Pipeline::null()) {
+                // SAFETY: never used.
+                unsafe { inner.device.destroy_pipeline(pipeline, None) };
+            }
+            Err(Error::vk("vkCreateRayTracingPipelinesKHR")(e))
+        }
+    }
+}
+
+/// The shader stages and groups of a set of program groups compiled together,
+/// with the specialization every stage gets: the exception buffer's slot and
+/// the user's constants.
+pub(crate) struct ShaderGroups {
+    programs: Vec<Program>,
+    pub(crate) group_infos: Vec<vk::RayTracingShaderGroupCreateInfoKHR<'static>>,
+    spec_data: Vec<u8>,
+    spec_entries: Vec<vk::SpecializationMapEntry>,
+}
+
+impl ShaderGroups {
+    pub(crate) fn new(groups: &[&ProgramGroup], exception_slot: u32, constants: &Specialization) -> ShaderGroups {
+        // One shader stage per program; groups refer to stages by index.
+        let mut programs: Vec<Program> = Vec::new();
+        let mut stage_index = |p: Option<&Program>| -> u32 {
+            match p {
+                Some(p) => {
+                    programs.push(p.clone());
+                    programs.len() as u32 - 1
+                }
+                None => vk::SHADER_UNUSED_KHR,
+            }
+        };
+        let mut group_infos = Vec::with_capacity(groups.len());
+        for group in groups {
+            let info = match &group.programs {
+                GroupPrograms::Raygen(p)
+                | GroupPrograms::Miss(p)
+                | GroupPrograms::Callable(p)
+                | GroupPrograms::Exception(p) => vk::RayTracingShaderGroupCreateInfoKHR::default()
+                    .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
+                    .general_shader(stage_index(Some(p)))
+                    .closest_hit_shader(vk::SHADER_UNUSED_KHR)
+                    .any_hit_shader(vk::SHADER_UNUSED_KHR)
+                    .intersection_shader(vk::SHADER_UNUSED_KHR),
+                GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
+                    let ty = if intersection.is_some() {
+                        vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP
+                    } else {
+                        vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP
+                    };
+                    vk::RayTracingShaderGroupCreateInfoKHR::default()
+                        .ty(ty)
+                        .general_shader(vk::SHADER_UNUSED_KHR)
+                        .closest_hit_shader(stage_index(closest_hit.as_ref()))
+                        .any_hit_shader(stage_index(any_hit.as_ref()))
+                        .intersection_shader(stage_index(intersection.as_ref()))
+                }
+            };
+            group_infos.push(info);
+        }
+        // The user-exception buffer's slot, for every program as a specialization
+        // constant (modules without that constant ignore it).
+        let mut values = vec![(raykit_device::exception::EXCEPTION_SLOT_SPEC_ID, exception_slot)];
+        values.extend(constants.values.iter().copied());
+        let spec_data: Vec<u8> = values.iter().flat_map(|(_, v)| v.to_ne_bytes()).collect();
+        let spec_entries: Vec<vk::SpecializationMapEntry> = values
+            .iter()
+            .enumerate()
+            .map(|(i, (id, _))| vk::SpecializationMapEntry {
+                constant_id: *id,
+                offset: (i * std::mem::size_of::<u32>()) as u32,
+                size: std::mem::size_of::<u32>(),
+            })
+            .collect();
+        ShaderGroups { programs, group_infos, spec_data, spec_entries }
+    }
+
+    /// The specialization every stage gets; it borrows `self`.
+    pub(crate) fn specialization(&self) -> vk::SpecializationInfo<'_> {
+        vk::SpecializationInfo::default().map_entries(&self.spec_entries).data(&self.spec_data)
+    }
+
+    /// One stage create info per program, each with `specialization`.
+    pub(crate) fn stages<'a>(&'a self, specialization: &'a vk::SpecializationInfo<'a>) -> Vec<vk::PipelineShaderStageCreateInfo<'a>> {
+        self.programs
+            .iter()
+            .map(|p| {
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(stage_flag(p.kind))
+                    .module(p.module.shader)
+                    .name(&p.name)
+                    .specialization_info(specialization)
+            })
+            .collect()
+    }
+
+    /// The programs' entry-point names, for debug names.
+    pub(crate) fn names(&self) -> Vec<&str> {
+        self.programs.iter().filter_map(|p| p.name.to_str().ok()).collect()
+    }
+}
+
+impl PipelineInner {
+    /// A pipeline not created yet, owning `layout` and `params_uniform`.
+    fn new<P: LaunchParams>(
+        inner: &Arc<ContextInner>,
+        layout: vk::PipelineLayout,
+        params_uniform: Option<ParamsUniform>,
+        max_trace_depth: u32,
+    ) -> PipelineInner {
+        PipelineInner {
+            ctx: inner.clone(),
+            pipeline: vk::Pipeline::null(),
+            layout,
+            groups: Vec::new(),
+            handles: Vec::new(),
+            push_constant_size: if params_uniform.is_some() { 0 } else { std::mem::size_of::<P>() as u32 },
+            params_uniform,
+            max_trace_depth,
+            group_stacks: Vec::new(),
+            stack_size: AtomicU32::new(0),
+            exceptions: Vec::new(),
+            libraries: Vec::new(),
+            readbacks: Mutex::new(Vec::new()),
+            log: Vec::new(),
+        }
+    }
+
+    /// Reads the created pipeline's group handles and stack sizes, for `groups`
+    /// in pipeline order, and sets the default stack size. Each group's stack
+    /// sizes are asked of the pipeline that compiled it (`self`, or a library)
+    /// at its index there, as `vkGetRayTracingShaderGroupStackSizeKHR` requires.
+    fn finish<'g>(&mut self, groups: impl Iterator<Item = (&'g ProgramGroup, vk::Pipeline, u32)>) -> Result<()> {
+        let compiled: Vec<(&ProgramGroup, vk::Pipeline, u32)> = groups.collect();
+        let groups: Vec<&ProgramGroup> = compiled.iter().map(|(g, _, _)| *g).collect();
+        self.groups = groups.iter().map(|g| (g.id, g.kind_name())).collect();
+        let handle_size = self.ctx.limits.shader_group_handle_size as usize;
+        // SAFETY: `self.pipeline` is live and has exactly `groups.len()` groups.
+        self.handles = unsafe {
+            self.ctx.rt.get_ray_tracing_shader_group_handles(self.pipeline, 0, groups.len() as u32, groups.len() * handle_size)
+        }
+        .map_err(Error::vk("vkGetRayTracingShaderGroupHandlesKHR"))?;
+        for (group, pipeline, index) in &compiled {
+            let pipeline = if *pipeline == vk::Pipeline::null() { self.pipeline } else { *pipeline };
+            let sizes = query_group_stack_sizes(&self.ctx, pipeline, *index, &group.programs);
+            self.group_stacks.push((group_role(&group.programs), sizes));
+        }
+        let default = stack::vulkan_default(&StackSizes::from_groups(self.group_stacks.iter().copied()), self.max_trace_depth);
+        self.stack_size = AtomicU32::new(stack_bytes(default)?);
+        Ok(())
     }
 }
 

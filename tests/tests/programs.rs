@@ -171,29 +171,50 @@ fn hit_triangle(origin: Vec3, dir: Vec3, tri: [Vec3; 3], t_max: f32) -> Option<f
     raykit_tests::ray_triangle(origin, dir, tri, 0.0, t_max).map(|(t, _)| t)
 }
 
+/// Checks a render of the shadows scene against the CPU reference.
+fn check_shadows(got: &[u32]) -> anyhow::Result<()> {
+    use program_model_device::{LIGHT, LIT, OCCLUDER, SHADOWED, SHADOW_EPSILON};
+    let ground = GROUND;
+    let occluder = OCCLUDER_TRIANGLE;
+    let mut shadowed = 0;
+    let share = compare(got, |pixel| {
+        let (origin, dir) = ortho_ray(pixel, UVec2::splat(SIZE));
+        if hit_triangle(origin, dir, occluder, f32::MAX).is_some() {
+            return Some(OCCLUDER);
+        }
+        let t = ground.iter().find_map(|tri| hit_triangle(origin, dir, *tri, f32::MAX))?;
+        let start = origin + t * dir + Vec3::new(0.0, 0.0, SHADOW_EPSILON);
+        let blocked = hit_triangle(start, LIGHT - start, occluder, 1.0).is_some();
+        if blocked {
+            shadowed += 1;
+        }
+        Some(if blocked { SHADOWED } else { LIT })
+    })?;
+    anyhow::ensure!(shadowed > 100, "the reference has only {shadowed} shadowed pixels");
+    anyhow::ensure!(share >= 0.995, "only {:.2}% of pixels within 2/255", share * 100.0);
+    Ok(())
+}
+
 #[test]
 fn shadow_rays_of_a_second_ray_type_darken_the_occluded_ground() -> anyhow::Result<()> {
-    use program_model_device::{LIGHT, LIT, OCCLUDER, SHADOWED, SHADOW_EPSILON};
     with_context("shadow_rays_of_a_second_ray_type_darken_the_occluded_ground", |ctx| {
-        let ground = GROUND;
-        let occluder = OCCLUDER_TRIANGLE;
-        let got = program_model::shadows(ctx, SIZE)?;
-        let mut shadowed = 0;
-        let share = compare(&got, |pixel| {
-            let (origin, dir) = ortho_ray(pixel, UVec2::splat(SIZE));
-            if hit_triangle(origin, dir, occluder, f32::MAX).is_some() {
-                return Some(OCCLUDER);
-            }
-            let t = ground.iter().find_map(|tri| hit_triangle(origin, dir, *tri, f32::MAX))?;
-            let start = origin + t * dir + Vec3::new(0.0, 0.0, SHADOW_EPSILON);
-            let blocked = hit_triangle(start, LIGHT - start, occluder, 1.0).is_some();
-            if blocked {
-                shadowed += 1;
-            }
-            Some(if blocked { SHADOWED } else { LIT })
-        })?;
-        assert!(shadowed > 100, "the reference has only {shadowed} shadowed pixels");
-        assert!(share >= 0.995, "only {:.2}% of pixels within 2/255", share * 100.0);
+        check_shadows(&program_model::shadows(ctx, SIZE)?)
+    })
+}
+
+/// OptiX's program groups used across pipelines, on `VK_KHR_pipeline_library`:
+/// the shadows scene (two ray types, trace depth 2) from a raygen library and a
+/// library of the misses and hit groups renders the very pixels of the
+/// monolithic pipeline, which match the CPU reference.
+#[test]
+fn a_pipeline_linked_from_libraries_renders_like_the_monolithic_one() -> anyhow::Result<()> {
+    with_context("a_pipeline_linked_from_libraries_renders_like_the_monolithic_one", |ctx| {
+        anyhow::ensure!(ctx.supports_pipeline_libraries(), "{} lacks VK_KHR_pipeline_library", ctx.device_name());
+        let linked = program_model::shadows_linked_as(ctx, SIZE, program_model::Linking::Libraries)?;
+        let monolithic = program_model::shadows_linked_as(ctx, SIZE, program_model::Linking::Monolithic)?;
+        check_shadows(&linked)?;
+        let differing = linked.iter().zip(&monolithic).filter(|(a, b)| a != b).count();
+        assert_eq!(differing, 0, "{differing} pixels differ between the linked and the monolithic pipeline");
         Ok(())
     })
 }

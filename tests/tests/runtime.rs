@@ -3,7 +3,10 @@
 
 use program_model_device::{pack, Params, Radiance, SHADE_MODE_SPEC_ID, SPEC_COLORS};
 use raykit::glam::{Affine3A, UVec2, Vec3, Vec4};
-use raykit::{CacheLoad, Context, ContextOptions, Gas, Ias, Instance, LinkOptions, Module, Pipeline, PipelineCacheLocation, ProgramGroup, Sbt, Specialization};
+use raykit::{
+    CacheLoad, Context, ContextOptions, Gas, Ias, Instance, LibraryOptions, LinkOptions, Module, Pipeline, PipelineCacheLocation,
+    PipelineLibrary, ProgramGroup, Sbt, Specialization,
+};
 use raykit_tests::{temp_dir, with_context, with_context_options};
 
 #[test]
@@ -255,4 +258,142 @@ fn a_validation_message_reaches_the_log_callback_naming_its_object() -> anyhow::
     eprintln!("callback got: {leak}");
     assert_eq!(leak.severity, raykit::Severity::Error);
     Ok(())
+}
+
+/// The quad scene of the specialization tests, and the params that render it at `size`².
+fn quad_scene(ctx: &Context) -> anyhow::Result<(Gas, Ias)> {
+    let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
+    let scene = Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
+    Ok((gas, scene))
+}
+
+/// OptiX's "program groups can be used across pipelines": one library (raygen
+/// and miss) linked into two pipelines, each with its own hit library compiled
+/// with another specialization constant. Both pipelines live at once, and keep
+/// working after the library handles are dropped.
+#[test]
+fn one_library_is_linked_into_two_pipelines_with_their_own_hit_libraries() -> anyhow::Result<()> {
+    with_context("one_library_is_linked_into_two_pipelines_with_their_own_hit_libraries", |ctx| {
+        anyhow::ensure!(ctx.supports_pipeline_libraries(), "{} lacks VK_KHR_pipeline_library", ctx.device_name());
+        let (_gas, scene) = quad_scene(ctx)?;
+        let module = Module::from_device_crate(ctx, "program-model-device")?;
+        let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+        let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
+        let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SPEC_SHADE).build()?;
+        let interface = PipelineLibrary::<Params>::interface_for(&[&raygen, &miss, &hit]);
+        let options = LibraryOptions { max_trace_depth: 1, interface: Some(interface) };
+        let common = PipelineLibrary::<Params>::new(ctx, &[&raygen, &miss], options)?;
+        let mut pipelines = Vec::new();
+        for mode in [0, 1] {
+            let constants = Specialization::new().set(SHADE_MODE_SPEC_ID, mode);
+            let hits = PipelineLibrary::<Params>::with_specialization(ctx, &[&hit], options, &constants)?;
+            assert_eq!(hits.interface(), interface);
+            pipelines.push(Pipeline::link(ctx, &[&common, &hits], LinkOptions::default())?);
+        }
+        drop(common);
+        let image = ctx.buffer::<u32>(16 * 16)?;
+        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+        for (mode, pipeline) in pipelines.iter().enumerate() {
+            let sbt = Sbt::builder(pipeline).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build()?;
+            pipeline.launch(&sbt, &params, [16, 16, 1])?;
+            let pixels = image.read()?;
+            assert_eq!(pixels[8 * 16 + 8], pack(SPEC_COLORS[mode]), "centre of pipeline {mode}");
+            assert_eq!(pixels[0], pack(program_model_device::BACKGROUND), "corner of pipeline {mode}");
+            // Linking compiled nothing: the groups are the libraries', in library order.
+            let roles: Vec<raykit::stack::GroupRole> = pipeline.all_group_stack_sizes().iter().map(|(role, _)| *role).collect();
+            use raykit::stack::GroupRole::{Hit, Miss, Raygen};
+            assert_eq!(roles, [Raygen, Miss, Hit]);
+        }
+        Ok(())
+    })
+}
+
+/// A user exception thrown by a program compiled in a library is recorded in
+/// that library's buffer and reaches the host from the linked pipeline's launch.
+#[test]
+fn user_exceptions_thrown_in_a_library_reach_the_host() -> anyhow::Result<()> {
+    with_context("user_exceptions_thrown_in_a_library_reach_the_host", |ctx| {
+        let module = Module::from_device_crate(ctx, "program-model-device")?;
+        let throwing = ProgramGroup::raygen(&module, program_model_device::RG_THROW)?;
+        let library = PipelineLibrary::<Params>::new(ctx, &[&throwing], LibraryOptions::default())?;
+        let pipeline = Pipeline::link(ctx, &[&library], LinkOptions::default())?;
+        let sbt = Sbt::builder(&pipeline).raygen(&throwing, ()).build()?;
+        let image = ctx.buffer::<u32>(16 * 16)?;
+        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: raykit::Traversable::NULL };
+        match pipeline.launch(&sbt, &params, [16, 16, 1]) {
+            Err(raykit::Error::UserExceptions { total, exceptions }) => {
+                assert_eq!(total, 2);
+                let mut codes: Vec<u32> = exceptions.iter().map(|e| e.code).collect();
+                codes.sort();
+                let mut expected: Vec<u32> = program_model_device::THROWN.iter().map(|(_, code)| *code).collect();
+                expected.sort();
+                assert_eq!(codes, expected);
+            }
+            other => anyhow::bail!("expected two user exceptions, got {other:?}"),
+        }
+        Ok(())
+    })
+}
+
+/// Libraries that Vulkan would not link together are refused by raykit with
+/// the reason and the fix, and a correct link still works afterwards.
+#[test]
+fn libraries_that_cannot_be_linked_together_are_refused_with_the_fix() -> anyhow::Result<()> {
+    use raykit::{Error, InterfaceSizes};
+    with_context("libraries_that_cannot_be_linked_together_are_refused_with_the_fix", |ctx| {
+        let module = Module::from_device_crate(ctx, "program-model-device")?;
+        let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+        let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
+        let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SPEC_SHADE).build()?;
+        let needed = PipelineLibrary::<Params>::interface_for(&[&raygen, &miss, &hit]);
+        // The Radiance payload is a Vec3; closest-hits declare the triangle barycentrics.
+        assert_eq!(needed, InterfaceSizes { payload: 12, hit_attributes: 8 });
+        let options = LibraryOptions { max_trace_depth: 1, interface: Some(needed) };
+        let common = PipelineLibrary::<Params>::new(ctx, &[&raygen, &miss], options)?;
+        let hits = PipelineLibrary::<Params>::new(ctx, &[&hit], options)?;
+
+        let err = Pipeline::link(ctx, &[&common, &hits], LinkOptions { max_trace_depth: 2 }).err();
+        assert!(matches!(err, Some(Error::LibraryMismatch { what: "max_trace_depth", index: 0, .. })), "{err:?}");
+        assert!(err.is_some_and(|e| e.to_string().contains("LibraryOptions::max_trace_depth")));
+
+        let wider = LibraryOptions { interface: Some(InterfaceSizes { payload: 32, hit_attributes: 8 }), ..options };
+        let wide_hits = PipelineLibrary::<Params>::new(ctx, &[&hit], wider)?;
+        let err = Pipeline::link(ctx, &[&common, &wide_hits], LinkOptions::default()).err();
+        assert!(matches!(err, Some(Error::LibraryMismatch { what: "interface", index: 1, .. })), "{err:?}");
+        assert!(err.is_some_and(|e| e.to_string().contains("interface_for")));
+
+        let narrow = LibraryOptions { interface: Some(InterfaceSizes { payload: 4, hit_attributes: 0 }), ..options };
+        let err = PipelineLibrary::<Params>::new(ctx, &[&raygen], narrow).err();
+        assert!(
+            matches!(&err, Some(Error::LibraryInterfaceTooSmall { what: "ray payload", needed: 12, given: 4, program }) if program.starts_with("__raygen__")),
+            "{err:?}"
+        );
+
+        let too_many_attributes = ctx.limits().max_ray_hit_attribute_size + 4;
+        let huge = LibraryOptions { interface: Some(InterfaceSizes { payload: 12, hit_attributes: too_many_attributes }), ..options };
+        let err = PipelineLibrary::<Params>::new(ctx, &[&hit], huge).err();
+        assert!(matches!(err, Some(Error::HitAttributesTooLarge { .. })), "{err:?}");
+
+        let misses = PipelineLibrary::<Params>::new(ctx, &[&miss], options)?;
+        let err = Pipeline::link(ctx, &[&common, &misses, &hits], LinkOptions::default()).err();
+        assert!(matches!(err, Some(Error::GroupInSeveralLibraries { kind: "miss", first: 0, second: 1 })), "{err:?}");
+
+        let err = Pipeline::link(ctx, &[&misses, &hits], LinkOptions::default()).err();
+        assert!(matches!(err, Some(Error::NoRaygen)), "{err:?}");
+        let err = PipelineLibrary::<Params>::new(ctx, &[], options).err();
+        assert!(matches!(err, Some(Error::EmptyLibrary)), "{err:?}");
+
+        // The right libraries still link and render.
+        let (_gas, scene) = quad_scene(ctx)?;
+        let pipeline = Pipeline::link(ctx, &[&common, &hits], LinkOptions::default())?;
+        let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build()?;
+        let image = ctx.buffer::<u32>(16 * 16)?;
+        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+        pipeline.launch(&sbt, &params, [16, 16, 1])?;
+        assert_eq!(image.read()?[8 * 16 + 8], pack(SPEC_COLORS[0]));
+        Ok(())
+    })
 }

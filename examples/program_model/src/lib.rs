@@ -6,7 +6,8 @@
 //! * [`spheres`]: AABB primitives and an intersection program reporting typed
 //!   attributes (the normal), shaded by closest-hit;
 //! * [`cutout`]: an any-hit program that ignores hits where a checkerboard is clear;
-//! * [`shadows`]: two ray types, radiance and shadow, with a point light;
+//! * [`shadows`]: two ray types, radiance and shadow, with a point light (also
+//!   linked from pipeline libraries: [`shadows_linked_as`]);
 //! * [`callables`]: a closest-hit that picks a material callable by the
 //!   instance's custom index;
 //! * [`sbt_data`]: instances sharing one hit program, each reading its own SBT record.
@@ -14,7 +15,8 @@
 use program_model_device::{ColorRecord, Params, Radiance, Shadow, ShadowedRadiance};
 use raykit::glam::{Affine3A, Quat, UVec2, Vec3, Vec4};
 use raykit::{
-    Aabb, Aabbs, Context, Gas, GeometryFlags, Ias, Instance, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Triangles,
+    Aabb, Aabbs, Context, Gas, GeometryFlags, Ias, Instance, LibraryOptions, LinkOptions, Module, Pipeline, PipelineLibrary,
+    ProgramGroup, Sbt, Triangles,
 };
 
 /// The scenes, by name.
@@ -126,6 +128,21 @@ pub fn cutout(ctx: &Context, size: u32) -> raykit::Result<Vec<u32>> {
 /// ray of a second ray type towards a point light. The SBT is placed from the
 /// two ray types' declarations.
 pub fn shadows(ctx: &Context, size: u32) -> raykit::Result<Vec<u32>> {
+    shadows_linked_as(ctx, size, Linking::Monolithic)
+}
+
+/// How [`shadows_linked_as`] makes its pipeline.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Linking {
+    /// One `Pipeline::new` of all groups.
+    Monolithic,
+    /// Two pipeline libraries, the raygen and the rest (both misses and hit
+    /// groups), joined by `Pipeline::link`.
+    Libraries,
+}
+
+/// [`shadows`], its pipeline made as `linking` says.
+pub fn shadows_linked_as(ctx: &Context, size: u32, linking: Linking) -> raykit::Result<Vec<u32>> {
     let vertices: Vec<Vec3> = GROUND.iter().flatten().copied().chain(OCCLUDER_TRIANGLE).collect();
     let gas = Gas::triangles(ctx, &vertices, None)?;
     let scene = Ias::single(ctx, &gas)?;
@@ -135,11 +152,19 @@ pub fn shadows(ctx: &Context, size: u32) -> raykit::Result<Vec<u32>> {
     let shadow_miss = ProgramGroup::miss(&module, program_model_device::MS_SHADOW)?;
     let shade = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SHADE_SHADOWED).build()?;
     let shadow_hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SHADOW_HIT).build()?;
-    let pipeline = Pipeline::<Params>::new(
-        ctx,
-        &[&raygen, &miss, &shadow_miss, &shade, &shadow_hit],
-        LinkOptions { max_trace_depth: 2 },
-    )?;
+    let link = LinkOptions { max_trace_depth: 2 };
+    let pipeline = match linking {
+        Linking::Monolithic => Pipeline::<Params>::new(ctx, &[&raygen, &miss, &shadow_miss, &shade, &shadow_hit], link)?,
+        Linking::Libraries => {
+            let rest = [&miss, &shadow_miss, &shade, &shadow_hit];
+            // One interface for both libraries: the largest payload of all groups.
+            let all = [&raygen, &miss, &shadow_miss, &shade, &shadow_hit];
+            let options = LibraryOptions { max_trace_depth: 2, interface: Some(PipelineLibrary::<Params>::interface_for(&all)) };
+            let raygen_library = PipelineLibrary::<Params>::new(ctx, &[&raygen], options)?;
+            let rest_library = PipelineLibrary::<Params>::new(ctx, &rest, options)?;
+            Pipeline::link(ctx, &[&raygen_library, &rest_library], link)?
+        }
+    };
     let sbt = Sbt::builder(&pipeline)
         .raygen(&raygen, ())
         .miss_for::<ShadowedRadiance, _>(&miss, ())

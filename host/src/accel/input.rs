@@ -523,6 +523,7 @@ mod tests {
             max_shader_group_stride: 4096,
             max_ray_recursion_depth: 31,
             max_ray_dispatch_invocation_count: 1 << 30,
+            max_ray_hit_attribute_size: 32,
             max_push_constants_size: 128,
             max_uniform_buffer_range: 65536,
             min_uniform_buffer_offset_alignment: 256,

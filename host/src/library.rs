@@ -1,0 +1,277 @@
+//! Pipeline libraries: program groups compiled once and linked into many
+//! pipelines, OptiX's "program groups can be used across pipelines", on
+//! [`VK_KHR_pipeline_library`](https://registry.khronos.org/vulkan/specs/latest/man/html/VK_KHR_pipeline_library.html).
+//!
+//! A [`PipelineLibrary<P>`] compiles its groups (with their specialization
+//! constants and their own user-exception buffer) when it is made;
+//! [`crate::Pipeline::link`] then joins libraries into a launchable pipeline
+//! without compiling them again. Vulkan requires the libraries of one pipeline
+//! and the pipeline itself to agree on the recursion depth and on the
+//! *interface*: the largest ray payload and hit attributes any program uses
+//! ([`InterfaceSizes`]). raykit reads both sizes from each program's SPIR-V, so a
+//! library's interface defaults to what its programs declare; libraries meant to
+//! be linked together take one interface covering all of them
+//! ([`PipelineLibrary::interface_for`]).
+//!
+//! lavapipe (Mesa 25) delivers push constants only to the stages of a pipeline
+//! that it compiled itself (`lvp_compile_ray_tracing_stages` sets the push-constant
+//! size in its loop over `pStages`, not over the libraries' stages), so a pipeline
+//! linked only from libraries reads zeros. On lavapipe, raykit adds one empty
+//! raygen stage of its own to every linked pipeline ([`PushConstantCarrier`]);
+//! no group uses it.
+
+use std::marker::PhantomData;
+use std::sync::Arc;
+
+use ash::vk;
+use raykit_device::layout::{InterfaceSizes, ParamsDelivery};
+use raykit_device::LaunchParams;
+
+use crate::context::{Context, ContextInner};
+use crate::error::{Error, Result};
+use crate::pipeline::{
+    check_groups, create_layout, create_ray_tracing_pipeline, params_delivery, params_set_layout, ExceptionBuffer, ShaderGroups,
+    Specialization,
+};
+use crate::program_group::ProgramGroup;
+
+/// An empty raygen shader (`void main() {}`, SPIR-V 1.4) that a linked pipeline
+/// compiles itself on lavapipe, so that lavapipe gives the pipeline's programs
+/// their push constants (see the module docs). Assembled with `spirv-as
+/// --target-env spv1.4` and checked with `spirv-val --target-env vulkan1.2`.
+const EMPTY_RAYGEN: [u32; 35] = [
+    0x0723_0203, 0x0001_0400, 0, 5, 0, // header: magic, version 1.4, generator, bound, schema
+    0x0002_0011, 0x117f, // OpCapability RayTracingKHR
+    0x0006_000a, 0x5f56_5053, 0x5f52_484b, 0x5f79_6172, 0x6361_7274, 0x0067_6e69, // OpExtension "SPV_KHR_ray_tracing"
+    0x0003_000e, 0, 1, // OpMemoryModel Logical GLSL450
+    0x0005_000f, 0x14c1, 1, 0x6e69_616d, 0, // OpEntryPoint RayGenerationKHR %1 "main"
+    0x0002_0013, 2, // %2 = OpTypeVoid
+    0x0003_0021, 3, 2, // %3 = OpTypeFunction %2
+    0x0005_0036, 2, 1, 0, 3, // %1 = OpFunction %2 None %3
+    0x0002_00f8, 4, // %4 = OpLabel
+    0x0001_00fd, // OpReturn
+    0x0001_0038, // OpFunctionEnd
+];
+
+/// The module of [`EMPTY_RAYGEN`], alive while a linked pipeline is created.
+pub(crate) struct PushConstantCarrier {
+    ctx: Arc<ContextInner>,
+    module: vk::ShaderModule,
+}
+
+impl PushConstantCarrier {
+    pub(crate) fn new(ctx: &Arc<ContextInner>) -> Result<PushConstantCarrier> {
+        let info = vk::ShaderModuleCreateInfo::default().code(&EMPTY_RAYGEN);
+        // SAFETY: `EMPTY_RAYGEN` is valid SPIR-V (checked with spirv-val); the device is live.
+        let module = unsafe { ctx.device.create_shader_module(&info, None) }.map_err(Error::vk("vkCreateShaderModule"))?;
+        Ok(PushConstantCarrier { ctx: ctx.clone(), module })
+    }
+
+    /// Its stage, for a linked pipeline's `pStages`.
+    pub(crate) fn stage(&self) -> vk::PipelineShaderStageCreateInfo<'static> {
+        vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::RAYGEN_KHR).module(self.module).name(c"main")
+    }
+}
+
+impl Drop for PushConstantCarrier {
+    fn drop(&mut self) {
+        // SAFETY: only used while creating a pipeline, which is done.
+        unsafe { self.ctx.device.destroy_shader_module(self.module, None) };
+    }
+}
+
+/// Options of a [`PipelineLibrary`].
+#[derive(Copy, Clone, Debug)]
+pub struct LibraryOptions {
+    /// Maximum recursion depth of `trace` calls; must equal the
+    /// [`crate::LinkOptions::max_trace_depth`] of every pipeline it is linked into.
+    pub max_trace_depth: u32,
+    /// The payload and hit-attribute sizes it is compiled for; `None` takes what
+    /// its programs declare. Libraries linked together need the same interface.
+    pub interface: Option<InterfaceSizes>,
+}
+
+impl Default for LibraryOptions {
+    fn default() -> Self {
+        LibraryOptions { max_trace_depth: 1, interface: None }
+    }
+}
+
+/// Program groups compiled into a Vulkan pipeline library, ready to be linked
+/// into pipelines whose programs take launch params `P`.
+pub struct PipelineLibrary<P: LaunchParams> {
+    pub(crate) inner: Arc<LibraryInner>,
+    _params: PhantomData<fn(&P)>,
+}
+
+pub(crate) struct LibraryInner {
+    pub(crate) ctx: Arc<ContextInner>,
+    pub(crate) pipeline: vk::Pipeline,
+    layout: vk::PipelineLayout,
+    params_set_layout: Option<vk::DescriptorSetLayout>,
+    /// Its groups, in library order.
+    pub(crate) groups: Vec<ProgramGroup>,
+    /// Where its programs record user exceptions (their slot was specialized in).
+    pub(crate) exceptions: Arc<ExceptionBuffer>,
+    pub(crate) max_trace_depth: u32,
+    pub(crate) interface: InterfaceSizes,
+    log: Vec<crate::log::ValidationMessage>,
+}
+
+impl InterfaceSizesExt for InterfaceSizes {
+    fn create_info(self) -> vk::RayTracingPipelineInterfaceCreateInfoKHR<'static> {
+        vk::RayTracingPipelineInterfaceCreateInfoKHR::default()
+            .max_pipeline_ray_payload_size(self.payload)
+            .max_pipeline_ray_hit_attribute_size(self.hit_attributes)
+    }
+}
+
+/// [`InterfaceSizes`] as Vulkan takes it.
+pub(crate) trait InterfaceSizesExt {
+    /// `VkRayTracingPipelineInterfaceCreateInfoKHR` of these sizes.
+    fn create_info(self) -> vk::RayTracingPipelineInterfaceCreateInfoKHR<'static>;
+}
+
+impl<P: LaunchParams> PipelineLibrary<P> {
+    /// Compiles `groups` into a library. Any groups may go in one (a library
+    /// needs no raygen group); see [`crate::Pipeline::link`].
+    pub fn new(ctx: &Context, groups: &[&ProgramGroup], options: LibraryOptions) -> Result<PipelineLibrary<P>> {
+        Self::with_specialization(ctx, groups, options, &Specialization::new())
+    }
+
+    /// Compiles `groups` into a library like [`PipelineLibrary::new`], with the
+    /// specialization constants in `constants` (see
+    /// [`crate::Pipeline::with_specialization`]): they are fixed in the library.
+    pub fn with_specialization(
+        ctx: &Context,
+        groups: &[&ProgramGroup],
+        options: LibraryOptions,
+        constants: &Specialization,
+    ) -> Result<PipelineLibrary<P>> {
+        let inner = &ctx.inner;
+        if !inner.pipeline_library {
+            return Err(Error::PipelineLibrariesUnsupported);
+        }
+        if groups.is_empty() {
+            return Err(Error::EmptyLibrary);
+        }
+        check_groups::<P>(inner, groups, options.max_trace_depth)?;
+        let needed = Self::interface_for(groups);
+        let interface = options.interface.unwrap_or(needed);
+        check_interface(groups, interface)?;
+        if interface.hit_attributes > inner.limits.max_ray_hit_attribute_size {
+            return Err(Error::HitAttributesTooLarge {
+                size: interface.hit_attributes,
+                limit: inner.limits.max_ray_hit_attribute_size,
+            });
+        }
+        let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
+        // Wrapped at once, so an early return frees what exists.
+        let mut library = LibraryInner {
+            ctx: inner.clone(),
+            pipeline: vk::Pipeline::null(),
+            layout: vk::PipelineLayout::null(),
+            params_set_layout: None,
+            groups: groups.iter().map(|g| (*g).clone()).collect(),
+            exceptions,
+            max_trace_depth: options.max_trace_depth,
+            interface,
+            log: Vec::new(),
+        };
+        if params_delivery::<P>() != ParamsDelivery::PushConstants {
+            library.params_set_layout = Some(params_set_layout(inner)?);
+        }
+        library.layout = create_layout::<P>(inner, library.params_set_layout)?;
+        let shaders = ShaderGroups::new(groups, library.exceptions.slot, constants);
+        let specialization = shaders.specialization();
+        let stages = shaders.stages(&specialization);
+        let interface_info = interface.create_info();
+        let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
+            .flags(vk::PipelineCreateFlags::LIBRARY_KHR)
+            .stages(&stages)
+            .groups(&shaders.group_infos)
+            .max_pipeline_ray_recursion_depth(options.max_trace_depth)
+            .library_interface(&interface_info)
+            .layout(library.layout);
+        let (pipeline, log) = create_ray_tracing_pipeline(inner, &create_info)?;
+        library.pipeline = pipeline;
+        library.log = log;
+        inner.set_name(pipeline, &format!("raykit pipeline library [{}]", shaders.names().join(", ")));
+        Ok(PipelineLibrary { inner: Arc::new(library), _params: PhantomData })
+    }
+
+    /// The interface that covers every program of `groups`: the largest ray
+    /// payload and hit attributes their SPIR-V declares. Give it, for all the
+    /// groups of all the libraries to be linked together, as each one's
+    /// [`LibraryOptions::interface`].
+    pub fn interface_for(groups: &[&ProgramGroup]) -> InterfaceSizes {
+        groups
+            .iter()
+            .flat_map(|g| g.programs())
+            .filter_map(|p| {
+                let name = p.name.to_string_lossy();
+                p.module.entry_points.iter().find(|e| e.name == name).map(|e| e.interface)
+            })
+            .fold(InterfaceSizes::default(), InterfaceSizes::max)
+    }
+
+    /// The interface it was compiled for.
+    pub fn interface(&self) -> InterfaceSizes {
+        self.inner.interface
+    }
+
+    /// Its `max_trace_depth`.
+    pub fn max_trace_depth(&self) -> u32 {
+        self.inner.max_trace_depth
+    }
+
+    /// What the validation layer reported while it was compiled; see [`crate::log`].
+    pub fn creation_log(&self) -> &[crate::log::ValidationMessage] {
+        &self.inner.log
+    }
+}
+
+/// Every program of `groups` fits `interface`.
+fn check_interface(groups: &[&ProgramGroup], interface: InterfaceSizes) -> Result<()> {
+    for program in groups.iter().flat_map(|g| g.programs()) {
+        let name = program.name.to_string_lossy();
+        let Some(info) = program.module.entry_points.iter().find(|e| e.name == name) else { continue };
+        let too_small = |what, needed, given| Error::LibraryInterfaceTooSmall { program: name.to_string(), what, needed, given };
+        if info.interface.payload > interface.payload {
+            return Err(too_small("ray payload", info.interface.payload, interface.payload));
+        }
+        if info.interface.hit_attributes > interface.hit_attributes {
+            return Err(too_small("hit attributes", info.interface.hit_attributes, interface.hit_attributes));
+        }
+    }
+    Ok(())
+}
+
+impl Drop for LibraryInner {
+    fn drop(&mut self) {
+        // SAFETY: pipelines linked from this library hold an `Arc` to it and are
+        // dropped first (after their launches finished), so nothing uses it.
+        unsafe {
+            if self.pipeline != vk::Pipeline::null() {
+                self.ctx.device.destroy_pipeline(self.pipeline, None);
+            }
+            if self.layout != vk::PipelineLayout::null() {
+                self.ctx.device.destroy_pipeline_layout(self.layout, None);
+            }
+            if let Some(set_layout) = self.params_set_layout {
+                self.ctx.device.destroy_descriptor_set_layout(set_layout, None);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_empty_raygen_is_a_raygen_module() {
+        let bytes: Vec<u8> = super::EMPTY_RAYGEN.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let entries = crate::module::reflect_entry_points(&bytes).map_err(|e| e.to_string());
+        let entries = entries.as_deref().map(|e| e.iter().map(|e| (e.name.as_str(), e.kind)).collect::<Vec<_>>());
+        assert_eq!(entries, Ok(vec![("main", Some(raykit_device::ProgramKind::Raygen))]));
+    }
+}
