@@ -4,13 +4,19 @@
 //! loaded by a fresh context). Each sample uses a fresh context, so no in-memory
 //! cache carries over; modules and groups are made outside the timed part.
 //!
-//! Pipeline libraries (monolithic vs linked) are not measured yet: raykit has no
-//! `VK_KHR_pipeline_library` support so far.
+//! The second table compares, with the cache off, one `Pipeline::new` of all
+//! groups (monolithic) with the same pipeline made from two pipeline libraries
+//! (the raygen group, and the other groups) and `Pipeline::link`: the libraries
+//! and the link together, and the link alone (the cost of one more pipeline
+//! when its libraries already exist, OptiX's groups reused across pipelines).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use raykit::{CacheLoad, Context, ContextOptions, LinkOptions, Module, Pipeline, PipelineCacheLocation, ProgramGroup};
+use raykit::{
+    CacheLoad, Context, ContextOptions, LaunchParams, LibraryOptions, LinkOptions, Module, Pipeline, PipelineCacheLocation,
+    PipelineLibrary, ProgramGroup,
+};
 
 use crate::stats::Summary;
 
@@ -26,20 +32,36 @@ pub struct Row {
     pub warm: Summary,
     /// Bytes of the saved cache file's data, as the warm context loaded it.
     pub cache_bytes: usize,
+    /// Cache off: `Pipeline::new` of all groups.
+    pub monolithic: Summary,
+    /// Cache off: two libraries and `Pipeline::link`.
+    pub libraries_and_link: Summary,
+    /// Cache off: `Pipeline::link` of existing libraries.
+    pub link_only: Summary,
 }
 
 const PIPELINES: [&str; 2] = ["triangle (3 groups)", "program-model spheres (4 groups, intersection)"];
 
-/// Makes pipeline `which` in `ctx`; returns the milliseconds `Pipeline::new` took.
-fn create_ms(ctx: &Context, which: usize) -> anyhow::Result<f64> {
+/// Creation times of one pipeline made three ways, in milliseconds.
+#[derive(Copy, Clone, Debug)]
+struct Linking {
+    /// `Pipeline::new` of all groups.
+    monolithic: f64,
+    /// Both libraries and the link.
+    libraries_and_link: f64,
+    /// The link alone.
+    link: f64,
+}
+
+/// The groups of pipeline `which` (raygen first), made in `ctx`, given to `f`
+/// with the pipeline's params type.
+fn with_groups<R>(ctx: &Context, which: usize, f: impl GroupsFn<R>) -> anyhow::Result<R> {
     if which == 0 {
         let module = Module::from_device_crate(ctx, "triangle-device")?;
         let rg = ProgramGroup::raygen(&module, triangle_device::RG)?;
         let ms = ProgramGroup::miss(&module, triangle_device::MS)?;
         let ch = ProgramGroup::hit_group(&module).closest_hit(triangle_device::CH).build()?;
-        let start = Instant::now();
-        let _p = Pipeline::<triangle_device::Params>::new(ctx, &[&rg, &ms, &ch], LinkOptions { max_trace_depth: 1 })?;
-        return Ok(start.elapsed().as_secs_f64() * 1e3);
+        return f.call::<triangle_device::Params>(ctx, &[&rg, &ms, &ch]);
     }
     let module = Module::from_device_crate(ctx, "program-model-device")?;
     let rg = ProgramGroup::raygen(&module, program_model_device::RG)?;
@@ -52,9 +74,44 @@ fn create_ms(ctx: &Context, which: usize) -> anyhow::Result<f64> {
         .any_hit(program_model_device::CUTOUT)
         .closest_hit(program_model_device::CUTOUT_SHADE)
         .build()?;
-    let start = Instant::now();
-    let _p = Pipeline::<program_model_device::Params>::new(ctx, &[&rg, &ms, &sphere, &cutout], LinkOptions { max_trace_depth: 1 })?;
-    Ok(start.elapsed().as_secs_f64() * 1e3)
+    f.call::<program_model_device::Params>(ctx, &[&rg, &ms, &sphere, &cutout])
+}
+
+/// A function of a pipeline's groups, generic over its params type.
+trait GroupsFn<R> {
+    fn call<P: LaunchParams>(self, ctx: &Context, groups: &[&ProgramGroup]) -> anyhow::Result<R>;
+}
+
+/// Times `Pipeline::new`.
+struct Monolithic;
+impl GroupsFn<f64> for Monolithic {
+    fn call<P: LaunchParams>(self, ctx: &Context, groups: &[&ProgramGroup]) -> anyhow::Result<f64> {
+        let start = Instant::now();
+        let _p = Pipeline::<P>::new(ctx, groups, LinkOptions { max_trace_depth: 1 })?;
+        Ok(start.elapsed().as_secs_f64() * 1e3)
+    }
+}
+
+/// Times the libraries and two links of them: `(libraries and link, link)`.
+struct FromLibraries;
+impl GroupsFn<(f64, f64)> for FromLibraries {
+    fn call<P: LaunchParams>(self, ctx: &Context, groups: &[&ProgramGroup]) -> anyhow::Result<(f64, f64)> {
+        let options = LibraryOptions { max_trace_depth: 1, interface: Some(PipelineLibrary::<P>::interface_for(groups)) };
+        let link = LinkOptions { max_trace_depth: 1 };
+        let start = Instant::now();
+        let raygen = PipelineLibrary::<P>::new(ctx, &groups[..1], options)?;
+        let rest = PipelineLibrary::<P>::new(ctx, &groups[1..], options)?;
+        let _first = Pipeline::<P>::link(ctx, &[&raygen, &rest], link)?;
+        let libraries_and_link = start.elapsed().as_secs_f64() * 1e3;
+        let start = Instant::now();
+        let _second = Pipeline::<P>::link(ctx, &[&raygen, &rest], link)?;
+        Ok((libraries_and_link, start.elapsed().as_secs_f64() * 1e3))
+    }
+}
+
+/// Makes pipeline `which` in `ctx`; returns the milliseconds `Pipeline::new` took.
+fn create_ms(ctx: &Context, which: usize) -> anyhow::Result<f64> {
+    with_groups(ctx, which, Monolithic)
 }
 
 fn context(device: Option<&str>, cache: PipelineCacheLocation) -> anyhow::Result<Context> {
@@ -96,7 +153,38 @@ pub fn run(device: Option<&str>, reps: Option<usize>) -> anyhow::Result<Vec<Row>
                 cache_bytes = bytes;
                 warm.push(create_ms(&ctx, which)?);
             }
-            rows.push(Row { name, off: Summary::of(&off), cold: Summary::of(&cold), warm: Summary::of(&warm), cache_bytes });
+            let mut linking = Vec::new();
+            for rep in 0..reps {
+                // Each way in its own fresh context, so neither reuses what the
+                // other compiled; which goes first alternates.
+                let monolithic_ctx = || -> anyhow::Result<f64> { with_groups(&context(device, PipelineCacheLocation::Off)?, which, Monolithic) };
+                let libraries_ctx = || -> anyhow::Result<(f64, f64)> {
+                    let ctx = context(device, PipelineCacheLocation::Off)?;
+                    if !ctx.supports_pipeline_libraries() {
+                        anyhow::bail!("{} lacks VK_KHR_pipeline_library", ctx.device_name());
+                    }
+                    with_groups(&ctx, which, FromLibraries)
+                };
+                let (monolithic, (libraries_and_link, link)) = if rep % 2 == 0 {
+                    let m = monolithic_ctx()?;
+                    (m, libraries_ctx()?)
+                } else {
+                    let l = libraries_ctx()?;
+                    (monolithic_ctx()?, l)
+                };
+                linking.push(Linking { monolithic, libraries_and_link, link });
+            }
+            let of = |f: fn(&Linking) -> f64| Summary::of(&linking.iter().map(f).collect::<Vec<_>>());
+            rows.push(Row {
+                name,
+                off: Summary::of(&off),
+                cold: Summary::of(&cold),
+                warm: Summary::of(&warm),
+                cache_bytes,
+                monolithic: of(|l| l.monolithic),
+                libraries_and_link: of(|l| l.libraries_and_link),
+                link_only: of(|l| l.link),
+            });
         }
         Ok(rows)
     })();
@@ -120,6 +208,19 @@ pub fn markdown(rows: &[Row], device: &str) -> String {
             r.cache_bytes
         ));
     }
+    s.push_str("\nMonolithic pipeline against pipeline libraries (raygen | other groups) and `Pipeline::link`, cache off, milliseconds (median [p25–p75]).\n\n");
+    s.push_str("| pipeline | monolithic | libraries + link | link only | (libraries + link) / monolithic | link / monolithic |\n|---|---:|---:|---:|---:|---:|\n");
+    for r in rows {
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {:.2} | {:.2} |\n",
+            r.name,
+            f(&r.monolithic),
+            f(&r.libraries_and_link),
+            f(&r.link_only),
+            r.libraries_and_link.median / r.monolithic.median,
+            r.link_only.median / r.monolithic.median
+        ));
+    }
     s.push('\n');
     s
 }
@@ -132,6 +233,8 @@ pub fn json(rows: &[Row]) -> serde_json::Value {
                 serde_json::json!({
                     "pipeline": r.name, "off_ms": r.off.json(), "cold_ms": r.cold.json(),
                     "warm_ms": r.warm.json(), "cache_bytes": r.cache_bytes,
+                    "monolithic_ms": r.monolithic.json(), "libraries_and_link_ms": r.libraries_and_link.json(),
+                    "link_only_ms": r.link_only.json(),
                 })
             })
             .collect(),
