@@ -16,6 +16,10 @@
 //! device crate (the tests that `#[raygen]` and friends generate for programs
 //! with `#[params]`), so a mismatch is caught before anything runs.
 //!
+//! The same reader gives each entry point's ray payload and hit attribute sizes
+//! ([`reflect_interface_sizes`]), which pipeline libraries declare as their
+//! interface.
+//!
 //! The reader is rspirv's data representation (naga's SPIR-V front-end rejects
 //! the ray-tracing stages); rspirv is a host-only dependency of this crate.
 

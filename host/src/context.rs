@@ -178,6 +178,24 @@ unsafe extern "system" fn debug_callback(
     vk::FALSE
 }
 
+/// Serialises the creation and destruction of instances and devices across the
+/// process: every `vkCreateInstance`, `vkCreateDevice`, `vkDestroyDevice` and
+/// `vkDestroyInstance` raykit makes holds this lock.
+///
+/// NVIDIA's driver (580, H100) sometimes never returns from `vkDestroyDevice`
+/// when other threads create or destroy their own instance and device at the
+/// same time: in a plain-ash program of 4 threads, each making an instance and a
+/// device, submitting 200 empty command buffers and destroying both, 6 of 40
+/// runs hung in `vkDestroyDevice`; with these calls under one lock, 0 of 20.
+/// This does not make several contexts used at once from several threads safe
+/// on that driver: raykit's own 4-thread runs still hang there (in a context's
+/// drop, or while one thread links a pipeline and others make contexts). One
+/// context shared by all threads works (`Context` is `Clone + Send + Sync`).
+fn lifecycle_lock() -> std::sync::MutexGuard<'static, ()> {
+    static LIFECYCLE: Mutex<()> = Mutex::new(());
+    LIFECYCLE.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 /// Keeps the Vulkan loader and the drivers it loads in memory for the life of
 /// the process, through one instance made on the first [`Context::new`] and never
 /// destroyed (no layers, no devices: it holds nothing else).
@@ -192,6 +210,7 @@ fn keep_driver_loaded(entry: &ash::Entry) {
     KEEP_ALIVE.get_or_init(|| {
         let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
         let info = vk::InstanceCreateInfo::default().application_info(&app);
+        let _lifecycle = lifecycle_lock();
         // SAFETY: a valid create info with no layers or extensions; the instance is
         // intentionally never destroyed (see above).
         unsafe { entry.create_instance(&info, None) }.ok().map(|instance| (entry.clone(), instance))
@@ -358,8 +377,12 @@ impl Context {
             // Also catches messages of instance creation and destruction.
             instance_info = instance_info.push_next(&mut messenger_info);
         }
-        // SAFETY: the create info and everything it points to live across the call.
-        let instance = match unsafe { entry.create_instance(&instance_info, None) } {
+        let created = {
+            let _lifecycle = lifecycle_lock();
+            // SAFETY: the create info and everything it points to live across the call.
+            unsafe { entry.create_instance(&instance_info, None) }
+        };
+        let instance = match created {
             Ok(i) => i,
             Err(e) => {
                 // SAFETY: the box was made above and is not shared yet.
@@ -432,10 +455,13 @@ impl Context {
             .push_next(&mut features.rt)
             .push_next(&mut features.accel)
             .push_next(&mut features.v12);
-        // SAFETY: the physical device supports every extension and feature enabled
-        // (checked by `inspect_device`); the create info lives across the call.
-        let device = unsafe { instance.create_device(physical_device, &device_info, None) }
-            .map_err(Error::vk("vkCreateDevice"))?;
+        let device = {
+            let _lifecycle = lifecycle_lock();
+            // SAFETY: the physical device supports every extension and feature enabled
+            // (checked by `inspect_device`); the create info lives across the call.
+            unsafe { instance.create_device(physical_device, &device_info, None) }
+        }
+        .map_err(Error::vk("vkCreateDevice"))?;
         let device_guard = DeviceGuard(Some(device.clone()));
 
         let limits = query_limits(instance, physical_device);
@@ -778,10 +804,13 @@ impl Drop for ContextInner {
             }
             let pool = self.command_pool.get_mut().unwrap_or_else(|p| p.into_inner());
             self.device.destroy_command_pool(*pool, None);
+            let lifecycle = lifecycle_lock();
             self.device.destroy_device(None);
+            drop(lifecycle);
             if let Some((debug_utils, messenger)) = self.debug.take() {
                 debug_utils.destroy_debug_utils_messenger(messenger, None);
             }
+            let _lifecycle = lifecycle_lock();
             self.instance.destroy_instance(None);
             drop(Box::from_raw(self.log_ptr as *mut MessageLog));
         }
@@ -821,6 +850,7 @@ impl Drop for Partial {
                 debug_utils.destroy_debug_utils_messenger(messenger, None);
             }
             if let Some(instance) = self.instance.take() {
+                let _lifecycle = lifecycle_lock();
                 instance.destroy_instance(None);
             }
             if !self.log_ptr.is_null() {
@@ -840,6 +870,7 @@ impl DeviceGuard {
 impl Drop for DeviceGuard {
     fn drop(&mut self) {
         if let Some(device) = self.0.take() {
+            let _lifecycle = lifecycle_lock();
             // SAFETY: nothing else uses the device yet.
             unsafe { device.destroy_device(None) };
         }
