@@ -309,15 +309,20 @@ fn one_library_is_linked_into_two_pipelines_with_their_own_hit_libraries() -> an
     })
 }
 
-/// A user exception thrown by a program compiled in a library is recorded in
-/// that library's buffer and reaches the host from the linked pipeline's launch.
+/// A user exception thrown by a program compiled in one library is recorded in
+/// that library's buffer and reaches the host from the linked pipeline's launch,
+/// and the exception program compiled in another library runs where it was thrown.
 #[test]
-fn user_exceptions_thrown_in_a_library_reach_the_host() -> anyhow::Result<()> {
-    with_context("user_exceptions_thrown_in_a_library_reach_the_host", |ctx| {
+fn user_exceptions_thrown_in_a_library_reach_the_host_and_the_exception_program_of_another() -> anyhow::Result<()> {
+    use program_model_device::{EXCEPTION_MARKER, THROWN};
+    with_context("user_exceptions_thrown_in_a_library_reach_the_host_and_the_exception_program_of_another", |ctx| {
         let module = Module::from_device_crate(ctx, "program-model-device")?;
         let throwing = ProgramGroup::raygen(&module, program_model_device::RG_THROW)?;
-        let library = PipelineLibrary::<Params>::new(ctx, &[&throwing], LibraryOptions::default())?;
-        let pipeline = Pipeline::link(ctx, &[&library], LinkOptions::default())?;
+        let handler = ProgramGroup::exception(&module, program_model_device::ON_EXCEPTION)?;
+        let options = LibraryOptions { max_trace_depth: 1, interface: Some(PipelineLibrary::<Params>::interface_for(&[&throwing, &handler])) };
+        let raygen_library = PipelineLibrary::<Params>::new(ctx, &[&throwing], options)?;
+        let handler_library = PipelineLibrary::<Params>::new(ctx, &[&handler], options)?;
+        let pipeline = Pipeline::link(ctx, &[&raygen_library, &handler_library], LinkOptions::default())?;
         let sbt = Sbt::builder(&pipeline).raygen(&throwing, ()).build()?;
         let image = ctx.buffer::<u32>(16 * 16)?;
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
@@ -327,12 +332,17 @@ fn user_exceptions_thrown_in_a_library_reach_the_host() -> anyhow::Result<()> {
                 assert_eq!(total, 2);
                 let mut codes: Vec<u32> = exceptions.iter().map(|e| e.code).collect();
                 codes.sort();
-                let mut expected: Vec<u32> = program_model_device::THROWN.iter().map(|(_, code)| *code).collect();
+                let mut expected: Vec<u32> = THROWN.iter().map(|(_, code)| *code).collect();
                 expected.sort();
                 assert_eq!(codes, expected);
             }
             other => anyhow::bail!("expected two user exceptions, got {other:?}"),
         }
+        let pixels = image.read()?;
+        for (at, code) in THROWN {
+            assert_eq!(pixels[(at.y * 16 + at.x) as usize], EXCEPTION_MARKER | code, "at {at}");
+        }
+        assert_eq!(pixels.iter().filter(|&&p| p == 1).count(), 16 * 16 - 2);
         Ok(())
     })
 }
