@@ -185,7 +185,7 @@ unsafe extern "system" fn debug_callback(
 /// NVIDIA's driver (580, H100) sometimes never returns from `vkDestroyDevice`
 /// when other threads create or destroy their own instance and device at the
 /// same time: in a plain-ash program of 4 threads, each making an instance and a
-/// device, submitting 200 empty command buffers and destroying both, 6 of 40
+/// device, submitting 200 empty command buffers and destroying both, 8 of 40
 /// runs hung in `vkDestroyDevice`; with these calls under one lock, 0 of 20.
 /// This does not make several contexts used at once from several threads safe
 /// on that driver: raykit's own 4-thread runs still hang there (in a context's

@@ -208,10 +208,7 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         groups
             .iter()
             .flat_map(|g| g.programs())
-            .filter_map(|p| {
-                let name = p.name.to_string_lossy();
-                p.module.entry_points.iter().find(|e| e.name == name).map(|e| e.interface)
-            })
+            .filter_map(|p| p.entry_info().map(|e| e.interface))
             .fold(InterfaceSizes::default(), InterfaceSizes::max)
     }
 
@@ -234,9 +231,8 @@ impl<P: LaunchParams> PipelineLibrary<P> {
 /// Every program of `groups` fits `interface`.
 fn check_interface(groups: &[&ProgramGroup], interface: InterfaceSizes) -> Result<()> {
     for program in groups.iter().flat_map(|g| g.programs()) {
-        let name = program.name.to_string_lossy();
-        let Some(info) = program.module.entry_points.iter().find(|e| e.name == name) else { continue };
-        let too_small = |what, needed, given| Error::LibraryInterfaceTooSmall { program: name.to_string(), what, needed, given };
+        let Some(info) = program.entry_info() else { continue };
+        let too_small = |what, needed, given| Error::LibraryInterfaceTooSmall { program: info.name.clone(), what, needed, given };
         if info.interface.payload > interface.payload {
             return Err(too_small("ray payload", info.interface.payload, interface.payload));
         }

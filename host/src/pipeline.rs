@@ -272,20 +272,10 @@ impl<P: LaunchParams> Pipeline<P> {
         let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
         let specialization = shaders.specialization();
         let stages = shaders.stages(&specialization);
-        let dynamic_states = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
-        let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
-            .stages(&stages)
-            .groups(&shaders.group_infos)
-            .max_pipeline_ray_recursion_depth(options.max_trace_depth)
-            .dynamic_state(&dynamic_state)
-            .layout(layout);
-        let (pipeline, log) = create_ray_tracing_pipeline(inner, &create_info)?;
-        pipeline_inner.pipeline = pipeline;
-        pipeline_inner.log = log;
-        inner.set_name(pipeline, &format!("raykit pipeline [{}]", shaders.names().join(", ")));
-        pipeline_inner.finish(groups.iter().enumerate().map(|(i, g)| (*g, vk::Pipeline::null(), i as u32)))?;
-        Ok(Pipeline { inner: Arc::new(pipeline_inner), _params: PhantomData })
+        let create_info = vk::RayTracingPipelineCreateInfoKHR::default().stages(&stages).groups(&shaders.group_infos);
+        let name = format!("raykit pipeline [{}]", shaders.names().join(", "));
+        let compiled = groups.iter().enumerate().map(|(i, g)| (*g, vk::Pipeline::null(), i as u32));
+        pipeline_inner.create(create_info, &name, compiled)
     }
 
     /// Links a pipeline from `libraries` (OptiX's "program groups can be used
@@ -343,8 +333,6 @@ impl<P: LaunchParams> Pipeline<P> {
         let library_pipelines: Vec<vk::Pipeline> = libraries.iter().map(|l| l.inner.pipeline).collect();
         let library_info = vk::PipelineLibraryCreateInfoKHR::default().libraries(&library_pipelines);
         let interface_info = interface.create_info();
-        let dynamic_states = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
-        let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
         // lavapipe gives push constants only to pipelines that compile a stage
         // themselves (see `crate::library`); give it one that does nothing.
         let carrier = if inner.lavapipe { Some(PushConstantCarrier::new(inner)?) } else { None };
@@ -352,20 +340,12 @@ impl<P: LaunchParams> Pipeline<P> {
         let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
             .stages(&carrier_stage)
             .library_info(&library_info)
-            .library_interface(&interface_info)
-            .max_pipeline_ray_recursion_depth(options.max_trace_depth)
-            .dynamic_state(&dynamic_state)
-            .layout(layout);
-        let (pipeline, log) = create_ray_tracing_pipeline(inner, &create_info)?;
-        pipeline_inner.pipeline = pipeline;
-        pipeline_inner.log = log;
-        drop(carrier);
-        inner.set_name(pipeline, &format!("raykit pipeline linked from {} libraries", libraries.len()));
+            .library_interface(&interface_info);
+        let name = format!("raykit pipeline linked from {} libraries", libraries.len());
         let compiled = libraries
             .iter()
             .flat_map(|l| l.inner.groups.iter().enumerate().map(|(i, g)| (g, l.inner.pipeline, i as u32)));
-        pipeline_inner.finish(compiled)?;
-        Ok(Pipeline { inner: Arc::new(pipeline_inner), _params: PhantomData })
+        pipeline_inner.create(create_info, &name, compiled)
     }
 
     /// The stack sizes the driver reports for `group`'s shaders in this pipeline
@@ -487,10 +467,9 @@ pub(crate) fn check_groups<P: LaunchParams>(inner: &Arc<ContextInner>, groups: &
     }
     for group in groups {
         for program in group.programs() {
-            let name = program.name.to_string_lossy();
-            let Some(info) = program.module.entry_points.iter().find(|e| e.name == name) else { continue };
+            let Some(info) = program.entry_info() else { continue };
             if !info.params.is_empty() {
-                raykit_device::layout::check(&P::LAYOUT, &name, &info.params, delivery)?;
+                raykit_device::layout::check(&P::LAYOUT, &info.name, &info.params, delivery)?;
             }
         }
     }
@@ -702,6 +681,30 @@ impl PipelineInner {
             readbacks: Mutex::new(Vec::new()),
             log: Vec::new(),
         }
+    }
+
+    /// Creates the pipeline from `create_info` (its stages, groups and libraries),
+    /// with this pipeline's layout, recursion depth and the dynamic stack-size
+    /// state, names it `name`, and reads its groups (see [`PipelineInner::finish`]).
+    fn create<'g, P: LaunchParams>(
+        mut self,
+        create_info: vk::RayTracingPipelineCreateInfoKHR<'_>,
+        name: &str,
+        compiled: impl Iterator<Item = (&'g ProgramGroup, vk::Pipeline, u32)>,
+    ) -> Result<Pipeline<P>> {
+        // The stack size is set by every launch (see `crate::stack`).
+        let dynamic_states = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
+        let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        let create_info = create_info
+            .max_pipeline_ray_recursion_depth(self.max_trace_depth)
+            .dynamic_state(&dynamic_state)
+            .layout(self.layout);
+        let (pipeline, log) = create_ray_tracing_pipeline(&self.ctx, &create_info)?;
+        self.pipeline = pipeline;
+        self.log = log;
+        self.ctx.set_name(pipeline, name);
+        self.finish(compiled)?;
+        Ok(Pipeline { inner: Arc::new(self), _params: PhantomData })
     }
 
     /// Reads the created pipeline's group handles and stack sizes, for `groups`

@@ -57,6 +57,12 @@ pub(crate) struct Program {
 }
 
 impl Program {
+    /// What reflection found for this program's entry point.
+    pub(crate) fn entry_info(&self) -> Option<&crate::module::EntryPointInfo> {
+        let name = self.name.to_str().ok()?;
+        self.module.entry_points.iter().find(|e| e.name == name)
+    }
+
     fn resolve(module: &Module, entry: &dyn EntryName, expected: ProgramKind, context: &'static str) -> Result<Program> {
         let name = entry.entry_name();
         let available = module.entry_list();
