@@ -107,3 +107,45 @@ fn bad_modules_and_link_options_are_typed_errors() -> anyhow::Result<()> {
 fn bytemuck_zeroed<T: raykit::device::bytemuck::Zeroable>() -> T {
     T::zeroed()
 }
+
+/// The ray payload and hit attribute sizes of every entry point, read from the
+/// SPIR-V (what pipeline libraries declare as their interface): exact, and the
+/// same for the Rust programs and their GLSL twins, which declare the same types.
+#[test]
+fn payload_and_hit_attribute_sizes_are_read_from_the_spirv_alike_for_rust_and_glsl() -> anyhow::Result<()> {
+    use raykit::module::reflect_entry_points;
+    use raykit::InterfaceSizes;
+    let sizes = |bytes: &[u8]| -> anyhow::Result<Vec<(String, InterfaceSizes)>> {
+        let mut entries: Vec<(String, InterfaceSizes)> =
+            reflect_entry_points(bytes)?.into_iter().map(|e| (e.name, e.interface)).collect();
+        entries.sort_by(|a, b| a.0.cmp(&b.0));
+        Ok(entries)
+    };
+    let of = |payload, hit_attributes| InterfaceSizes { payload, hit_attributes };
+    let rust = |name: &str| -> anyhow::Result<Vec<u8>> { Ok(std::fs::read(raykit::spirv_path(name))?) };
+    // Path tracer: a 48-byte radiance payload, a 4-byte shadow payload, no attributes read.
+    assert_eq!(
+        sizes(&rust("path-tracer-device")?)?,
+        [
+            ("__closesthit__ch".to_owned(), of(48, 0)),
+            ("__closesthit__ch_shadow".to_owned(), of(4, 0)),
+            ("__miss__ms".to_owned(), of(48, 0)),
+            ("__miss__ms_shadow".to_owned(), of(4, 0)),
+            ("__raygen__rg".to_owned(), of(48, 0)),
+        ]
+    );
+    let glsl = |bytes: &[u8]| -> anyhow::Result<InterfaceSizes> { Ok(sizes(bytes)?[0].1) };
+    assert_eq!(glsl(include_bytes!("../../examples/path_tracer/glsl/path_tracer.rgen.spv"))?, of(48, 0));
+    assert_eq!(glsl(include_bytes!("../../examples/path_tracer/glsl/path_tracer.rchit.spv"))?, of(48, 0));
+    assert_eq!(glsl(include_bytes!("../../examples/path_tracer/glsl/path_tracer.rmiss.spv"))?, of(48, 0));
+    assert_eq!(glsl(include_bytes!("../../examples/path_tracer/glsl/shadow.rchit.spv"))?, of(4, 0));
+    assert_eq!(glsl(include_bytes!("../../examples/path_tracer/glsl/shadow.rmiss.spv"))?, of(4, 0));
+    // Triangle: a Vec3 payload; the closest-hit reads the barycentrics (vec2).
+    assert_eq!(
+        sizes(&rust("triangle-device")?)?,
+        [("__closesthit__ch".to_owned(), of(12, 8)), ("__miss__ms".to_owned(), of(12, 0)), ("__raygen__rg".to_owned(), of(12, 0))]
+    );
+    assert_eq!(glsl(include_bytes!("../../examples/triangle/glsl/triangle.rchit.spv"))?, of(12, 8));
+    assert_eq!(glsl(include_bytes!("../../examples/triangle/glsl/triangle.rgen.spv"))?, of(12, 0));
+    Ok(())
+}
