@@ -448,7 +448,7 @@ impl Index<'_> {
             }
             Op::TypeArray => {
                 let element = id_operand(inst, 0).ok_or_else(|| bad("array without element type"))?;
-                let len = self.constant(id_operand(inst, 1).ok_or_else(|| bad("OpTypeArray without length"))?)?;
+                let len = self.length_or_default(id_operand(inst, 1).ok_or_else(|| bad("OpTypeArray without length"))?)?;
                 let (size, align) = self.natural(element, depth + 1)?;
                 let stride = match self.decoration(id, Decoration::ArrayStride) {
                     Some(Some(stride)) => stride.max(size),
@@ -473,6 +473,18 @@ impl Index<'_> {
             // Opaque or unsized types carry no payload bytes.
             _ => (0, 1),
         })
+    }
+
+    /// An array length: a constant's value, or a specialization constant's
+    /// default (the value unless a pipeline specializes it).
+    fn length_or_default(&self, id: u32) -> Result<u32> {
+        let inst = self.def(id)?;
+        match (inst.class.opcode, inst.operands.first()) {
+            (Op::SpecConstant, Some(Operand::LiteralBit32(v))) => Ok(*v),
+            (Op::SpecConstant, Some(Operand::LiteralBit64(v))) => u32::try_from(*v).map_err(|_| bad("array length over 2^32")),
+            (Op::Constant, _) => self.constant(id),
+            _ => Err(bad(format!("the length %{id} of an array in a ray payload or hit attributes is not a constant"))),
+        }
     }
 
     /// The interface sizes of global variable `var`, if it is a payload or attribute.

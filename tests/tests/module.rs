@@ -149,3 +149,13 @@ fn payload_and_hit_attribute_sizes_are_read_from_the_spirv_alike_for_rust_and_gl
     assert_eq!(glsl(include_bytes!("../../examples/triangle/glsl/triangle.rgen.spv"))?, of(12, 0));
     Ok(())
 }
+
+/// A payload array sized by a specialization constant counts at the constant's
+/// default, and the module is not refused.
+#[test]
+fn a_payload_array_sized_by_a_specialization_constant_counts_its_default() -> anyhow::Result<()> {
+    let entries = raykit::module::reflect_entry_points(include_bytes!("../data/payload_spec_array.rgen.spv"))?;
+    assert_eq!(entries.len(), 1);
+    assert_eq!(entries[0].interface, raykit::InterfaceSizes { payload: 40, hit_attributes: 0 });
+    Ok(())
+}
