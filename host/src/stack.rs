@@ -695,7 +695,7 @@ mod tests {
     }
 
     #[test]
-    fn path_tracer_call_graph_is_strictly_smaller() {
+    fn path_tracer_call_graph_is_strictly_smaller() -> Result<()> {
         let (g, s) = path_tracer(8, 96, 4, 32);
         let depths = CallDepths::new(2);
         // css_rg + 2 * max(css_ch1, css_ch2, css_ms1, css_ms2)
@@ -703,18 +703,20 @@ mod tests {
         assert_eq!(refined(&s, &depths).total(), 16 + 2 * 96);
         assert_eq!(vulkan_default(&s, 2), 16 + 2 * 96);
         // css_rg + max(css_ms1, css_ch1 + max(css_ms2, css_ch2))
-        assert_eq!(g.estimate().unwrap(), 16 + 96 + 32);
-        assert!(g.estimate().unwrap() < conservative(&s, &depths).total());
+        assert_eq!(g.estimate()?, 16 + 96 + 32);
+        assert!(g.estimate()? < conservative(&s, &depths).total());
+        Ok(())
     }
 
     #[test]
-    fn path_tracer_call_graph_picks_the_miss_when_it_dominates() {
+    fn path_tracer_call_graph_picks_the_miss_when_it_dominates() -> Result<()> {
         let (g, _) = path_tracer(500, 96, 4, 32);
-        assert_eq!(g.estimate().unwrap(), 16 + 500);
+        assert_eq!(g.estimate()?, 16 + 500);
+        Ok(())
     }
 
     #[test]
-    fn recursion_counts_each_level_once() {
+    fn recursion_counts_each_level_once() -> Result<()> {
         // A closest-hit that traces its own ray type, four levels deep; the
         // intersection + any-hit of the last level do not stack on closest-hit.
         let mut g = CallGraph::new(4);
@@ -723,18 +725,19 @@ mod tests {
         g.miss(ray, 3);
         let h = g.hit(ray, GroupStackSizes { closest_hit: 100, any_hit: 30, intersection: 50, general: 0 });
         g.traces(rg, ray).traces(h, ray);
-        assert_eq!(g.estimate().unwrap(), 10 + 4 * 100);
+        assert_eq!(g.estimate()?, 10 + 4 * 100);
         let s = StackSizes { css_rg: 10, css_ms: 3, css_ch: 100, css_ah: 30, css_is: 50, ..Default::default() };
         assert_eq!(refined(&s, &CallDepths::new(4)).total(), 10 + 4 * 100);
         assert_eq!(conservative(&s, &CallDepths::new(4)).total(), 10 + 4 * 100 + 80);
         // Only raygen runs at depth 0.
         let mut g0 = g.clone();
         g0.max_trace_depth = 0;
-        assert_eq!(g0.estimate().unwrap(), 10);
+        assert_eq!(g0.estimate()?, 10);
+        Ok(())
     }
 
     #[test]
-    fn callables_stack_on_their_caller() {
+    fn callables_stack_on_their_caller() -> Result<()> {
         let mut g = CallGraph::new(1);
         let ray = g.ray_type();
         let rg = g.raygen(10);
@@ -744,16 +747,17 @@ mod tests {
         let c = g.callable(50);
         g.traces(rg, ray).calls(h, a).calls(a, b).calls(rg, c);
         // max(raygen → c: 10 + 50, raygen → hit → a → b: 10 + 20 + 7 + 5)
-        assert_eq!(g.estimate().unwrap(), 60);
+        assert_eq!(g.estimate()?, 60);
         g.max_call_depth(1);
-        assert_eq!(g.estimate().unwrap(), 60);
+        assert_eq!(g.estimate()?, 60);
         let mut g2 = g.clone();
         g2.calls(b, a);
         g2.max_call_depth = None;
         assert!(matches!(g2.estimate(), Err(Error::CallGraph { .. })));
         // A recursive pair bounded at 5 levels: hit → a → b → a → b → a.
         g2.max_call_depth(5);
-        assert_eq!(g2.estimate().unwrap(), 10 + 20 + 7 + 5 + 7 + 5 + 7);
+        assert_eq!(g2.estimate()?, 10 + 20 + 7 + 5 + 7 + 5 + 7);
+        Ok(())
     }
 
     #[test]

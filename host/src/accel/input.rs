@@ -597,22 +597,23 @@ mod tests {
     }
 
     #[test]
-    fn updates_need_the_same_topology() {
+    fn updates_need_the_same_topology() -> std::result::Result<(), Box<dyn std::error::Error>> {
         let moved = [Vec3::ZERO, Vec3::X * 2.0, Vec3::Y];
         let quad = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE];
-        let shapes = |i: BuildInput<'_>| validate(&[i], &limits(), true).unwrap();
-        let base = shapes(Triangles::new(&TRI).indices_u32(&[0, 1, 2]).into());
-        assert_eq!(update_refusal(&base, &shapes(Triangles::new(&moved).indices_u32(&[0, 1, 2]).into())), None);
-        let r = update_refusal(&base, &shapes(Triangles::new(&moved).indices_u32(&[0, 2, 1]).into())).unwrap();
+        let shapes = |i: BuildInput<'_>| validate(&[i], &limits(), true);
+        let base = shapes(Triangles::new(&TRI).indices_u32(&[0, 1, 2]).into())?;
+        assert_eq!(update_refusal(&base, &shapes(Triangles::new(&moved).indices_u32(&[0, 1, 2]).into())?), None);
+        let r = update_refusal(&base, &shapes(Triangles::new(&moved).indices_u32(&[0, 2, 1]).into())?).ok_or("expected a refusal")?;
         assert!(r.contains("index data"), "{r}");
-        let r = update_refusal(&base, &shapes(Triangles::new(&moved).indices_u16(&[0, 1, 2]).into())).unwrap();
+        let r = update_refusal(&base, &shapes(Triangles::new(&moved).indices_u16(&[0, 1, 2]).into())?).ok_or("expected a refusal")?;
         assert!(r.contains("index format"), "{r}");
-        let r = update_refusal(&base, &shapes(Triangles::new(&quad).indices_u32(&[0, 1, 2, 1, 3, 2]).into())).unwrap();
+        let r = update_refusal(&base, &shapes(Triangles::new(&quad).indices_u32(&[0, 1, 2, 1, 3, 2]).into())?).ok_or("expected a refusal")?;
         assert!(r.contains("2 triangles"), "{r}");
-        let r = update_refusal(&base, &shapes(Triangles::new(&moved).into())).unwrap();
+        let r = update_refusal(&base, &shapes(Triangles::new(&moved).into())?).ok_or("expected a refusal")?;
         assert!(r.contains("index format"), "{r}");
         let t: BuildInput<'_> = Triangles::new(&TRI).into();
-        let r = update_refusal(&base, &validate(&[t, t], &limits(), true).unwrap()).unwrap();
+        let r = update_refusal(&base, &validate(&[t, t], &limits(), true)?).ok_or("expected a refusal")?;
         assert!(r.contains("geometry count"), "{r}");
+        Ok(())
     }
 }
