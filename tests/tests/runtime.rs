@@ -9,25 +9,59 @@ use raykit::{
 };
 use raykit_tests::{temp_dir, with_context, with_context_options};
 
-#[test]
-fn two_pipelines_from_one_module_specialized_differently_render_differently() -> anyhow::Result<()> {
-    with_context("two_pipelines_from_one_module_specialized_differently_render_differently", |ctx| {
+/// The specialization scene: a quad in the middle of the image, the radiance
+/// raygen and miss, and a closest-hit whose colour is specialization constant
+/// `SHADE_MODE_SPEC_ID` (`SPEC_COLORS[mode]`).
+struct SpecScene {
+    _gas: Gas,
+    scene: Ias,
+    raygen: ProgramGroup,
+    miss: ProgramGroup,
+    hit: ProgramGroup,
+}
+
+impl SpecScene {
+    /// The centre pixel of a [`SpecScene::render`], on the quad.
+    const CENTRE: usize = 8 * 16 + 8;
+
+    fn new(ctx: &Context) -> anyhow::Result<SpecScene> {
         let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
         let scene = Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
         let module = Module::from_device_crate(ctx, "program-model-device")?;
         let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
         let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
         let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SPEC_SHADE).build()?;
+        Ok(SpecScene { _gas: gas, scene, raygen, miss, hit })
+    }
+
+    /// Its groups: raygen, miss, hit.
+    fn groups(&self) -> [&ProgramGroup; 3] {
+        [&self.raygen, &self.miss, &self.hit]
+    }
+
+    /// An SBT of its groups for `pipeline`.
+    fn sbt(&self, pipeline: &Pipeline<Params>) -> raykit::Result<Sbt> {
+        Sbt::builder(pipeline).raygen(&self.raygen, ()).miss_for::<Radiance, _>(&self.miss, ()).hit_for::<Radiance, _>(0, &self.hit, ()).build()
+    }
+
+    /// Launches `pipeline` over 16×16 pixels and returns them.
+    fn render(&self, ctx: &Context, pipeline: &Pipeline<Params>) -> anyhow::Result<Vec<u32>> {
         let image = ctx.buffer::<u32>(16 * 16)?;
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
-        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
-        let centre = 8 * 16 + 8;
+        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: self.scene.handle() };
+        pipeline.launch(&self.sbt(pipeline)?, &params, [16, 16, 1])?;
+        Ok(image.read()?)
+    }
+}
+
+#[test]
+fn two_pipelines_from_one_module_specialized_differently_render_differently() -> anyhow::Result<()> {
+    with_context("two_pipelines_from_one_module_specialized_differently_render_differently", |ctx| {
+        let spec = SpecScene::new(ctx)?;
         let mut seen = Vec::new();
         for constants in [Specialization::new(), Specialization::new().set(SHADE_MODE_SPEC_ID, 1)] {
-            let pipeline = Pipeline::<Params>::with_specialization(ctx, &[&raygen, &miss, &hit], LinkOptions::default(), &constants)?;
-            let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build()?;
-            pipeline.launch(&sbt, &params, [16, 16, 1])?;
-            seen.push(image.read()?[centre]);
+            let pipeline = Pipeline::<Params>::with_specialization(ctx, &spec.groups(), LinkOptions::default(), &constants)?;
+            seen.push(spec.render(ctx, &pipeline)?[SpecScene::CENTRE]);
         }
         assert_eq!(seen, [pack(SPEC_COLORS[0]), pack(SPEC_COLORS[1])]);
         Ok(())
@@ -37,32 +71,24 @@ fn two_pipelines_from_one_module_specialized_differently_render_differently() ->
 #[test]
 fn two_async_launches_in_flight_give_correct_results() -> anyhow::Result<()> {
     with_context("two_async_launches_in_flight_give_correct_results", |ctx| {
-        let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
-        let scene = Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
-        let module = Module::from_device_crate(ctx, "program-model-device")?;
-        let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
-        let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
-        let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SPEC_SHADE).build()?;
+        let spec = SpecScene::new(ctx)?;
         let pipelines = [Specialization::new(), Specialization::new().set(SHADE_MODE_SPEC_ID, 1)]
             .iter()
-            .map(|c| Pipeline::<Params>::with_specialization(ctx, &[&raygen, &miss, &hit], LinkOptions::default(), c))
+            .map(|c| Pipeline::<Params>::with_specialization(ctx, &spec.groups(), LinkOptions::default(), c))
             .collect::<raykit::Result<Vec<_>>>()?;
-        let sbts = pipelines
-            .iter()
-            .map(|p| Sbt::builder(p).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build())
-            .collect::<raykit::Result<Vec<_>>>()?;
+        let sbts = pipelines.iter().map(|p| spec.sbt(p)).collect::<raykit::Result<Vec<_>>>()?;
         let size = 64u32;
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
         // Three launches: two of one pipeline (different images), one of the other.
         let images = (0..3).map(|_| ctx.buffer::<u32>((size * size) as usize)).collect::<raykit::Result<Vec<_>>>()?;
-        let params = |i: usize| Params { image: images[i].handle(), spheres: spheres.handle(), size: UVec2::splat(size), scene: scene.handle() };
+        let params = |i: usize| Params { image: images[i].handle(), spheres: spheres.handle(), size: UVec2::splat(size), scene: spec.scene.handle() };
         let launches = [
             pipelines[0].launch_async(&sbts[0], &params(0), [size, size, 1])?,
             pipelines[1].launch_async(&sbts[1], &params(1), [size, size, 1])?,
             pipelines[0].launch_async(&sbts[0], &params(2), [size, size, 1])?,
         ];
         // While launches use the SBT, updating it is refused.
-        let mut spare = Sbt::builder(&pipelines[0]).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build()?;
+        let mut spare = spec.sbt(&pipelines[0])?;
         let held = pipelines[0].launch_async(&spare, &params(0), [1, 1, 1])?;
         assert!(spare.update(raykit::SbtRegion::Raygen, 0, ()).is_err(), "an SBT in use by a launch was updated");
         held.wait()?;
@@ -110,20 +136,10 @@ fn async_launches_report_their_own_user_exceptions() -> anyhow::Result<()> {
 /// Links the specialization scene's pipeline (constant `mode`), renders 16×16 and
 /// returns the centre pixel.
 fn render_spec_centre(ctx: &Context, mode: u32) -> anyhow::Result<u32> {
-    let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
-    let scene = Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
-    let module = Module::from_device_crate(ctx, "program-model-device")?;
-    let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
-    let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
-    let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SPEC_SHADE).build()?;
+    let spec = SpecScene::new(ctx)?;
     let constants = Specialization::new().set(SHADE_MODE_SPEC_ID, mode);
-    let pipeline = Pipeline::<Params>::with_specialization(ctx, &[&raygen, &miss, &hit], LinkOptions::default(), &constants)?;
-    let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build()?;
-    let image = ctx.buffer::<u32>(16 * 16)?;
-    let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
-    let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
-    pipeline.launch(&sbt, &params, [16, 16, 1])?;
-    Ok(image.read()?[8 * 16 + 8])
+    let pipeline = Pipeline::<Params>::with_specialization(ctx, &spec.groups(), LinkOptions::default(), &constants)?;
+    Ok(spec.render(ctx, &pipeline)?[SpecScene::CENTRE])
 }
 
 fn cache_in(dir: &std::path::Path) -> ContextOptions {
@@ -260,13 +276,6 @@ fn a_validation_message_reaches_the_log_callback_naming_its_object() -> anyhow::
     Ok(())
 }
 
-/// The quad scene of the specialization tests, and the params that render it at `size`².
-fn quad_scene(ctx: &Context) -> anyhow::Result<(Gas, Ias)> {
-    let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
-    let scene = Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
-    Ok((gas, scene))
-}
-
 /// OptiX's "program groups can be used across pipelines": one library (raygen
 /// and miss) linked into two pipelines, each with its own hit library compiled
 /// with another specialization constant. Both pipelines live at once, and keep
@@ -275,30 +284,22 @@ fn quad_scene(ctx: &Context) -> anyhow::Result<(Gas, Ias)> {
 fn one_library_is_linked_into_two_pipelines_with_their_own_hit_libraries() -> anyhow::Result<()> {
     with_context("one_library_is_linked_into_two_pipelines_with_their_own_hit_libraries", |ctx| {
         anyhow::ensure!(ctx.supports_pipeline_libraries(), "{} lacks VK_KHR_pipeline_library", ctx.device_name());
-        let (_gas, scene) = quad_scene(ctx)?;
-        let module = Module::from_device_crate(ctx, "program-model-device")?;
-        let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
-        let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
-        let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SPEC_SHADE).build()?;
-        let interface = PipelineLibrary::<Params>::interface_for(&[&raygen, &miss, &hit]);
+        let spec = SpecScene::new(ctx)?;
+        let [raygen, miss, hit] = spec.groups();
+        let interface = PipelineLibrary::<Params>::interface_for(&spec.groups());
         let options = LibraryOptions { max_trace_depth: 1, interface: Some(interface) };
-        let common = PipelineLibrary::<Params>::new(ctx, &[&raygen, &miss], options)?;
+        let common = PipelineLibrary::<Params>::new(ctx, &[raygen, miss], options)?;
         let mut pipelines = Vec::new();
         for mode in [0, 1] {
             let constants = Specialization::new().set(SHADE_MODE_SPEC_ID, mode);
-            let hits = PipelineLibrary::<Params>::with_specialization(ctx, &[&hit], options, &constants)?;
+            let hits = PipelineLibrary::<Params>::with_specialization(ctx, &[hit], options, &constants)?;
             assert_eq!(hits.interface(), interface);
             pipelines.push(Pipeline::link(ctx, &[&common, &hits], LinkOptions::default())?);
         }
         drop(common);
-        let image = ctx.buffer::<u32>(16 * 16)?;
-        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
-        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
         for (mode, pipeline) in pipelines.iter().enumerate() {
-            let sbt = Sbt::builder(pipeline).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build()?;
-            pipeline.launch(&sbt, &params, [16, 16, 1])?;
-            let pixels = image.read()?;
-            assert_eq!(pixels[8 * 16 + 8], pack(SPEC_COLORS[mode]), "centre of pipeline {mode}");
+            let pixels = spec.render(ctx, pipeline)?;
+            assert_eq!(pixels[SpecScene::CENTRE], pack(SPEC_COLORS[mode]), "centre of pipeline {mode}");
             assert_eq!(pixels[0], pack(program_model_device::BACKGROUND), "corner of pipeline {mode}");
             // Linking compiled nothing: the groups are the libraries', in library order.
             let roles: Vec<raykit::stack::GroupRole> = pipeline.all_group_stack_sizes().iter().map(|(role, _)| *role).collect();
@@ -353,29 +354,27 @@ fn user_exceptions_thrown_in_a_library_reach_the_host_and_the_exception_program_
 fn libraries_that_cannot_be_linked_together_are_refused_with_the_fix() -> anyhow::Result<()> {
     use raykit::{Error, InterfaceSizes};
     with_context("libraries_that_cannot_be_linked_together_are_refused_with_the_fix", |ctx| {
-        let module = Module::from_device_crate(ctx, "program-model-device")?;
-        let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
-        let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
-        let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SPEC_SHADE).build()?;
-        let needed = PipelineLibrary::<Params>::interface_for(&[&raygen, &miss, &hit]);
+        let spec = SpecScene::new(ctx)?;
+        let [raygen, miss, hit] = spec.groups();
+        let needed = PipelineLibrary::<Params>::interface_for(&spec.groups());
         // The Radiance payload is a Vec3; closest-hits declare the triangle barycentrics.
         assert_eq!(needed, InterfaceSizes { payload: 12, hit_attributes: 8 });
         let options = LibraryOptions { max_trace_depth: 1, interface: Some(needed) };
-        let common = PipelineLibrary::<Params>::new(ctx, &[&raygen, &miss], options)?;
-        let hits = PipelineLibrary::<Params>::new(ctx, &[&hit], options)?;
+        let common = PipelineLibrary::<Params>::new(ctx, &[raygen, miss], options)?;
+        let hits = PipelineLibrary::<Params>::new(ctx, &[hit], options)?;
 
         let err = Pipeline::link(ctx, &[&common, &hits], LinkOptions { max_trace_depth: 2 }).err();
         assert!(matches!(err, Some(Error::LibraryMismatch { what: "max_trace_depth", index: 0, .. })), "{err:?}");
         assert!(err.is_some_and(|e| e.to_string().contains("LibraryOptions::max_trace_depth")));
 
         let wider = LibraryOptions { interface: Some(InterfaceSizes { payload: 32, hit_attributes: 8 }), ..options };
-        let wide_hits = PipelineLibrary::<Params>::new(ctx, &[&hit], wider)?;
+        let wide_hits = PipelineLibrary::<Params>::new(ctx, &[hit], wider)?;
         let err = Pipeline::link(ctx, &[&common, &wide_hits], LinkOptions::default()).err();
         assert!(matches!(err, Some(Error::LibraryMismatch { what: "interface", index: 1, .. })), "{err:?}");
         assert!(err.is_some_and(|e| e.to_string().contains("interface_for")));
 
         let narrow = LibraryOptions { interface: Some(InterfaceSizes { payload: 4, hit_attributes: 0 }), ..options };
-        let err = PipelineLibrary::<Params>::new(ctx, &[&raygen], narrow).err();
+        let err = PipelineLibrary::<Params>::new(ctx, &[raygen], narrow).err();
         assert!(
             matches!(&err, Some(Error::LibraryInterfaceTooSmall { what: "ray payload", needed: 12, given: 4, program }) if program.starts_with("__raygen__")),
             "{err:?}"
@@ -383,10 +382,10 @@ fn libraries_that_cannot_be_linked_together_are_refused_with_the_fix() -> anyhow
 
         let too_many_attributes = ctx.limits().max_ray_hit_attribute_size + 4;
         let huge = LibraryOptions { interface: Some(InterfaceSizes { payload: 12, hit_attributes: too_many_attributes }), ..options };
-        let err = PipelineLibrary::<Params>::new(ctx, &[&hit], huge).err();
+        let err = PipelineLibrary::<Params>::new(ctx, &[hit], huge).err();
         assert!(matches!(err, Some(Error::HitAttributesTooLarge { .. })), "{err:?}");
 
-        let misses = PipelineLibrary::<Params>::new(ctx, &[&miss], options)?;
+        let misses = PipelineLibrary::<Params>::new(ctx, &[miss], options)?;
         let err = Pipeline::link(ctx, &[&common, &misses, &hits], LinkOptions::default()).err();
         assert!(matches!(err, Some(Error::GroupInSeveralLibraries { kind: "miss", first: 0, second: 1 })), "{err:?}");
 
@@ -396,14 +395,8 @@ fn libraries_that_cannot_be_linked_together_are_refused_with_the_fix() -> anyhow
         assert!(matches!(err, Some(Error::EmptyLibrary)), "{err:?}");
 
         // The right libraries still link and render.
-        let (_gas, scene) = quad_scene(ctx)?;
         let pipeline = Pipeline::link(ctx, &[&common, &hits], LinkOptions::default())?;
-        let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, &hit, ()).build()?;
-        let image = ctx.buffer::<u32>(16 * 16)?;
-        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
-        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
-        pipeline.launch(&sbt, &params, [16, 16, 1])?;
-        assert_eq!(image.read()?[8 * 16 + 8], pack(SPEC_COLORS[0]));
+        assert_eq!(spec.render(ctx, &pipeline)?[SpecScene::CENTRE], pack(SPEC_COLORS[0]));
         Ok(())
     })
 }
