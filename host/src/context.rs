@@ -464,18 +464,9 @@ impl Context {
         .map_err(Error::vk("vkCreateDevice"))?;
         let device_guard = DeviceGuard(Some(device.clone()));
 
-        let limits = query_limits(instance, physical_device);
-        let mut driver = vk::PhysicalDeviceDriverProperties::default();
-        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
-        // SAFETY: the chain is well formed; `physical_device` came from this instance.
-        unsafe { instance.get_physical_device_properties2(physical_device, &mut props2) };
-        let lavapipe = driver.driver_id == vk::DriverId::MESA_LLVMPIPE;
+        let DeviceProperties { limits, driver_id, launch_dimension_limits } = query_properties(instance, physical_device);
+        let lavapipe = driver_id == vk::DriverId::MESA_LLVMPIPE;
         let debug_names = debug.then(|| ash::ext::debug_utils::Device::new(instance, &device));
-        // SAFETY: `physical_device` came from this instance.
-        let base_limits = unsafe { instance.get_physical_device_properties(physical_device) }.limits;
-        let launch_dimension_limits: [u64; 3] = std::array::from_fn(|i| {
-            base_limits.max_compute_work_group_count[i] as u64 * base_limits.max_compute_work_group_size[i] as u64
-        });
         let rt = ash::khr::ray_tracing_pipeline::Device::new(instance, &device);
         let accel = ash::khr::acceleration_structure::Device::new(instance, &device);
         // SAFETY: queue family and index 0 were requested at device creation.
@@ -760,14 +751,23 @@ impl Drop for Submission {
     }
 }
 
-fn query_limits(instance: &ash::Instance, physical: vk::PhysicalDevice) -> DeviceLimits {
+/// What raykit reads of a physical device's properties, in one query.
+struct DeviceProperties {
+    limits: DeviceLimits,
+    driver_id: vk::DriverId,
+    launch_dimension_limits: [u64; 3],
+}
+
+fn query_properties(instance: &ash::Instance, physical: vk::PhysicalDevice) -> DeviceProperties {
     let mut rt = vk::PhysicalDeviceRayTracingPipelinePropertiesKHR::default();
     let mut accel = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
-    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut rt).push_next(&mut accel);
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    let mut props2 =
+        vk::PhysicalDeviceProperties2::default().push_next(&mut rt).push_next(&mut accel).push_next(&mut driver);
     // SAFETY: the chain is well formed; `physical` belongs to `instance`.
     unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
     let limits = props2.properties.limits;
-    DeviceLimits {
+    let device_limits = DeviceLimits {
         shader_group_handle_size: rt.shader_group_handle_size,
         shader_group_handle_alignment: rt.shader_group_handle_alignment,
         shader_group_base_alignment: rt.shader_group_base_alignment,
@@ -782,7 +782,11 @@ fn query_limits(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Devic
         max_geometry_count: accel.max_geometry_count,
         max_primitive_count: accel.max_primitive_count,
         max_instance_count: accel.max_instance_count,
-    }
+    };
+    // `vkCmdTraceRaysKHR` takes at most `maxComputeWorkGroupCount[i] × maxComputeWorkGroupSize[i]` per dimension.
+    let launch_dimension_limits: [u64; 3] =
+        std::array::from_fn(|i| limits.max_compute_work_group_count[i] as u64 * limits.max_compute_work_group_size[i] as u64);
+    DeviceProperties { limits: device_limits, driver_id: driver.driver_id, launch_dimension_limits }
 }
 
 impl Drop for ContextInner {

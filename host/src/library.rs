@@ -118,18 +118,11 @@ pub(crate) struct LibraryInner {
     log: Vec<crate::log::ValidationMessage>,
 }
 
-impl InterfaceSizesExt for InterfaceSizes {
-    fn create_info(self) -> vk::RayTracingPipelineInterfaceCreateInfoKHR<'static> {
-        vk::RayTracingPipelineInterfaceCreateInfoKHR::default()
-            .max_pipeline_ray_payload_size(self.payload)
-            .max_pipeline_ray_hit_attribute_size(self.hit_attributes)
-    }
-}
-
-/// [`InterfaceSizes`] as Vulkan takes it.
-pub(crate) trait InterfaceSizesExt {
-    /// `VkRayTracingPipelineInterfaceCreateInfoKHR` of these sizes.
-    fn create_info(self) -> vk::RayTracingPipelineInterfaceCreateInfoKHR<'static>;
+/// `sizes` as Vulkan takes them (`VkRayTracingPipelineInterfaceCreateInfoKHR`).
+pub(crate) fn interface_info(sizes: InterfaceSizes) -> vk::RayTracingPipelineInterfaceCreateInfoKHR<'static> {
+    vk::RayTracingPipelineInterfaceCreateInfoKHR::default()
+        .max_pipeline_ray_payload_size(sizes.payload)
+        .max_pipeline_ray_hit_attribute_size(sizes.hit_attributes)
 }
 
 impl<P: LaunchParams> PipelineLibrary<P> {
@@ -185,13 +178,13 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         let shaders = ShaderGroups::new(groups, library.exceptions.slot, constants);
         let specialization = shaders.specialization();
         let stages = shaders.stages(&specialization);
-        let interface_info = interface.create_info();
+        let interface_create = interface_info(interface);
         let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
             .flags(vk::PipelineCreateFlags::LIBRARY_KHR)
             .stages(&stages)
             .groups(&shaders.group_infos)
             .max_pipeline_ray_recursion_depth(options.max_trace_depth)
-            .library_interface(&interface_info)
+            .library_interface(&interface_create)
             .layout(library.layout);
         let (pipeline, log) = create_ray_tracing_pipeline(inner, &create_info)?;
         library.pipeline = pipeline;

@@ -29,7 +29,7 @@ use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
 use raykit_device::layout::ParamsDelivery;
 use crate::memory::RawBuffer;
-use crate::library::{InterfaceSizesExt, LibraryInner, PipelineLibrary, PushConstantCarrier};
+use crate::library::{interface_info, LibraryInner, PipelineLibrary, PushConstantCarrier};
 use crate::program_group::{GroupPrograms, Program, ProgramGroup};
 use raykit_device::layout::InterfaceSizes;
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
@@ -332,7 +332,7 @@ impl<P: LaunchParams> Pipeline<P> {
         pipeline_inner.libraries = libraries.iter().map(|l| l.inner.clone()).collect();
         let library_pipelines: Vec<vk::Pipeline> = libraries.iter().map(|l| l.inner.pipeline).collect();
         let library_info = vk::PipelineLibraryCreateInfoKHR::default().libraries(&library_pipelines);
-        let interface_info = interface.create_info();
+        let interface_create = interface_info(interface);
         // lavapipe gives push constants only to pipelines that compile a stage
         // themselves (see `crate::library`); give it one that does nothing.
         let carrier = if inner.lavapipe { Some(PushConstantCarrier::new(inner)?) } else { None };
@@ -340,7 +340,7 @@ impl<P: LaunchParams> Pipeline<P> {
         let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
             .stages(&carrier_stage)
             .library_info(&library_info)
-            .library_interface(&interface_info);
+            .library_interface(&interface_create);
         let name = format!("raykit pipeline linked from {} libraries", libraries.len());
         let compiled = libraries
             .iter()
