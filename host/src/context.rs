@@ -391,7 +391,7 @@ impl Context {
             }
         };
         // From here on, `Partial` destroys what was made if a later step fails.
-        let mut partial = Partial { entry: Some(entry), instance: Some(instance), debug: None, log_ptr };
+        let mut partial = Partial { entry, instance, debug: None, log_ptr, armed: true };
         let instance = partial.instance();
         let entry = partial.entry();
         if debug {
@@ -462,7 +462,7 @@ impl Context {
             unsafe { instance.create_device(physical_device, &device_info, None) }
         }
         .map_err(Error::vk("vkCreateDevice"))?;
-        let device_guard = DeviceGuard(Some(device.clone()));
+        let device_guard = DeviceGuard { device: device.clone(), armed: true };
 
         let DeviceProperties { limits, driver_id, launch_dimension_limits } = query_properties(instance, physical_device);
         let lavapipe = driver_id == vk::DriverId::MESA_LLVMPIPE;
@@ -824,59 +824,62 @@ impl Drop for ContextInner {
 
 /// Destroys the instance (and messenger) if context creation fails part-way.
 struct Partial {
-    entry: Option<ash::Entry>,
-    instance: Option<ash::Instance>,
+    entry: ash::Entry,
+    instance: ash::Instance,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     log_ptr: *const MessageLog,
+    /// Cleared by `take`, when the context owns all of it.
+    armed: bool,
 }
 
 impl Partial {
     fn instance(&self) -> &ash::Instance {
-        // Both are `Some` from construction until `take`.
-        self.instance.as_ref().unwrap_or_else(|| unreachable!())
+        &self.instance
     }
     fn entry(&self) -> &ash::Entry {
-        self.entry.as_ref().unwrap_or_else(|| unreachable!())
+        &self.entry
     }
-    fn take(&mut self) -> (ash::Entry, ash::Instance, Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>) {
-        let entry = self.entry.take().unwrap_or_else(|| unreachable!());
-        let instance = self.instance.take().unwrap_or_else(|| unreachable!());
-        self.log_ptr = std::ptr::null();
-        (entry, instance, self.debug.take())
+    fn take(mut self) -> (ash::Entry, ash::Instance, Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>) {
+        self.armed = false;
+        (self.entry.clone(), self.instance.clone(), self.debug.take())
     }
 }
 
 impl Drop for Partial {
     fn drop(&mut self) {
+        if !self.armed {
+            return;
+        }
         // SAFETY: only objects created above and not handed to a context remain.
         unsafe {
             if let Some((debug_utils, messenger)) = self.debug.take() {
                 debug_utils.destroy_debug_utils_messenger(messenger, None);
             }
-            if let Some(instance) = self.instance.take() {
-                let _lifecycle = lifecycle_lock();
-                instance.destroy_instance(None);
-            }
-            if !self.log_ptr.is_null() {
-                drop(Box::from_raw(self.log_ptr as *mut MessageLog));
-            }
+            let _lifecycle = lifecycle_lock();
+            self.instance.destroy_instance(None);
+            drop(Box::from_raw(self.log_ptr as *mut MessageLog));
         }
     }
 }
 
 /// Destroys the device if context creation fails after it was made.
-struct DeviceGuard(Option<ash::Device>);
+struct DeviceGuard {
+    device: ash::Device,
+    /// Cleared by `take`, when the context owns the device.
+    armed: bool,
+}
 impl DeviceGuard {
     fn take(mut self) -> ash::Device {
-        self.0.take().unwrap_or_else(|| unreachable!())
+        self.armed = false;
+        self.device.clone()
     }
 }
 impl Drop for DeviceGuard {
     fn drop(&mut self) {
-        if let Some(device) = self.0.take() {
+        if self.armed {
             let _lifecycle = lifecycle_lock();
             // SAFETY: nothing else uses the device yet.
-            unsafe { device.destroy_device(None) };
+            unsafe { self.device.destroy_device(None) };
         }
     }
 }
