@@ -264,10 +264,7 @@ impl<P: LaunchParams> Pipeline<P> {
         check_groups::<P>(inner, groups, options.max_trace_depth)?;
         check_linkable(groups.iter().copied())?;
         let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
-        let params_uniform = new_params_uniform::<P>(inner)?;
-        let layout = create_layout::<P>(inner, params_uniform.as_ref().map(|u| u.set_layout))?;
-        // Wrapped at once, so an early return frees what exists.
-        let mut pipeline_inner = PipelineInner::new::<P>(inner, layout, params_uniform, options.max_trace_depth);
+        let mut pipeline_inner = PipelineInner::new::<P>(inner, options.max_trace_depth)?;
         pipeline_inner.exceptions.push(exceptions.clone());
         let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
         let specialization = shaders.specialization();
@@ -325,9 +322,7 @@ impl<P: LaunchParams> Pipeline<P> {
             }
         }
         check_linkable(groups.iter().copied())?;
-        let params_uniform = new_params_uniform::<P>(inner)?;
-        let layout = create_layout::<P>(inner, params_uniform.as_ref().map(|u| u.set_layout))?;
-        let mut pipeline_inner = PipelineInner::new::<P>(inner, layout, params_uniform, options.max_trace_depth);
+        let mut pipeline_inner = PipelineInner::new::<P>(inner, options.max_trace_depth)?;
         pipeline_inner.exceptions = libraries.iter().map(|l| l.inner.exceptions.clone()).collect();
         pipeline_inner.libraries = libraries.iter().map(|l| l.inner.clone()).collect();
         let library_pipelines: Vec<vk::Pipeline> = libraries.iter().map(|l| l.inner.pipeline).collect();
@@ -658,14 +653,12 @@ impl ShaderGroups {
 }
 
 impl PipelineInner {
-    /// A pipeline not created yet, owning `layout` and `params_uniform`.
-    fn new<P: LaunchParams>(
-        inner: &Arc<ContextInner>,
-        layout: vk::PipelineLayout,
-        params_uniform: Option<ParamsUniform>,
-        max_trace_depth: u32,
-    ) -> PipelineInner {
-        PipelineInner {
+    /// A pipeline for params `P`, not created yet: its params uniform buffer
+    /// (for params over the push-constant budget) and layout.
+    fn new<P: LaunchParams>(inner: &Arc<ContextInner>, max_trace_depth: u32) -> Result<PipelineInner> {
+        let params_uniform = new_params_uniform::<P>(inner)?;
+        let layout = create_layout::<P>(inner, params_uniform.as_ref().map(|u| u.set_layout))?;
+        Ok(PipelineInner {
             ctx: inner.clone(),
             pipeline: vk::Pipeline::null(),
             layout,
@@ -680,7 +673,7 @@ impl PipelineInner {
             libraries: Vec::new(),
             readbacks: Mutex::new(Vec::new()),
             log: Vec::new(),
-        }
+        })
     }
 
     /// Creates the pipeline from `create_info` (its stages, groups and libraries),
