@@ -11,18 +11,21 @@ use spirv_std::glam::Vec3;
 
 pub use spirv_std::ray_tracing::RayFlags;
 
-/// A ray type: its payload, and where its programs sit in the SBT.
+/// A ray type: its payload, and where its programs sit in the SBT. The
+/// defaults are those of a scene's only ray type (offset 0, stride 1, miss 0),
+/// so one ray type needs only its payload:
+/// `impl RayType for Radiance { type Payload = Vec3; }`.
 pub trait RayType {
     /// The payload carried by rays of this type (`RayPayloadKHR`).
     type Payload;
     /// Offset of this ray type's hit groups in each SBT hit record block
     /// (`sbtRecordOffset` of `OpTraceRayKHR`).
-    const SBT_OFFSET: u32;
+    const SBT_OFFSET: u32 = 0;
     /// Number of ray types, the stride between consecutive geometries' hit records
     /// (`sbtRecordStride`).
-    const SBT_STRIDE: u32;
+    const SBT_STRIDE: u32 = 1;
     /// Index of this ray type's miss program in the SBT miss region.
-    const MISS_INDEX: u32;
+    const MISS_INDEX: u32 = 0;
     /// Flags applied to every trace of this ray type.
     const FLAGS: RayFlags = RayFlags::NONE;
     /// Instance mask tested against each instance's mask (low 8 bits).

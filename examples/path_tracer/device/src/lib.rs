@@ -117,9 +117,8 @@ impl RayType for Shadow {
     const SBT_OFFSET: u32 = 1;
     const SBT_STRIDE: u32 = 2;
     const MISS_INDEX: u32 = 1;
-    const FLAGS: RayFlags = RayFlags::from_bits_truncate(
-        RayFlags::TERMINATE_ON_FIRST_HIT.bits() | RayFlags::SKIP_CLOSEST_HIT_SHADER.bits() | RayFlags::OPAQUE.bits(),
-    );
+    const FLAGS: RayFlags =
+        RayFlags::TERMINATE_ON_FIRST_HIT.union(RayFlags::SKIP_CLOSEST_HIT_SHADER).union(RayFlags::OPAQUE);
 }
 
 #[raygen]

@@ -37,9 +37,6 @@ pub struct Params {
 pub struct Radiance;
 impl RayType for Radiance {
     type Payload = Vec3;
-    const SBT_OFFSET: u32 = 0;
-    const SBT_STRIDE: u32 = 1;
-    const MISS_INDEX: u32 = 0;
 }
 
 /// Background colour (miss).
@@ -209,9 +206,8 @@ impl RayType for Shadow {
     const SBT_OFFSET: u32 = 1;
     const SBT_STRIDE: u32 = 2;
     const MISS_INDEX: u32 = 1;
-    const FLAGS: RayFlags = RayFlags::from_bits_truncate(
-        RayFlags::TERMINATE_ON_FIRST_HIT.bits() | RayFlags::SKIP_CLOSEST_HIT_SHADER.bits() | RayFlags::OPAQUE.bits(),
-    );
+    const FLAGS: RayFlags =
+        RayFlags::TERMINATE_ON_FIRST_HIT.union(RayFlags::SKIP_CLOSEST_HIT_SHADER).union(RayFlags::OPAQUE);
 }
 
 /// The point light of the shadows scene.

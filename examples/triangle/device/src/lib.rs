@@ -47,9 +47,6 @@ pub struct MissData {
 pub struct Radiance;
 impl RayType for Radiance {
     type Payload = Vec3;
-    const SBT_OFFSET: u32 = 0;
-    const SBT_STRIDE: u32 = 1;
-    const MISS_INDEX: u32 = 0;
 }
 
 /// Where on the image plane the centre of pixel `index` of a `dims`-sized image

@@ -49,9 +49,6 @@ pub struct ColorData {
 pub struct Radiance;
 impl RayType for Radiance {
     type Payload = Vec3;
-    const SBT_OFFSET: u32 = 0;
-    const SBT_STRIDE: u32 = 1;
-    const MISS_INDEX: u32 = 0;
     const CULL_MASK: u32 = 0x01;
 }
 

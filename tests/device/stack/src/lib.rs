@@ -42,9 +42,6 @@ pub struct LayerPayload {
 pub struct Layered;
 impl RayType for Layered {
     type Payload = LayerPayload;
-    const SBT_OFFSET: u32 = 0;
-    const SBT_STRIDE: u32 = 1;
-    const MISS_INDEX: u32 = 0;
 }
 
 /// The deepest trace: raygen's ray is depth 1, each layer's closest-hit traces
