@@ -364,19 +364,20 @@ pub(crate) fn validate(inputs: &[BuildInput<'_>], limits: &DeviceLimits, for_upd
     Ok(shapes)
 }
 
+/// `count` fits the 32 bits Vulkan takes for it (`limit_name`).
+fn check_fits_u32(what: &'static str, count: usize, limit_name: &'static str) -> Result<()> {
+    if count > u32::MAX as usize {
+        return Err(Error::AccelLimit { what, count: count as u64, limit: u32::MAX as u64, limit_name });
+    }
+    Ok(())
+}
+
 fn validate_triangles(g: usize, t: &Triangles<'_>, for_update: bool) -> Result<Shape> {
     check_stride(g, "vertex", t.stride, 4, VERTEX_SIZE)?;
     if t.vertex_count == 0 {
         return Err(Error::AccelEmpty { what: format!("geometry {g} has no vertices") });
     }
-    if t.vertex_count > u32::MAX as usize {
-        return Err(Error::AccelLimit {
-            what: "vertices in one geometry",
-            count: t.vertex_count as u64,
-            limit: u32::MAX as u64,
-            limit_name: "the 32-bit maxVertex",
-        });
-    }
+    check_fits_u32("vertices in one geometry", t.vertex_count, "the 32-bit maxVertex")?;
     check_len(g, "vertex", t.vertex_bytes.len(), t.vertex_count, t.stride, VERTEX_SIZE)?;
     let index_count = match t.indices {
         Indices::None => {
@@ -408,14 +409,7 @@ fn validate_triangles(g: usize, t: &Triangles<'_>, for_update: bool) -> Result<S
         }
     };
     let triangles = index_count / 3;
-    if triangles > u32::MAX as usize {
-        return Err(Error::AccelLimit {
-            what: "triangles in one geometry",
-            count: triangles as u64,
-            limit: u32::MAX as u64,
-            limit_name: "the 32-bit primitiveCount",
-        });
-    }
+    check_fits_u32("triangles in one geometry", triangles, "the 32-bit primitiveCount")?;
     for v in 0..t.vertex_count {
         let p = t.vertex(v);
         if !p.iter().all(|c| c.is_finite()) {
@@ -444,14 +438,7 @@ fn validate_aabbs(g: usize, a: &Aabbs<'_>) -> Result<Shape> {
     if a.count == 0 {
         return Err(Error::AccelEmpty { what: format!("geometry {g} has no AABBs") });
     }
-    if a.count > u32::MAX as usize {
-        return Err(Error::AccelLimit {
-            what: "AABBs in one geometry",
-            count: a.count as u64,
-            limit: u32::MAX as u64,
-            limit_name: "the 32-bit primitiveCount",
-        });
-    }
+    check_fits_u32("AABBs in one geometry", a.count, "the 32-bit primitiveCount")?;
     check_len(g, "AABB", a.bytes.len(), a.count, a.stride, AABB_SIZE)?;
     for i in 0..a.count {
         let b = a.aabb(i);
