@@ -76,10 +76,19 @@ pub fn run(ctx: &Context, ash: &AshDevice, sizes: &[usize], reps: Option<usize>)
     for &n in sizes {
         let (vertices, indices) = grid(n);
         let arrays: Vec<[f32; 3]> = vertices.iter().map(|v| v.to_array()).collect();
-        let reps = reps.unwrap_or(if n >= 1_000_000 { 5 } else if n >= 100_000 { 9 } else { 15 });
+        let reps = reps.unwrap_or(if n >= 1_000_000 {
+            5
+        } else if n >= 100_000 {
+            9
+        } else {
+            15
+        });
         let build_raykit = || -> anyhow::Result<(f64, Gas)> {
             let t = Instant::now();
-            let gas = Gas::builder().triangles(Triangles::new(&vertices).indices_u32(&indices)).options(options).build(ctx)?;
+            let gas = Gas::builder()
+                .triangles(Triangles::new(&vertices).indices_u32(&indices))
+                .options(options)
+                .build(ctx)?;
             Ok((t.elapsed().as_secs_f64(), gas))
         };
         let build_ash = |reuse: bool| -> anyhow::Result<(f64, raykit_ash::Gas)> {

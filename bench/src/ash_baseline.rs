@@ -65,7 +65,8 @@ impl AshDevice {
         let entry = unsafe { ash::Entry::load() }.context("loading libvulkan")?;
         let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
         // SAFETY: valid create info.
-        let instance = unsafe { entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None) }?;
+        let instance =
+            unsafe { entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None) }?;
         // SAFETY: live instance.
         let physicals = unsafe { instance.enumerate_physical_devices() }?;
         let mut chosen = None;
@@ -85,7 +86,10 @@ impl AshDevice {
         };
         // SAFETY: as above.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-        let family = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)).context("no compute queue")?;
+        let family = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            .context("no compute queue")?;
         let timestamps = families[family].timestamp_valid_bits > 0 && props.limits.timestamp_period > 0.0;
         let mut accel_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
         let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut accel_props);
@@ -95,10 +99,12 @@ impl AshDevice {
 
         let extensions: [&CStr; 2] = [ash::khr::acceleration_structure::NAME, ash::khr::deferred_host_operations::NAME];
         let extension_ptrs: Vec<_> = extensions.iter().map(|e| e.as_ptr()).collect();
-        let mut accel_features = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+        let mut accel_features =
+            vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
         let mut v12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
         let priorities = [1.0f32];
-        let queues = [vk::DeviceQueueCreateInfo::default().queue_family_index(family as u32).queue_priorities(&priorities)];
+        let queues =
+            [vk::DeviceQueueCreateInfo::default().queue_family_index(family as u32).queue_priorities(&priorities)];
         let info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queues)
             .enabled_extension_names(&extension_ptrs)
@@ -137,13 +143,21 @@ impl AshDevice {
             types.iter().enumerate().position(|(i, t)| bits & (1 << i) != 0 && t.property_flags.contains(flags))
         };
         find(wanted)
-            .or_else(|| if wanted.contains(vk::MemoryPropertyFlags::HOST_VISIBLE) { None } else { find(vk::MemoryPropertyFlags::empty()) })
+            .or_else(|| {
+                if wanted.contains(vk::MemoryPropertyFlags::HOST_VISIBLE) {
+                    None
+                } else {
+                    find(vk::MemoryPropertyFlags::empty())
+                }
+            })
             .map(|i| i as u32)
             .context("no suitable memory type")
     }
 
     fn buffer(&self, size: u64, usage: vk::BufferUsageFlags, host: bool) -> anyhow::Result<Buffer> {
-        let info = vk::BufferCreateInfo::default().size(size.max(4)).usage(usage | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS);
+        let info = vk::BufferCreateInfo::default()
+            .size(size.max(4))
+            .usage(usage | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS);
         // SAFETY: valid create info.
         let buffer = unsafe { self.device.create_buffer(&info, None) }?;
         // SAFETY: live buffer.
@@ -163,7 +177,8 @@ impl AshDevice {
         // SAFETY: fresh buffer and memory of the required size and type.
         unsafe { self.device.bind_buffer_memory(buffer, memory, 0) }?;
         // SAFETY: the buffer has the device-address usage and is bound.
-        let address = unsafe { self.device.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(buffer)) };
+        let address =
+            unsafe { self.device.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(buffer)) };
         Ok(Buffer { buffer, memory, address })
     }
 
@@ -183,7 +198,8 @@ impl AshDevice {
             }
             let b = self.buffer(len, vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR, true)?;
             // SAFETY: host-visible memory, mapped once for the buffer's lifetime.
-            let ptr = unsafe { self.device.map_memory(b.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }? as *mut u8;
+            let ptr =
+                unsafe { self.device.map_memory(b.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }? as *mut u8;
             arena.input = Some((b, len, ptr));
         }
         let Some((b, _, ptr)) = &arena.input else { bail!("no input buffer") };
@@ -232,7 +248,10 @@ impl AshDevice {
         let cmd = unsafe { self.device.allocate_command_buffers(&info) }?[0];
         // SAFETY: fresh command buffer; the fence is waited before everything is freed.
         unsafe {
-            self.device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
+            self.device.begin_command_buffer(
+                cmd,
+                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )?;
             record(cmd);
             self.device.end_command_buffer(cmd)?;
             let fence = self.device.create_fence(&vk::FenceCreateInfo::default(), None)?;
@@ -252,7 +271,13 @@ impl AshDevice {
     ///
     /// With `reuse_storage`, the structure's memory comes from a destroyed
     /// structure's when one fits; otherwise from a fresh `vkAllocateMemory`.
-    pub fn build_gas(&self, vertices: &[[f32; 3]], indices: &[u32], timed: bool, reuse_storage: bool) -> anyhow::Result<AshGas> {
+    pub fn build_gas(
+        &self,
+        vertices: &[[f32; 3]],
+        indices: &[u32],
+        timed: bool,
+        reuse_storage: bool,
+    ) -> anyhow::Result<AshGas> {
         let addresses = self.upload(&[as_bytes(vertices), as_bytes(indices)])?;
         let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
             .vertex_format(vk::Format::R32G32B32_SFLOAT)
@@ -264,7 +289,8 @@ impl AshDevice {
         let geometry = [vk::AccelerationStructureGeometryKHR::default()
             .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
             .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })];
-        let flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE | vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION;
+        let flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE
+            | vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION;
         let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
             .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
             .flags(flags)
@@ -274,7 +300,12 @@ impl AshDevice {
         let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
         // SAFETY: valid build info and one count per geometry.
         unsafe {
-            self.accel.get_acceleration_structure_build_sizes(vk::AccelerationStructureBuildTypeKHR::DEVICE, &info, &[count], &mut sizes)
+            self.accel.get_acceleration_structure_build_sizes(
+                vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                &info,
+                &[count],
+                &mut sizes,
+            )
         };
         let storage = if reuse_storage {
             self.storage(sizes.acceleration_structure_size)?
@@ -289,15 +320,24 @@ impl AshDevice {
         // SAFETY: the storage buffer is large enough.
         let accel = unsafe { self.accel.create_acceleration_structure(&create, None) }?;
         let scratch_address = self.scratch(sizes.build_scratch_size)?;
-        info = info.dst_acceleration_structure(accel).scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+        info = info
+            .dst_acceleration_structure(accel)
+            .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
         let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
 
-        let pool_info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR).query_count(1);
+        let pool_info = vk::QueryPoolCreateInfo::default()
+            .query_type(vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR)
+            .query_count(1);
         // SAFETY: valid create info.
         let query = unsafe { self.device.create_query_pool(&pool_info, None) }?;
         let time_pool = if timed && self.timestamps {
             // SAFETY: valid create info.
-            Some(unsafe { self.device.create_query_pool(&vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2), None) }?)
+            Some(unsafe {
+                self.device.create_query_pool(
+                    &vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2),
+                    None,
+                )
+            }?)
         } else {
             None
         };
@@ -311,7 +351,12 @@ impl AshDevice {
                 }
                 self.accel.cmd_build_acceleration_structures(cmd, &[info], &[&range]);
                 if let Some(t) = time_pool {
-                    self.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR, t, 1);
+                    self.device.cmd_write_timestamp(
+                        cmd,
+                        vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+                        t,
+                        1,
+                    );
                 }
                 let barrier = vk::MemoryBarrier::default()
                     .src_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR)
@@ -336,12 +381,26 @@ impl AshDevice {
         })?;
         let mut compacted = [0u64; 1];
         // SAFETY: the query was written by the finished submission.
-        unsafe { self.device.get_query_pool_results(query, 0, &mut compacted, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT) }?;
+        unsafe {
+            self.device.get_query_pool_results(
+                query,
+                0,
+                &mut compacted,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
+        }?;
         let gpu_ns = match time_pool {
             Some(t) => {
                 let mut stamps = [0u64; 2];
                 // SAFETY: as above.
-                unsafe { self.device.get_query_pool_results(t, 0, &mut stamps, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT) }?;
+                unsafe {
+                    self.device.get_query_pool_results(
+                        t,
+                        0,
+                        &mut stamps,
+                        vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                    )
+                }?;
                 // SAFETY: no longer used.
                 unsafe { self.device.destroy_query_pool(t, None) };
                 Some(stamps[1].saturating_sub(stamps[0]) as f64 * self.timestamp_period_ns)
@@ -362,7 +421,10 @@ impl AshDevice {
             .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
         // SAFETY: the storage buffer is large enough.
         let accel = unsafe { self.accel.create_acceleration_structure(&create, None) }?;
-        let copy = vk::CopyAccelerationStructureInfoKHR::default().src(gas.accel).dst(accel).mode(vk::CopyAccelerationStructureModeKHR::COMPACT);
+        let copy = vk::CopyAccelerationStructureInfoKHR::default()
+            .src(gas.accel)
+            .dst(accel)
+            .mode(vk::CopyAccelerationStructureModeKHR::COMPACT);
         // SAFETY: both structures live until the wait ends.
         self.submit_and_wait(|cmd| unsafe { self.accel.cmd_copy_acceleration_structure(cmd, &copy) })?;
         // SAFETY: the copy has finished.

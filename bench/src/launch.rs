@@ -82,7 +82,10 @@ impl<'c> AshLauncher<'c> {
         // SAFETY: the command buffer is not in use (the last launch was waited for);
         // the pipeline, layout, set and SBT belong to live raykit objects.
         unsafe {
-            d.begin_command_buffer(self.cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
+            d.begin_command_buffer(
+                self.cmd,
+                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )?;
             d.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, p.pipeline.raw_pipeline());
             d.cmd_bind_descriptor_sets(
                 self.cmd,
@@ -198,7 +201,8 @@ fn ash_create(ctx: &Context, spirv: &[u32], memory: &vk::PhysicalDeviceMemoryPro
     unsafe {
         let module = d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(spirv), None)?;
         let names: [&CStr; 3] = [c"__raygen__rg", c"__miss__ms", c"__closesthit__ch"];
-        let kinds = [vk::ShaderStageFlags::RAYGEN_KHR, vk::ShaderStageFlags::MISS_KHR, vk::ShaderStageFlags::CLOSEST_HIT_KHR];
+        let kinds =
+            [vk::ShaderStageFlags::RAYGEN_KHR, vk::ShaderStageFlags::MISS_KHR, vk::ShaderStageFlags::CLOSEST_HIT_KHR];
         let stages: Vec<_> = names
             .iter()
             .zip(kinds)
@@ -245,19 +249,24 @@ fn ash_create(ctx: &Context, spirv: &[u32], memory: &vk::PhysicalDeviceMemoryPro
         let stride = record.next_multiple_of(base);
         let size = stride * 3;
         let buffer = d.create_buffer(
-            &vk::BufferCreateInfo::default().size(size).usage(
-                vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-            ),
+            &vk::BufferCreateInfo::default()
+                .size(size)
+                .usage(vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS),
             None,
         )?;
         let req = d.get_buffer_memory_requirements(buffer);
         let wanted = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
         let type_index = (0..memory.memory_type_count)
-            .find(|&i| req.memory_type_bits & (1 << i) != 0 && memory.memory_types[i as usize].property_flags.contains(wanted))
+            .find(|&i| {
+                req.memory_type_bits & (1 << i) != 0 && memory.memory_types[i as usize].property_flags.contains(wanted)
+            })
             .context("no host-visible memory for the SBT")?;
         let mut flags = vk::MemoryAllocateFlagsInfo::default().flags(vk::MemoryAllocateFlags::DEVICE_ADDRESS);
         let mem = d.allocate_memory(
-            &vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(type_index).push_next(&mut flags),
+            &vk::MemoryAllocateInfo::default()
+                .allocation_size(req.size)
+                .memory_type_index(type_index)
+                .push_next(&mut flags),
             None,
         )?;
         d.bind_buffer_memory(buffer, mem, 0)?;

@@ -109,7 +109,11 @@ fn parse() -> anyhow::Result<Args> {
 
 fn main() -> anyhow::Result<()> {
     let args = parse()?;
-    let ctx = Context::new(ContextOptions { validation: Some(false), device_name_contains: args.device.clone(), ..Default::default() })?;
+    let ctx = Context::new(ContextOptions {
+        validation: Some(false),
+        device_name_contains: args.device.clone(),
+        ..Default::default()
+    })?;
     let device = ctx.device_name().to_owned();
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let mut report = serde_json::json!({ "device": device, "suites": {} });

@@ -14,8 +14,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use raykit::{
-    CacheLoad, Context, ContextOptions, LaunchParams, LibraryOptions, LinkOptions, Module, Pipeline, PipelineCacheLocation,
-    PipelineLibrary, ProgramGroup,
+    CacheLoad, Context, ContextOptions, LaunchParams, LibraryOptions, LinkOptions, Module, Pipeline,
+    PipelineCacheLocation, PipelineLibrary, ProgramGroup,
 };
 
 use crate::stats::Summary;
@@ -96,7 +96,8 @@ impl GroupsFn<f64> for Monolithic {
 struct FromLibraries;
 impl GroupsFn<(f64, f64)> for FromLibraries {
     fn call<P: LaunchParams>(self, ctx: &Context, groups: &[&ProgramGroup]) -> anyhow::Result<(f64, f64)> {
-        let options = LibraryOptions { max_trace_depth: 1, interface: Some(PipelineLibrary::<P>::interface_for(groups)) };
+        let options =
+            LibraryOptions { max_trace_depth: 1, interface: Some(PipelineLibrary::<P>::interface_for(groups)) };
         let link = LinkOptions { max_trace_depth: 1 };
         let start = Instant::now();
         let raygen = PipelineLibrary::<P>::new(ctx, &groups[..1], options)?;
@@ -149,7 +150,9 @@ pub fn run(device: Option<&str>, reps: Option<usize>) -> anyhow::Result<Vec<Row>
                 }
                 let ctx = context(device, PipelineCacheLocation::Dir(dir))?;
                 let load = ctx.pipeline_cache_info().load;
-                let CacheLoad::Loaded { bytes } = load else { anyhow::bail!("{name}: the warm cache was not loaded: {load:?}") };
+                let CacheLoad::Loaded { bytes } = load else {
+                    anyhow::bail!("{name}: the warm cache was not loaded: {load:?}")
+                };
                 cache_bytes = bytes;
                 warm.push(create_ms(&ctx, which)?);
             }
@@ -157,7 +160,9 @@ pub fn run(device: Option<&str>, reps: Option<usize>) -> anyhow::Result<Vec<Row>
             for rep in 0..reps {
                 // Each way in its own fresh context, so neither reuses what the
                 // other compiled; which goes first alternates.
-                let monolithic_ctx = || -> anyhow::Result<f64> { with_groups(&context(device, PipelineCacheLocation::Off)?, which, Monolithic) };
+                let monolithic_ctx = || -> anyhow::Result<f64> {
+                    with_groups(&context(device, PipelineCacheLocation::Off)?, which, Monolithic)
+                };
                 let libraries_ctx = || -> anyhow::Result<(f64, f64)> {
                     let ctx = context(device, PipelineCacheLocation::Off)?;
                     if !ctx.supports_pipeline_libraries() {
@@ -194,7 +199,8 @@ pub fn run(device: Option<&str>, reps: Option<usize>) -> anyhow::Result<Vec<Row>
 
 /// The rows as a Markdown table.
 pub fn markdown(rows: &[Row], device: &str) -> String {
-    let mut s = format!("Pipeline creation on {device}, milliseconds (median [p25–p75]), fresh context per sample.\n\n");
+    let mut s =
+        format!("Pipeline creation on {device}, milliseconds (median [p25–p75]), fresh context per sample.\n\n");
     s.push_str("| pipeline | cache off | cold cache | warm cache | warm / cold | cache data |\n|---|---:|---:|---:|---:|---:|\n");
     let f = |x: &Summary| format!("{:.2} [{:.2}–{:.2}]", x.median, x.p25, x.p75);
     for r in rows {

@@ -44,7 +44,8 @@ pub fn sizes() -> anyhow::Result<Vec<Row>> {
 
 /// The Markdown section: sizes, and build times from `out/shader_build.json` if present.
 pub fn markdown(rows: &[Row], out: &Path) -> (String, serde_json::Value) {
-    let mut s = String::from("| programs | Rust SPIR-V B | GLSL SPIR-V B (spirv-opt -O) | Rust/GLSL |\n|---|---:|---:|---:|\n");
+    let mut s =
+        String::from("| programs | Rust SPIR-V B | GLSL SPIR-V B (spirv-opt -O) | Rust/GLSL |\n|---|---:|---:|---:|\n");
     let mut json = Vec::new();
     for r in rows {
         s.push_str(&format!(

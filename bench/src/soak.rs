@@ -6,8 +6,8 @@
 use program_model_device::{pack, ColorRecord, Params, Radiance};
 use raykit::glam::{Affine3A, UVec2, Vec3, Vec4};
 use raykit::{
-    BuildOptions, Context, Gas, Ias, Instance, LinkOptions, MemoryUsage, Module, Pipeline, ProgramGroup, Sbt, SbtRegion,
-    Triangles,
+    BuildOptions, Context, Gas, Ias, Instance, LinkOptions, MemoryUsage, Module, Pipeline, ProgramGroup, Sbt,
+    SbtRegion, Triangles,
 };
 
 /// One sample.
@@ -62,11 +62,15 @@ pub fn run(ctx: &Context, launches: usize) -> anyhow::Result<Vec<Sample>> {
         let moved = quad(((i % 10) as f32) * 0.01);
         gas.update(&[Triangles::new(&moved).into()])?;
         ias.update(&[Instance::new(&gas).transform(place)])?;
-        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(size), scene: ias.handle() };
+        let params =
+            Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(size), scene: ias.handle() };
         pipeline.launch(&sbt, &params, [size, size, 1])?;
     }
     let centre = image.read()?[(size / 2 * size + size / 2) as usize];
-    anyhow::ensure!(centre == pack(color), "after {launches} launches the centre pixel is {centre:#x}, not the last record's colour");
+    anyhow::ensure!(
+        centre == pack(color),
+        "after {launches} launches the centre pixel is {centre:#x}, not the last record's colour"
+    );
     Ok(samples)
 }
 

@@ -68,7 +68,11 @@ fn shadows(ctx: &Context) -> anyhow::Result<Row> {
     let ms_shadow = ProgramGroup::miss(&module, d::MS_SHADOW)?;
     let shade = ProgramGroup::hit_group(&module).closest_hit(d::SHADE_SHADOWED).build()?;
     let shadow_hit = ProgramGroup::hit_group(&module).closest_hit(d::SHADOW_HIT).build()?;
-    let p = Pipeline::<d::Params>::new(ctx, &[&rg, &ms, &ms_shadow, &shade, &shadow_hit], LinkOptions { max_trace_depth: 2 })?;
+    let p = Pipeline::<d::Params>::new(
+        ctx,
+        &[&rg, &ms, &ms_shadow, &shade, &shadow_hit],
+        LinkOptions { max_trace_depth: 2 },
+    )?;
     // The seed's path tracer: css_rg + max(css_ms1, css_ch1 + max(css_ms2, css_ch2)).
     let mut g = CallGraph::new(2);
     let (camera, shadow) = (g.ray_type(), g.ray_type());
@@ -78,7 +82,13 @@ fn shadows(ctx: &Context) -> anyhow::Result<Row> {
     g.miss(shadow, p.group_stack_sizes(&ms_shadow)?.general);
     g.hit(shadow, p.group_stack_sizes(&shadow_hit)?);
     g.traces(n_rg, camera).traces(n_shade, shadow);
-    row("shadows (examples/program_model, 2 ray types)", &p, &["rg_shadows", "ms_shadows", "ms_shadow", "shade_shadowed", "shadow_hit"], CallDepths::new(2), &g)
+    row(
+        "shadows (examples/program_model, 2 ray types)",
+        &p,
+        &["rg_shadows", "ms_shadows", "ms_shadow", "shade_shadowed", "shadow_hit"],
+        CallDepths::new(2),
+        &g,
+    )
 }
 
 fn materials(ctx: &Context) -> anyhow::Result<Row> {
@@ -87,8 +97,16 @@ fn materials(ctx: &Context) -> anyhow::Result<Row> {
     let rg = ProgramGroup::raygen(&module, d::RG)?;
     let ms = ProgramGroup::miss(&module, d::MS)?;
     let hit = ProgramGroup::hit_group(&module).closest_hit(d::MATERIAL_SHADE).build()?;
-    let callables = [ProgramGroup::callable(&module, d::RED)?, ProgramGroup::callable(&module, d::GREEN)?, ProgramGroup::callable(&module, d::BLUE)?];
-    let p = Pipeline::<d::Params>::new(ctx, &[&rg, &ms, &hit, &callables[0], &callables[1], &callables[2]], LinkOptions { max_trace_depth: 1 })?;
+    let callables = [
+        ProgramGroup::callable(&module, d::RED)?,
+        ProgramGroup::callable(&module, d::GREEN)?,
+        ProgramGroup::callable(&module, d::BLUE)?,
+    ];
+    let p = Pipeline::<d::Params>::new(
+        ctx,
+        &[&rg, &ms, &hit, &callables[0], &callables[1], &callables[2]],
+        LinkOptions { max_trace_depth: 1 },
+    )?;
     let mut g = CallGraph::new(1);
     let radiance = g.ray_type();
     let n_rg = g.raygen(p.group_stack_sizes(&rg)?.general);
@@ -100,7 +118,13 @@ fn materials(ctx: &Context) -> anyhow::Result<Row> {
         g.calls(n_hit, n);
     }
     let depths = CallDepths::new(1).direct_callables(1).continuation_callables(1);
-    row("materials (examples/program_model, callables)", &p, &["rg", "ms", "material_shade", "red (dc)", "green (dc)", "blue (cc)"], depths, &g)
+    row(
+        "materials (examples/program_model, callables)",
+        &p,
+        &["rg", "ms", "material_shade", "red (dc)", "green (dc)", "blue (cc)"],
+        depths,
+        &g,
+    )
 }
 
 fn spheres(ctx: &Context) -> anyhow::Result<Row> {
@@ -116,7 +140,13 @@ fn spheres(ctx: &Context) -> anyhow::Result<Row> {
     g.miss(radiance, p.group_stack_sizes(&ms)?.general);
     g.hit(radiance, p.group_stack_sizes(&hit)?);
     g.traces(n_rg, radiance);
-    row("spheres (examples/program_model, intersection)", &p, &["rg", "ms", "sphere+sphere_shade"], CallDepths::new(1), &g)
+    row(
+        "spheres (examples/program_model, intersection)",
+        &p,
+        &["rg", "ms", "sphere+sphere_shade"],
+        CallDepths::new(1),
+        &g,
+    )
 }
 
 fn layered(ctx: &Context) -> anyhow::Result<Row> {
@@ -132,7 +162,13 @@ fn layered(ctx: &Context) -> anyhow::Result<Row> {
     g.miss(ray, p.group_stack_sizes(&ms)?.general);
     let n_hit = g.hit(ray, p.group_stack_sizes(&hit)?);
     g.traces(n_rg, ray).traces(n_hit, ray);
-    row("layered (tests/device/stack, recursive closest-hit)", &p, &["rg", "ms", "layer_hit"], CallDepths::new(d::MAX_DEPTH), &g)
+    row(
+        "layered (tests/device/stack, recursive closest-hit)",
+        &p,
+        &["rg", "ms", "layer_hit"],
+        CallDepths::new(d::MAX_DEPTH),
+        &g,
+    )
 }
 
 /// Runs the suite.
@@ -162,7 +198,9 @@ pub fn markdown(rows: &[Row], device: &str) -> String {
             r.name, r.depth, r.conservative, r.refined, r.call_graph, r.driver_default
         ));
     }
-    s.push_str("\nPer-group sizes from `vkGetRayTracingShaderGroupStackSizeKHR` (0 where the group has no such shader):\n\n");
+    s.push_str(
+        "\nPer-group sizes from `vkGetRayTracingShaderGroupStackSizeKHR` (0 where the group has no such shader):\n\n",
+    );
     s.push_str("| pipeline | group | role | general | closest-hit | any-hit | intersection |\n|---|---|---|---:|---:|---:|---:|\n");
     for r in rows {
         for (name, g_role, g) in &r.groups {

@@ -15,7 +15,11 @@ pub fn default_options() -> Options {
 
 /// Parses one option of these suites (`--triangles`, `--primary-size WxH`,
 /// `--path-size N`, `--spp N`); returns false when `name` is not one.
-pub fn parse_option(opts: &mut Options, name: &str, value: &mut dyn FnMut() -> anyhow::Result<String>) -> anyhow::Result<bool> {
+pub fn parse_option(
+    opts: &mut Options,
+    name: &str,
+    value: &mut dyn FnMut() -> anyhow::Result<String>,
+) -> anyhow::Result<bool> {
     match name {
         "--triangles" => opts.triangles = value()?.replace('_', "").parse().context("--triangles takes a number")?,
         "--primary-size" => {

@@ -264,7 +264,9 @@ pub fn markdown(rows: &[Row]) -> String {
     let mut s = String::from(
         "Same host code, same acceleration structures; variants interleaved in rotating order after one warm-up launch each; median (± half the interquartile range); `vs GLSL` is the median of per-repetition ratios of Mrays/s (> 1: faster than the GLSL twin).\n\n",
     );
-    s.push_str("| suite | setup | programs | reps | rays/launch | ms/launch | Mrays/s | vs GLSL (min–max) | timing |\n");
+    s.push_str(
+        "| suite | setup | programs | reps | rays/launch | ms/launch | Mrays/s | vs GLSL (min–max) | timing |\n",
+    );
     s.push_str("|---|---|---|---:|---:|---:|---:|---:|---|\n");
     for r in rows {
         s.push_str(&format!(

@@ -50,9 +50,7 @@ impl ProgramKind {
 
     /// The kind whose OptiX prefix `name` starts with, if any.
     pub fn from_prefixed_name(name: &str) -> Option<ProgramKind> {
-        Self::ALL
-            .into_iter()
-            .find(|kind| kind.prefixes().iter().any(|p| name.starts_with(p)))
+        Self::ALL.into_iter().find(|kind| kind.prefixes().iter().any(|p| name.starts_with(p)))
     }
 
     /// A short human name: "raygen", "miss", "closest-hit", …

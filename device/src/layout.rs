@@ -114,7 +114,9 @@ impl std::fmt::Display for ParamsDelivery {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             ParamsDelivery::PushConstants => f.write_str("push constants"),
-            ParamsDelivery::UniformBuffer { set, binding } => write!(f, "a uniform buffer (set {set}, binding {binding})"),
+            ParamsDelivery::UniformBuffer { set, binding } => {
+                write!(f, "a uniform buffer (set {set}, binding {binding})")
+            }
         }
     }
 }
@@ -283,7 +285,9 @@ impl<'m> Index<'m> {
         let inst = self.def(id)?;
         let plain = |size: u32| Ok((BlockType::Plain(format!("{:?}", inst.class.opcode)), size));
         match inst.class.opcode {
-            Op::TypeInt | Op::TypeFloat => plain(literal(inst, 0).ok_or_else(|| bad("OpTypeInt/Float without width"))? / 8),
+            Op::TypeInt | Op::TypeFloat => {
+                plain(literal(inst, 0).ok_or_else(|| bad("OpTypeInt/Float without width"))? / 8)
+            }
             Op::TypeBool => plain(4),
             Op::TypeVector => {
                 let component = id_operand(inst, 0).ok_or_else(|| bad("OpTypeVector without component"))?;
@@ -302,7 +306,9 @@ impl<'m> Index<'m> {
             Op::TypeArray | Op::TypeRuntimeArray => {
                 let element = id_operand(inst, 0).ok_or_else(|| bad("array without element type"))?;
                 let len = match inst.class.opcode {
-                    Op::TypeArray => self.constant(id_operand(inst, 1).ok_or_else(|| bad("OpTypeArray without length"))?)?,
+                    Op::TypeArray => {
+                        self.constant(id_operand(inst, 1).ok_or_else(|| bad("OpTypeArray without length"))?)?
+                    }
                     _ => 0,
                 };
                 let (element_ty, element_size) = self.describe(element, depth + 1)?;
@@ -407,7 +413,10 @@ pub struct InterfaceSizes {
 impl InterfaceSizes {
     /// The larger of each size.
     pub fn max(self, other: InterfaceSizes) -> InterfaceSizes {
-        InterfaceSizes { payload: self.payload.max(other.payload), hit_attributes: self.hit_attributes.max(other.hit_attributes) }
+        InterfaceSizes {
+            payload: self.payload.max(other.payload),
+            hit_attributes: self.hit_attributes.max(other.hit_attributes),
+        }
     }
 }
 
@@ -422,7 +431,11 @@ impl Index<'_> {
         }
         match self.budget.get().checked_sub(1) {
             Some(left) => self.budget.set(left),
-            None => return Err(bad(format!("payload or attribute types too large (over {DESCRIBE_BUDGET} types described)"))),
+            None => {
+                return Err(bad(format!(
+                    "payload or attribute types too large (over {DESCRIBE_BUDGET} types described)"
+                )))
+            }
         }
         let inst = self.def(id)?;
         let round = |size: u32, align: u32| size.div_ceil(align.max(1)).saturating_mul(align.max(1));
@@ -448,7 +461,8 @@ impl Index<'_> {
             }
             Op::TypeArray => {
                 let element = id_operand(inst, 0).ok_or_else(|| bad("array without element type"))?;
-                let len = self.length_or_default(id_operand(inst, 1).ok_or_else(|| bad("OpTypeArray without length"))?)?;
+                let len =
+                    self.length_or_default(id_operand(inst, 1).ok_or_else(|| bad("OpTypeArray without length"))?)?;
                 let (size, align) = self.natural(element, depth + 1)?;
                 let stride = match self.decoration(id, Decoration::ArrayStride) {
                     Some(Some(stride)) => stride.max(size),
@@ -459,7 +473,8 @@ impl Index<'_> {
             Op::TypeStruct => {
                 let (mut end, mut align) = (0u32, 1u32);
                 for i in 0..inst.operands.len() {
-                    let member = id_operand(inst, i).ok_or_else(|| bad(format!("struct %{id} member {i} is not a type")))?;
+                    let member =
+                        id_operand(inst, i).ok_or_else(|| bad(format!("struct %{id} member {i} is not a type")))?;
                     let (size, member_align) = self.natural(member, depth + 1)?;
                     let offset = match self.member_decoration(id, i as u32, Decoration::Offset) {
                         Some(offset) => offset,
@@ -481,7 +496,9 @@ impl Index<'_> {
         let inst = self.def(id)?;
         match (inst.class.opcode, inst.operands.first()) {
             (Op::SpecConstant, Some(Operand::LiteralBit32(v))) => Ok(*v),
-            (Op::SpecConstant, Some(Operand::LiteralBit64(v))) => u32::try_from(*v).map_err(|_| bad("array length over 2^32")),
+            (Op::SpecConstant, Some(Operand::LiteralBit64(v))) => {
+                u32::try_from(*v).map_err(|_| bad("array length over 2^32"))
+            }
             (Op::Constant, _) => self.constant(id),
             _ => Err(bad(format!("the length %{id} of an array in a ray payload or hit attributes is not a constant"))),
         }
@@ -492,7 +509,10 @@ impl Index<'_> {
         let Some(inst) = self.defs.get(&var) else { return Ok(InterfaceSizes::default()) };
         let Some(Operand::StorageClass(storage)) = inst.operands.first() else { return Ok(InterfaceSizes::default()) };
         if inst.class.opcode != Op::Variable
-            || !matches!(storage, StorageClass::RayPayloadKHR | StorageClass::IncomingRayPayloadKHR | StorageClass::HitAttributeKHR)
+            || !matches!(
+                storage,
+                StorageClass::RayPayloadKHR | StorageClass::IncomingRayPayloadKHR | StorageClass::HitAttributeKHR
+            )
         {
             return Ok(InterfaceSizes::default());
         }
@@ -603,7 +623,12 @@ fn describe_host(offset: u32, size: u32) -> String {
 }
 
 /// Compares the host layout with the block members; `Err` on the first difference.
-fn compare(host: &ParamsLayout, members: &[BlockMember], path: &str, depth: usize) -> std::result::Result<(), Mismatch> {
+fn compare(
+    host: &ParamsLayout,
+    members: &[BlockMember],
+    path: &str,
+    depth: usize,
+) -> std::result::Result<(), Mismatch> {
     let at = |name: &str| if path.is_empty() { name.to_owned() } else { format!("{path}.{name}") };
     for (i, field) in host.fields.iter().enumerate() {
         let Some(member) = members.get(i) else {
@@ -640,7 +665,10 @@ fn compare(host: &ParamsLayout, members: &[BlockMember], path: &str, depth: usiz
             // rust-gpu lays glam's matrices out as structs of column vectors.
             (Shape::Matrix { columns, column_stride }, BlockType::Struct(cols)) => {
                 let stride_ok = cols.len() == *columns as usize
-                    && cols.iter().enumerate().all(|(k, c)| c.offset == k as u32 * column_stride && c.size <= *column_stride);
+                    && cols
+                        .iter()
+                        .enumerate()
+                        .all(|(k, c)| c.offset == k as u32 * column_stride && c.size <= *column_stride);
                 if !stride_ok {
                     let offsets: Vec<u32> = cols.iter().map(|c| c.offset).collect();
                     return Err(mismatch(format!(
@@ -791,34 +819,51 @@ mod tests {
     fn agreeing_layouts_pass_flat_and_wrapped() {
         let flat = block(vec![plain(0, 4), inner(4), plain(16, 16)]);
         assert!(check(&HOST, "e", std::slice::from_ref(&flat), ParamsDelivery::PushConstants).is_ok());
-        let wrapped = block(vec![BlockMember { name: None, offset: 0, size: 32, ty: BlockType::Struct(flat.members.clone()) }]);
+        let wrapped =
+            block(vec![BlockMember { name: None, offset: 0, size: 32, ty: BlockType::Struct(flat.members.clone()) }]);
         assert!(check(&HOST, "e", std::slice::from_ref(&wrapped), ParamsDelivery::PushConstants).is_ok());
     }
 
     #[test]
     fn a_moved_field_is_named_with_both_offsets_and_the_cause() {
-        let err = check(&HOST, "__raygen__rg", &[block(vec![plain(0, 4), inner(4), plain(12, 16)])], ParamsDelivery::PushConstants)
-            .unwrap_err()
-            .to_string();
-        assert!(err.contains("`P`") && err.contains("`v`") && err.contains("offset 16") && err.contains("offset 12"), "{err}");
+        let err = check(
+            &HOST,
+            "__raygen__rg",
+            &[block(vec![plain(0, 4), inner(4), plain(12, 16)])],
+            ParamsDelivery::PushConstants,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains("`P`") && err.contains("`v`") && err.contains("offset 16") && err.contains("offset 12"),
+            "{err}"
+        );
         assert!(err.contains("Vec4") && err.contains("alignment"), "{err}");
     }
 
     #[test]
     fn nested_fields_are_compared_too() {
-        let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(8), plain(16, 16)])], ParamsDelivery::PushConstants)
-            .unwrap_err()
-            .to_string();
+        let err =
+            check(&HOST, "e", &[block(vec![plain(0, 4), inner(8), plain(16, 16)])], ParamsDelivery::PushConstants)
+                .unwrap_err()
+                .to_string();
         assert!(err.contains("inner.b"), "{err}");
     }
 
     #[test]
     fn missing_and_extra_members_and_delivery_are_reported() {
-        let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4)])], ParamsDelivery::PushConstants).unwrap_err().to_string();
-        assert!(err.contains("`v`") && err.contains("absent"), "{err}");
-        let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4), plain(16, 16), plain(32, 4)])], ParamsDelivery::PushConstants)
+        let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4)])], ParamsDelivery::PushConstants)
             .unwrap_err()
             .to_string();
+        assert!(err.contains("`v`") && err.contains("absent"), "{err}");
+        let err = check(
+            &HOST,
+            "e",
+            &[block(vec![plain(0, 4), inner(4), plain(16, 16), plain(32, 4)])],
+            ParamsDelivery::PushConstants,
+        )
+        .unwrap_err()
+        .to_string();
         assert!(err.contains("only 3 fields"), "{err}");
         let ubo = ParamsDelivery::UniformBuffer { set: 1, binding: 0 };
         let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4), plain(16, 16)])], ubo).unwrap_err();

@@ -44,21 +44,21 @@ pub mod stage;
 pub use bytemuck;
 pub use entry::{EntryPoint, ProgramKind};
 pub use handles::{Buffer, Element, Traversable};
-pub use ray::{Ray, RayFlags, RayType};
 pub use params::{
     uses_push_constants, DeviceField, FieldLayout, LaunchParams, ParamsLayout, Shape, PARAMS_BINDING, PARAMS_SET,
     PUSH_CONSTANT_BUDGET,
 };
+pub use ray::{Ray, RayFlags, RayType};
 pub use raykit_macros::{
     any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, LaunchParams,
 };
 pub use spirv_std;
 pub use spirv_std::glam;
+pub use spirv_std::matrix::Matrix4x3;
 pub use stage::{
     AnyHit, ClosestHit, ContinuationCallable, DirectCallable, Exception, Intersection, Miss, Raygen,
     HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE,
 };
-pub use spirv_std::matrix::Matrix4x3;
 
 /// The bindless storage-buffer table every program sees at descriptor set 0,
 /// binding 0. [`Buffer`] handles in launch params index it. Part of raykit's ABI

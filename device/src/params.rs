@@ -123,9 +123,22 @@ macro_rules! plain_fields {
 
 use spirv_std::glam;
 plain_fields!(
-    u32, i32, f32, u64, i64,
-    glam::Vec2, glam::Vec3, glam::Vec3A, glam::Vec4, glam::Quat,
-    glam::UVec2, glam::UVec3, glam::UVec4, glam::IVec2, glam::IVec3, glam::IVec4,
+    u32,
+    i32,
+    f32,
+    u64,
+    i64,
+    glam::Vec2,
+    glam::Vec3,
+    glam::Vec3A,
+    glam::Vec4,
+    glam::Quat,
+    glam::UVec2,
+    glam::UVec3,
+    glam::UVec4,
+    glam::IVec2,
+    glam::IVec3,
+    glam::IVec4,
     crate::Traversable,
 );
 
@@ -151,6 +164,5 @@ impl<T: DeviceField, const N: usize> DeviceField for [T; N]
 where
     [T; N]: bytemuck::Pod,
 {
-    const SHAPE: Shape =
-        Shape::Array { stride: core::mem::size_of::<T>() as u32, len: N as u32, element: &T::SHAPE };
+    const SHAPE: Shape = Shape::Array { stride: core::mem::size_of::<T>() as u32, len: N as u32, element: &T::SHAPE };
 }

@@ -162,7 +162,8 @@ unsafe extern "system" fn debug_callback(
                 .map(|o| LoggedObject {
                     object_type: format!("{:?}", o.object_type),
                     handle: o.object_handle,
-                    name: (!o.p_object_name.is_null()).then(|| CStr::from_ptr(o.p_object_name).to_string_lossy().into_owned()),
+                    name: (!o.p_object_name.is_null())
+                        .then(|| CStr::from_ptr(o.p_object_name).to_string_lossy().into_owned()),
                 })
                 .collect()
         };
@@ -234,10 +235,8 @@ impl Features {
     /// Queries what `physical` supports.
     fn query(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Features {
         let mut f = Features::default();
-        let mut features2 = vk::PhysicalDeviceFeatures2::default()
-            .push_next(&mut f.rt)
-            .push_next(&mut f.accel)
-            .push_next(&mut f.v12);
+        let mut features2 =
+            vk::PhysicalDeviceFeatures2::default().push_next(&mut f.rt).push_next(&mut f.accel).push_next(&mut f.v12);
         // SAFETY: `physical` came from this instance; the chain is well formed.
         unsafe { instance.get_physical_device_features2(physical, &mut features2) };
         f.base = features2.features;
@@ -276,7 +275,10 @@ impl Features {
             ("scalarBlockLayout", self.v12.scalar_block_layout),
             ("runtimeDescriptorArray", self.v12.runtime_descriptor_array),
             ("descriptorBindingPartiallyBound", self.v12.descriptor_binding_partially_bound),
-            ("descriptorBindingStorageBufferUpdateAfterBind", self.v12.descriptor_binding_storage_buffer_update_after_bind),
+            (
+                "descriptorBindingStorageBufferUpdateAfterBind",
+                self.v12.descriptor_binding_storage_buffer_update_after_bind,
+            ),
             ("shaderInt64", self.base.shader_int64),
             ("robustBufferAccess", self.base.robust_buffer_access),
         ];
@@ -323,9 +325,8 @@ fn inspect_device(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Res
 impl Context {
     /// Creates a context on the first device with ray-tracing pipelines.
     pub fn new(options: ContextOptions) -> Result<Context> {
-        let validation = options
-            .validation
-            .unwrap_or_else(|| std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1"));
+        let validation =
+            options.validation.unwrap_or_else(|| std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1"));
         // SAFETY: loading the system Vulkan loader runs its initialisation code; we
         // trust the installed loader as every Vulkan program does.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::LoaderMissing(e.to_string()))?;
@@ -336,8 +337,9 @@ impl Context {
         // The messenger (and debug names) need VK_EXT_debug_utils: always there with
         // the validation layer; for a log callback alone, where the loader has it.
         // SAFETY: plain enumeration call.
-        let loader_has_debug_utils = unsafe { entry.enumerate_instance_extension_properties(None) }
-            .is_ok_and(|exts| exts.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::debug_utils::NAME)));
+        let loader_has_debug_utils = unsafe { entry.enumerate_instance_extension_properties(None) }.is_ok_and(|exts| {
+            exts.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::debug_utils::NAME))
+        });
         let debug = validation || (options.log_callback.is_some() && loader_has_debug_utils);
         if debug && !validation {
             instance_extensions.push(ash::ext::debug_utils::NAME.as_ptr());
@@ -431,14 +433,16 @@ impl Context {
 
         let mut features = Features::required();
         let priorities = [1.0f32];
-        let queue_infos = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let queue_infos =
+            [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
         let mut extension_ptrs: Vec<_> = REQUIRED_EXTENSIONS.iter().map(|e| e.as_ptr()).collect();
         // Optional: lets modules carry debug info (glslang's -gVS, NonSemantic.Shader.DebugInfo.100).
         // SAFETY: `physical_device` came from this instance.
         let device_extensions = unsafe { instance.enumerate_device_extension_properties(physical_device) }
             .map_err(Error::vk("vkEnumerateDeviceExtensionProperties"))?;
-        let has_extension =
-            |name: &std::ffi::CStr| device_extensions.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name));
+        let has_extension = |name: &std::ffi::CStr| {
+            device_extensions.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name))
+        };
         let non_semantic_info = has_extension(ash::khr::shader_non_semantic_info::NAME);
         if non_semantic_info {
             extension_ptrs.push(ash::khr::shader_non_semantic_info::NAME.as_ptr());
@@ -464,7 +468,8 @@ impl Context {
         .map_err(Error::vk("vkCreateDevice"))?;
         let device_guard = DeviceGuard { device: device.clone(), armed: true };
 
-        let DeviceProperties { limits, driver_id, launch_dimension_limits } = query_properties(instance, physical_device);
+        let DeviceProperties { limits, driver_id, launch_dimension_limits } =
+            query_properties(instance, physical_device);
         let lavapipe = driver_id == vk::DriverId::MESA_LLVMPIPE;
         let debug_names = debug.then(|| ash::ext::debug_utils::Device::new(instance, &device));
         let rt = ash::khr::ray_tracing_pipeline::Device::new(instance, &device);
@@ -784,8 +789,9 @@ fn query_properties(instance: &ash::Instance, physical: vk::PhysicalDevice) -> D
         max_instance_count: accel.max_instance_count,
     };
     // `vkCmdTraceRaysKHR` takes at most `maxComputeWorkGroupCount[i] × maxComputeWorkGroupSize[i]` per dimension.
-    let launch_dimension_limits: [u64; 3] =
-        std::array::from_fn(|i| limits.max_compute_work_group_count[i] as u64 * limits.max_compute_work_group_size[i] as u64);
+    let launch_dimension_limits: [u64; 3] = std::array::from_fn(|i| {
+        limits.max_compute_work_group_count[i] as u64 * limits.max_compute_work_group_size[i] as u64
+    });
     DeviceProperties { limits: device_limits, driver_id: driver.driver_id, launch_dimension_limits }
 }
 
@@ -839,7 +845,9 @@ impl Partial {
     fn entry(&self) -> &ash::Entry {
         &self.entry
     }
-    fn take(mut self) -> (ash::Entry, ash::Instance, Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>) {
+    fn take(
+        mut self,
+    ) -> (ash::Entry, ash::Instance, Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>) {
         self.armed = false;
         (self.entry.clone(), self.instance.clone(), self.debug.take())
     }
@@ -892,4 +900,3 @@ impl Drop for PoolGuard<'_> {
         unsafe { self.0.destroy_command_pool(self.1, None) };
     }
 }
-

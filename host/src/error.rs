@@ -229,7 +229,9 @@ pub enum Error {
     },
 
     /// A launch was given an SBT built for another pipeline.
-    #[error("the SBT was built for another pipeline; build one for the pipeline you launch with Sbt::builder(&pipeline)")]
+    #[error(
+        "the SBT was built for another pipeline; build one for the pipeline you launch with Sbt::builder(&pipeline)"
+    )]
     SbtOfAnotherPipeline,
 
     /// An SBT region that must be present is missing.
@@ -538,7 +540,9 @@ pub enum Error {
     },
 
     /// Compaction of a GAS built without allowing it.
-    #[error("this GAS was built without BuildOptions::allow_compaction; build it with allow_compaction(true) to compact it")]
+    #[error(
+        "this GAS was built without BuildOptions::allow_compaction; build it with allow_compaction(true) to compact it"
+    )]
     CompactionNotAllowed,
 }
 

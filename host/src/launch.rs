@@ -143,7 +143,9 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             let count = invocations.map_or_else(|| "more than 2^64".to_owned(), |n| n.to_string());
             return Err(Error::LaunchDimensions {
                 dims,
-                reason: format!("{count} invocations exceed maxRayDispatchInvocationCount {limit}; split the launch into tiles"),
+                reason: format!(
+                    "{count} invocations exceed maxRayDispatchInvocationCount {limit}; split the launch into tiles"
+                ),
             });
         }
         // vkCmdTraceRaysKHR also bounds each dimension (VUID-vkCmdTraceRaysKHR-width-03638 …
@@ -189,7 +191,14 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 // Earlier submissions (launches of this pipeline among them) finish
                 // with the uniform buffer and the exception counters before this
                 // launch rewrites them.
-                full_barrier(device, cmd, vk::PipelineStageFlags::ALL_COMMANDS, vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::MEMORY_READ, vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE);
+                full_barrier(
+                    device,
+                    cmd,
+                    vk::PipelineStageFlags::ALL_COMMANDS,
+                    vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::MEMORY_READ,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                );
                 for exceptions in &inner.exceptions {
                     // The counter is the first word.
                     device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
@@ -251,10 +260,21 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                     vk::AccessFlags::HOST_READ | vk::AccessFlags::TRANSFER_READ,
                 );
                 for (i, exceptions) in inner.exceptions.iter().enumerate() {
-                    let region = vk::BufferCopy { src_offset: 0, dst_offset: i as u64 * ExceptionBuffer::SIZE, size: ExceptionBuffer::SIZE };
+                    let region = vk::BufferCopy {
+                        src_offset: 0,
+                        dst_offset: i as u64 * ExceptionBuffer::SIZE,
+                        size: ExceptionBuffer::SIZE,
+                    };
                     device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]);
                 }
-                full_barrier(device, cmd, vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
+                full_barrier(
+                    device,
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::PipelineStageFlags::HOST,
+                    vk::AccessFlags::HOST_READ,
+                );
             }
         })?;
         Ok(Launch { submission, readback: Some(readback), pipeline: inner.clone(), _sbt: sbt.buffer.clone() })
@@ -275,5 +295,7 @@ unsafe fn full_barrier(
 ) {
     let barrier = vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access);
     // SAFETY: per the contract above.
-    unsafe { device.cmd_pipeline_barrier(cmd, src_stage, dst_stage, vk::DependencyFlags::empty(), &[barrier], &[], &[]) };
+    unsafe {
+        device.cmd_pipeline_barrier(cmd, src_stage, dst_stage, vk::DependencyFlags::empty(), &[barrier], &[], &[])
+    };
 }

@@ -30,8 +30,8 @@ use raykit_device::LaunchParams;
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
 use crate::pipeline::{
-    check_groups, create_layout, create_ray_tracing_pipeline, params_delivery, params_set_layout, ExceptionBuffer, ShaderGroups,
-    Specialization,
+    check_groups, create_layout, create_ray_tracing_pipeline, params_delivery, params_set_layout, ExceptionBuffer,
+    ShaderGroups, Specialization,
 };
 use crate::program_group::ProgramGroup;
 
@@ -40,15 +40,39 @@ use crate::program_group::ProgramGroup;
 /// their push constants (see the module docs). Assembled with `spirv-as
 /// --target-env spv1.4` and checked with `spirv-val --target-env vulkan1.2`.
 const EMPTY_RAYGEN: [u32; 35] = [
-    0x0723_0203, 0x0001_0400, 0, 5, 0, // header: magic, version 1.4, generator, bound, schema
-    0x0002_0011, 0x117f, // OpCapability RayTracingKHR
-    0x0006_000a, 0x5f56_5053, 0x5f52_484b, 0x5f79_6172, 0x6361_7274, 0x0067_6e69, // OpExtension "SPV_KHR_ray_tracing"
-    0x0003_000e, 0, 1, // OpMemoryModel Logical GLSL450
-    0x0005_000f, 0x14c1, 1, 0x6e69_616d, 0, // OpEntryPoint RayGenerationKHR %1 "main"
-    0x0002_0013, 2, // %2 = OpTypeVoid
-    0x0003_0021, 3, 2, // %3 = OpTypeFunction %2
-    0x0005_0036, 2, 1, 0, 3, // %1 = OpFunction %2 None %3
-    0x0002_00f8, 4, // %4 = OpLabel
+    0x0723_0203,
+    0x0001_0400,
+    0,
+    5,
+    0, // header: magic, version 1.4, generator, bound, schema
+    0x0002_0011,
+    0x117f, // OpCapability RayTracingKHR
+    0x0006_000a,
+    0x5f56_5053,
+    0x5f52_484b,
+    0x5f79_6172,
+    0x6361_7274,
+    0x0067_6e69, // OpExtension "SPV_KHR_ray_tracing"
+    0x0003_000e,
+    0,
+    1, // OpMemoryModel Logical GLSL450
+    0x0005_000f,
+    0x14c1,
+    1,
+    0x6e69_616d,
+    0, // OpEntryPoint RayGenerationKHR %1 "main"
+    0x0002_0013,
+    2, // %2 = OpTypeVoid
+    0x0003_0021,
+    3,
+    2, // %3 = OpTypeFunction %2
+    0x0005_0036,
+    2,
+    1,
+    0,
+    3, // %1 = OpFunction %2 None %3
+    0x0002_00f8,
+    4,           // %4 = OpLabel
     0x0001_00fd, // OpReturn
     0x0001_0038, // OpFunctionEnd
 ];
@@ -63,13 +87,17 @@ impl PushConstantCarrier {
     pub(crate) fn new(ctx: &Arc<ContextInner>) -> Result<PushConstantCarrier> {
         let info = vk::ShaderModuleCreateInfo::default().code(&EMPTY_RAYGEN);
         // SAFETY: `EMPTY_RAYGEN` is valid SPIR-V (checked with spirv-val); the device is live.
-        let module = unsafe { ctx.device.create_shader_module(&info, None) }.map_err(Error::vk("vkCreateShaderModule"))?;
+        let module =
+            unsafe { ctx.device.create_shader_module(&info, None) }.map_err(Error::vk("vkCreateShaderModule"))?;
         Ok(PushConstantCarrier { ctx: ctx.clone(), module })
     }
 
     /// Its stage, for a linked pipeline's `pStages`.
     pub(crate) fn stage(&self) -> vk::PipelineShaderStageCreateInfo<'static> {
-        vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::RAYGEN_KHR).module(self.module).name(c"main")
+        vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::RAYGEN_KHR)
+            .module(self.module)
+            .name(c"main")
     }
 }
 
@@ -225,7 +253,8 @@ impl<P: LaunchParams> PipelineLibrary<P> {
 fn check_interface(groups: &[&ProgramGroup], interface: InterfaceSizes) -> Result<()> {
     for program in groups.iter().flat_map(|g| g.programs()) {
         let Some(info) = program.entry_info() else { continue };
-        let too_small = |what, needed, given| Error::LibraryInterfaceTooSmall { program: info.name.clone(), what, needed, given };
+        let too_small =
+            |what, needed, given| Error::LibraryInterfaceTooSmall { program: info.name.clone(), what, needed, given };
         if info.interface.payload > interface.payload {
             return Err(too_small("ray payload", info.interface.payload, interface.payload));
         }

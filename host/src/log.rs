@@ -105,7 +105,13 @@ impl std::fmt::Display for ValidationMessage {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "[{:?}] {}: {}", self.severity, self.id, self.text)?;
         for o in &self.objects {
-            write!(f, " [{} {:#x}{}]", o.object_type, o.handle, o.name.as_deref().map(|n| format!(" \"{n}\"")).unwrap_or_default())?;
+            write!(
+                f,
+                " [{} {:#x}{}]",
+                o.object_type,
+                o.handle,
+                o.name.as_deref().map(|n| format!(" \"{n}\"")).unwrap_or_default()
+            )?;
         }
         Ok(())
     }

@@ -132,7 +132,8 @@ impl<T: Element> DeviceBuffer<T> {
             return Err(Error::BufferSize {
                 len,
                 element_size,
-                reason: "the element's host size differs from its device size (WORDS × 4); use a type without SIMD padding",
+                reason:
+                    "the element's host size differs from its device size (WORDS × 4); use a type without SIMD padding",
             });
         }
         let size = (len as u64).checked_mul(element_size as u64).ok_or(Error::BufferSize {
@@ -140,14 +141,7 @@ impl<T: Element> DeviceBuffer<T> {
             element_size,
             reason: "the size overflows 64 bits",
         })?;
-        let raw = RawBuffer::new(
-            &ctx.inner,
-            "DeviceBuffer",
-            size,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            location,
-            16,
-        )?;
+        let raw = RawBuffer::new(&ctx.inner, "DeviceBuffer", size, vk::BufferUsageFlags::STORAGE_BUFFER, location, 16)?;
         let slot = ctx.inner.buffer_table.insert(&ctx.inner.device, raw.buffer)?;
         Ok(DeviceBuffer { raw, slot, len, _element: PhantomData })
     }

@@ -67,14 +67,20 @@ fn kind_of(model: ExecutionModel) -> Option<ProgramKind> {
 /// Turns bytes into SPIR-V words, checking size and magic number.
 pub(crate) fn words_of(bytes: &[u8]) -> Result<Vec<u32>> {
     if bytes.len() < 20 {
-        return Err(Error::InvalidSpirv { reason: format!("{} bytes is shorter than a SPIR-V header (20 bytes)", bytes.len()) });
+        return Err(Error::InvalidSpirv {
+            reason: format!("{} bytes is shorter than a SPIR-V header (20 bytes)", bytes.len()),
+        });
     }
     if !bytes.len().is_multiple_of(4) {
-        return Err(Error::InvalidSpirv { reason: format!("{} bytes is not a whole number of 32-bit words", bytes.len()) });
+        return Err(Error::InvalidSpirv {
+            reason: format!("{} bytes is not a whole number of 32-bit words", bytes.len()),
+        });
     }
     let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
     if words[0] != SPIRV_MAGIC {
-        return Err(Error::InvalidSpirv { reason: format!("magic number {:#010x}, expected {SPIRV_MAGIC:#010x}", words[0]) });
+        return Err(Error::InvalidSpirv {
+            reason: format!("magic number {:#010x}, expected {SPIRV_MAGIC:#010x}", words[0]),
+        });
     }
     Ok(words)
 }
@@ -139,7 +145,9 @@ fn check_structure(words: &[u32]) -> Result<()> {
         return invalid(format!("the function starting at word {start} is never closed — truncated module?"));
     }
     if let Some(id) = entry_functions.iter().find(|id| !functions.contains(id)) {
-        return invalid(format!("an entry point names function %{id}, which the module does not define — truncated module?"));
+        return invalid(format!(
+            "an entry point names function %{id}, which the module does not define — truncated module?"
+        ));
     }
     Ok(())
 }
@@ -164,7 +172,8 @@ fn declares_extension(words: &[u32], name: &str) -> bool {
     while let Some(&first) = words.get(at) {
         let word_count = (first >> 16) as usize;
         if first & 0xffff == OP_EXTENSION {
-            let bytes: Vec<u8> = words.get(at + 1..at + word_count).unwrap_or(&[]).iter().flat_map(|w| w.to_le_bytes()).collect();
+            let bytes: Vec<u8> =
+                words.get(at + 1..at + word_count).unwrap_or(&[]).iter().flat_map(|w| w.to_le_bytes()).collect();
             if bytes.split(|&b| b == 0).next() == Some(name.as_bytes()) {
                 return true;
             }
@@ -212,7 +221,12 @@ fn reflection_words(words: &[u32]) -> Result<Vec<u32>> {
                 let computed = rspirv::grammar::INSTRUCTION_TABLE.lookup_opcode(inst[3]);
                 let holdable = computed.is_none_or(|g| {
                     !g.operands.iter().any(|o| {
-                        matches!(o.kind, K::LiteralContextDependentNumber | K::LiteralSpecConstantOpInteger | K::PairLiteralIntegerIdRef)
+                        matches!(
+                            o.kind,
+                            K::LiteralContextDependentNumber
+                                | K::LiteralSpecConstantOpInteger
+                                | K::PairLiteralIntegerIdRef
+                        )
                     })
                 });
                 if !holdable {
@@ -239,7 +253,10 @@ fn check_ids(module: &rspirv::dr::Module, bound: u32) -> Result<()> {
     for inst in module.all_inst_iter() {
         if let Some(id) = inst.result_id {
             if id == 0 || id >= bound {
-                return invalid(format!("{:?} defines %{id}, outside the module's ID bound {bound}", inst.class.opcode));
+                return invalid(format!(
+                    "{:?} defines %{id}, outside the module's ID bound {bound}",
+                    inst.class.opcode
+                ));
             }
             if !defined.insert(id) {
                 return invalid(format!("%{id} is defined twice (again by {:?})", inst.class.opcode));
@@ -248,9 +265,9 @@ fn check_ids(module: &rspirv::dr::Module, bound: u32) -> Result<()> {
     }
     for inst in module.all_inst_iter() {
         let used = inst.result_type.into_iter().chain(inst.operands.iter().filter_map(|op| match op {
-            rspirv::dr::Operand::IdRef(id) | rspirv::dr::Operand::IdScope(id) | rspirv::dr::Operand::IdMemorySemantics(id) => {
-                Some(*id)
-            }
+            rspirv::dr::Operand::IdRef(id)
+            | rspirv::dr::Operand::IdScope(id)
+            | rspirv::dr::Operand::IdMemorySemantics(id) => Some(*id),
             _ => None,
         }));
         for id in used {

@@ -27,12 +27,12 @@ use ash::vk;
 use crate::buffer_table::RT_STAGES;
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use raykit_device::layout::ParamsDelivery;
-use crate::memory::RawBuffer;
 use crate::library::{interface_info, LibraryInner, PipelineLibrary, PushConstantCarrier};
+use crate::memory::RawBuffer;
 use crate::program_group::{GroupPrograms, Program, ProgramGroup};
-use raykit_device::layout::InterfaceSizes;
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
+use raykit_device::layout::InterfaceSizes;
+use raykit_device::layout::ParamsDelivery;
 use raykit_device::LaunchParams;
 
 /// Link options (OptiX's `OptixPipelineLinkOptions`).
@@ -134,7 +134,9 @@ impl ExceptionBuffer {
             ctx,
             "user exception buffer",
             Self::SIZE,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::TRANSFER_DST,
             gpu_allocator::MemoryLocation::GpuOnly,
             16,
         )?;
@@ -150,7 +152,8 @@ impl ExceptionBuffer {
         let stored = total.min(EXCEPTION_CAPACITY) as usize;
         let records = (0..stored)
             .filter_map(|i| {
-                let at = (raykit_device::exception::EXCEPTION_RECORDS_WORD + i as u32 * EXCEPTION_RECORD_WORDS) as usize;
+                let at =
+                    (raykit_device::exception::EXCEPTION_RECORDS_WORD + i as u32 * EXCEPTION_RECORD_WORDS) as usize;
                 let r = words.get(at..at + 4)?;
                 Some(crate::error::UserException { code: r[0], launch_index: [r[1], r[2], r[3]] })
             })
@@ -196,12 +199,13 @@ impl ParamsUniform {
         let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: 1 }];
         let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
         // SAFETY: valid create info on a live device.
-        uniform.pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
-            .map_err(Error::vk("vkCreateDescriptorPool"))?;
+        uniform.pool =
+            unsafe { device.create_descriptor_pool(&pool_info, None) }.map_err(Error::vk("vkCreateDescriptorPool"))?;
         let layouts = [set_layout];
         let alloc = vk::DescriptorSetAllocateInfo::default().descriptor_pool(uniform.pool).set_layouts(&layouts);
         // SAFETY: the pool has room for exactly this set.
-        uniform.set = unsafe { device.allocate_descriptor_sets(&alloc) }.map_err(Error::vk("vkAllocateDescriptorSets"))?[0];
+        uniform.set =
+            unsafe { device.allocate_descriptor_sets(&alloc) }.map_err(Error::vk("vkAllocateDescriptorSets"))?[0];
         let buffer = RawBuffer::new(
             ctx,
             "launch params uniform buffer",
@@ -331,7 +335,8 @@ impl<P: LaunchParams> Pipeline<P> {
         // lavapipe gives push constants only to pipelines that compile a stage
         // themselves (see `crate::library`); give it one that does nothing.
         let carrier = if inner.lavapipe { Some(PushConstantCarrier::new(inner)?) } else { None };
-        let carrier_stage: Vec<vk::PipelineShaderStageCreateInfo<'_>> = carrier.iter().map(PushConstantCarrier::stage).collect();
+        let carrier_stage: Vec<vk::PipelineShaderStageCreateInfo<'_>> =
+            carrier.iter().map(PushConstantCarrier::stage).collect();
         let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
             .stages(&carrier_stage)
             .library_info(&library_info)
@@ -445,7 +450,11 @@ fn describe_interface(sizes: InterfaceSizes) -> String {
 /// must satisfy: one context, a trace depth within the device's limit, and
 /// every program's params block laid out as `P` (OptiX's rule that all modules
 /// agree on their `PipelineCompileOptions`).
-pub(crate) fn check_groups<P: LaunchParams>(inner: &Arc<ContextInner>, groups: &[&ProgramGroup], max_trace_depth: u32) -> Result<()> {
+pub(crate) fn check_groups<P: LaunchParams>(
+    inner: &Arc<ContextInner>,
+    groups: &[&ProgramGroup],
+    max_trace_depth: u32,
+) -> Result<()> {
     let limits = inner.limits;
     if max_trace_depth > limits.max_ray_recursion_depth {
         return Err(Error::TraceDepthTooLarge { requested: max_trace_depth, limit: limits.max_ray_recursion_depth });
@@ -522,8 +531,8 @@ pub(crate) fn create_layout<P: LaunchParams>(
         layout_info = layout_info.push_constant_ranges(&push_ranges);
     }
     // SAFETY: valid create info; the set layouts outlive the layout's users.
-    let layout =
-        unsafe { inner.device.create_pipeline_layout(&layout_info, None) }.map_err(Error::vk("vkCreatePipelineLayout"))?;
+    let layout = unsafe { inner.device.create_pipeline_layout(&layout_info, None) }
+        .map_err(Error::vk("vkCreatePipelineLayout"))?;
     inner.set_name(layout, "raykit pipeline layout");
     Ok(layout)
 }
@@ -633,7 +642,10 @@ impl ShaderGroups {
     }
 
     /// One stage create info per program, each with `specialization`.
-    pub(crate) fn stages<'a>(&'a self, specialization: &'a vk::SpecializationInfo<'a>) -> Vec<vk::PipelineShaderStageCreateInfo<'a>> {
+    pub(crate) fn stages<'a>(
+        &'a self,
+        specialization: &'a vk::SpecializationInfo<'a>,
+    ) -> Vec<vk::PipelineShaderStageCreateInfo<'a>> {
         self.programs
             .iter()
             .map(|p| {
@@ -711,7 +723,12 @@ impl PipelineInner {
         let handle_size = self.ctx.limits.shader_group_handle_size as usize;
         // SAFETY: `self.pipeline` is live and has exactly `groups.len()` groups.
         self.handles = unsafe {
-            self.ctx.rt.get_ray_tracing_shader_group_handles(self.pipeline, 0, groups.len() as u32, groups.len() * handle_size)
+            self.ctx.rt.get_ray_tracing_shader_group_handles(
+                self.pipeline,
+                0,
+                groups.len() as u32,
+                groups.len() * handle_size,
+            )
         }
         .map_err(Error::vk("vkGetRayTracingShaderGroupHandlesKHR"))?;
         for (group, pipeline, index) in &compiled {
@@ -719,7 +736,8 @@ impl PipelineInner {
             let sizes = query_group_stack_sizes(&self.ctx, pipeline, *index, &group.programs);
             self.group_stacks.push((group_role(&group.programs), sizes));
         }
-        let default = stack::vulkan_default(&StackSizes::from_groups(self.group_stacks.iter().copied()), self.max_trace_depth);
+        let default =
+            stack::vulkan_default(&StackSizes::from_groups(self.group_stacks.iter().copied()), self.max_trace_depth);
         self.stack_size = AtomicU32::new(stack_bytes(default)?);
         Ok(())
     }
@@ -727,7 +745,8 @@ impl PipelineInner {
 
 /// A stack size as `vkCmdSetRayTracingPipelineStackSizeKHR` takes it.
 fn stack_bytes(bytes: u64) -> Result<u32> {
-    u32::try_from(bytes).map_err(|_| Error::StackSize { reason: format!("{bytes} bytes do not fit the 32 bits Vulkan takes") })
+    u32::try_from(bytes)
+        .map_err(|_| Error::StackSize { reason: format!("{bytes} bytes do not fit the 32 bits Vulkan takes") })
 }
 
 /// How a group counts in the stack formulas; callables by their OptiX prefix.
@@ -751,14 +770,22 @@ fn group_role(programs: &GroupPrograms) -> GroupRole {
 }
 
 /// The driver's stack sizes of group `index` of `pipeline`, for the shaders it has.
-fn query_group_stack_sizes(ctx: &ContextInner, pipeline: vk::Pipeline, index: u32, programs: &GroupPrograms) -> GroupStackSizes {
+fn query_group_stack_sizes(
+    ctx: &ContextInner,
+    pipeline: vk::Pipeline,
+    index: u32,
+    programs: &GroupPrograms,
+) -> GroupStackSizes {
     let query = |shader: vk::ShaderGroupShaderKHR| -> u64 {
         // SAFETY: `index` is a group of the live `pipeline`, which has a shader of
         // kind `shader` (only those are asked for).
         unsafe { ctx.rt.get_ray_tracing_shader_group_stack_size(pipeline, index, shader) }
     };
     match programs {
-        GroupPrograms::Raygen(_) | GroupPrograms::Miss(_) | GroupPrograms::Callable(_) | GroupPrograms::Exception(_) => {
+        GroupPrograms::Raygen(_)
+        | GroupPrograms::Miss(_)
+        | GroupPrograms::Callable(_)
+        | GroupPrograms::Exception(_) => {
             GroupStackSizes { general: query(vk::ShaderGroupShaderKHR::GENERAL), ..Default::default() }
         }
         GroupPrograms::Hit { closest_hit, any_hit, intersection } => GroupStackSizes {

@@ -63,7 +63,12 @@ impl Program {
         self.module.entry_points.iter().find(|e| e.name == name)
     }
 
-    fn resolve(module: &Module, entry: &dyn EntryName, expected: ProgramKind, context: &'static str) -> Result<Program> {
+    fn resolve(
+        module: &Module,
+        entry: &dyn EntryName,
+        expected: ProgramKind,
+        context: &'static str,
+    ) -> Result<Program> {
         let name = entry.entry_name();
         let available = module.entry_list();
         let mismatch = |actual: String| Error::ProgramKindMismatch {
@@ -93,7 +98,8 @@ impl Program {
                 return Err(mismatch(format!("{kind} (by its EntryPoint constant)")));
             }
         }
-        let name = CString::new(name).map_err(|_| Error::EntryPointNotFound { name: name.to_owned(), available: module.entry_list() })?;
+        let name = CString::new(name)
+            .map_err(|_| Error::EntryPointNotFound { name: name.to_owned(), available: module.entry_list() })?;
         Ok(Program { module: module.inner.clone(), name, kind: expected })
     }
 }
@@ -106,7 +112,11 @@ pub(crate) enum GroupPrograms {
     Callable(Program),
     /// An `#[exception]` program: a callable raykit places in the SBT itself.
     Exception(Program),
-    Hit { closest_hit: Option<Program>, any_hit: Option<Program>, intersection: Option<Program> },
+    Hit {
+        closest_hit: Option<Program>,
+        any_hit: Option<Program>,
+        intersection: Option<Program>,
+    },
 }
 
 /// A program group: a raygen, a miss, or a hit group (closest-hit, any-hit,
@@ -124,7 +134,10 @@ impl ProgramGroup {
     /// The programs of this group.
     pub(crate) fn programs(&self) -> Vec<&Program> {
         match &self.programs {
-            GroupPrograms::Raygen(p) | GroupPrograms::Miss(p) | GroupPrograms::Callable(p) | GroupPrograms::Exception(p) => {
+            GroupPrograms::Raygen(p)
+            | GroupPrograms::Miss(p)
+            | GroupPrograms::Callable(p)
+            | GroupPrograms::Exception(p) => {
                 vec![p]
             }
             GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
@@ -242,7 +255,11 @@ impl HitGroupBuilder<'_> {
         }
         Ok(ProgramGroup::from_programs(
             self.module,
-            GroupPrograms::Hit { closest_hit: self.closest_hit, any_hit: self.any_hit, intersection: self.intersection },
+            GroupPrograms::Hit {
+                closest_hit: self.closest_hit,
+                any_hit: self.any_hit,
+                intersection: self.intersection,
+            },
         ))
     }
 }

@@ -57,7 +57,8 @@ pub fn region_layout(limits: &DeviceLimits, start: u64, count: usize, max_data: 
     if count == 0 {
         return RegionLayout { offset: start, stride: 0, size: 0 };
     }
-    let stride = align_up(limits.shader_group_handle_size as u64 + max_data as u64, limits.shader_group_handle_alignment as u64);
+    let stride =
+        align_up(limits.shader_group_handle_size as u64 + max_data as u64, limits.shader_group_handle_alignment as u64);
     let offset = align_up(start, limits.shader_group_base_alignment as u64);
     RegionLayout { offset, stride, size: stride * count as u64 }
 }
@@ -82,7 +83,12 @@ pub struct SbtBuilder<'p, P: raykit_device::LaunchParams> {
 }
 
 /// Puts `record` at `index` of `region`, growing it; a taken slot is an error.
-fn place(slots: &mut Vec<Option<PackedRecord>>, index: usize, record: PackedRecord, region: &'static str) -> Result<()> {
+fn place(
+    slots: &mut Vec<Option<PackedRecord>>,
+    index: usize,
+    record: PackedRecord,
+    region: &'static str,
+) -> Result<()> {
     if slots.len() <= index {
         slots.resize_with(index + 1, || None);
     }
@@ -94,7 +100,13 @@ fn place(slots: &mut Vec<Option<PackedRecord>>, index: usize, record: PackedReco
 }
 
 impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
-    fn pack<T: bytemuck::Pod>(&mut self, group: &ProgramGroup, data: &T, region: &'static str, expected: &'static str) -> Option<PackedRecord> {
+    fn pack<T: bytemuck::Pod>(
+        &mut self,
+        group: &ProgramGroup,
+        data: &T,
+        region: &'static str,
+        expected: &'static str,
+    ) -> Option<PackedRecord> {
         if self.error.is_some() {
             return None;
         }
@@ -197,11 +209,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         let raygen = self.raygen.ok_or(Error::SbtMissing { region: "raygen" })?;
         // A hole would hand the device an empty record: refuse it.
         let filled = |slots: Vec<Option<PackedRecord>>, region: &'static str| -> Result<Vec<PackedRecord>> {
-            slots
-                .into_iter()
-                .enumerate()
-                .map(|(index, r)| r.ok_or(Error::SbtHole { region, index }))
-                .collect()
+            slots.into_iter().enumerate().map(|(index, r)| r.ok_or(Error::SbtHole { region, index })).collect()
         };
         let miss = filled(self.miss, "miss")?;
         let hit = filled(self.hit, "hit")?;
@@ -210,7 +218,11 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         let max_data = |records: &[PackedRecord]| records.iter().map(|r| r.data.len()).max().unwrap_or(0);
         let check = |layout: RegionLayout, data: usize| -> Result<RegionLayout> {
             if layout.stride > limits.max_shader_group_stride as u64 {
-                return Err(Error::SbtRecordTooLarge { size: data, stride: layout.stride, limit: limits.max_shader_group_stride });
+                return Err(Error::SbtRecordTooLarge {
+                    size: data,
+                    stride: layout.stride,
+                    limit: limits.max_shader_group_stride,
+                });
             }
             Ok(layout)
         };
@@ -228,7 +240,10 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             }
             None => None,
         };
-        let cl = check(region_layout(&limits, ht.offset + ht.size, callable.len(), max_data(&callable)), max_data(&callable))?;
+        let cl = check(
+            region_layout(&limits, ht.offset + ht.size, callable.len(), max_data(&callable)),
+            max_data(&callable),
+        )?;
         let total = cl.offset + cl.size;
 
         let mut bytes = vec![0u8; total as usize];
@@ -336,10 +351,9 @@ impl Sbt {
             region: name,
             reason: "a launch using this SBT is still in flight; wait for it (Launch::wait) first".to_owned(),
         })?;
-        let mapped = buffer.mapped_mut().ok_or(Error::SbtUpdate {
-            region: name,
-            reason: "the SBT buffer is not host-visible".to_owned(),
-        })?;
+        let mapped = buffer
+            .mapped_mut()
+            .ok_or(Error::SbtUpdate { region: name, reason: "the SBT buffer is not host-visible".to_owned() })?;
         mapped[at..at + bytes.len()].copy_from_slice(bytes);
         Ok(())
     }

@@ -460,7 +460,9 @@ impl CallGraph {
             }
             if matches!(self.nodes[p.0], Node::Callable { .. }) {
                 // Allowed by OptiX for continuation callables, not by Vulkan.
-                return bad(format!("callable {p:?} traces rays: Vulkan allows OpTraceRayKHR only in raygen, miss and closest-hit"));
+                return bad(format!(
+                    "callable {p:?} traces rays: Vulkan allows OpTraceRayKHR only in raygen, miss and closest-hit"
+                ));
             }
         }
         for &(p, c) in &self.calls {
@@ -526,7 +528,9 @@ impl CallGraph {
         // calling (t, c - 1), so filling t then c in increasing order is enough.
         let cells = levels_t.saturating_mul(levels_c).saturating_mul(n);
         if cells > 1 << 24 {
-            return Err(Error::CallGraph { reason: format!("{n} programs at depths {}×{max_call} are too many to evaluate", self.max_trace_depth) });
+            return Err(Error::CallGraph {
+                reason: format!("{n} programs at depths {}×{max_call} are too many to evaluate", self.max_trace_depth),
+            });
         }
         let index = |t: usize, c: usize, node: usize| (t * levels_c + c) * n + node;
         let mut need = vec![0u64; cells];

@@ -57,7 +57,8 @@ fn timestamp_support(ctx: &Context) -> Result<Option<(f64, u32)>> {
     // SAFETY: the instance is alive. The context keeps no physical-device handle;
     // the one with its name and queue family stands for it (devices of one name
     // have one set of properties).
-    let physicals = unsafe { instance.enumerate_physical_devices() }.map_err(Error::vk("vkEnumeratePhysicalDevices"))?;
+    let physicals =
+        unsafe { instance.enumerate_physical_devices() }.map_err(Error::vk("vkEnumeratePhysicalDevices"))?;
     for physical in physicals {
         // SAFETY: `physical` came from this instance.
         let props = unsafe { instance.get_physical_device_properties(physical) };

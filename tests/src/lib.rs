@@ -15,7 +15,11 @@ use raykit::{Context, ContextOptions, Error, PipelineCacheLocation};
 /// Runs `test` with a fresh context; checks the validation log afterwards. The
 /// context's disk compile cache is off: tests never touch the user's cache.
 pub fn with_context(name: &str, test: impl FnOnce(&Context) -> anyhow::Result<()>) -> anyhow::Result<()> {
-    with_context_options(name, ContextOptions { pipeline_cache: PipelineCacheLocation::Off, ..Default::default() }, test)
+    with_context_options(
+        name,
+        ContextOptions { pipeline_cache: PipelineCacheLocation::Off, ..Default::default() },
+        test,
+    )
 }
 
 /// [`with_context`] with `options` (validation as `RAYKIT_VALIDATION` says).
@@ -34,7 +38,15 @@ pub fn with_context_validation(
     validation: bool,
     test: impl FnOnce(&Context) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
-    run(name, ContextOptions { validation: Some(validation), pipeline_cache: PipelineCacheLocation::Off, ..Default::default() }, test)
+    run(
+        name,
+        ContextOptions {
+            validation: Some(validation),
+            pipeline_cache: PipelineCacheLocation::Off,
+            ..Default::default()
+        },
+        test,
+    )
 }
 
 fn run(name: &str, options: ContextOptions, test: impl FnOnce(&Context) -> anyhow::Result<()>) -> anyhow::Result<()> {
@@ -44,7 +56,9 @@ fn run(name: &str, options: ContextOptions, test: impl FnOnce(&Context) -> anyho
             if std::env::var("RAYKIT_REQUIRE_DEVICE").is_ok_and(|v| v == "1") {
                 anyhow::bail!("{name}: RAYKIT_REQUIRE_DEVICE=1 and no usable device: {e}");
             }
-            eprintln!("SKIPPED {name}: no ray-tracing device ({e}); set RAYKIT_REQUIRE_DEVICE=1 to make this a failure");
+            eprintln!(
+                "SKIPPED {name}: no ray-tracing device ({e}); set RAYKIT_REQUIRE_DEVICE=1 to make this a failure"
+            );
             return Ok(());
         }
         Err(e) => return Err(e.into()),

@@ -16,9 +16,15 @@ fn bad_geometry_is_refused_with_the_reason() -> anyhow::Result<()> {
         let err = Gas::triangles(ctx, &[Vec3::ZERO, Vec3::X, Vec3::new(f32::NAN, 0.0, 0.0)], None).err();
         assert!(matches!(err, Some(Error::NonFiniteVertex { vertex: 2, .. })), "{err:?}");
         let err = Gas::triangles(ctx, &TRI, Some(&[0, 1, 3])).err();
-        assert!(matches!(&err, Some(e @ Error::IndexOutOfRange { index: 3, .. }) if e.to_string().contains("fix the index buffer")), "{err:?}");
+        assert!(
+            matches!(&err, Some(e @ Error::IndexOutOfRange { index: 3, .. }) if e.to_string().contains("fix the index buffer")),
+            "{err:?}"
+        );
         let err = Gas::triangles(ctx, &TRI, Some(&[0, 1])).err();
-        assert!(matches!(&err, Some(e @ Error::TriangleCount { .. }) if e.to_string().contains("multiple of 3")), "{err:?}");
+        assert!(
+            matches!(&err, Some(e @ Error::TriangleCount { .. }) if e.to_string().contains("multiple of 3")),
+            "{err:?}"
+        );
         let err = Gas::triangles(ctx, &TRI[..2], None).err();
         assert!(matches!(err, Some(Error::TriangleCount { .. })), "{err:?}");
         let bytes = [0u8; 60];
@@ -32,7 +38,9 @@ fn bad_geometry_is_refused_with_the_reason() -> anyhow::Result<()> {
         let gas = Gas::triangles(ctx, &TRI, None)?;
         let err = Ias::new(ctx, &[Instance::new(&gas).sbt_offset(1 << 24)]).err();
         assert!(matches!(err, Some(Error::InstanceField { field: "sbt_offset", .. })), "{err:?}");
-        let err = Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::splat(f32::INFINITY)))]).err();
+        let err =
+            Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::splat(f32::INFINITY)))])
+                .err();
         assert!(matches!(err, Some(Error::NonFiniteTransform { .. })), "{err:?}");
         assert!(matches!(Ias::new(ctx, &[]), Err(Error::AccelEmpty { .. })));
         // Valid input still builds: indexed (u16, u32) and not, strided, AABBs.
@@ -63,7 +71,9 @@ fn batched_and_non_blocking_builds() -> anyhow::Result<()> {
         let builds = vec![
             Gas::builder().triangles(Triangles::new(&TRI)),
             Gas::builder().aabbs(Aabbs::new(&boxes)),
-            Gas::builder().triangles(Triangles::new(&TRI).indices_u16(&[0, 1, 2])).options(BuildOptions::default().allow_compaction(true)),
+            Gas::builder()
+                .triangles(Triangles::new(&TRI).indices_u16(&[0, 1, 2]))
+                .options(BuildOptions::default().allow_compaction(true)),
         ];
         let pending = Gas::submit_many(ctx, builds)?;
         let _ = pending.is_ready()?;
@@ -72,7 +82,8 @@ fn batched_and_non_blocking_builds() -> anyhow::Result<()> {
         assert_eq!(gases[1].primitive_count(), 2);
         assert!(gases[2].compacted_size().is_some() && gases[0].compacted_size().is_none());
         // A batch with one bad build submits nothing and names the problem.
-        let bad = vec![Gas::builder().triangles(Triangles::new(&TRI)), Gas::builder().triangles(Triangles::new(&TRI[..1]))];
+        let bad =
+            vec![Gas::builder().triangles(Triangles::new(&TRI)), Gas::builder().triangles(Triangles::new(&TRI[..1]))];
         assert!(matches!(Gas::build_many(ctx, bad), Err(Error::TriangleCount { .. })));
         let instances: Vec<Instance> = gases.iter().filter(|g| g.geometry_count() == 1).map(Instance::new).collect();
         let pending_ias = Ias::builder(&instances).submit(ctx)?;
@@ -95,16 +106,23 @@ fn update_is_refused_unless_allowed_and_topology_unchanged() -> anyhow::Result<(
         };
         let mut fixed = Gas::triangles(ctx, &quad, Some(&indices))?;
         let err = fixed.update(&input(&quad, &[0, 1, 2, 1, 3, 2])).err();
-        assert!(matches!(&err, Some(Error::UpdateRefused { reason, .. }) if reason.contains("allow_update")), "{err:?}");
+        assert!(
+            matches!(&err, Some(Error::UpdateRefused { reason, .. }) if reason.contains("allow_update")),
+            "{err:?}"
+        );
 
         let options = BuildOptions::default().allow_update(true);
-        let mut gas = Gas::builder().triangles(Triangles::new(&quad).indices_u32(&indices)).options(options).build(ctx)?;
+        let mut gas =
+            Gas::builder().triangles(Triangles::new(&quad).indices_u32(&indices)).options(options).build(ctx)?;
         let moved: Vec<Vec3> = quad.iter().map(|v| *v * 2.0).collect();
         gas.update(&input(&moved, &[0, 1, 2, 1, 3, 2]))?;
         let err = gas.update(&input(&moved, &[0, 1, 2])).err();
         assert!(matches!(&err, Some(Error::UpdateRefused { reason, .. }) if reason.contains("1 triangles")), "{err:?}");
         let err = gas.update(&input(&moved, &[0, 1, 2, 2, 3, 1])).err();
-        assert!(matches!(&err, Some(e @ Error::UpdateRefused { reason, .. }) if reason.contains("index data") && e.to_string().contains("rebuild")), "{err:?}");
+        assert!(
+            matches!(&err, Some(e @ Error::UpdateRefused { reason, .. }) if reason.contains("index data") && e.to_string().contains("rebuild")),
+            "{err:?}"
+        );
         // A rebuild accepts the new topology.
         gas.rebuild(&input(&moved, &[0, 1, 2]))?;
         assert_eq!(gas.primitive_count(), 1);
@@ -112,7 +130,10 @@ fn update_is_refused_unless_allowed_and_topology_unchanged() -> anyhow::Result<(
         let mut ias = Ias::builder(&[Instance::new(&gas)]).options(options).build(ctx)?;
         ias.update(&[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::Z))])?;
         let err = ias.update(&[Instance::new(&gas), Instance::new(&fixed)]).err();
-        assert!(matches!(&err, Some(Error::UpdateRefused { what: "IAS", reason }) if reason.contains("instance count")), "{err:?}");
+        assert!(
+            matches!(&err, Some(Error::UpdateRefused { what: "IAS", reason }) if reason.contains("instance count")),
+            "{err:?}"
+        );
         ias.rebuild(&[Instance::new(&gas), Instance::new(&fixed)])?;
         assert_eq!(ias.instance_count(), 2);
         Ok(())

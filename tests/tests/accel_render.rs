@@ -3,7 +3,9 @@
 //! program, instances (transforms, masks, SBT offsets, custom indices), refit,
 //! and compaction.
 
-use accel_test_device::{barycentric_color, hit_sphere, pack_unorm, pixel_position, sphere, ColorData, Params, CAMERA_Z};
+use accel_test_device::{
+    barycentric_color, hit_sphere, pack_unorm, pixel_position, sphere, ColorData, Params, CAMERA_Z,
+};
 use raykit::accel::BuildOptions;
 use raykit::glam::{Affine3A, Quat, UVec2, Vec2, Vec3};
 use raykit::{
@@ -49,8 +51,11 @@ fn render(ctx: &Context, scene: &Ias, records: &[(Hit, Vec3)]) -> anyhow::Result
         .intersection(accel_test_device::IS_SPHERE)
         .closest_hit(accel_test_device::CH_RECORD)
         .build()?;
-    let pipeline =
-        Pipeline::<Params>::new(ctx, &[&raygen, &miss, &record, &bary, &custom, &sphere], LinkOptions { max_trace_depth: 1 })?;
+    let pipeline = Pipeline::<Params>::new(
+        ctx,
+        &[&raygen, &miss, &record, &bary, &custom, &sphere],
+        LinkOptions { max_trace_depth: 1 },
+    )?;
     let mut sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ColorData { color: BG });
     for &(hit, color) in records {
         let group = match hit {
@@ -121,8 +126,10 @@ fn indexed_and_non_indexed_meshes_render_identically() -> anyhow::Result<()> {
         let (vertices, indices) = fan();
         let expanded = expand(&vertices, &indices);
         let indices16: Vec<u16> = indices.iter().map(|&i| i as u16).collect();
-        let fat: Vec<FatVertex> =
-            vertices.iter().map(|v| FatVertex { normal: [0.0, 0.0, 1.0], position: v.to_array(), uv: [0.5, 0.5] }).collect();
+        let fat: Vec<FatVertex> = vertices
+            .iter()
+            .map(|v| FatVertex { normal: [0.0, 0.0, 1.0], position: v.to_array(), uv: [0.5, 0.5] })
+            .collect();
         let shift = Affine3A::from_translation(Vec3::new(0.25, -0.125, 0.5));
         let shifted: Vec<Vec3> = expanded.iter().map(|&v| shift.inverse().transform_point3(v)).collect();
         let inputs: Vec<(&str, BuildInput<'_>)> = vec![
@@ -150,7 +157,8 @@ fn indexed_and_non_indexed_meshes_render_identically() -> anyhow::Result<()> {
         // CPU reference: barycentric colour inside each triangle, background outside.
         let (mut inside, mut close, mut wrong_bg) = (0, 0, 0);
         for (p, &got) in pixel_positions().iter().zip(reference) {
-            let hit = expanded.chunks(3).map(|t| barycentrics(*p, [t[0], t[1], t[2]])).find(|(_, margin)| *margin > 0.0);
+            let hit =
+                expanded.chunks(3).map(|t| barycentrics(*p, [t[0], t[1], t[2]])).find(|(_, margin)| *margin > 0.0);
             let nearest = expanded.chunks(3).map(|t| barycentrics(*p, [t[0], t[1], t[2]]).1).fold(f32::MIN, f32::max);
             match hit {
                 Some((b, margin)) if margin > 0.01 => {
@@ -204,15 +212,25 @@ fn aabbs_are_hit_through_the_intersection_program() -> anyhow::Result<()> {
 fn square_instances(gas: &Gas) -> Vec<Instance> {
     let rot = Quat::from_rotation_z(0.6);
     vec![
-        Instance::new(gas).transform(Affine3A::from_translation(Vec3::new(-1.0, 0.2, 0.0))).sbt_offset(0).custom_index(10),
+        Instance::new(gas)
+            .transform(Affine3A::from_translation(Vec3::new(-1.0, 0.2, 0.0)))
+            .sbt_offset(0)
+            .custom_index(10),
         Instance::new(gas)
             .transform(Affine3A::from_scale_rotation_translation(Vec3::splat(0.8), rot, Vec3::new(0.0, -0.3, 0.0)))
             .sbt_offset(1)
             .custom_index(20),
-        Instance::new(gas).transform(Affine3A::from_translation(Vec3::new(1.0, 0.0, 0.5))).sbt_offset(2).custom_index(30),
+        Instance::new(gas)
+            .transform(Affine3A::from_translation(Vec3::new(1.0, 0.0, 0.5)))
+            .sbt_offset(2)
+            .custom_index(30),
         // In front of everything, but its mask lacks the ray's bit 0x01.
         Instance::new(gas)
-            .transform(Affine3A::from_scale_rotation_translation(Vec3::splat(4.0), Quat::IDENTITY, Vec3::new(0.0, 0.0, 2.0)))
+            .transform(Affine3A::from_scale_rotation_translation(
+                Vec3::splat(4.0),
+                Quat::IDENTITY,
+                Vec3::new(0.0, 0.0, 2.0),
+            ))
             .mask(0x02)
             .sbt_offset(3)
             .custom_index(40),
@@ -244,7 +262,12 @@ fn instance_hit(instances: &[(Affine3A, u8)], p: Vec2) -> (Option<usize>, f32) {
 #[test]
 fn instances_hit_the_right_records() -> anyhow::Result<()> {
     with_context("instances_hit_the_right_records", |ctx| {
-        let square = [Vec3::new(-0.5, -0.5, 0.0), Vec3::new(0.5, -0.5, 0.0), Vec3::new(-0.5, 0.5, 0.0), Vec3::new(0.5, 0.5, 0.0)];
+        let square = [
+            Vec3::new(-0.5, -0.5, 0.0),
+            Vec3::new(0.5, -0.5, 0.0),
+            Vec3::new(-0.5, 0.5, 0.0),
+            Vec3::new(0.5, 0.5, 0.0),
+        ];
         let gas = Gas::triangles(ctx, &square, Some(&[0, 1, 2, 1, 3, 2]))?;
         let instances = square_instances(&gas);
         let ias = Ias::new(ctx, &instances)?;
@@ -254,9 +277,19 @@ fn instances_hit_the_right_records() -> anyhow::Result<()> {
 
         let placed: Vec<(Affine3A, u8)> = vec![
             (Affine3A::from_translation(Vec3::new(-1.0, 0.2, 0.0)), 0xff),
-            (Affine3A::from_scale_rotation_translation(Vec3::splat(0.8), Quat::from_rotation_z(0.6), Vec3::new(0.0, -0.3, 0.0)), 0xff),
+            (
+                Affine3A::from_scale_rotation_translation(
+                    Vec3::splat(0.8),
+                    Quat::from_rotation_z(0.6),
+                    Vec3::new(0.0, -0.3, 0.0),
+                ),
+                0xff,
+            ),
             (Affine3A::from_translation(Vec3::new(1.0, 0.0, 0.5)), 0xff),
-            (Affine3A::from_scale_rotation_translation(Vec3::splat(4.0), Quat::IDENTITY, Vec3::new(0.0, 0.0, 2.0)), 0x02),
+            (
+                Affine3A::from_scale_rotation_translation(Vec3::splat(4.0), Quat::IDENTITY, Vec3::new(0.0, 0.0, 2.0)),
+                0x02,
+            ),
         ];
         let mut seen = [0usize; 4];
         for (p, (&record, &index)) in pixel_positions().iter().zip(by_record.iter().zip(&by_index)) {
@@ -269,7 +302,11 @@ fn instances_hit_the_right_records() -> anyhow::Result<()> {
                     seen[i] += 1;
                     assert_eq!(record, pack_unorm(colors[i]), "pixel at {p}: instance {i} with SBT offset {i}");
                     let custom = [10, 20, 30, 40][i];
-                    assert_eq!(index, pack_unorm(Vec3::new(custom as f32 / 255.0, 0.0, 1.0)), "pixel at {p}: custom index");
+                    assert_eq!(
+                        index,
+                        pack_unorm(Vec3::new(custom as f32 / 255.0, 0.0, 1.0)),
+                        "pixel at {p}: custom index"
+                    );
                 }
                 None => {
                     assert_eq!(record, pack_unorm(BG), "pixel at {p} hits nothing (the masked instance is invisible)");
@@ -383,18 +420,41 @@ fn batched_builds_render() -> anyhow::Result<()> {
     with_context("batched_builds_render", |ctx| {
         let left = [Vec3::new(-1.4, -0.5, 0.0), Vec3::new(-0.6, -0.5, 0.0), Vec3::new(-1.0, 0.5, 0.0)];
         let right = [Vec3::new(0.6, -0.5, 0.0), Vec3::new(1.4, -0.5, 0.0), Vec3::new(1.0, 0.5, 0.0)];
-        let pending = Gas::submit_many(ctx, vec![Gas::builder().triangles(Triangles::new(&left)), Gas::builder().triangles(Triangles::new(&right))])?;
+        let pending = Gas::submit_many(
+            ctx,
+            vec![Gas::builder().triangles(Triangles::new(&left)), Gas::builder().triangles(Triangles::new(&right))],
+        )?;
         let gases = pending.wait()?;
         let instances = [Instance::new(&gases[0]), Instance::new(&gases[1]).sbt_offset(1)];
         let ias = Ias::builder(&instances).submit(ctx)?.wait()?;
         let picture = render(ctx, &ias, &[(Hit::Record, Vec3::X), (Hit::Record, Vec3::Y)])?;
-        check_coverage(&picture[..], &triangle_coverage(left).iter().zip(triangle_coverage(right)).map(|(l, r)| match (l, r) {
-            (Some(true), _) | (_, Some(true)) => None,
-            (Some(false), Some(false)) => Some(false),
-            _ => None,
-        }).collect::<Vec<_>>(), Vec3::ZERO);
-        assert!(check_coverage(&picture, &triangle_coverage(left).iter().map(|c| c.filter(|&v| v)).collect::<Vec<_>>(), Vec3::X) > 100);
-        assert!(check_coverage(&picture, &triangle_coverage(right).iter().map(|c| c.filter(|&v| v)).collect::<Vec<_>>(), Vec3::Y) > 100);
+        check_coverage(
+            &picture[..],
+            &triangle_coverage(left)
+                .iter()
+                .zip(triangle_coverage(right))
+                .map(|(l, r)| match (l, r) {
+                    (Some(true), _) | (_, Some(true)) => None,
+                    (Some(false), Some(false)) => Some(false),
+                    _ => None,
+                })
+                .collect::<Vec<_>>(),
+            Vec3::ZERO,
+        );
+        assert!(
+            check_coverage(
+                &picture,
+                &triangle_coverage(left).iter().map(|c| c.filter(|&v| v)).collect::<Vec<_>>(),
+                Vec3::X
+            ) > 100
+        );
+        assert!(
+            check_coverage(
+                &picture,
+                &triangle_coverage(right).iter().map(|c| c.filter(|&v| v)).collect::<Vec<_>>(),
+                Vec3::Y
+            ) > 100
+        );
         Ok(())
     })
 }
@@ -406,7 +466,10 @@ fn each_geometry_hits_its_own_record_after_the_instance_offset() -> anyhow::Resu
         let right = [Vec3::new(0.6, -0.5, 0.0), Vec3::new(1.4, -0.5, 0.0), Vec3::new(1.0, 0.5, 0.0)];
         let gas = Gas::builder()
             .triangles(Triangles::new(&left).flags(raykit::GeometryFlags::OPAQUE))
-            .triangles(Triangles::new(&right).flags(raykit::GeometryFlags::OPAQUE | raykit::GeometryFlags::NO_DUPLICATE_ANY_HIT))
+            .triangles(
+                Triangles::new(&right)
+                    .flags(raykit::GeometryFlags::OPAQUE | raykit::GeometryFlags::NO_DUPLICATE_ANY_HIT),
+            )
             .build(ctx)?;
         assert_eq!(gas.geometry_count(), 2);
         let ias = Ias::new(ctx, &[Instance::new(&gas).sbt_offset(1).flags(raykit::InstanceFlags::FORCE_OPAQUE)])?;

@@ -117,7 +117,9 @@ fn entry_point_constant_of_another_kind() -> anyhow::Result<()> {
     case(
         "entry_point_constant_of_another_kind",
         &["`__closesthit__ch`", "ProgramGroup::miss"],
-        |ctx| refused(ProgramGroup::miss(&triangle_module(ctx)?, triangle_device::CH), "a closest-hit constant as miss"),
+        |ctx| {
+            refused(ProgramGroup::miss(&triangle_module(ctx)?, triangle_device::CH), "a closest-hit constant as miss")
+        },
         |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::Miss, .. }),
     )
 }
@@ -129,7 +131,10 @@ fn closest_hit_slot_given_a_raygen() -> anyhow::Result<()> {
         &["`__raygen__rg`", "HitGroupBuilder::closest_hit"],
         |ctx| {
             let module = triangle_module(ctx)?;
-            refused(ProgramGroup::hit_group(&module).closest_hit(triangle_device::RG).build(), "a raygen as closest-hit")
+            refused(
+                ProgramGroup::hit_group(&module).closest_hit(triangle_device::RG).build(),
+                "a raygen as closest-hit",
+            )
         },
         |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::ClosestHit, .. }),
     )
@@ -333,7 +338,11 @@ fn spirv_with_a_spec_constant_op_it_cannot_compute() -> anyhow::Result<()> {
 fn spirv_without_ray_tracing_entry_points() -> anyhow::Result<()> {
     case(
         "spirv_without_ray_tracing_entry_points",
-        &["no ray-tracing entry points", "`main` (not a ray-tracing stage)", "Compile the programs as ray-tracing stages"],
+        &[
+            "no ray-tracing entry points",
+            "`main` (not a ray-tracing stage)",
+            "Compile the programs as ray-tracing stages",
+        ],
         |ctx| refused(Module::new(ctx, include_bytes!("../data/compute_only.comp.spv")), "a compute shader"),
         |e| matches!(e, Error::NoRayTracingEntryPoints { available } if available.len() == 1),
     )
@@ -403,7 +412,10 @@ fn params_read_another_way_than_delivered() -> anyhow::Result<()> {
             let raygen = ProgramGroup::raygen(&module, params_device::RG_LARGE)?;
             let other = Module::new(ctx, include_bytes!("../data/miss_other_params.rmiss.spv"))?;
             let miss = ProgramGroup::miss(&other, "main")?;
-            refused(Pipeline::<Large>::new(ctx, &[&raygen, &miss], LinkOptions::default()), "push constants for a UBO struct")
+            refused(
+                Pipeline::<Large>::new(ctx, &[&raygen, &miss], LinkOptions::default()),
+                "push constants for a UBO struct",
+            )
         },
         |e| matches!(e, Error::ParamsLayout(l) if matches!(**l, LayoutError::Delivery { .. })),
     )
@@ -420,7 +432,8 @@ fn max_trace_depth_above_the_device_limit() -> anyhow::Result<()> {
             let raygen = ProgramGroup::raygen(&triangle_module(ctx)?, triangle_device::RG)?;
             let limit = ctx.limits().max_ray_recursion_depth;
             for depth in [limit + 1, u32::MAX] {
-                let err = refused(Pipeline::<Params>::new(ctx, &[&raygen], LinkOptions { max_trace_depth: depth }), "depth")?;
+                let err =
+                    refused(Pipeline::<Params>::new(ctx, &[&raygen], LinkOptions { max_trace_depth: depth }), "depth")?;
                 anyhow::ensure!(
                     matches!(err, Error::TraceDepthTooLarge { requested, limit: l } if requested == depth && l == limit),
                     "{err:?}"
@@ -467,7 +480,10 @@ fn pipeline_from_groups_of_another_context() -> anyhow::Result<()> {
             let raygen = ProgramGroup::raygen(&triangle_module(ctx)?, triangle_device::RG)?;
             with_second_context(|other| {
                 let miss = ProgramGroup::miss(&triangle_module(other)?, triangle_device::MS)?;
-                refused(Pipeline::<Params>::new(ctx, &[&raygen, &miss], LinkOptions::default()), "groups of two contexts")
+                refused(
+                    Pipeline::<Params>::new(ctx, &[&raygen, &miss], LinkOptions::default()),
+                    "groups of two contexts",
+                )
             })
         },
         |e| matches!(e, Error::ContextMismatch),
@@ -497,7 +513,10 @@ fn sbt_without_a_raygen_record() -> anyhow::Result<()> {
         &["no raygen record", "Sbt::builder(..).raygen(..)"],
         |ctx| {
             let l = linked(ctx)?;
-            refused(Sbt::builder(&l.pipeline).miss(&l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()).build(), "an SBT without raygen")
+            refused(
+                Sbt::builder(&l.pipeline).miss(&l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()).build(),
+                "an SBT without raygen",
+            )
         },
         |e| matches!(e, Error::SbtMissing { region: "raygen" }),
     )
@@ -525,7 +544,13 @@ fn sbt_record_of_a_group_not_in_the_pipeline() -> anyhow::Result<()> {
             let l = linked(ctx)?;
             // The same entry point, but a group the pipeline was not linked with.
             let stranger = ProgramGroup::miss(&triangle_module(ctx)?, triangle_device::MS)?;
-            refused(Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&stranger, MissData { bg_color: BG_COLOR }).build(), "a foreign group")
+            refused(
+                Sbt::builder(&l.pipeline)
+                    .raygen(&l.raygen, ())
+                    .miss(&stranger, MissData { bg_color: BG_COLOR })
+                    .build(),
+                "a foreign group",
+            )
         },
         |e| matches!(e, Error::GroupNotInPipeline { kind: "miss" }),
     )
@@ -571,7 +596,8 @@ fn hit_record_for_a_ray_type_the_sbt_does_not_have() -> anyhow::Result<()> {
         &["SBT hit slot 1 is empty", "every slot a trace can reach needs a record", "hit_at(1, ..)"],
         |ctx| {
             let l = linked(ctx)?;
-            let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR });
+            let builder =
+                Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR });
             refused(builder.hit(&l.hit, ()).hit_for::<Ghost, _>(0, &l.hit, ()).build(), "a ghost ray type's hit record")
         },
         |e| matches!(e, Error::SbtHole { region: "hit", index: 1 }),
@@ -601,7 +627,11 @@ fn launch_with_the_sbt_of_another_pipeline() -> anyhow::Result<()> {
         |ctx| {
             let a = linked(ctx)?;
             let b = linked(ctx)?;
-            let sbt = Sbt::builder(&b.pipeline).raygen(&b.raygen, ()).miss(&b.miss, MissData { bg_color: BG_COLOR }).hit(&b.hit, ()).build()?;
+            let sbt = Sbt::builder(&b.pipeline)
+                .raygen(&b.raygen, ())
+                .miss(&b.miss, MissData { bg_color: BG_COLOR })
+                .hit(&b.hit, ())
+                .build()?;
             let image = ctx.buffer::<u32>(1)?;
             let params = triangle::params(1, 1, image.handle(), raykit::Traversable::NULL);
             refused(a.pipeline.launch(&sbt, &params, [1, 1, 1]), "another pipeline's SBT")
@@ -615,7 +645,11 @@ fn launch_with_the_sbt_of_another_pipeline() -> anyhow::Result<()> {
 /// Launches the triangle pipeline over `dims` (nothing is traced when refused).
 fn launch(ctx: &Context, dims: [u32; 3]) -> anyhow::Result<raykit::Result<()>> {
     let l = linked(ctx)?;
-    let sbt = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()).build()?;
+    let sbt = Sbt::builder(&l.pipeline)
+        .raygen(&l.raygen, ())
+        .miss(&l.miss, MissData { bg_color: BG_COLOR })
+        .hit(&l.hit, ())
+        .build()?;
     let image = ctx.buffer::<u32>(1)?;
     let params = triangle::params(1, 1, image.handle(), raykit::Traversable::NULL);
     Ok(l.pipeline.launch(&sbt, &params, dims))
@@ -781,7 +815,10 @@ fn gas_with_fewer_vertex_bytes_than_count_and_stride_need() -> anyhow::Result<()
         &["vertex data of 24 bytes is too short", "need 36"],
         |ctx| {
             let bytes: &[u8] = bytemuck::cast_slice(&TRI[..2]);
-            refused(Gas::builder().triangles(Triangles::strided(bytes, 12, 3)).build(ctx), "two vertices' bytes for three")
+            refused(
+                Gas::builder().triangles(Triangles::strided(bytes, 12, 3)).build(ctx),
+                "two vertices' bytes for three",
+            )
         },
         |e| matches!(e, Error::InputTooShort { needed: 36, len: 24, .. }),
     )
@@ -855,7 +892,9 @@ fn ias_instancing_a_gas_of_another_context() -> anyhow::Result<()> {
     case(
         "ias_instancing_a_gas_of_another_context",
         &["different Contexts", "GASes of an IAS"],
-        |ctx| with_second_context(|other| refused(Ias::single(ctx, &Gas::triangles(other, &TRI, None)?), "a foreign GAS")),
+        |ctx| {
+            with_second_context(|other| refused(Ias::single(ctx, &Gas::triangles(other, &TRI, None)?), "a foreign GAS"))
+        },
         |e| matches!(e, Error::ContextMismatch),
     )
 }
@@ -866,7 +905,11 @@ fn ias_instancing_a_gas_of_another_context() -> anyhow::Result<()> {
 fn instance_of_a_dropped_gas_handle_still_renders() -> anyhow::Result<()> {
     with_context("instance_of_a_dropped_gas_handle_still_renders", |ctx| {
         let l = linked(ctx)?;
-        let sbt = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()).build()?;
+        let sbt = Sbt::builder(&l.pipeline)
+            .raygen(&l.raygen, ())
+            .miss(&l.miss, MissData { bg_color: BG_COLOR })
+            .hit(&l.hit, ())
+            .build()?;
         let gas = Gas::triangles(ctx, &TRI, None)?;
         let scene = Ias::single(ctx, &gas)?;
         drop(gas);
@@ -874,7 +917,10 @@ fn instance_of_a_dropped_gas_handle_still_renders() -> anyhow::Result<()> {
         l.pipeline.launch(&sbt, &triangle::params(16, 16, image.handle(), scene.handle()), [16, 16, 1])?;
         let pixels = image.read()?;
         let bg = make_color(BG_COLOR);
-        anyhow::ensure!(pixels[0] == bg && pixels[8 * 16 + 8] != bg, "the triangle is gone once its Gas handle was dropped");
+        anyhow::ensure!(
+            pixels[0] == bg && pixels[8 * 16 + 8] != bg,
+            "the triangle is gone once its Gas handle was dropped"
+        );
         Ok(())
     })
 }
@@ -887,7 +933,8 @@ fn no_device_matches_the_requested_name() -> anyhow::Result<()> {
         "no_device_matches_the_requested_name",
         &["no Vulkan device with ray-tracing pipelines", "a name containing \"no such device\"", "mesa-vulkan-drivers"],
         |ctx| {
-            let options = ContextOptions { device_name_contains: Some("no such device".to_owned()), ..Default::default() };
+            let options =
+                ContextOptions { device_name_contains: Some("no such device".to_owned()), ..Default::default() };
             let err = refused(Context::new(options), "a device name nothing has")?;
             // The message lists every device seen, the usable one included.
             anyhow::ensure!(err.to_string().contains(ctx.device_name()), "{err}");
@@ -956,7 +1003,10 @@ fn more_live_buffers_than_the_buffer_table_holds() -> anyhow::Result<()> {
                 }
                 anyhow::ensure!(live.len() <= 1 << 20, "a million buffers and the table is not full");
             };
-            anyhow::ensure!(matches!(err, Error::BufferTableFull { capacity } if capacity as usize == live.len()), "{err:?}");
+            anyhow::ensure!(
+                matches!(err, Error::BufferTableFull { capacity } if capacity as usize == live.len()),
+                "{err:?}"
+            );
             // Freeing one slot makes room again.
             live.pop();
             live.push(ctx.buffer::<u32>(1)?);

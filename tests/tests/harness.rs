@@ -53,7 +53,9 @@ fn harness_reports_vulkan_objects_left_alive_at_device_destruction() -> anyhow::
         // No device and RAYKIT_REQUIRE_DEVICE unset: the harness skipped.
         return result;
     }
-    let Err(err) = result else { anyhow::bail!("the harness did not notice a VkSampler left alive at vkDestroyDevice") };
+    let Err(err) = result else {
+        anyhow::bail!("the harness did not notice a VkSampler left alive at vkDestroyDevice")
+    };
     let text = err.to_string();
     eprintln!("the harness reported, as it should:\n{text}");
     assert!(text.contains("validation message"), "{text}");

@@ -20,7 +20,9 @@ fn lists_the_entry_points_with_their_stages() -> anyhow::Result<()> {
             ]
         );
         let models: Vec<&str> = module.entry_points().iter().map(|e| e.execution_model.as_str()).collect();
-        assert!(models.contains(&"RayGenerationKHR") && models.contains(&"MissKHR") && models.contains(&"ClosestHitKHR"));
+        assert!(
+            models.contains(&"RayGenerationKHR") && models.contains(&"MissKHR") && models.contains(&"ClosestHitKHR")
+        );
         Ok(())
     })
 }
@@ -30,7 +32,9 @@ fn wrong_program_kinds_are_errors_that_name_the_entry_points() -> anyhow::Result
     with_context("wrong_program_kinds_are_errors_that_name_the_entry_points", |ctx| {
         let module = Module::from_device_crate(ctx, "triangle-device")?;
 
-        let err = ProgramGroup::raygen(&module, "__miss__ms").err().ok_or_else(|| anyhow::anyhow!("raygen from a miss entry was accepted"))?;
+        let err = ProgramGroup::raygen(&module, "__miss__ms")
+            .err()
+            .ok_or_else(|| anyhow::anyhow!("raygen from a miss entry was accepted"))?;
         assert!(matches!(err, Error::ProgramKindMismatch { expected: ProgramKind::Raygen, .. }), "{err:?}");
         let text = err.to_string();
         for name in ["__raygen__rg", "__miss__ms", "__closesthit__ch"] {
@@ -86,7 +90,8 @@ fn bad_modules_and_link_options_are_typed_errors() -> anyhow::Result<()> {
         let raygen = ProgramGroup::raygen(&module, triangle_device::RG)?;
         let miss = ProgramGroup::miss(&module, triangle_device::MS)?;
         let limit = ctx.limits().max_ray_recursion_depth;
-        let err = Pipeline::<triangle_device::Params>::new(ctx, &[&raygen], LinkOptions { max_trace_depth: limit + 1 }).err();
+        let err =
+            Pipeline::<triangle_device::Params>::new(ctx, &[&raygen], LinkOptions { max_trace_depth: limit + 1 }).err();
         assert!(matches!(err, Some(Error::TraceDepthTooLarge { .. })), "{err:?}");
         let err = Pipeline::<triangle_device::Params>::new(ctx, &[&miss], LinkOptions::default()).err();
         assert!(matches!(err, Some(Error::NoRaygen)), "{err:?}");
@@ -143,7 +148,11 @@ fn payload_and_hit_attribute_sizes_are_read_from_the_spirv_alike_for_rust_and_gl
     // Triangle: a Vec3 payload; the closest-hit reads the barycentrics (vec2).
     assert_eq!(
         sizes(&rust("triangle-device")?)?,
-        [("__closesthit__ch".to_owned(), of(12, 8)), ("__miss__ms".to_owned(), of(12, 0)), ("__raygen__rg".to_owned(), of(12, 0))]
+        [
+            ("__closesthit__ch".to_owned(), of(12, 8)),
+            ("__miss__ms".to_owned(), of(12, 0)),
+            ("__raygen__rg".to_owned(), of(12, 0))
+        ]
     );
     assert_eq!(glsl(include_bytes!("../../examples/triangle/glsl/triangle.rchit.spv"))?, of(12, 8));
     assert_eq!(glsl(include_bytes!("../../examples/triangle/glsl/triangle.rgen.spv"))?, of(12, 0));

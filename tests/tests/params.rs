@@ -5,7 +5,9 @@
 
 use params_device::{Aligned, Inner, Large, Mixed, NestedDependent, TargetDependent, Words};
 use raykit::glam::{Mat4, UVec2, Vec2, Vec3, Vec3A, Vec4};
-use raykit::{Context, Error, LaunchParams, LayoutError, LinkOptions, Module, ParamsDelivery, Pipeline, ProgramGroup, Sbt};
+use raykit::{
+    Context, Error, LaunchParams, LayoutError, LinkOptions, Module, ParamsDelivery, Pipeline, ProgramGroup, Sbt,
+};
 use raykit_tests::with_context;
 
 /// Launches `entry` once with `params` (whose `out` is replaced by a fresh buffer)
@@ -130,9 +132,11 @@ fn async_launches_in_flight_each_see_their_own_uniform_params() -> anyhow::Resul
         };
         let len = expected(&base).len();
         let outs = (0..4).map(|_| ctx.buffer::<u32>(len)).collect::<raykit::Result<Vec<_>>>()?;
-        let params: Vec<Large> = outs.iter().enumerate().map(|(i, out)| Large { out: out.handle(), id: 1000 + i as u64, ..base }).collect();
+        let params: Vec<Large> =
+            outs.iter().enumerate().map(|(i, out)| Large { out: out.handle(), id: 1000 + i as u64, ..base }).collect();
         // All four submitted before any is waited for: one uniform buffer, four values.
-        let launches = params.iter().map(|p| pipeline.launch_async(&sbt, p, [1, 1, 1])).collect::<raykit::Result<Vec<_>>>()?;
+        let launches =
+            params.iter().map(|p| pipeline.launch_async(&sbt, p, [1, 1, 1])).collect::<raykit::Result<Vec<_>>>()?;
         for launch in launches {
             launch.wait()?;
         }
@@ -166,7 +170,10 @@ fn a_field_at_another_offset_in_the_spirv_is_refused_by_name() -> anyhow::Result
         let Some(LayoutError::Mismatch { struct_name, entry, field, host, device, .. }) = layout_error(&err) else {
             anyhow::bail!("expected ParamsLayoutMismatch, got {err:?}");
         };
-        assert_eq!((*struct_name, entry.as_str(), field.as_str()), ("TargetDependent", "__raygen__rg_target_dependent", "value"));
+        assert_eq!(
+            (*struct_name, entry.as_str(), field.as_str()),
+            ("TargetDependent", "__raygen__rg_target_dependent", "value")
+        );
         // The first difference: at offset 4 the host has `value`, the SPIR-V its padding.
         assert!(host.contains("offset 4") && host.contains("[f32;4]") && device.contains("array of 3"), "{err}");
         Ok(())
@@ -181,7 +188,10 @@ fn a_nested_field_that_differs_is_named_with_its_path() -> anyhow::Result<()> {
         let err = link_error::<NestedDependent>(ctx, &[&raygen])?;
         // `inner` has one field on the host and two in the SPIR-V: the check
         // descends into the nested struct and names the path.
-        assert!(matches!(layout_error(&err), Some(LayoutError::Mismatch { field, .. }) if field.starts_with("inner.")), "{err:?}");
+        assert!(
+            matches!(layout_error(&err), Some(LayoutError::Mismatch { field, .. }) if field.starts_with("inner.")),
+            "{err:?}"
+        );
         Ok(())
     })
 }
@@ -210,7 +220,10 @@ fn modules_of_one_pipeline_must_agree_on_the_params() -> anyhow::Result<()> {
         let other = Module::new(ctx, include_bytes!("../data/miss_other_params.rmiss.spv"))?;
         let miss = ProgramGroup::miss(&other, "main")?;
         let err = link_error::<triangle_device::Params>(ctx, &[&raygen, &miss])?;
-        assert!(matches!(layout_error(&err), Some(LayoutError::Mismatch { entry, struct_name: "Params", .. }) if entry == "main"), "{err:?}");
+        assert!(
+            matches!(layout_error(&err), Some(LayoutError::Mismatch { entry, struct_name: "Params", .. }) if entry == "main"),
+            "{err:?}"
+        );
         Ok(())
     })
 }

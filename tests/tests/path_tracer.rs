@@ -142,17 +142,27 @@ fn render_and_compare(ctx: &Context, programs: &Programs, reference: &Reference,
             want /= pixels;
             // Two estimates of SPP paths per pixel each: Var(mean_gpu - mean_cpu).
             let se = (var * (2.0 / SPP as f32) / (pixels * pixels)).powf(0.5);
-            for (channel, (g, w, s)) in [(got.x, want.x, se.x), (got.y, want.y, se.y), (got.z, want.z, se.z)].into_iter().enumerate() {
+            for (channel, (g, w, s)) in
+                [(got.x, want.x, se.x), (got.y, want.y, se.y), (got.z, want.z, se.z)].into_iter().enumerate()
+            {
                 let allowed = 3.0 * s + 1e-6 * w.abs().max(1.0);
                 let z = (g - w).abs() / allowed * 3.0;
                 worst = worst.max(z);
                 if (g - w).abs() > allowed {
-                    failures.push(format!("block ({bx}, {by}) channel {channel}: {g} vs reference {w} (3 SE = {})", 3.0 * s));
+                    failures.push(format!(
+                        "block ({bx}, {by}) channel {channel}: {g} vs reference {w} (3 SE = {})",
+                        3.0 * s
+                    ));
                 }
             }
         }
     }
-    anyhow::ensure!(failures.is_empty(), "{what}: {} block means off the reference:\n{}", failures.len(), failures.join("\n"));
+    anyhow::ensure!(
+        failures.is_empty(),
+        "{what}: {} block means off the reference:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
     // The image is not trivially black: the box is lit.
     let mean = image.radiance.iter().copied().sum::<Vec3>() / image.radiance.len() as f32;
     anyhow::ensure!(mean.min_element() > 0.02, "{what}: the image is too dark (mean {mean})");

@@ -2,7 +2,9 @@
 //! the host refuses wrong pairings, and scenes that need intersection, any-hit
 //! and callable programs render as their CPU references say.
 
-use program_model::{CALLABLE_PLACES, CUTOUT_OFFSET, CUTOUT_SCALE, GROUND, OCCLUDER_TRIANGLE, SBT_DATA_INSTANCES, SPHERES};
+use program_model::{
+    CALLABLE_PLACES, CUTOUT_OFFSET, CUTOUT_SCALE, GROUND, OCCLUDER_TRIANGLE, SBT_DATA_INSTANCES, SPHERES,
+};
 use program_model_device::{cutout_solid, normal_color, ortho_ray, pack, ray_sphere, Params, BACKGROUND, MATERIALS};
 use raykit::glam::{UVec2, Vec2, Vec3, Vec4};
 use raykit::{Context, Error, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, ProgramKind, Sbt};
@@ -59,7 +61,9 @@ fn every_program_kind_has_its_prefix_and_wrong_pairings_are_refused() -> anyhow:
             (program_model_device::ON_EXCEPTION, ProgramKind::Exception),
         ] {
             assert_eq!(entry.kind, kind);
-            assert!(entry.name.starts_with(kind.prefixes().iter().find(|p| entry.name.starts_with(*p)).copied().unwrap_or("?")));
+            assert!(entry
+                .name
+                .starts_with(kind.prefixes().iter().find(|p| entry.name.starts_with(*p)).copied().unwrap_or("?")));
             assert!(kinds.contains(&(entry.name.to_owned(), Some(kind))), "{} missing from {kinds:?}", entry.name);
         }
         assert_eq!(program_model_device::RED.name, "__direct_callable__red");
@@ -237,7 +241,12 @@ fn instances_sharing_a_hit_program_read_their_own_sbt_records() -> anyhow::Resul
         let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
         let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::RECORD_COLOR).build()?;
         let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions::default())?;
-        let err = Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).hit_at(1, &hit, program_model_device::ColorRecord { color: Vec3::ONE }).build().err();
+        let err = Sbt::builder(&pipeline)
+            .raygen(&raygen, ())
+            .miss(&miss, ())
+            .hit_at(1, &hit, program_model_device::ColorRecord { color: Vec3::ONE })
+            .build()
+            .err();
         assert!(matches!(err, Some(Error::SbtHole { region: "hit", index: 0 })), "{err:?}");
         Ok(())
     })
@@ -254,7 +263,8 @@ fn user_exceptions_reach_the_host_with_code_and_launch_index() -> anyhow::Result
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
         let gas = Gas::triangles(ctx, &[Vec3::ZERO, Vec3::X, Vec3::Y], None)?;
         let scene = Ias::single(ctx, &gas)?;
-        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+        let params =
+            Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
         let err = pipeline.launch(&sbt, &params, [16, 16, 1]).err();
         let Some(Error::UserExceptions { total, mut exceptions }) = err else {
             anyhow::bail!("expected UserExceptions, got {err:?}");
@@ -283,7 +293,11 @@ fn sbt_records_are_updated_between_launches_without_a_new_pipeline() -> anyhow::
     use program_model_device::{ColorRecord, Radiance};
     with_context("sbt_records_are_updated_between_launches_without_a_new_pipeline", |ctx| {
         let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
-        let scene = Ias::new(ctx, &[raykit::Instance::new(&gas).transform(raykit::glam::Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
+        let scene = Ias::new(
+            ctx,
+            &[raykit::Instance::new(&gas)
+                .transform(raykit::glam::Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))],
+        )?;
         let module = module(ctx)?;
         let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
         let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
@@ -296,7 +310,8 @@ fn sbt_records_are_updated_between_launches_without_a_new_pipeline() -> anyhow::
             .build()?;
         let image = ctx.buffer::<u32>(16 * 16)?;
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
-        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+        let params =
+            Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
         let centre = (8 * 16 + 8) as usize;
         pipeline.launch(&sbt, &params, [16, 16, 1])?;
         assert_eq!(image.read()?[centre], pack(Vec3::new(1.0, 0.0, 0.0)));
@@ -304,7 +319,10 @@ fn sbt_records_are_updated_between_launches_without_a_new_pipeline() -> anyhow::
         pipeline.launch(&sbt, &params, [16, 16, 1])?;
         assert_eq!(image.read()?[centre], pack(Vec3::new(0.0, 0.0, 1.0)));
         // Out of range and too large are refused; the SBT stays usable.
-        assert!(matches!(sbt.update(raykit::SbtRegion::Hit, 1, ColorRecord { color: Vec3::ONE }), Err(Error::SbtUpdate { .. })));
+        assert!(matches!(
+            sbt.update(raykit::SbtRegion::Hit, 1, ColorRecord { color: Vec3::ONE }),
+            Err(Error::SbtUpdate { .. })
+        ));
         assert!(matches!(sbt.update(raykit::SbtRegion::Hit, 0, [0u8; 4096]), Err(Error::SbtUpdate { .. })));
         pipeline.launch(&sbt, &params, [16, 16, 1])?;
         assert_eq!(image.read()?[centre], pack(Vec3::new(0.0, 0.0, 1.0)));
@@ -325,7 +343,8 @@ fn an_exception_program_runs_where_a_user_exception_was_thrown() -> anyhow::Resu
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
         let gas = Gas::triangles(ctx, &[Vec3::ZERO, Vec3::X, Vec3::Y], None)?;
         let scene = Ias::single(ctx, &gas)?;
-        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+        let params =
+            Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
         let err = pipeline.launch(&sbt, &params, [16, 16, 1]).err();
         assert!(matches!(err, Some(Error::UserExceptions { total: 2, .. })), "{err:?}");
         let pixels = image.read()?;

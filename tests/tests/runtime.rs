@@ -4,8 +4,8 @@
 use program_model_device::{pack, Params, Radiance, SHADE_MODE_SPEC_ID, SPEC_COLORS};
 use raykit::glam::{Affine3A, UVec2, Vec3, Vec4};
 use raykit::{
-    CacheLoad, Context, ContextOptions, Gas, Ias, Instance, LibraryOptions, LinkOptions, Module, Pipeline, PipelineCacheLocation,
-    PipelineLibrary, ProgramGroup, Sbt, Specialization,
+    CacheLoad, Context, ContextOptions, Gas, Ias, Instance, LibraryOptions, LinkOptions, Module, Pipeline,
+    PipelineCacheLocation, PipelineLibrary, ProgramGroup, Sbt, Specialization,
 };
 use raykit_tests::{temp_dir, with_context, with_context_options};
 
@@ -26,7 +26,8 @@ impl SpecScene {
 
     fn new(ctx: &Context) -> anyhow::Result<SpecScene> {
         let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
-        let scene = Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
+        let scene =
+            Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::new(-0.25, -0.25, 0.0)))])?;
         let module = Module::from_device_crate(ctx, "program-model-device")?;
         let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
         let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
@@ -41,14 +42,23 @@ impl SpecScene {
 
     /// An SBT of its groups for `pipeline`.
     fn sbt(&self, pipeline: &Pipeline<Params>) -> raykit::Result<Sbt> {
-        Sbt::builder(pipeline).raygen(&self.raygen, ()).miss_for::<Radiance, _>(&self.miss, ()).hit_for::<Radiance, _>(0, &self.hit, ()).build()
+        Sbt::builder(pipeline)
+            .raygen(&self.raygen, ())
+            .miss_for::<Radiance, _>(&self.miss, ())
+            .hit_for::<Radiance, _>(0, &self.hit, ())
+            .build()
     }
 
     /// Launches `pipeline` over 16×16 pixels and returns them.
     fn render(&self, ctx: &Context, pipeline: &Pipeline<Params>) -> anyhow::Result<Vec<u32>> {
         let image = ctx.buffer::<u32>(16 * 16)?;
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
-        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: self.scene.handle() };
+        let params = Params {
+            image: image.handle(),
+            spheres: spheres.handle(),
+            size: UVec2::splat(16),
+            scene: self.scene.handle(),
+        };
         pipeline.launch(&self.sbt(pipeline)?, &params, [16, 16, 1])?;
         Ok(image.read()?)
     }
@@ -60,7 +70,8 @@ fn two_pipelines_from_one_module_specialized_differently_render_differently() ->
         let spec = SpecScene::new(ctx)?;
         let mut seen = Vec::new();
         for constants in [Specialization::new(), Specialization::new().set(SHADE_MODE_SPEC_ID, 1)] {
-            let pipeline = Pipeline::<Params>::with_specialization(ctx, &spec.groups(), LinkOptions::default(), &constants)?;
+            let pipeline =
+                Pipeline::<Params>::with_specialization(ctx, &spec.groups(), LinkOptions::default(), &constants)?;
             seen.push(spec.render(ctx, &pipeline)?[SpecScene::CENTRE]);
         }
         assert_eq!(seen, [pack(SPEC_COLORS[0]), pack(SPEC_COLORS[1])]);
@@ -81,7 +92,12 @@ fn two_async_launches_in_flight_give_correct_results() -> anyhow::Result<()> {
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
         // Three launches: two of one pipeline (different images), one of the other.
         let images = (0..3).map(|_| ctx.buffer::<u32>((size * size) as usize)).collect::<raykit::Result<Vec<_>>>()?;
-        let params = |i: usize| Params { image: images[i].handle(), spheres: spheres.handle(), size: UVec2::splat(size), scene: spec.scene.handle() };
+        let params = |i: usize| Params {
+            image: images[i].handle(),
+            spheres: spheres.handle(),
+            size: UVec2::splat(size),
+            scene: spec.scene.handle(),
+        };
         let launches = [
             pipelines[0].launch_async(&sbts[0], &params(0), [size, size, 1])?,
             pipelines[1].launch_async(&sbts[1], &params(1), [size, size, 1])?,
@@ -104,7 +120,10 @@ fn two_async_launches_in_flight_give_correct_results() -> anyhow::Result<()> {
         let corner = 0usize;
         let bg = pack(program_model_device::BACKGROUND);
         let got: Vec<Vec<u32>> = images.iter().map(|i| i.read()).collect::<raykit::Result<_>>()?;
-        assert_eq!([got[0][centre], got[1][centre], got[2][centre]], [pack(SPEC_COLORS[0]), pack(SPEC_COLORS[1]), pack(SPEC_COLORS[0])]);
+        assert_eq!(
+            [got[0][centre], got[1][centre], got[2][centre]],
+            [pack(SPEC_COLORS[0]), pack(SPEC_COLORS[1]), pack(SPEC_COLORS[0])]
+        );
         assert_eq!([got[0][corner], got[1][corner], got[2][corner]], [bg, bg, bg]);
         assert_eq!(got[0], got[2]);
         Ok(())
@@ -120,7 +139,12 @@ fn async_launches_report_their_own_user_exceptions() -> anyhow::Result<()> {
         let sbt = Sbt::builder(&pipeline).raygen(&throwing, ()).build()?;
         let image = ctx.buffer::<u32>(16 * 16)?;
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
-        let p = |size: u32| Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(size), scene: raykit::Traversable::NULL };
+        let p = |size: u32| Params {
+            image: image.handle(),
+            spheres: spheres.handle(),
+            size: UVec2::splat(size),
+            scene: raykit::Traversable::NULL,
+        };
         // The first launch covers both throwing pixels, the second neither.
         let a = pipeline.launch_async(&sbt, &p(16), [16, 16, 1])?;
         let b = pipeline.launch_async(&sbt, &p(1), [1, 1, 1])?;
@@ -153,7 +177,12 @@ fn a_warm_compile_cache_is_written_and_loaded_by_the_next_context() -> anyhow::R
     with_context_options("compile cache, cold", cache_in(&dir.0), |ctx| {
         let info = ctx.pipeline_cache_info();
         assert_eq!(info.load, CacheLoad::Missing);
-        assert!(info.path.as_ref().is_some_and(|p| p.starts_with(&dir.0)), "cache file {:?} outside {:?}", info.path, dir.0);
+        assert!(
+            info.path.as_ref().is_some_and(|p| p.starts_with(&dir.0)),
+            "cache file {:?} outside {:?}",
+            info.path,
+            dir.0
+        );
         assert_eq!(render_spec_centre(ctx, 1)?, pack(SPEC_COLORS[1]));
         let after = ctx.pipeline_cache_info();
         eprintln!("compile cache after one pipeline: {} bytes", after.current_bytes);
@@ -164,7 +193,9 @@ fn a_warm_compile_cache_is_written_and_loaded_by_the_next_context() -> anyhow::R
     assert!(file.exists(), "{} was not written when the context was destroyed", file.display());
     with_context_options("compile cache, warm", cache_in(&dir.0), |ctx| {
         let info = ctx.pipeline_cache_info();
-        let CacheLoad::Loaded { bytes } = info.load else { anyhow::bail!("the warm cache was not loaded: {:?}", info.load) };
+        let CacheLoad::Loaded { bytes } = info.load else {
+            anyhow::bail!("the warm cache was not loaded: {:?}", info.load)
+        };
         assert!(bytes >= 32, "{bytes} bytes loaded");
         assert_eq!(render_spec_centre(ctx, 1)?, pack(SPEC_COLORS[1]));
         Ok(())
@@ -186,11 +217,17 @@ fn a_corrupt_compile_cache_is_refused_and_rebuilt_without_failing_pipelines() ->
     let mut flipped = good.clone();
     let last = flipped.len() - 1;
     flipped[last] ^= 0x5a;
-    for (damage, bytes) in [("a flipped byte", flipped), ("a truncated file", good[..good.len() / 2].to_vec()), ("garbage", b"not a cache".to_vec())] {
+    for (damage, bytes) in [
+        ("a flipped byte", flipped),
+        ("a truncated file", good[..good.len() / 2].to_vec()),
+        ("garbage", b"not a cache".to_vec()),
+    ] {
         std::fs::write(&file, &bytes)?;
         with_context_options("compile cache, corrupt", cache_in(&dir.0), |ctx| {
             let info = ctx.pipeline_cache_info();
-            let CacheLoad::Rejected { reason } = &info.load else { anyhow::bail!("{damage} was not refused: {:?}", info.load) };
+            let CacheLoad::Rejected { reason } = &info.load else {
+                anyhow::bail!("{damage} was not refused: {:?}", info.load)
+            };
             eprintln!("{damage}: refused: {reason}");
             assert_eq!(render_spec_centre(ctx, 0)?, pack(SPEC_COLORS[0]), "{damage}");
             Ok(())
@@ -198,7 +235,10 @@ fn a_corrupt_compile_cache_is_refused_and_rebuilt_without_failing_pipelines() ->
         // Rebuilt: the next context loads it.
         with_context_options("compile cache, rebuilt", cache_in(&dir.0), |ctx| {
             let load = ctx.pipeline_cache_info().load;
-            anyhow::ensure!(matches!(load, CacheLoad::Loaded { .. }), "after {damage}, the rewritten cache was not loaded: {load:?}");
+            anyhow::ensure!(
+                matches!(load, CacheLoad::Loaded { .. }),
+                "after {damage}, the rewritten cache was not loaded: {load:?}"
+            );
             Ok(())
         })?;
     }
@@ -207,13 +247,17 @@ fn a_corrupt_compile_cache_is_refused_and_rebuilt_without_failing_pipelines() ->
 
 #[test]
 fn the_compile_cache_can_be_turned_off() -> anyhow::Result<()> {
-    with_context_options("compile cache off", ContextOptions { pipeline_cache: PipelineCacheLocation::Off, ..Default::default() }, |ctx| {
-        let info = ctx.pipeline_cache_info();
-        assert_eq!((info.path, info.load), (None, CacheLoad::Off));
-        assert_eq!(ctx.save_pipeline_cache()?, None);
-        assert_eq!(render_spec_centre(ctx, 1)?, pack(SPEC_COLORS[1]));
-        Ok(())
-    })
+    with_context_options(
+        "compile cache off",
+        ContextOptions { pipeline_cache: PipelineCacheLocation::Off, ..Default::default() },
+        |ctx| {
+            let info = ctx.pipeline_cache_info();
+            assert_eq!((info.path, info.load), (None, CacheLoad::Off));
+            assert_eq!(ctx.save_pipeline_cache()?, None);
+            assert_eq!(render_spec_centre(ctx, 1)?, pack(SPEC_COLORS[1]));
+            Ok(())
+        },
+    )
 }
 
 #[test]
@@ -221,13 +265,18 @@ fn eight_threads_create_modules_and_pipelines_and_launch_concurrently() -> anyho
     with_context("eight_threads_create_modules_and_pipelines_and_launch_concurrently", |ctx| {
         let results: Vec<anyhow::Result<(u32, u32)>> = std::thread::scope(|scope| {
             let threads: Vec<_> = (0..8u32)
-                .map(|i| scope.spawn(move || -> anyhow::Result<(u32, u32)> {
-                    // Each thread: its own GAS, IAS, module, groups, pipeline, SBT and launch.
-                    let mode = i % 2;
-                    Ok((mode, render_spec_centre(ctx, mode)?))
-                }))
+                .map(|i| {
+                    scope.spawn(move || -> anyhow::Result<(u32, u32)> {
+                        // Each thread: its own GAS, IAS, module, groups, pipeline, SBT and launch.
+                        let mode = i % 2;
+                        Ok((mode, render_spec_centre(ctx, mode)?))
+                    })
+                })
                 .collect();
-            threads.into_iter().map(|t| t.join().unwrap_or_else(|_| Err(anyhow::anyhow!("a thread panicked")))).collect()
+            threads
+                .into_iter()
+                .map(|t| t.join().unwrap_or_else(|_| Err(anyhow::anyhow!("a thread panicked"))))
+                .collect()
         });
         for result in results {
             let (mode, centre) = result?;
@@ -248,7 +297,9 @@ fn a_validation_message_reaches_the_log_callback_naming_its_object() -> anyhow::
     let options = ContextOptions {
         validation: Some(true),
         pipeline_cache: PipelineCacheLocation::Off,
-        log_callback: Some(raykit::LogCallback::new(move |m| sink.lock().unwrap_or_else(|p| p.into_inner()).push(m.clone()))),
+        log_callback: Some(raykit::LogCallback::new(move |m| {
+            sink.lock().unwrap_or_else(|p| p.into_inner()).push(m.clone())
+        })),
         ..Default::default()
     };
     let ctx = Context::new(options)?;
@@ -267,9 +318,10 @@ fn a_validation_message_reaches_the_log_callback_naming_its_object() -> anyhow::
     assert!(received.lock().unwrap_or_else(|p| p.into_inner()).is_empty(), "messages before the leak");
     drop(ctx);
     let messages = received.lock().unwrap_or_else(|p| p.into_inner()).clone();
-    let leak = messages
-        .iter()
-        .find(|m| m.objects.iter().any(|o| o.name.as_deref() == Some("deliberately leaked fence")) || m.text.contains("deliberately leaked fence"));
+    let leak = messages.iter().find(|m| {
+        m.objects.iter().any(|o| o.name.as_deref() == Some("deliberately leaked fence"))
+            || m.text.contains("deliberately leaked fence")
+    });
     let Some(leak) = leak else { anyhow::bail!("no message named the leaked fence; got: {messages:#?}") };
     eprintln!("callback got: {leak}");
     assert_eq!(leak.severity, raykit::Severity::Error);
@@ -302,7 +354,8 @@ fn one_library_is_linked_into_two_pipelines_with_their_own_hit_libraries() -> an
             assert_eq!(pixels[SpecScene::CENTRE], pack(SPEC_COLORS[mode]), "centre of pipeline {mode}");
             assert_eq!(pixels[0], pack(program_model_device::BACKGROUND), "corner of pipeline {mode}");
             // Linking compiled nothing: the groups are the libraries', in library order.
-            let roles: Vec<raykit::stack::GroupRole> = pipeline.all_group_stack_sizes().iter().map(|(role, _)| *role).collect();
+            let roles: Vec<raykit::stack::GroupRole> =
+                pipeline.all_group_stack_sizes().iter().map(|(role, _)| *role).collect();
             use raykit::stack::GroupRole::{Hit, Miss, Raygen};
             assert_eq!(roles, [Raygen, Miss, Hit]);
         }
@@ -320,14 +373,22 @@ fn user_exceptions_thrown_in_a_library_reach_the_host_and_the_exception_program_
         let module = Module::from_device_crate(ctx, "program-model-device")?;
         let throwing = ProgramGroup::raygen(&module, program_model_device::RG_THROW)?;
         let handler = ProgramGroup::exception(&module, program_model_device::ON_EXCEPTION)?;
-        let options = LibraryOptions { max_trace_depth: 1, interface: Some(PipelineLibrary::<Params>::interface_for(&[&throwing, &handler])) };
+        let options = LibraryOptions {
+            max_trace_depth: 1,
+            interface: Some(PipelineLibrary::<Params>::interface_for(&[&throwing, &handler])),
+        };
         let raygen_library = PipelineLibrary::<Params>::new(ctx, &[&throwing], options)?;
         let handler_library = PipelineLibrary::<Params>::new(ctx, &[&handler], options)?;
         let pipeline = Pipeline::link(ctx, &[&raygen_library, &handler_library], LinkOptions::default())?;
         let sbt = Sbt::builder(&pipeline).raygen(&throwing, ()).build()?;
         let image = ctx.buffer::<u32>(16 * 16)?;
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
-        let params = Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: raykit::Traversable::NULL };
+        let params = Params {
+            image: image.handle(),
+            spheres: spheres.handle(),
+            size: UVec2::splat(16),
+            scene: raykit::Traversable::NULL,
+        };
         match pipeline.launch(&sbt, &params, [16, 16, 1]) {
             Err(raykit::Error::UserExceptions { total, exceptions }) => {
                 assert_eq!(total, 2);
@@ -381,7 +442,10 @@ fn libraries_that_cannot_be_linked_together_are_refused_with_the_fix() -> anyhow
         );
 
         let too_many_attributes = ctx.limits().max_ray_hit_attribute_size + 4;
-        let huge = LibraryOptions { interface: Some(InterfaceSizes { payload: 12, hit_attributes: too_many_attributes }), ..options };
+        let huge = LibraryOptions {
+            interface: Some(InterfaceSizes { payload: 12, hit_attributes: too_many_attributes }),
+            ..options
+        };
         let err = PipelineLibrary::<Params>::new(ctx, &[hit], huge).err();
         assert!(matches!(err, Some(Error::HitAttributesTooLarge { .. })), "{err:?}");
 

@@ -5,7 +5,9 @@
 
 use raykit::glam::{UVec2, Vec3};
 use raykit::stack::{self, GroupRole};
-use raykit::{CallDepths, CallGraph, Context, Error, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, StackSize};
+use raykit::{
+    CallDepths, CallGraph, Context, Error, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, StackSize,
+};
 use raykit_tests::{channel_distance, with_context};
 use stack_test_device::{layer_square, layer_z, pack, reference, Params, LAYERS, MAX_DEPTH};
 
@@ -44,8 +46,12 @@ fn layers_gas(ctx: &Context) -> raykit::Result<Gas> {
     for l in 0..LAYERS {
         let (cx, cy, h) = layer_square(l);
         let z = layer_z(l);
-        let (a, b, c, d) =
-            (Vec3::new(cx - h, cy - h, z), Vec3::new(cx + h, cy - h, z), Vec3::new(cx + h, cy + h, z), Vec3::new(cx - h, cy + h, z));
+        let (a, b, c, d) = (
+            Vec3::new(cx - h, cy - h, z),
+            Vec3::new(cx + h, cy - h, z),
+            Vec3::new(cx + h, cy + h, z),
+            Vec3::new(cx - h, cy + h, z),
+        );
         vertices.extend_from_slice(&[a, b, c, a, c, d]);
     }
     Gas::triangles(ctx, &vertices, None)
@@ -100,7 +106,10 @@ fn recursive_closest_hit_renders_with_the_call_graph_stack_size() -> anyhow::Res
         assert_eq!(s.pipeline.driver_default_stack_size(), stack::vulkan_default(&sizes, MAX_DEPTH));
         // css_rg + MAX_DEPTH levels of max(css_ch, css_ms).
         assert_eq!(estimate, sizes.css_rg + u64::from(MAX_DEPTH) * sizes.css_ch.max(sizes.css_ms));
-        eprintln!("stack sizes {sizes:?}: call graph {estimate}, driver default {}", s.pipeline.driver_default_stack_size());
+        eprintln!(
+            "stack sizes {sizes:?}: call graph {estimate}, driver default {}",
+            s.pipeline.driver_default_stack_size()
+        );
 
         let got = render(ctx, &s)?;
         let (share, deep) = compare(&got);
@@ -118,7 +127,12 @@ fn every_stack_choice_renders_the_same_picture() -> anyhow::Result<()> {
         let default = render(ctx, &s)?;
         let depths = CallDepths::new(MAX_DEPTH);
         let big = u32::try_from(stack::conservative(&s.pipeline.stack_sizes(), &depths).total())? + 256;
-        for choice in [StackSize::Conservative(depths), StackSize::Refined(depths), StackSize::CallGraph(&graph), StackSize::Explicit(big)] {
+        for choice in [
+            StackSize::Conservative(depths),
+            StackSize::Refined(depths),
+            StackSize::CallGraph(&graph),
+            StackSize::Explicit(big),
+        ] {
             let bytes = s.pipeline.set_stack_size(&choice)?;
             let got = render(ctx, &s)?;
             assert!(got == default, "{choice:?} ({bytes} bytes) renders differently from the driver default");
@@ -157,7 +171,8 @@ fn estimates_deeper_than_the_pipeline_are_refused() -> anyhow::Result<()> {
         assert_eq!(s.pipeline.stack_size(), before, "a refused choice leaves the size as it was");
         // And the link itself refuses a depth over the device's limit.
         let limit = ctx.limits().max_ray_recursion_depth;
-        let too_deep = Pipeline::<Params>::new(ctx, &[&s.raygen, &s.miss, &s.hit], LinkOptions { max_trace_depth: limit + 1 });
+        let too_deep =
+            Pipeline::<Params>::new(ctx, &[&s.raygen, &s.miss, &s.hit], LinkOptions { max_trace_depth: limit + 1 });
         assert!(matches!(too_deep, Err(Error::TraceDepthTooLarge { .. })));
         Ok(())
     })

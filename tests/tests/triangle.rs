@@ -29,7 +29,8 @@ fn triangle_matches_the_cpu_reference() -> anyhow::Result<()> {
         let pixels = triangle::render(ctx, width, height)?;
         assert_eq!(pixels.len(), (width * height) as usize);
 
-        let params: Params = triangle::params(width, height, raykit::Buffer::from_table_index(0), raykit::Traversable::NULL);
+        let params: Params =
+            triangle::params(width, height, raykit::Buffer::from_table_index(0), raykit::Traversable::NULL);
         let bg = make_color(BG_COLOR);
         let (mut bg_pixels, mut tri_pixels, mut tri_close) = (0usize, 0usize, 0usize);
         let mut bg_wrong = Vec::new();
@@ -59,9 +60,18 @@ fn triangle_matches_the_cpu_reference() -> anyhow::Result<()> {
         let total = (width * height) as usize;
         assert!(tri_pixels > total / 10, "the triangle covers only {tri_pixels} of {total} pixels");
         assert!(bg_pixels > total / 10, "only {bg_pixels} background pixels");
-        assert!(bg_wrong.is_empty(), "{} background pixels differ from bg_color {bg:#010x}, e.g. {:?}", bg_wrong.len(), &bg_wrong[..bg_wrong.len().min(5)]);
+        assert!(
+            bg_wrong.is_empty(),
+            "{} background pixels differ from bg_color {bg:#010x}, e.g. {:?}",
+            bg_wrong.len(),
+            &bg_wrong[..bg_wrong.len().min(5)]
+        );
         let ratio = tri_close as f64 / tri_pixels as f64;
-        assert!(ratio >= 0.995, "only {tri_close} of {tri_pixels} triangle pixels ({:.3}%) within 2/255", ratio * 100.0);
+        assert!(
+            ratio >= 0.995,
+            "only {tri_close} of {tri_pixels} triangle pixels ({:.3}%) within 2/255",
+            ratio * 100.0
+        );
         Ok(())
     })
 }
@@ -79,7 +89,10 @@ fn glsl_twin_draws_the_same_picture() -> anyhow::Result<()> {
         let glsl = triangle::render_with(ctx, &triangle::Programs::glsl(ctx)?, width, height)?;
         let rust = triangle::render(ctx, width, height)?;
         let differing = glsl.iter().zip(&rust).filter(|(a, b)| channel_distance(**a, **b) > 1).count();
-        assert!(differing <= (width * height / 1000) as usize, "{differing} pixels differ between the GLSL and Rust programs");
+        assert!(
+            differing <= (width * height / 1000) as usize,
+            "{differing} pixels differ between the GLSL and Rust programs"
+        );
         assert!(glsl.iter().any(|&p| p != make_color(BG_COLOR)), "the GLSL picture is all background");
         Ok(())
     })

@@ -122,11 +122,13 @@ fn main() -> anyhow::Result<()> {
                 std::fs::create_dir_all(dir)?;
             }
             let mut cmd = cargo();
-            cmd.args(["run", "--release", "--quiet", "-p", &example, "--"]).env("RAYKIT_SPIRV_DIR", shaders::spirv_dir(&root));
+            cmd.args(["run", "--release", "--quiet", "-p", &example, "--"])
+                .env("RAYKIT_SPIRV_DIR", shaders::spirv_dir(&root));
             match example.as_str() {
                 "path_tracer" => {
                     let (width, height) = size.split_once('x').context("--size takes WIDTHxHEIGHT, e.g. 512x512")?;
-                    cmd.args(["--width", width, "--height", height, "--spp", &spp.to_string(), "--output"]).arg(&output);
+                    cmd.args(["--width", width, "--height", height, "--spp", &spp.to_string(), "--output"])
+                        .arg(&output);
                 }
                 "triangle" => {
                     cmd.arg(&output);

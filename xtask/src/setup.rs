@@ -38,7 +38,8 @@ pub fn ensure_toolchain() -> anyhow::Result<()> {
     };
     let installed = list.lines().any(|l| l.starts_with(TOOLCHAIN));
     let missing_components: Vec<&str> = if installed {
-        let have = output(rustup().args(["component", "list", "--installed", "--toolchain", TOOLCHAIN])).unwrap_or_default();
+        let have =
+            output(rustup().args(["component", "list", "--installed", "--toolchain", TOOLCHAIN])).unwrap_or_default();
         COMPONENTS.iter().copied().filter(|c| !have.lines().any(|l| l.starts_with(c))).collect()
     } else {
         COMPONENTS.to_vec()
@@ -47,9 +48,20 @@ pub fn ensure_toolchain() -> anyhow::Result<()> {
         return Ok(());
     }
     if !installed {
-        println!("xtask: installing the Rust toolchain {TOOLCHAIN} with {} (needed by rust-gpu 0.11 for shader builds)", COMPONENTS.join(", "));
+        println!(
+            "xtask: installing the Rust toolchain {TOOLCHAIN} with {} (needed by rust-gpu 0.11 for shader builds)",
+            COMPONENTS.join(", ")
+        );
         crate::run(
-            rustup().args(["toolchain", "install", TOOLCHAIN, "--profile", "minimal", "--component", &COMPONENTS.join(",")]),
+            rustup().args([
+                "toolchain",
+                "install",
+                TOOLCHAIN,
+                "--profile",
+                "minimal",
+                "--component",
+                &COMPONENTS.join(","),
+            ]),
             &format!("rustup toolchain install {TOOLCHAIN}"),
         )?;
     } else {

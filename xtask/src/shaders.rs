@@ -273,7 +273,8 @@ pub static SPIRV_OPT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicB
 /// Whether `RAYKIT_SPIRV_OPT` (or `build-shaders --spirv-opt`) asks for
 /// `spirv-opt -O` after rust-gpu.
 fn spirv_opt_enabled() -> bool {
-    SPIRV_OPT.load(std::sync::atomic::Ordering::Relaxed) || std::env::var("RAYKIT_SPIRV_OPT").is_ok_and(|v| !v.is_empty() && v != "0")
+    SPIRV_OPT.load(std::sync::atomic::Ordering::Relaxed)
+        || std::env::var("RAYKIT_SPIRV_OPT").is_ok_and(|v| !v.is_empty() && v != "0")
 }
 
 /// Runs `spirv-opt -O` over `spv` in place (the GLSL twins' pipeline) and checks
@@ -284,11 +285,19 @@ fn spirv_opt_enabled() -> bool {
 fn spirv_opt(spv: &Path) -> anyhow::Result<()> {
     let out = spv.with_extension("opt.spv");
     let layout = ["--target-env=vulkan1.2", "--scalar-block-layout"];
-    crate::run(Command::new("spirv-opt").arg("-O").args(layout).arg(spv).arg("-o").arg(&out), "spirv-opt -O (apt-get install spirv-tools)")?;
-    let val = Command::new("spirv-val").args(["--target-env", "vulkan1.2", "--scalar-block-layout"]).arg(&out).output()?;
+    crate::run(
+        Command::new("spirv-opt").arg("-O").args(layout).arg(spv).arg("-o").arg(&out),
+        "spirv-opt -O (apt-get install spirv-tools)",
+    )?;
+    let val =
+        Command::new("spirv-val").args(["--target-env", "vulkan1.2", "--scalar-block-layout"]).arg(&out).output()?;
     if !val.status.success() {
         let _ = std::fs::remove_file(&out);
-        bail!("spirv-opt -O produced an invalid module from {}:\n{}", spv.display(), String::from_utf8_lossy(&val.stderr));
+        bail!(
+            "spirv-opt -O produced an invalid module from {}:\n{}",
+            spv.display(),
+            String::from_utf8_lossy(&val.stderr)
+        );
     }
     std::fs::rename(&out, spv)?;
     Ok(())
@@ -297,7 +306,8 @@ fn spirv_opt(spv: &Path) -> anyhow::Result<()> {
 /// Rebuilds device crate `name` (its dependencies already built) and returns
 /// the seconds it took: the shader build time the benchmarks report.
 pub fn time_rebuild(root: &Path, name: &str) -> anyhow::Result<f64> {
-    let krate = device_crates(root)?.into_iter().find(|k| k.name == name).with_context(|| format!("no device crate {name}"))?;
+    let krate =
+        device_crates(root)?.into_iter().find(|k| k.name == name).with_context(|| format!("no device crate {name}"))?;
     let (builder, lib_path) = shader_builder(root)?;
     let spv = spirv_dir(root).join(format!("{}.spv", name.replace('-', "_")));
     // Touch a source file so cargo recompiles the crate itself.
@@ -326,7 +336,10 @@ fn check_params_layouts(crates: &[DeviceCrate], spirv_dir: &Path) -> anyhow::Res
     let output = cmd.output().context("running the params layout checks")?;
     if !output.status.success() {
         let text = format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
-        let reasons: Vec<&str> = text.lines().filter(|l| l.contains("launch params") || l.contains("reads its params") || l.starts_with("error")).collect();
+        let reasons: Vec<&str> = text
+            .lines()
+            .filter(|l| l.contains("launch params") || l.contains("reads its params") || l.starts_with("error"))
+            .collect();
         bail!(
             "a launch-params struct disagrees with the SPIR-V built from it:\n{}\n(full output of the check follows)\n{text}",
             reasons.join("\n")

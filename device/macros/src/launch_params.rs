@@ -40,16 +40,20 @@ fn refuse(ty: &Type) -> Option<String> {
             let last = p.path.segments.last()?.ident.to_string();
             match last.as_str() {
                 "bool" => Some("`bool` has no defined layout on the device; use `u32` (0 or 1)".to_owned()),
-                "usize" | "isize" => Some(format!(
-                    "`{last}` is 8 bytes on the host and 4 on SPIR-V; use `u32`/`i32` or `u64`/`i64`"
-                )),
+                "usize" | "isize" => {
+                    Some(format!("`{last}` is 8 bytes on the host and 4 on SPIR-V; use `u32`/`i32` or `u64`/`i64`"))
+                }
                 "char" => Some("`char` cannot cross to the device; use `u32`".to_owned()),
                 _ => None,
             }
         }
         Type::Array(a) => refuse(&a.elem),
-        Type::Tuple(t) if !t.elems.is_empty() => Some("tuples have no defined layout; use a `#[repr(C)]` struct".to_owned()),
-        Type::Slice(_) | Type::TraitObject(_) | Type::ImplTrait(_) => Some("unsized types cannot be params fields".to_owned()),
+        Type::Tuple(t) if !t.elems.is_empty() => {
+            Some("tuples have no defined layout; use a `#[repr(C)]` struct".to_owned())
+        }
+        Type::Slice(_) | Type::TraitObject(_) | Type::ImplTrait(_) => {
+            Some("unsized types cannot be params fields".to_owned())
+        }
         _ => None,
     }
 }

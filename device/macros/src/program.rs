@@ -118,7 +118,9 @@ impl Stage {
 
 /// The role of one parameter of the user's function.
 enum Role {
-    Context { by_ref: bool },
+    Context {
+        by_ref: bool,
+    },
     Params(Type),
     Record(Type),
     /// Incoming payload (miss, hit) or, in raygen, an outgoing one.
@@ -132,7 +134,10 @@ enum Role {
     /// Hit attributes: written by intersection, read by any-hit and closest-hit.
     Attributes(Type),
     /// A specialization constant (`u32`), set per pipeline by the host.
-    SpecConstant { id: u32, default: u32 },
+    SpecConstant {
+        id: u32,
+        default: u32,
+    },
 }
 
 struct Param {
@@ -330,7 +335,10 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
 fn check_signature(stage: Stage, func: &ItemFn) -> syn::Result<()> {
     let sig = &func.sig;
     if !sig.generics.params.is_empty() {
-        return Err(syn::Error::new(sig.generics.span(), "device programs cannot be generic (each is one SPIR-V entry point)"));
+        return Err(syn::Error::new(
+            sig.generics.span(),
+            "device programs cannot be generic (each is one SPIR-V entry point)",
+        ));
     }
     if let Some(a) = &sig.asyncness {
         return Err(syn::Error::new(a.span(), "device programs cannot be async"));
@@ -338,7 +346,10 @@ fn check_signature(stage: Stage, func: &ItemFn) -> syn::Result<()> {
     if let syn::ReturnType::Type(_, ty) = &sig.output {
         return Err(syn::Error::new(
             ty.span(),
-            format!("a #[{}] program returns nothing; write results through the payload or a buffer", stage.macro_name()),
+            format!(
+                "a #[{}] program returns nothing; write results through the payload or a buffer",
+                stage.macro_name()
+            ),
         ));
     }
     Ok(())

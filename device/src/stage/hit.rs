@@ -120,8 +120,6 @@ macro_rules! hit_accessors {
         pub fn store<T: $crate::Element>(&mut self, buffer: $crate::Buffer<T>, index: u32, value: T) {
             super::store(self.buffers, buffer, index, value)
         }
-
-
     };
 }
 pub(crate) use hit_accessors;

@@ -27,7 +27,15 @@ impl<'a> Miss<'a> {
         exception_slot: u32,
         exception_call: &'a mut crate::exception::ExceptionDetails,
     ) -> Self {
-        Miss { launch_index, launch_dimensions, world_ray_origin, world_ray_direction, buffers, exception_slot, exception_call }
+        Miss {
+            launch_index,
+            launch_dimensions,
+            world_ray_origin,
+            world_ray_direction,
+            buffers,
+            exception_slot,
+            exception_call,
+        }
     }
 
     super::launch_accessors!();

@@ -9,8 +9,8 @@
 
 mod any_hit;
 mod callable;
-mod exception;
 mod closest_hit;
+mod exception;
 mod hit;
 mod intersection;
 mod miss;
@@ -105,7 +105,9 @@ fn throw_exception(table: &mut BufferTable, slot: u32, launch_index: spirv_std::
         // every invocation of the launch (device scope would need
         // VulkanMemoryModelDeviceScope), and no ordering is needed.
         let index = unsafe {
-            spirv_std::arch::atomic_i_increment::<u32, { spirv_std::memory::Scope::QueueFamily as u32 }, 0>(&mut words[0])
+            spirv_std::arch::atomic_i_increment::<u32, { spirv_std::memory::Scope::QueueFamily as u32 }, 0>(
+                &mut words[0],
+            )
         };
         if index < EXCEPTION_CAPACITY {
             let base = (EXCEPTION_RECORDS_WORD + index * EXCEPTION_RECORD_WORDS) as usize;

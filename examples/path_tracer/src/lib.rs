@@ -20,7 +20,9 @@ use path_tracer_device::math::{tonemap, CameraFrame};
 use path_tracer_device::scene::{self, MATERIALS, VERTICES};
 use path_tracer_device::{HitRecord, Params, Radiance, RaygenRecord, Shadow};
 use raykit::glam::{UVec2, Vec3, Vec4};
-use raykit::{Context, DeviceBuffer, Gas, GeometryFlags, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Triangles};
+use raykit::{
+    Context, DeviceBuffer, Gas, GeometryFlags, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Triangles,
+};
 
 pub use path_tracer_device as device;
 
@@ -142,8 +144,11 @@ impl Renderer {
     /// Links `programs` and lays out the SBT for a `width × height` render of `scene`.
     pub fn new(ctx: &Context, programs: &Programs, scene: &Scene, width: u32, height: u32) -> raykit::Result<Renderer> {
         let Programs { raygen, miss, shadow_miss, hit, shadow_hit } = programs;
-        let pipeline =
-            Pipeline::<Params>::new(ctx, &[raygen, miss, shadow_miss, hit, shadow_hit], LinkOptions { max_trace_depth: 1 })?;
+        let pipeline = Pipeline::<Params>::new(
+            ctx,
+            &[raygen, miss, shadow_miss, hit, shadow_hit],
+            LinkOptions { max_trace_depth: 1 },
+        )?;
         let mut sbt = Sbt::builder(&pipeline)
             .raygen(raygen, RaygenRecord::new(&scene::LIGHT))
             .miss_for::<Radiance, _>(miss, ())

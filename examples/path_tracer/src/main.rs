@@ -46,7 +46,10 @@ fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     anyhow::ensure!(cli.width > 0 && cli.height > 0, "--width and --height must be at least 1");
     anyhow::ensure!(cli.spp > 0 && cli.spp_per_launch > 0, "--spp and --spp-per-launch must be at least 1");
-    let ctx = raykit::Context::new(raykit::ContextOptions { device_name_contains: cli.device.clone(), ..Default::default() })?;
+    let ctx = raykit::Context::new(raykit::ContextOptions {
+        device_name_contains: cli.device.clone(),
+        ..Default::default()
+    })?;
     let programs = if cli.glsl { Programs::glsl(&ctx)? } else { Programs::rust(&ctx)? };
     let scene = Scene::new(&ctx)?;
     let mut renderer = Renderer::new(&ctx, &programs, &scene, cli.width, cli.height)?;

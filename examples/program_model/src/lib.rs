@@ -15,8 +15,8 @@
 use program_model_device::{ColorRecord, Params, Radiance, Shadow, ShadowedRadiance};
 use raykit::glam::{Affine3A, Quat, UVec2, Vec3, Vec4};
 use raykit::{
-    Aabb, Aabbs, Context, Gas, GeometryFlags, Ias, Instance, LibraryOptions, LinkOptions, Module, Pipeline, PipelineLibrary,
-    ProgramGroup, Sbt, Triangles,
+    Aabb, Aabbs, Context, Gas, GeometryFlags, Ias, Instance, LibraryOptions, LinkOptions, Module, Pipeline,
+    PipelineLibrary, ProgramGroup, Sbt, Triangles,
 };
 
 /// The scenes, by name.
@@ -37,7 +37,8 @@ pub const GROUND: [[Vec3; 3]; 2] = [
     [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)],
 ];
 /// The occluder of [`shadows`], at z = 1.
-pub const OCCLUDER_TRIANGLE: [Vec3; 3] = [Vec3::new(-0.4, -0.35, 1.0), Vec3::new(0.25, -0.35, 1.0), Vec3::new(-0.1, 0.3, 1.0)];
+pub const OCCLUDER_TRIANGLE: [Vec3; 3] =
+    [Vec3::new(-0.4, -0.35, 1.0), Vec3::new(0.25, -0.35, 1.0), Vec3::new(-0.1, 0.3, 1.0)];
 
 /// The quad (0,0)–(0.5,0.5) that [`callables`] and [`sbt_data`] instance.
 pub const QUAD: [Vec3; 6] = [
@@ -50,7 +51,8 @@ pub const QUAD: [Vec3; 6] = [
 ];
 /// Where [`callables`] places its instances (lower-left corners); instance i
 /// uses material callable i.
-pub const CALLABLE_PLACES: [Vec3; 3] = [Vec3::new(-0.9, -0.25, 0.0), Vec3::new(-0.25, -0.25, 0.0), Vec3::new(0.4, -0.25, 0.0)];
+pub const CALLABLE_PLACES: [Vec3; 3] =
+    [Vec3::new(-0.9, -0.25, 0.0), Vec3::new(-0.25, -0.25, 0.0), Vec3::new(0.4, -0.25, 0.0)];
 /// Where [`sbt_data`] places its instances, and the colour of each one's record.
 pub const SBT_DATA_INSTANCES: [(Vec3, Vec3); 4] = [
     (Vec3::new(-0.9, -0.9, 0.0), Vec3::new(0.9, 0.1, 0.1)),
@@ -64,10 +66,22 @@ fn module(ctx: &Context) -> raykit::Result<Module> {
 }
 
 /// Launches `pipeline` over a `size²` image of `scene`; returns the pixels.
-fn launch(ctx: &Context, pipeline: &Pipeline<Params>, sbt: &Sbt, scene: &Ias, size: u32, spheres: &[Vec4]) -> raykit::Result<Vec<u32>> {
+fn launch(
+    ctx: &Context,
+    pipeline: &Pipeline<Params>,
+    sbt: &Sbt,
+    scene: &Ias,
+    size: u32,
+    spheres: &[Vec4],
+) -> raykit::Result<Vec<u32>> {
     let image = ctx.buffer::<u32>((size * size) as usize)?;
     let sphere_buffer = ctx.buffer_from::<Vec4>(if spheres.is_empty() { &[Vec4::ZERO] } else { spheres })?;
-    let params = Params { image: image.handle(), spheres: sphere_buffer.handle(), size: UVec2::splat(size), scene: scene.handle() };
+    let params = Params {
+        image: image.handle(),
+        spheres: sphere_buffer.handle(),
+        size: UVec2::splat(size),
+        scene: scene.handle(),
+    };
     pipeline.launch(sbt, &params, [size, size, 1])?;
     image.read()
 }
@@ -88,7 +102,10 @@ fn render_one_hit_group(
     let mut groups = vec![&raygen, &miss, hit];
     groups.extend_from_slice(callables);
     let pipeline = Pipeline::<Params>::new(ctx, &groups, LinkOptions { max_trace_depth: 1 })?;
-    let mut sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss_for::<Radiance, _>(&miss, ()).hit_for::<Radiance, _>(0, hit, ());
+    let mut sbt = Sbt::builder(&pipeline)
+        .raygen(&raygen, ())
+        .miss_for::<Radiance, _>(&miss, ())
+        .hit_for::<Radiance, _>(0, hit, ());
     for callable in callables {
         sbt = sbt.callable(callable, ());
     }
@@ -154,12 +171,15 @@ pub fn shadows_linked_as(ctx: &Context, size: u32, linking: Linking) -> raykit::
     let shadow_hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SHADOW_HIT).build()?;
     let link = LinkOptions { max_trace_depth: 2 };
     let pipeline = match linking {
-        Linking::Monolithic => Pipeline::<Params>::new(ctx, &[&raygen, &miss, &shadow_miss, &shade, &shadow_hit], link)?,
+        Linking::Monolithic => {
+            Pipeline::<Params>::new(ctx, &[&raygen, &miss, &shadow_miss, &shade, &shadow_hit], link)?
+        }
         Linking::Libraries => {
             let rest = [&miss, &shadow_miss, &shade, &shadow_hit];
             // One interface for both libraries: the largest payload of all groups.
             let all = [&raygen, &miss, &shadow_miss, &shade, &shadow_hit];
-            let options = LibraryOptions { max_trace_depth: 2, interface: Some(PipelineLibrary::<Params>::interface_for(&all)) };
+            let options =
+                LibraryOptions { max_trace_depth: 2, interface: Some(PipelineLibrary::<Params>::interface_for(&all)) };
             let raygen_library = PipelineLibrary::<Params>::new(ctx, &[&raygen], options)?;
             let rest_library = PipelineLibrary::<Params>::new(ctx, &rest, options)?;
             Pipeline::link(ctx, &[&raygen_library, &rest_library], link)?

@@ -28,8 +28,12 @@ pub struct Camera {
 
 impl Camera {
     /// optixTriangle's camera.
-    pub const OPTIX_TRIANGLE: Camera =
-        Camera { eye: Vec3::new(0.0, 0.0, 2.0), look_at: Vec3::ZERO, up: Vec3::new(0.0, 1.0, 0.0), fov_y_degrees: 45.0 };
+    pub const OPTIX_TRIANGLE: Camera = Camera {
+        eye: Vec3::new(0.0, 0.0, 2.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::new(0.0, 1.0, 0.0),
+        fov_y_degrees: 45.0,
+    };
 
     /// The `(u, v, w)` basis of sutil's `Camera::UVWFrame` for an image of `aspect`
     /// = width / height: `w` from eye to the look-at point, `u` and `v` scaled to
@@ -104,11 +108,8 @@ pub fn render(ctx: &Context, width: u32, height: u32) -> raykit::Result<Vec<u32>
 pub fn render_with(ctx: &Context, programs: &Programs, width: u32, height: u32) -> raykit::Result<Vec<u32>> {
     let Programs { raygen, miss, hit } = programs;
     let pipeline = Pipeline::<Params>::new(ctx, &[raygen, miss, hit], LinkOptions { max_trace_depth: 1 })?;
-    let sbt = Sbt::builder(&pipeline)
-        .raygen(raygen, ())
-        .miss(miss, MissData { bg_color: BG_COLOR })
-        .hit(hit, ())
-        .build()?;
+    let sbt =
+        Sbt::builder(&pipeline).raygen(raygen, ()).miss(miss, MissData { bg_color: BG_COLOR }).hit(hit, ()).build()?;
 
     let gas = Gas::triangles(ctx, &VERTICES, None)?;
     let scene = Ias::single(ctx, &gas)?;

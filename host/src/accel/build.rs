@@ -122,8 +122,20 @@ pub(crate) fn upload_gas_inputs<'a>(
 ) -> Result<(RawBuffer, Vec<Geometry>)> {
     // Offsets first, addresses once the buffer exists.
     enum Pending {
-        Triangles { vertices: u64, stride: u64, max_vertex: u32, index_type: vk::IndexType, indices: Option<u64>, transform: Option<u64>, flags: vk::GeometryFlagsKHR },
-        Aabbs { data: u64, stride: u64, flags: vk::GeometryFlagsKHR },
+        Triangles {
+            vertices: u64,
+            stride: u64,
+            max_vertex: u32,
+            index_type: vk::IndexType,
+            indices: Option<u64>,
+            transform: Option<u64>,
+            flags: vk::GeometryFlagsKHR,
+        },
+        Aabbs {
+            data: u64,
+            stride: u64,
+            flags: vk::GeometryFlagsKHR,
+        },
     }
     let mut packer = InputPacker::default();
     let mut pending = Vec::with_capacity(inputs.len());
@@ -166,15 +178,17 @@ pub(crate) fn upload_gas_inputs<'a>(
     let geometries = pending
         .into_iter()
         .map(|p| match p {
-            Pending::Triangles { vertices, stride, max_vertex, index_type, indices, transform, flags } => Geometry::Triangles {
-                vertices: base + vertices,
-                stride,
-                max_vertex,
-                index_type,
-                indices: indices.map_or(0, |o| base + o),
-                transform: transform.map_or(0, |o| base + o),
-                flags,
-            },
+            Pending::Triangles { vertices, stride, max_vertex, index_type, indices, transform, flags } => {
+                Geometry::Triangles {
+                    vertices: base + vertices,
+                    stride,
+                    max_vertex,
+                    index_type,
+                    indices: indices.map_or(0, |o| base + o),
+                    transform: transform.map_or(0, |o| base + o),
+                    flags,
+                }
+            }
             Pending::Aabbs { data, stride, flags } => Geometry::Aabbs { data: base + data, stride, flags },
         })
         .collect();
@@ -280,7 +294,9 @@ impl Drop for QueryPool {
 pub(crate) fn build_barrier(ctx: &ContextInner, cmd: vk::CommandBuffer) {
     let barrier = vk::MemoryBarrier::default()
         .src_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR)
-        .dst_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR);
+        .dst_access_mask(
+            vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
+        );
     // SAFETY: `cmd` is in the recording state.
     unsafe {
         ctx.device.cmd_pipeline_barrier(
@@ -347,10 +363,13 @@ pub(crate) fn submit(ctx: &Arc<ContextInner>, jobs: &[Job], mut buffers: Vec<Raw
         .collect();
     let ranges: Vec<Vec<vk::AccelerationStructureBuildRangeInfoKHR>> = jobs
         .iter()
-        .map(|j| j.counts.iter().map(|&c| vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(c)).collect())
+        .map(|j| {
+            j.counts.iter().map(|&c| vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(c)).collect()
+        })
         .collect();
     let range_refs: Vec<&[vk::AccelerationStructureBuildRangeInfoKHR]> = ranges.iter().map(Vec::as_slice).collect();
-    let compacted: Vec<vk::AccelerationStructureKHR> = jobs.iter().filter(|j| j.query_compacted).map(|j| j.dst).collect();
+    let compacted: Vec<vk::AccelerationStructureKHR> =
+        jobs.iter().filter(|j| j.query_compacted).map(|j| j.dst).collect();
 
     let submission = ctx.submit("an acceleration structure build", |cmd| {
         // SAFETY: every buffer and structure `infos` names is alive until the

@@ -58,7 +58,12 @@ struct Prepared {
 }
 
 /// Uploads validated inputs and queries their sizes.
-fn prepare(ctx: &Arc<ContextInner>, inputs: &[BuildInput<'_>], shapes: Vec<Shape>, options: BuildOptions) -> Result<Prepared> {
+fn prepare(
+    ctx: &Arc<ContextInner>,
+    inputs: &[BuildInput<'_>],
+    shapes: Vec<Shape>,
+    options: BuildOptions,
+) -> Result<Prepared> {
     let counts: Vec<u32> = shapes.iter().map(Shape::primitives).collect();
     let (input_buffer, geometries) = build::upload_gas_inputs(ctx, inputs, &shapes)?;
     let sizes = build::query_sizes(ctx, BOTTOM, options.vk_flags(), &geometries, &counts);
@@ -141,7 +146,10 @@ fn submit_gases(ctx: &Arc<ContextInner>, builds: &[GasBuilder<'_>]) -> Result<(b
         return Err(Error::AccelEmpty { what: "the batch has no GAS builds".to_owned() });
     }
     // Validate everything before allocating anything.
-    let validated = builds.iter().map(|b| input::validate(&b.inputs, &ctx.limits, b.options.allow_update)).collect::<Result<Vec<_>>>()?;
+    let validated = builds
+        .iter()
+        .map(|b| input::validate(&b.inputs, &ctx.limits, b.options.allow_update))
+        .collect::<Result<Vec<_>>>()?;
     let mut gases = Vec::with_capacity(builds.len());
     let mut jobs = Vec::with_capacity(builds.len());
     let mut buffers = Vec::with_capacity(builds.len());

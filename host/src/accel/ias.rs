@@ -164,12 +164,13 @@ fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<Vec<vk::A
 }
 
 /// Uploads instance records; returns the buffer and the geometry naming it.
-fn upload(ctx: &Arc<ContextInner>, records: &[vk::AccelerationStructureInstanceKHR]) -> Result<(crate::memory::RawBuffer, Geometry)> {
+fn upload(
+    ctx: &Arc<ContextInner>,
+    records: &[vk::AccelerationStructureInstanceKHR],
+) -> Result<(crate::memory::RawBuffer, Geometry)> {
     // SAFETY: `AccelerationStructureInstanceKHR` is plain data (floats, packed
     // integers and a u64 address) with no padding: 64 bytes each.
-    let bytes = unsafe {
-        std::slice::from_raw_parts(records.as_ptr() as *const u8, std::mem::size_of_val(records))
-    };
+    let bytes = unsafe { std::slice::from_raw_parts(records.as_ptr() as *const u8, std::mem::size_of_val(records)) };
     let mut packer = InputPacker::default();
     let at = packer.push(bytes, 16);
     let buffer = packer.upload(ctx, "IAS instances")?;

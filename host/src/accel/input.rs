@@ -282,8 +282,18 @@ impl<'a> From<Aabbs<'a>> for BuildInput<'a> {
 /// data and flags (Vulkan's rules for `VK_BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE_KHR`).
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub(crate) enum Shape {
-    Triangles { triangles: u32, vertices: u32, index: IndexKind, index_hash: u64, transform: bool, flags: GeometryFlags },
-    Aabbs { count: u32, flags: GeometryFlags },
+    Triangles {
+        triangles: u32,
+        vertices: u32,
+        index: IndexKind,
+        index_hash: u64,
+        transform: bool,
+        flags: GeometryFlags,
+    },
+    Aabbs {
+        count: u32,
+        flags: GeometryFlags,
+    },
 }
 
 impl Shape {
@@ -382,7 +392,11 @@ fn validate_triangles(g: usize, t: &Triangles<'_>, for_update: bool) -> Result<S
     let index_count = match t.indices {
         Indices::None => {
             if !t.vertex_count.is_multiple_of(3) {
-                return Err(Error::TriangleCount { geometry: g, what: "vertices without indices", count: t.vertex_count });
+                return Err(Error::TriangleCount {
+                    geometry: g,
+                    what: "vertices without indices",
+                    count: t.vertex_count,
+                });
             }
             t.vertex_count
         }
@@ -565,8 +579,12 @@ mod tests {
         let bad = [Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0), Vec3::Y];
         let err = validate(&[Triangles::new(&bad).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::NonFiniteVertex { vertex: 1, .. }), "{err}");
-        let err = validate(&[Triangles::new(&TRI).transform(Affine3A::from_scale(Vec3::splat(f32::NAN))).into()], &limits(), true)
-            .unwrap_err();
+        let err = validate(
+            &[Triangles::new(&TRI).transform(Affine3A::from_scale(Vec3::splat(f32::NAN))).into()],
+            &limits(),
+            true,
+        )
+        .unwrap_err();
         assert!(matches!(err, Error::NonFiniteTransform { .. }), "{err}");
     }
 
@@ -590,11 +608,14 @@ mod tests {
         let shapes = |i: BuildInput<'_>| validate(&[i], &limits(), true);
         let base = shapes(Triangles::new(&TRI).indices_u32(&[0, 1, 2]).into())?;
         assert_eq!(update_refusal(&base, &shapes(Triangles::new(&moved).indices_u32(&[0, 1, 2]).into())?), None);
-        let r = update_refusal(&base, &shapes(Triangles::new(&moved).indices_u32(&[0, 2, 1]).into())?).ok_or("expected a refusal")?;
+        let r = update_refusal(&base, &shapes(Triangles::new(&moved).indices_u32(&[0, 2, 1]).into())?)
+            .ok_or("expected a refusal")?;
         assert!(r.contains("index data"), "{r}");
-        let r = update_refusal(&base, &shapes(Triangles::new(&moved).indices_u16(&[0, 1, 2]).into())?).ok_or("expected a refusal")?;
+        let r = update_refusal(&base, &shapes(Triangles::new(&moved).indices_u16(&[0, 1, 2]).into())?)
+            .ok_or("expected a refusal")?;
         assert!(r.contains("index format"), "{r}");
-        let r = update_refusal(&base, &shapes(Triangles::new(&quad).indices_u32(&[0, 1, 2, 1, 3, 2]).into())?).ok_or("expected a refusal")?;
+        let r = update_refusal(&base, &shapes(Triangles::new(&quad).indices_u32(&[0, 1, 2, 1, 3, 2]).into())?)
+            .ok_or("expected a refusal")?;
         assert!(r.contains("2 triangles"), "{r}");
         let r = update_refusal(&base, &shapes(Triangles::new(&moved).into())?).ok_or("expected a refusal")?;
         assert!(r.contains("index format"), "{r}");

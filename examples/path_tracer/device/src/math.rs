@@ -23,9 +23,6 @@ pub const ROULETTE_AFTER: u32 = 2;
 /// The largest survival probability of Russian roulette.
 pub const ROULETTE_MAX_SURVIVAL: f32 = 0.95;
 
-
-
-
 /// The Tiny Encryption Algorithm with 4 rounds (sutil's `tea<4>`): a seed from
 /// two integers (pixel index and launch index).
 pub fn tea4(val0: u32, val1: u32) -> u32 {
@@ -235,8 +232,7 @@ impl PathState {
     /// trace), picks the next direction (cosine-weighted) and plays Russian
     /// roulette. Uses five numbers from `seed` per hit.
     pub fn shade(&mut self, hit: &HitInfo, light: &Light, seed: &mut u32, max_depth: u32) -> ShadowRay {
-        let mut shadow =
-            ShadowRay { origin: Vec3::ZERO, direction: Vec3::Z, t_max: 0.0, contribution: Vec3::ZERO };
+        let mut shadow = ShadowRay { origin: Vec3::ZERO, direction: Vec3::Z, t_max: 0.0, contribution: Vec3::ZERO };
         if hit.t < 0.0 {
             self.done = true;
             return shadow;

@@ -10,13 +10,12 @@
 //! The scene helpers are shared with the host tests' CPU references.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
-use raykit_device::math::sqrt;
 use raykit_device::glam::{UVec2, Vec2, Vec3, Vec4};
+use raykit_device::math::sqrt;
 use raykit_device::{
-    any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, AnyHit, Buffer,
-    ClosestHit, ContinuationCallable, DirectCallable, Exception, Intersection, LaunchParams, Miss, Ray, RayFlags, RayType,
-    Raygen,
-    Traversable,
+    any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, AnyHit,
+    Buffer, ClosestHit, ContinuationCallable, DirectCallable, Exception, Intersection, LaunchParams, Miss, Ray,
+    RayFlags, RayType, Raygen, Traversable,
 };
 
 /// Launch params of every scene here.
@@ -78,7 +77,6 @@ pub fn ray_sphere(origin: Vec3, dir: Vec3, sphere: Vec4, t_min: f32) -> Option<f
         None
     }
 }
-
 
 /// A normal's colour: `n * 0.5 + 0.5`.
 pub fn normal_color(n: Vec3) -> Vec3 {

@@ -8,8 +8,8 @@
 //! the CPU reference of the tests.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
-use raykit_device::math::powf;
 use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
+use raykit_device::math::powf;
 use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, RayType, Raygen, Traversable};
 
 /// Launch params, as in the seed's `Params`: output image, its size, the camera
@@ -72,7 +72,6 @@ pub fn linear_to_srgb(c: f32) -> f32 {
         1.055 * powf(c, 1.0 / 2.4) - 0.055
     }
 }
-
 
 /// sutil's `make_color`: clamp, sRGB-encode, quantise to 8 bits, pack as RGBA8
 /// (red in the lowest byte, alpha 255).

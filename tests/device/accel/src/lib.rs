@@ -7,8 +7,8 @@
 //! (raykit's macros cover raygen, miss and closest-hit so far).
 #![cfg_attr(target_arch = "spirv", no_std)]
 
-use raykit_device::math::sqrt;
 use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
+use raykit_device::math::sqrt;
 use raykit_device::spirv_std::spirv;
 use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, RayType, Raygen, Traversable};
 
@@ -77,7 +77,6 @@ pub fn barycentric_color(b: Vec2) -> Vec3 {
 pub fn sphere(primitive: u32) -> (Vec3, f32) {
     (Vec3::new(primitive as f32 - 1.0, 0.0, 0.0), 0.4)
 }
-
 
 /// Distance along the ray to the first hit with the sphere within
 /// `[t_min, t_max]`, or a negative value for none.
@@ -160,9 +159,6 @@ pub const CH_CUSTOM_INDEX: &str = "__closesthit__custom_index";
 /// Closest-hit that writes the instance's custom index into the red channel
 /// (as `index / 255`) and 1 into blue.
 #[spirv(closest_hit(entry_point_name = "__closesthit__custom_index"))]
-pub fn ch_custom_index(
-    #[spirv(instance_custom_index)] index: u32,
-    #[spirv(incoming_ray_payload)] color: &mut Vec3,
-) {
+pub fn ch_custom_index(#[spirv(instance_custom_index)] index: u32, #[spirv(incoming_ray_payload)] color: &mut Vec3) {
     *color = Vec3::new(index as f32 / 255.0, 0.0, 1.0);
 }

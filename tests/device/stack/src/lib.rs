@@ -11,7 +11,9 @@
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use raykit_device::glam::{UVec2, Vec3};
-use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, Ray, RayType, Raygen, Traversable};
+use raykit_device::{
+    closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, Ray, RayType, Raygen, Traversable,
+};
 
 /// Launch params.
 #[repr(C)]
