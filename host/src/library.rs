@@ -17,7 +17,7 @@
 //! that it compiled itself (`lvp_compile_ray_tracing_stages` sets the push-constant
 //! size in its loop over `pStages`, not over the libraries' stages), so a pipeline
 //! linked only from libraries reads zeros. On lavapipe, raykit adds one empty
-//! raygen stage of its own to every linked pipeline ([`PushConstantCarrier`]);
+//! raygen stage of its own to every linked pipeline ([`raykit_spirv::empty_raygen`]);
 //! no group uses it.
 
 use std::marker::PhantomData;

@@ -4,7 +4,7 @@
 //! in sync ("take care that CUDA vector types have specific alignment
 //! requirements"). raykit reads the params block of every entry point from the
 //! SPIR-V — the push-constant block, or the uniform block at set
-//! [`PARAMS_SET`](raykit_abi::PARAMS_SET) — with its member `Offset`,
+//! [`PARAMS_SET`] — with its member `Offset`,
 //! `ArrayStride` and `MatrixStride` decorations, and compares it with the layout
 //! that `#[derive(LaunchParams)]` recorded on the host. A difference is a
 //! [`LayoutError::Mismatch`] naming the struct, the field, both offsets and
