@@ -394,6 +394,26 @@ mod tests {
     const OP_FUNCTION_END: u32 = Op::FunctionEnd as u32;
     const OP_SPEC_CONSTANT_OP: u32 = Op::SpecConstantOp as u32;
 
+    /// raykit-abi types its numbers in (it has no dependencies): they must be
+    /// rspirv's execution models and ash's shader stages.
+    #[test]
+    fn the_abi_numbers_are_spirv_and_vulkan_ones() {
+        use raykit_abi::ExecutionModel as Abi;
+        for (abi, spirv, stage) in [
+            (Abi::RayGeneration, ExecutionModel::RayGenerationKHR, vk::ShaderStageFlags::RAYGEN_KHR),
+            (Abi::Intersection, ExecutionModel::IntersectionKHR, vk::ShaderStageFlags::INTERSECTION_KHR),
+            (Abi::AnyHit, ExecutionModel::AnyHitKHR, vk::ShaderStageFlags::ANY_HIT_KHR),
+            (Abi::ClosestHit, ExecutionModel::ClosestHitKHR, vk::ShaderStageFlags::CLOSEST_HIT_KHR),
+            (Abi::Miss, ExecutionModel::MissKHR, vk::ShaderStageFlags::MISS_KHR),
+            (Abi::Callable, ExecutionModel::CallableKHR, vk::ShaderStageFlags::CALLABLE_KHR),
+        ] {
+            assert_eq!(abi.to_u32(), spirv as u32, "{abi:?}");
+            assert_eq!(vk::ShaderStageFlags::from_raw(abi.vulkan_stage()), stage, "{abi:?}");
+            assert_eq!(kind_of(spirv), Some(abi.kind()));
+        }
+        assert_eq!(kind_of(ExecutionModel::GLCompute), None);
+    }
+
     #[test]
     fn rejects_bytes_that_are_not_spirv() {
         assert!(matches!(reflect_entry_points(b"hello"), Err(Error::InvalidSpirv { .. })));
