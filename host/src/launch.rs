@@ -224,7 +224,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                     cmd,
                     vk::PipelineBindPoint::RAY_TRACING_KHR,
                     inner.layout,
-                    0,
+                    raykit_abi::BUFFER_TABLE_SET,
                     &[ctx.buffer_table.set],
                     &[],
                 );
