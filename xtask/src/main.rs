@@ -11,8 +11,9 @@
 //!   Vulkan loader and the SPIR-V files, so it can be copied to a GPU machine
 //!   without Rust.
 //!
-//! xtask never links rust-gpu's codegen backend: it builds the small
-//! `xtask/shader-builder` program with the pinned nightly into a per-user cache
+//! Shader builds go through the `raykit-builder` library, as in any project using
+//! raykit; xtask never links rust-gpu's codegen backend: raykit-builder builds its
+//! small `shader-builder` program with the pinned nightly into a per-user cache
 //! and runs it.
 
 mod setup;
