@@ -188,9 +188,9 @@ impl DeviceBuild {
 
     /// From a build script: builds the crate under the build's `OUT_DIR` (nested
     /// builds in `<target>/raykit`, beside cargo's own profile directories), tells
-    /// cargo to rerun when the crate's sources change, and sets
-    /// `RAYKIT_SPIRV_<CRATE>` (the crate name in upper case, `-` as `_`) to the
-    /// SPIR-V file for `raykit::include_spirv!`. Messages go to cargo
+    /// cargo to rerun when the crate's sources change, and sets `<crate>.spv`
+    /// (spirv-builder's convention, e.g. `env!("my-device.spv")`) to the SPIR-V
+    /// file for `raykit::include_spirv!`. Messages go to cargo
     /// ([`Report::BuildScript`]).
     pub fn build_script(self) -> Result<BuiltModule> {
         let out = std::env::var_os("OUT_DIR").ok_or(Error::NotABuildScript("OUT_DIR"))?;
@@ -223,7 +223,7 @@ impl DeviceBuild {
 
 /// The variable [`DeviceBuild::build_script`] sets for device crate `name`.
 pub fn env_var_name(name: &str) -> String {
-    format!("RAYKIT_SPIRV_{}", name.replace('-', "_").to_uppercase())
+    format!("{name}.spv")
 }
 
 /// The cargo target directory holding a build script's `OUT_DIR`
@@ -336,8 +336,8 @@ mod tests {
     }
 
     #[test]
-    fn env_var_names_are_upper_snake_case() {
-        assert_eq!(env_var_name("my-device"), "RAYKIT_SPIRV_MY_DEVICE");
+    fn env_var_names_follow_spirv_builder() {
+        assert_eq!(env_var_name("my-device"), "my-device.spv");
     }
 
     #[test]

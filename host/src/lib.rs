@@ -29,7 +29,7 @@ pub use launch::Launch;
 pub use library::{LibraryOptions, PipelineLibrary};
 pub use log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
 pub use memory::DeviceBuffer;
-pub use module::{spirv_path, EntryPointInfo, Module};
+pub use module::{spirv_path, EmbeddedSpirv, EntryPointInfo, Module};
 pub use pipeline::{params_delivery, LinkOptions, Pipeline, Specialization};
 pub use program_group::{EntryName, HitGroupBuilder, ProgramGroup};
 pub use raykit_spirv::{BlockMember, BlockType, InterfaceSizes, LayoutError, ParamsBlock, ParamsDelivery};
@@ -38,6 +38,7 @@ pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
 pub use timing::LaunchTimer;
 
 pub use ash;
+pub use bytemuck;
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
 pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, Traversable};
