@@ -62,6 +62,12 @@ pub enum Error {
         /// The path given.
         path: PathBuf,
     },
+    /// A new project's directory already has files.
+    #[error("{path} is not empty: choose a new directory for the project")]
+    NotEmpty {
+        /// The directory.
+        path: PathBuf,
+    },
     /// An I/O error on a named path.
     #[error("{what} {path}: {source}")]
     Io {

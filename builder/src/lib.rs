@@ -36,10 +36,12 @@ mod device;
 mod error;
 pub mod params;
 mod report;
+mod template;
 mod toolchain;
 
 pub use codegen::{apply_codegen_patch, cache_dir, ShaderBuilder, CODEGEN_CRATE, CODEGEN_PATCH};
 pub use device::{env_var_name, BuiltModule, DeviceBuild};
 pub use error::{Error, Result};
 pub use report::Report;
+pub use template::{raykit_root, write_new_project};
 pub use toolchain::{ensure_toolchain, nightly, rustup, COMPONENTS, TOOLCHAIN};
