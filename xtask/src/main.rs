@@ -6,6 +6,8 @@
 //!   progress bar; `--example triangle` renders optixTriangle instead.
 //! * `test`: set up what is missing (nightly, lavapipe, validation layers), build
 //!   the shaders and run every test with validation on.
+//! * `new-project PATH`: write a new project that uses raykit (see the README's
+//!   "Use raykit in your own project").
 //! * `bench`: build `raykit-bench` in release and run it (suites such as `accel`);
 //!   it writes `target/bench/bench.json` and `bench.md`. The binary needs only the
 //!   Vulkan loader and the SPIR-V files, so it can be copied to a GPU machine
@@ -67,6 +69,12 @@ enum Cmd {
     },
     /// Only install what is missing (toolchain, Vulkan driver, validation layers).
     Setup,
+    /// Write a new project that uses raykit (a host binary whose build.rs builds
+    /// its device crate through raykit-builder) into PATH, missing or empty.
+    NewProject {
+        /// Where to write it.
+        path: PathBuf,
+    },
     /// Build and run the benchmarks (target/bench/bench.{json,md}).
     Bench {
         /// Build the shaders first (suites that trace need them; `accel` does not),
@@ -190,6 +198,13 @@ fn main() -> anyhow::Result<()> {
         Cmd::Setup => {
             setup::ensure_toolchain()?;
             setup::ensure_vulkan(true)?;
+        }
+        Cmd::NewProject { path } => {
+            let files = raykit_builder::write_new_project(&path, &root)?;
+            for file in files {
+                println!("new-project: wrote {}", file.display());
+            }
+            println!("new-project: now `cd {} && cargo run --release`", path.display());
         }
     }
     Ok(())
