@@ -68,6 +68,12 @@ pub enum Error {
         /// The directory.
         path: PathBuf,
     },
+    /// The file watcher could not start.
+    #[error("watching the device crate's sources: {reason}")]
+    Watch {
+        /// notify's error.
+        reason: String,
+    },
     /// An I/O error on a named path.
     #[error("{what} {path}: {source}")]
     Io {

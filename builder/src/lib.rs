@@ -38,6 +38,8 @@ pub mod params;
 mod report;
 mod template;
 mod toolchain;
+#[cfg(feature = "watch")]
+mod watch;
 
 pub use codegen::{apply_codegen_patch, cache_dir, ShaderBuilder, CODEGEN_CRATE, CODEGEN_PATCH};
 pub use device::{env_var_name, BuiltModule, DeviceBuild};
@@ -45,3 +47,5 @@ pub use error::{Error, Result};
 pub use report::Report;
 pub use template::{raykit_root, write_new_project};
 pub use toolchain::{ensure_toolchain, nightly, rustup, COMPONENTS, TOOLCHAIN};
+#[cfg(feature = "watch")]
+pub use watch::{DeviceWatcher, Rebuild};
