@@ -169,7 +169,7 @@ impl DeviceBuild {
         Ok(BuiltModule { name, spv, rebuilt: true, seconds })
     }
 
-    fn fingerprint(&self, builder: &ShaderBuilder) -> Result<String> {
+    pub(crate) fn fingerprint(&self, builder: &ShaderBuilder) -> Result<String> {
         let mut hasher = DefaultHasher::new();
         for dir in self.inputs() {
             hash_tree(&dir, &mut hasher)?;

@@ -50,6 +50,9 @@ impl DeviceWatcher {
             debouncer.watcher().watch(&dir, RecursiveMode::Recursive).map_err(watch_error)?;
         }
         let (rebuilds_tx, rebuilds) = channel();
+        // Events also come from reading the sources (the compiler opens them):
+        // only a change of their content starts a build.
+        let mut last = build.fingerprint(&builder).ok();
         let build = build.force(true);
         std::thread::Builder::new()
             .name("raykit-device-watcher".to_owned())
@@ -63,6 +66,11 @@ impl DeviceWatcher {
                     if !relevant {
                         continue;
                     }
+                    let now = build.fingerprint(&builder).ok();
+                    if now.is_some() && now == last {
+                        continue;
+                    }
+                    last = now;
                     let result = build.build_with(&builder);
                     if rebuilds_tx.send(Rebuild { result, changed_at }).is_err() {
                         return;
