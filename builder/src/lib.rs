@@ -16,10 +16,11 @@
 //! In a host crate's `build.rs`:
 //!
 //! ```no_run
-//! fn main() {
-//!     if let Err(e) = raykit_builder::DeviceBuild::new("../my-device").build_script() {
-//!         panic!("{e}");
-//!     }
+//! // build.rs
+//! let device = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("device");
+//! if let Err(e) = raykit_builder::DeviceBuild::new(device).build_script() {
+//!     eprintln!("error: {e}");
+//!     std::process::exit(1);
 //! }
 //! ```
 //!

@@ -3,7 +3,7 @@
 //! its pipeline on success and keeps the old one on a compile error.
 
 use std::path::Path;
-use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
+use std::sync::mpsc::{channel, Receiver};
 use std::time::{Duration, Instant};
 
 use notify_debouncer_mini::notify::{RecommendedWatcher, RecursiveMode};
@@ -88,10 +88,7 @@ impl DeviceWatcher {
 
     /// Waits up to `timeout` for the next rebuild.
     pub fn next_timeout(&self, timeout: Duration) -> Option<Rebuild> {
-        match self.rebuilds.recv_timeout(timeout) {
-            Ok(rebuild) => Some(rebuild),
-            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => None,
-        }
+        self.rebuilds.recv_timeout(timeout).ok()
     }
 }
 
