@@ -49,7 +49,8 @@ impl Gate {
 }
 
 /// Runs every gate in order; the first that fails ends the run with an error
-/// naming it and the command that fixes it or shows it again.
+/// naming it and the command that fixes it or shows it again. clippy and rustdoc
+/// go on past a crate that fails, so one run reports every crate's problems.
 pub fn run_all(root: &Path) -> anyhow::Result<()> {
     Gate::cargo("rustfmt", &["fmt", "--all", "--", "--check"], "cargo fmt --all").run()?;
 
@@ -69,14 +70,14 @@ pub fn run_all(root: &Path) -> anyhow::Result<()> {
 
     Gate::cargo(
         "clippy",
-        &["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"],
+        &["clippy", "--workspace", "--all-targets", "--keep-going", "--", "-D", "warnings"],
         "cargo clippy --workspace --all-targets -- -D warnings",
     )
     .run()?;
 
     let mut doc = Gate::cargo(
         "rustdoc",
-        &["doc", "--workspace", "--no-deps", "--lib"],
+        &["doc", "--workspace", "--no-deps", "--lib", "--keep-going"],
         "RUSTDOCFLAGS=\"-D warnings\" cargo doc --workspace --no-deps --lib",
     );
     doc.command.env("RUSTDOCFLAGS", "-D warnings");
