@@ -17,6 +17,7 @@ pub mod raw;
 pub mod sbt;
 pub mod stack;
 pub mod timing;
+pub mod wgsl;
 
 pub use accel::{
     Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance,
@@ -36,6 +37,7 @@ pub use raykit_device::layout::{BlockMember, BlockType, InterfaceSizes, LayoutEr
 pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
 pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
 pub use timing::LaunchTimer;
+pub use wgsl::WgslError;
 
 pub use ash;
 pub use glam;

@@ -313,7 +313,7 @@ impl Module {
         Module::named(ctx, spirv, "from bytes")
     }
 
-    fn named(ctx: &Context, spirv: &[u8], name: &str) -> Result<Module> {
+    pub(crate) fn named(ctx: &Context, spirv: &[u8], name: &str) -> Result<Module> {
         let entry_points = reflect_entry_points(spirv)?;
         if !entry_points.iter().any(|e| e.kind.is_some()) {
             return Err(Error::NoRayTracingEntryPoints {
