@@ -244,7 +244,7 @@ impl Fixer {
             return Ok(());
         };
         let named = self.module.debug_names.iter().any(|n| n.class.opcode == Op::Name && id(n, 0) == Some(wrapper));
-        if named || !self.def(inner).is_some_and(|t| t.class.opcode == Op::TypeStruct) {
+        if named || self.def(inner).is_none_or(|t| t.class.opcode != Op::TypeStruct) {
             return Ok(());
         }
         let pointer = self.pointer_type(class, inner)?;
@@ -367,7 +367,7 @@ impl Fixer {
                         vec![Operand::IdRef(value)],
                     ));
                 } else {
-                    if inst.operands.iter().any(|o| *o == Operand::IdRef(var)) {
+                    if inst.operands.contains(&Operand::IdRef(var)) {
                         return Err(format!(
                             "the acceleration_structure at @group({TRAVERSABLE_GROUP}) @binding({member}) is used \
                              other than by value ({:?})",

@@ -248,3 +248,132 @@ fn parse_error(e: &naga::front::wgsl::ParseError, source: &str, path: &str) -> W
         rendered: e.emit_to_string_with_path(source, path),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rspirv::dr::Operand;
+    use rspirv::spirv::{Capability, Op, StorageClass};
+
+    const TRIANGLE: &str = include_str!("../../examples/triangle/wgsl/triangle.wgsl");
+    const PATH_TRACER: &str = include_str!("../../examples/path_tracer/wgsl/path_tracer.wgsl");
+
+    fn module(source: &str) -> rspirv::dr::Module {
+        let words = compile(source, "test.wgsl").unwrap_or_else(|e| panic!("{e}"));
+        rspirv::dr::load_words(words).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn name_of(m: &rspirv::dr::Module, id: u32) -> Option<&str> {
+        m.debug_names.iter().find_map(|n| match (n.class.opcode, n.operands.as_slice()) {
+            (Op::Name, [Operand::IdRef(t), Operand::LiteralString(s)]) if *t == id => Some(s.as_str()),
+            _ => None,
+        })
+    }
+
+    /// The storage class of each named global variable.
+    fn classes(m: &rspirv::dr::Module) -> Vec<(String, StorageClass)> {
+        m.types_global_values
+            .iter()
+            .filter(|i| i.class.opcode == Op::Variable)
+            .filter_map(|v| match v.operands.first() {
+                Some(Operand::StorageClass(c)) => Some((name_of(m, v.result_id?)?.to_owned(), *c)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_prelude_compiles() {
+        compile(PRELUDE, "prelude.wgsl").unwrap_or_else(|e| panic!("{e}"));
+    }
+
+    #[test]
+    fn records_and_attributes_get_their_storage_classes_and_the_scene_comes_from_params() {
+        let m = module(TRIANGLE);
+        let classes = classes(&m);
+        for (name, class) in [
+            ("miss_data", StorageClass::ShaderRecordBufferKHR),
+            ("barycentrics", StorageClass::HitAttributeKHR),
+            ("params", StorageClass::PushConstant),
+            ("buffers", StorageClass::StorageBuffer),
+        ] {
+            assert!(classes.contains(&(name.to_owned(), class)), "{name}: {classes:?}");
+        }
+        // No acceleration-structure variable is left: it is converted from params.
+        assert!(!classes.iter().any(|(n, _)| n == "scene"), "{classes:?}");
+        let converts = m.all_inst_iter().filter(|i| i.class.opcode == Op::ConvertUToAccelerationStructureKHR).count();
+        assert_eq!(converts, 1);
+        // The params block is the struct itself, so reflection sees its fields.
+        let blocks = raykit_params_members(&m);
+        assert_eq!(blocks.first().map(String::as_str), Some("image"), "{blocks:?}");
+        assert_eq!(blocks.len(), 8, "{blocks:?}");
+    }
+
+    /// The member names of the push-constant block's struct.
+    fn raykit_params_members(m: &rspirv::dr::Module) -> Vec<String> {
+        let var = m.types_global_values.iter().find(|i| {
+            i.class.opcode == Op::Variable
+                && i.operands.first() == Some(&Operand::StorageClass(StorageClass::PushConstant))
+        });
+        let pointer =
+            var.and_then(|v| v.result_type).and_then(|t| m.types_global_values.iter().find(|i| i.result_id == Some(t)));
+        let Some(Operand::IdRef(block)) = pointer.and_then(|p| p.operands.get(1)) else { return Vec::new() };
+        m.debug_names
+            .iter()
+            .filter_map(|n| match (n.class.opcode, n.operands.as_slice()) {
+                (Op::MemberName, [Operand::IdRef(t), _, Operand::LiteralString(s)]) if t == block => Some(s.clone()),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn trace_ray_takes_sbt_offset_stride_and_miss_from_the_cull_mask() {
+        let m = module(PATH_TRACER);
+        let traces: Vec<_> = m.all_inst_iter().filter(|i| i.class.opcode == Op::TraceRayKHR).collect();
+        assert!(!traces.is_empty());
+        let extracts = m.all_inst_iter().filter(|i| i.class.opcode == Op::BitFieldUExtract).count();
+        assert_eq!(extracts, traces.len() * 2, "offset and stride per trace");
+        for t in traces {
+            // Cull mask, SBT offset, stride and miss are computed, not naga's constant 0.
+            let ids: Vec<u32> = t.operands[2..6]
+                .iter()
+                .filter_map(|o| if let Operand::IdRef(id) = o { Some(*id) } else { None })
+                .collect();
+            let computed = ids.iter().all(|id| {
+                m.functions
+                    .iter()
+                    .flat_map(|f| &f.blocks)
+                    .flat_map(|b| &b.instructions)
+                    .any(|i| i.result_id == Some(*id))
+            });
+            assert!(computed, "{t:?}");
+        }
+    }
+
+    #[test]
+    fn the_geometry_capability_of_primitive_index_is_dropped() {
+        let m = module(PATH_TRACER);
+        let capabilities: Vec<_> = m.capabilities.iter().map(|c| c.operands[0].clone()).collect();
+        assert!(!capabilities.contains(&Operand::Capability(Capability::Geometry)), "{capabilities:?}");
+        assert!(capabilities.contains(&Operand::Capability(Capability::RuntimeDescriptorArray)), "{capabilities:?}");
+        assert!(m.all_inst_iter().any(|i| i.operands.contains(&Operand::BuiltIn(rspirv::spirv::BuiltIn::PrimitiveId))));
+    }
+
+    #[test]
+    fn a_parse_error_names_file_line_and_column_with_a_caret() {
+        let err =
+            compile("enable wgpu_ray_tracing_pipeline;\n@ray_generation\nfn rg() {\n    let x = ;\n}\n", "bad.wgsl")
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default();
+        assert!(err.contains("bad.wgsl:4:13") && err.contains('^'), "{err}");
+    }
+
+    #[test]
+    fn a_record_binding_that_is_not_storage_is_refused() {
+        let source = TRIANGLE.replace("var<storage, read> miss_data", "var<uniform> miss_data");
+        let err = compile(&source, "t.wgsl").err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(err.contains("must be a `var<storage, read>`"), "{err}");
+    }
+}
