@@ -16,7 +16,9 @@ struct Words { words: array<u32> }
 
 // ---- Launch params ---------------------------------------------------------
 // One struct, declared `var<immediate>` (Vulkan push constants) when the host
-// struct is at most 128 bytes, else `var<uniform>` at @group(1) @binding(0).
+// struct is at most 128 bytes, else `var<storage, read>` at @group(1) @binding(0),
+// which raykit turns into the uniform buffer it binds there (a `var<uniform>`
+// would follow WGSL's uniform layout, which pads struct members to 16 bytes).
 // raykit checks its layout against the host's #[derive(LaunchParams)] struct
 // when the pipeline is linked. Field by field:
 //   u32, i32, f32                           as in WGSL;

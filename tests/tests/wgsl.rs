@@ -136,3 +136,72 @@ fn declarations_against_raykits_conventions_are_refused_with_the_fix() -> anyhow
         Ok(())
     })
 }
+
+/// `params_device::Large` (192 bytes) in WGSL: over the push-constant budget, so
+/// raykit delivers it in a uniform buffer at set 1, binding 0, which WGSL declares
+/// `var<storage, read>` there (WGSL's uniform layout would pad each struct member
+/// to 16 bytes; raykit turns the binding into its uniform buffer).
+const LARGE_WGSL: &str = r#"
+enable wgpu_ray_tracing_pipeline;
+enable wgpu_binding_array;
+struct Words { words: array<u32> }
+@group(0) @binding(0) var<storage, read_write> buffers: binding_array<Words>;
+struct Large {
+    out: u32,
+    pad: array<u32, 3>,
+    m: mat4x4<f32>,
+    v: array<vec4<f32>, 4>,
+    tail: array<f32, 8>,
+    id: vec2<u32>,
+    pad2: vec2<u32>,
+}
+@group(1) @binding(0) var<storage, read> params: Large;
+
+@ray_generation
+fn rg() {
+    var i = 0u;
+    for (var c = 0u; c < 4u; c++) {
+        for (var r = 0u; r < 4u; r++) { buffers[params.out].words[i] = bitcast<u32>(params.m[c][r]); i++; }
+    }
+    for (var k = 0u; k < 4u; k++) {
+        for (var r = 0u; r < 4u; r++) { buffers[params.out].words[i] = bitcast<u32>(params.v[k][r]); i++; }
+    }
+    for (var k = 0u; k < 8u; k++) { buffers[params.out].words[i] = bitcast<u32>(params.tail[k]); i++; }
+    buffers[params.out].words[i] = params.id.x;
+    buffers[params.out].words[i + 1u] = params.id.y;
+}
+"#;
+
+#[test]
+fn wgsl_params_over_the_push_constant_budget_arrive_exactly_through_the_uniform_buffer() -> anyhow::Result<()> {
+    use raykit::glam::{Mat4, Vec4};
+    with_context("wgsl_params_over_the_push_constant_budget_arrive_exactly_through_the_uniform_buffer", |ctx| {
+        let module = Module::from_wgsl_named(ctx, LARGE_WGSL, "large.wgsl")?;
+        let blocks = &module.entry_points()[0].params;
+        assert_eq!(
+            blocks.iter().map(|b| b.delivery).collect::<Vec<_>>(),
+            [raykit::ParamsDelivery::UniformBuffer { set: 1, binding: 0 }]
+        );
+        let raygen = ProgramGroup::raygen(&module, "rg")?;
+        let pipeline = Pipeline::<params_device::Large>::new(ctx, &[&raygen], LinkOptions::default())?;
+        let sbt = raykit::Sbt::builder(&pipeline).raygen(&raygen, ()).build()?;
+        let out = ctx.buffer::<u32>(42)?;
+        let f = |i: u32| 1.0 + i as f32 * 0.25;
+        let params = params_device::Large {
+            out: out.handle(),
+            _pad: [0; 3],
+            m: Mat4::from_cols_array(&std::array::from_fn(|i| f(i as u32))),
+            v: std::array::from_fn(|i| Vec4::splat(f(100 + i as u32)) + Vec4::new(0.0, 0.5, 1.0, 1.5)),
+            tail: std::array::from_fn(|i| f(200 + i as u32)),
+            id: u64::MAX - 12345,
+            _pad2: 0,
+        };
+        pipeline.launch(&sbt, &params, [1, 1, 1])?;
+        let mut want: Vec<u32> = params.m.to_cols_array().iter().map(|x| x.to_bits()).collect();
+        want.extend(params.v.iter().flat_map(|v| v.to_array()).map(f32::to_bits));
+        want.extend(params.tail.iter().map(|x| x.to_bits()));
+        want.extend([params.id as u32, (params.id >> 32) as u32]);
+        assert_eq!(out.read()?, want);
+        Ok(())
+    })
+}

@@ -158,8 +158,9 @@ impl Fixer {
             .collect()
     }
 
-    /// Moves variable `var` (and every pointer derived from it) to storage class `class`.
-    fn change_storage_class(&mut self, var: Word, class: StorageClass, what: &str) -> Fix<()> {
+    /// Moves variable `var` (and every pointer derived from it) to storage class
+    /// `class`, dropping its descriptor binding unless `keep_binding`.
+    fn change_storage_class(&mut self, var: Word, class: StorageClass, what: &str, keep_binding: bool) -> Fix<()> {
         let (_, _, pointee) = self.variables().into_iter().find(|(v, ..)| *v == var).ok_or("variable not found")?;
         let pointer = self.pointer_type(class, pointee)?;
         for inst in self.module.types_global_values.iter_mut() {
@@ -213,7 +214,10 @@ impl Fixer {
                 }
             }
         }
-        self.remove_decorations(var, &[Decoration::DescriptorSet, Decoration::Binding]);
+        if !keep_binding {
+            self.remove_decorations(var, &[Decoration::DescriptorSet, Decoration::Binding]);
+        }
+        self.remove_decorations(var, &[Decoration::NonWritable, Decoration::NonReadable]);
         Ok(())
     }
 
@@ -304,7 +308,7 @@ impl Fixer {
         let Some((params, class, block)) = self.params_block() else {
             return Err(format!(
                 "the acceleration_structure at @group({TRAVERSABLE_GROUP}) @binding({member}) stands for params member \
-                 {member}, but the module declares no params (`var<immediate>`, or `var<uniform>` at @group(1) \
+                 {member}, but the module declares no params (`var<immediate>`, or `var<storage, read>` at @group(1) \
                  @binding(0))"
             ));
         };
@@ -470,12 +474,10 @@ pub(crate) fn apply(words: &[u32]) -> Result<Vec<u32>, String> {
         match binding {
             // NonWritable is for storage buffers and images only.
             SHADER_RECORD_BINDING => {
-                fixer.change_storage_class(var, StorageClass::ShaderRecordBufferKHR, "shader record")?;
-                fixer.remove_decorations(var, &[Decoration::NonWritable, Decoration::NonReadable]);
+                fixer.change_storage_class(var, StorageClass::ShaderRecordBufferKHR, "shader record", false)?;
             }
             HIT_ATTRIBUTES_BINDING => {
-                fixer.change_storage_class(var, StorageClass::HitAttributeKHR, "hit attributes")?;
-                fixer.remove_decorations(var, &[Decoration::NonWritable, Decoration::NonReadable]);
+                fixer.change_storage_class(var, StorageClass::HitAttributeKHR, "hit attributes", false)?;
                 attribute_types.insert(pointee, var);
             }
             other => {
@@ -497,6 +499,16 @@ pub(crate) fn apply(words: &[u32]) -> Result<Vec<u32>, String> {
         });
     }
 
+    // Params over the push-constant budget: a `var<storage, read>` at raykit's
+    // params binding becomes the uniform buffer raykit binds there (WGSL's
+    // uniform layout rules would pad every struct member to 16 bytes; raykit's
+    // device has scalarBlockLayout, so the storage layout is valid for Uniform).
+    for (var, class, _) in fixer.variables() {
+        let at = (fixer.decoration(var, Decoration::DescriptorSet), fixer.decoration(var, Decoration::Binding));
+        if class == StorageClass::StorageBuffer && at == (Some(PARAMS_SET_BINDING.0), Some(PARAMS_SET_BINDING.1)) {
+            fixer.change_storage_class(var, StorageClass::Uniform, "params block", true)?;
+        }
+    }
     fixer.unwrap_params()?;
 
     // Traversables.

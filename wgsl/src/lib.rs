@@ -9,6 +9,8 @@
 //!
 //! | WGSL declaration | becomes in SPIR-V |
 //! | --- | --- |
+//! | `var<immediate> params: P;` | the push-constant params block, naga's one-member wrapper removed so the block's members are `P`'s fields (what raykit's layout check compares) |
+//! | `@group(1) @binding(0) var<storage, read> params: P;` | the same as raykit's uniform params buffer (params over 128 bytes), with the storage layout |
 //! | `@group(2) @binding(K) var s: acceleration_structure;` | each use reads member `K` of the params block (a `Traversable`, `vec2<u32>`) and converts it with `OpConvertUToAccelerationStructureKHR` |
 //! | `@group(3) @binding(0) var<storage, read> record: T;` | a `ShaderRecordBufferKHR` variable: the program's SBT record data |
 //! | `@group(3) @binding(1) var<storage, read> attributes: A;` | a `HitAttributeKHR` variable (`vec2<f32>` barycentrics for triangles) |
