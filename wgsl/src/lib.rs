@@ -170,18 +170,21 @@ pub fn compile(source: &str, path: &str) -> Result<Vec<u32>, WgslError> {
                 rendered: e.emit_to_string_with_path(source, path),
             }
         })?;
-    let mut options = naga::back::spv::Options {
+    let options = naga::back::spv::Options {
         lang_version: (1, 5),
         // Names for reflection's messages (params fields), no other debug info.
         flags: naga::back::spv::WriterFlags::DEBUG,
         // Bindings as written in the source (no binding map).
         fake_missing_bindings: true,
-        // As in the Rust and GLSL programs: no extra checks around traceRay.
+        // As in the Rust and GLSL programs: no extra checks around traceRay, no
+        // counters added to loops (wgpu's guard against infinite loops). Indexing
+        // is unchecked (naga's default) and integer division keeps WGSL's
+        // defined result for a zero divisor.
         trace_ray_argument_validation: false,
         ray_query_initialization_tracking: false,
+        force_loop_bounding: false,
         ..Default::default()
     };
-    options.bounds_check_policies = naga::proc::BoundsCheckPolicies::default();
     let words = naga::back::spv::write_vec(&module, &info, &options, None)
         .map_err(|e| WgslError::SpirvOut { path: path.to_owned(), reason: e.to_string() })?;
     fixup::apply(&words).map_err(|reason| WgslError::Convention { path: path.to_owned(), reason })
