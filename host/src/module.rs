@@ -4,7 +4,8 @@
 //! A [`Module`] is made from SPIR-V bytes or a `.spv` file (what
 //! `cargo xtask build-shaders` writes). raykit reads the module with rspirv (naga's
 //! SPIR-V reader rejects the ray-tracing stages) and lists its entry points with
-//! their stages, so program groups can be checked before Vulkan sees them. See
+//! their stages, so program groups can be checked before Vulkan sees them. WGSL
+//! source becomes a module through naga with [`Module::from_wgsl`] (see [`crate::wgsl`]). See
 //! [`vkCreateShaderModule`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCreateShaderModule.html).
 
 use std::path::{Path, PathBuf};
