@@ -217,6 +217,7 @@ impl Fixer {
         if !keep_binding {
             self.remove_decorations(var, &[Decoration::DescriptorSet, Decoration::Binding]);
         }
+        // NonWritable (naga's `read`) is for storage buffers and images only.
         self.remove_decorations(var, &[Decoration::NonWritable, Decoration::NonReadable]);
         Ok(())
     }
@@ -472,7 +473,6 @@ pub(crate) fn apply(words: &[u32]) -> Result<Vec<u32>, String> {
             ));
         }
         match binding {
-            // NonWritable is for storage buffers and images only.
             SHADER_RECORD_BINDING => {
                 fixer.change_storage_class(var, StorageClass::ShaderRecordBufferKHR, "shader record", false)?;
             }
