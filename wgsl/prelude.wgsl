@@ -7,6 +7,12 @@
 enable wgpu_ray_tracing_pipeline;
 enable wgpu_binding_array;
 
+// Built-ins of the ray-tracing stages (as entry-point arguments):
+// ray_invocation_id, num_ray_invocations (launch index and size), world_ray_origin,
+// world_ray_direction, object_ray_origin, object_ray_direction, ray_t_min,
+// ray_t_current_max, object_to_world, world_to_object, hit_kind, geometry_index,
+// instance_custom_data; primitive_index needs `enable primitive_index;`.
+
 // ---- Buffers: the bindless table ------------------------------------------
 // Every `Buffer<T>` handle in params or a record is an index into this table
 // (descriptor set 0, binding 0). Read element i of a Buffer<u32> `b` with
