@@ -145,7 +145,7 @@ fn rt_stages() -> vk::ShaderStageFlags {
 
 /// Launch-path comparison at `1×1` and at `size`.
 pub fn launches(ctx: &Context, scene: &PrimaryScene, size: (u32, u32), reps: usize) -> anyhow::Result<Vec<Row>> {
-    let p = crate::trace::primary_pipeline(ctx, false)?;
+    let p = crate::trace::primary_pipeline(ctx, crate::trace::Language::Rust)?;
     let ash = AshLauncher::new(ctx)?;
     let params = bytemuck::bytes_of(&scene.params);
     anyhow::ensure!(p.pipeline.raw_push_constant_size() as usize == params.len(), "the params are not push constants");

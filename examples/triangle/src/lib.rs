@@ -96,7 +96,21 @@ impl Programs {
             hit: ProgramGroup::hit_group(&hit).closest_hit("main").build()?,
         })
     }
+
+    /// The WGSL twin (`wgsl/triangle.wgsl`), compiled by naga when called; its
+    /// entry points are `rg`, `ms` and `ch`.
+    pub fn wgsl(ctx: &Context) -> raykit::Result<Programs> {
+        let module = Module::from_wgsl_named(ctx, WGSL, "examples/triangle/wgsl/triangle.wgsl")?;
+        Ok(Programs {
+            raygen: ProgramGroup::raygen(&module, "rg")?,
+            miss: ProgramGroup::miss(&module, "ms")?,
+            hit: ProgramGroup::hit_group(&module).closest_hit("ch").build()?,
+        })
+    }
 }
+
+/// The WGSL twin of the triangle programs.
+pub const WGSL: &str = include_str!("../wgsl/triangle.wgsl");
 
 /// Renders optixTriangle at `width × height` with the Rust programs; returns
 /// RGBA8 pixels, row 0 at the top.
