@@ -1,4 +1,4 @@
-//! The catalogue of bad inputs (issue 8): one test per case. Each feeds raykit a
+//! The catalogue of bad inputs: one test per case. Each feeds raykit a
 //! wrong input, checks the typed error — its variant, and a message that names the
 //! problem and the fix — and then renders optixTriangle with the same context, to
 //! show the error left it usable. Like every test, each runs under the harness:

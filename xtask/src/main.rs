@@ -4,8 +4,11 @@
 //!   `target/spirv/`, installing the pinned nightly when missing.
 //! * `demo`: render the path tracer's Cornell box to a PNG (and PFM) with a
 //!   progress bar; `--example triangle` renders optixTriangle instead.
-//! * `test`: set up what is missing (nightly, lavapipe, validation layers), build
-//!   the shaders and run every test with validation on.
+//! * `lint`: the gates (rustfmt, clippy with `-D warnings`, rustdoc with `-D warnings`,
+//!   doctests, no undocumented binaries in git); see `lint.rs`.
+//! * `test`: set up what is missing (nightly, lavapipe, validation layers, glslang),
+//!   run `lint` (stopping at the first gate that fails), build the shaders and run
+//!   every test with validation on.
 //! * `new-project PATH`: write a new project that uses raykit (see the README's
 //!   "Use raykit in your own project").
 //! * `bench`: build `raykit-bench` in release and run it (suites such as `accel`);
@@ -18,6 +21,7 @@
 //! small `shader-builder` program with the pinned nightly into a per-user cache
 //! and runs it.
 
+mod lint;
 mod setup;
 mod shaders;
 
@@ -61,7 +65,9 @@ enum Cmd {
         #[arg(long, default_value_t = 16)]
         spp: u32,
     },
-    /// Build the shaders and run the whole test suite with validation on.
+    /// Check formatting, clippy, rustdoc, doctests and committed binaries (each must pass).
+    Lint,
+    /// Run `lint`, build the shaders and run the whole test suite with validation on.
     Test {
         /// Extra arguments for `cargo test` (after `--`).
         #[arg(last = true)]
@@ -147,12 +153,19 @@ fn main() -> anyhow::Result<()> {
             run(&mut cmd, &format!("the {example} example"))?;
             println!("demo: wrote {}", output.display());
         }
+        Cmd::Lint => lint::run_all(&root)?,
         Cmd::Test { cargo_args } => {
             setup::ensure_toolchain()?;
             setup::ensure_vulkan(true)?;
+            setup::ensure_glsl_tools()?;
+            lint::run_all(&root)?;
             shaders::build_all(&root, false)?;
             let mut cmd = cargo();
-            cmd.args(["test", "--workspace"]).args(&cargo_args);
+            // The doctests ran in `lint`.
+            cmd.args(["test", "--workspace", "--lib", "--bins", "--tests"]).args(&cargo_args);
+            // The tools are installed above: the rebuild check of the committed SPIR-V
+            // must run, not skip.
+            cmd.env("RAYKIT_REQUIRE_GLSLANG", "1");
             cmd.env("RAYKIT_SPIRV_DIR", shaders::spirv_dir(&root));
             cmd.env("RAYKIT_VALIDATION", "1");
             if std::env::var_os("RAYKIT_REQUIRE_DEVICE").is_none() {

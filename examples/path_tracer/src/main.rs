@@ -38,14 +38,17 @@ struct Cli {
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
     /// Use the GLSL twin of the device programs instead of the Rust ones.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "wgsl")]
     glsl: bool,
+    /// Use the WGSL twin of the device programs (compiled by naga at build time).
+    #[arg(long)]
+    wgsl: bool,
     /// Use the first ray-tracing device whose name contains this.
     #[arg(long)]
     device: Option<String>,
     /// After rendering, watch `examples/path_tracer/device` and render again
     /// after each change (hot reload), until interrupted.
-    #[arg(long, conflicts_with = "glsl")]
+    #[arg(long, conflicts_with_all = ["glsl", "wgsl"])]
     watch: bool,
 }
 
@@ -57,7 +60,11 @@ fn main() -> anyhow::Result<()> {
         device_name_contains: cli.device.clone(),
         ..Default::default()
     })?;
-    let programs = if cli.glsl { Programs::glsl(&ctx)? } else { Programs::rust(&ctx)? };
+    let programs = match (cli.glsl, cli.wgsl) {
+        (true, _) => Programs::glsl(&ctx)?,
+        (_, true) => Programs::wgsl(&ctx)?,
+        _ => Programs::rust(&ctx)?,
+    };
     let scene = Scene::new(&ctx)?;
     let mut renderer = Renderer::new(&ctx, &programs, &scene, cli.width, cli.height)?;
 
@@ -101,7 +108,11 @@ fn render(cli: &Cli, ctx: &raykit::Context, renderer: &mut Renderer) -> anyhow::
         ctx.device_name(),
         image.rays,
         image.rays as f64 / seconds / 1e6,
-        if cli.glsl { "GLSL" } else { "Rust" },
+        match (cli.glsl, cli.wgsl) {
+            (true, _) => "GLSL",
+            (_, true) => "WGSL",
+            _ => "Rust",
+        },
         cli.output.display(),
         pfm.display()
     );
