@@ -1,7 +1,7 @@
 //! The new-project template, used as a user would: written outside the
 //! workspace, built with plain `cargo build` (its build.rs compiles its device
 //! crate through raykit-builder, sharing the per-user codegen cache), run on the
-//! Vulkan driver, its picture checked against a CPU reference; then its binary
+//! Vulkan driver with validation on, its picture checked against a CPU reference; then its binary
 //! alone, copied into an empty directory, still runs; and a params struct that
 //! disagrees with its device crate fails `cargo build` with raykit's layout
 //! message.
@@ -98,7 +98,13 @@ fn check_picture(pixels: &[[u8; 3]]) {
 }
 
 fn run_app(binary: &Path, cwd: &Path) -> Vec<[u8; 3]> {
-    let output = Command::new(binary).arg("picture.ppm").current_dir(cwd).output().expect("running the app");
+    // With the validation layer on: the app fails on any message.
+    let output = Command::new(binary)
+        .arg("picture.ppm")
+        .current_dir(cwd)
+        .env("RAYKIT_VALIDATION", "1")
+        .output()
+        .expect("running the app");
     assert!(output.status.success(), "{} failed:\n{}", binary.display(), text(&output));
     read_ppm(&cwd.join("picture.ppm"))
 }
