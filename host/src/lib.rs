@@ -6,17 +6,14 @@ mod buffer_table;
 pub mod cache;
 pub mod context;
 pub mod error;
-pub mod launch;
-pub mod library;
 pub mod log;
 pub mod memory;
 pub mod module;
 pub mod pipeline;
 pub mod program_group;
-pub mod raw;
 pub mod sbt;
 pub mod stack;
-pub mod timing;
+pub use pipeline::{launch, library, raw, timing};
 
 pub use accel::{
     Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance,

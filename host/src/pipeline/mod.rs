@@ -18,6 +18,11 @@
 //! value Vulkan defines for a pipeline without that state); see [`crate::stack`].
 //! See [`vkCreateRayTracingPipelinesKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCreateRayTracingPipelinesKHR.html).
 
+pub mod launch;
+pub mod library;
+pub mod raw;
+pub mod timing;
+
 use std::marker::PhantomData;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
