@@ -1,5 +1,6 @@
 #![doc = include_str!("../../README.md")]
 #![deny(missing_docs)]
+#![deny(missing_debug_implementations)]
 
 pub mod accel;
 mod buffer_table;
@@ -13,7 +14,6 @@ pub mod pipeline;
 pub mod program_group;
 pub mod sbt;
 pub mod stack;
-pub use pipeline::{launch, library, raw, timing};
 
 pub use accel::{
     Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance,
@@ -22,17 +22,17 @@ pub use accel::{
 pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Context, ContextOptions, DeviceLimits, MemoryUsage};
 pub use error::{DeviceReport, Error, Result, UserException};
-pub use launch::Launch;
-pub use library::{LibraryOptions, PipelineLibrary};
 pub use log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
 pub use memory::DeviceBuffer;
 pub use module::{spirv_path, EntryPointInfo, Module};
+pub use pipeline::launch::Launch;
+pub use pipeline::library::{LibraryOptions, PipelineLibrary};
+pub use pipeline::timing::LaunchTimer;
 pub use pipeline::{params_delivery, LinkOptions, Pipeline, Specialization};
-pub use program_group::{EntryName, HitGroupBuilder, ProgramGroup};
+pub use program_group::{EntryName, GroupKind, HitGroupBuilder, ProgramGroup};
 pub use raykit_device::layout::{BlockMember, BlockType, InterfaceSizes, LayoutError, ParamsBlock, ParamsDelivery};
 pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
 pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
-pub use timing::LaunchTimer;
 
 pub use ash;
 pub use glam;

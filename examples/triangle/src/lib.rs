@@ -1,5 +1,5 @@
-//! optixTriangle on raykit: the host half. [`render`] sets up the scene of the
-//! seed (one triangle, camera at `(0, 0, 2)` looking at the origin, 45° vertical
+//! optixTriangle on raykit: the host half. [`render`] sets up the scene of
+//! OptiX's optixTriangle sample (one triangle, camera at `(0, 0, 2)` looking at the origin, 45° vertical
 //! field of view), launches, and returns RGBA8 pixels. The device half, and the
 //! types both halves share, are in the `triangle-device` crate.
 
@@ -7,10 +7,10 @@ use raykit::glam::{UVec2, Vec3};
 use raykit::{Context, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt};
 use triangle_device::{MissData, Params};
 
-/// The triangle's vertices, as in the seed.
+/// The triangle's vertices, as in optixTriangle.
 pub const VERTICES: [Vec3; 3] = [Vec3::new(-0.5, -0.5, 0.0), Vec3::new(0.5, -0.5, 0.0), Vec3::new(0.0, 0.5, 0.0)];
 
-/// The miss program's background colour, as in the seed.
+/// The miss program's background colour, as in optixTriangle.
 pub const BG_COLOR: Vec3 = Vec3::new(0.3, 0.1, 0.2);
 
 /// A pinhole camera (sutil's `Camera`).

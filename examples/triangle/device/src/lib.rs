@@ -12,7 +12,7 @@ use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
 use raykit_device::math::powf;
 use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, RayType, Raygen, Traversable};
 
-/// Launch params, as in the seed's `Params`: output image, its size, the camera
+/// Launch params, as in optixTriangle's `Params`: output image, its size, the camera
 /// basis (`cam_u`, `cam_v`, `cam_w` scaled to the image plane) and the scene.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
