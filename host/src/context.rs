@@ -114,7 +114,7 @@ pub(crate) struct ContextInner {
     /// Whether `VK_KHR_pipeline_library` is enabled (see [`crate::PipelineLibrary`]).
     pub(crate) pipeline_library: bool,
     /// Whether the driver is lavapipe (Mesa's CPU driver), whose workarounds
-    /// raykit applies (see `crate::library`).
+    /// raykit applies (see [`crate::pipeline::library`]).
     pub(crate) lavapipe: bool,
     device_name: String,
     /// The compile cache every pipeline creation goes through.

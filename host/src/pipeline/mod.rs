@@ -377,6 +377,17 @@ impl<P: LaunchParams> Pipeline<P> {
     }
 }
 
+// Stack sizes exist only once a group is linked, so the pipeline module adds this
+// query to program groups (which know nothing of pipelines).
+impl ProgramGroup {
+    /// This group's stack sizes in `pipeline`, as the driver reports them (OptiX's
+    /// `optixProgramGroupGetStackSize`; Vulkan knows them once the group is linked):
+    /// [`Pipeline::group_stack_sizes`].
+    pub fn stack_sizes<P: LaunchParams>(&self, pipeline: &Pipeline<P>) -> Result<GroupStackSizes> {
+        pipeline.group_stack_sizes(self)
+    }
+}
+
 impl<P: LaunchParams> fmt::Debug for Pipeline<P> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let inner = &self.inner;

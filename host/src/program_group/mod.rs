@@ -186,16 +186,6 @@ impl ProgramGroup {
         HitGroupBuilder { module, closest_hit: None, any_hit: None, intersection: None, error: None }
     }
 
-    /// This group's stack sizes in `pipeline`, as the driver reports them (OptiX's
-    /// `optixProgramGroupGetStackSize`; Vulkan knows them once the group is linked):
-    /// [`crate::Pipeline::group_stack_sizes`].
-    pub fn stack_sizes<P: raykit_device::LaunchParams>(
-        &self,
-        pipeline: &crate::Pipeline<P>,
-    ) -> Result<crate::stack::GroupStackSizes> {
-        pipeline.group_stack_sizes(self)
-    }
-
     /// The group's kind.
     pub fn kind(&self) -> GroupKind {
         self.programs.kind()
