@@ -20,9 +20,7 @@
 //! places at the end of the SBT's callable region. Vulkan forbids calls from
 //! any-hit and intersection programs, so their exceptions are only recorded.
 
-/// Specialization-constant ID carrying the exception buffer's slot in the
-/// bindless table. Reserved by raykit.
-pub const EXCEPTION_SLOT_SPEC_ID: u32 = 0x7261_0000;
+pub use raykit_abi::EXCEPTION_SLOT_SPEC_ID;
 
 /// How many exceptions a launch records (later ones are counted, not stored).
 pub const EXCEPTION_CAPACITY: u32 = 64;
@@ -51,13 +49,4 @@ pub struct ExceptionDetails {
     pub code: u32,
     /// The launch index of the invocation that threw it.
     pub launch_index: spirv_std::glam::UVec3,
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn the_macros_use_the_reserved_spec_id() {
-        // `#[raygen]` & co. write the ID as a literal (attributes need one).
-        assert_eq!(super::EXCEPTION_SLOT_SPEC_ID, 1_918_959_616);
-    }
 }

@@ -34,21 +34,20 @@
 pub mod entry;
 pub mod exception;
 pub mod handles;
-#[cfg(not(target_arch = "spirv"))]
-pub mod layout;
 pub mod math;
 pub mod params;
 pub mod ray;
 pub mod stage;
 
 pub use bytemuck;
-pub use entry::{EntryPoint, ProgramKind};
+pub use entry::{EntryPoint, ProgramKind, ProgramPrefix};
 pub use handles::{Buffer, Element, Traversable};
 pub use params::{
     uses_push_constants, DeviceField, FieldLayout, LaunchParams, ParamsLayout, Shape, PARAMS_BINDING, PARAMS_SET,
     PUSH_CONSTANT_BUDGET,
 };
 pub use ray::{Ray, RayFlags, RayType};
+pub use raykit_abi as abi;
 pub use raykit_macros::{
     any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, LaunchParams,
 };
@@ -60,18 +59,18 @@ pub use stage::{
     HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE,
 };
 
-/// The bindless storage-buffer table every program sees at descriptor set 0,
-/// binding 0. [`Buffer`] handles in launch params index it. Part of raykit's ABI
+/// The bindless storage-buffer table every program sees at descriptor set
+/// [`BUFFER_TABLE_SET`], binding [`BUFFER_TABLE_BINDING`]. [`Buffer`] handles in launch params index it. Part of raykit's ABI
 /// with the host; user code never names it.
 pub type BufferTable = spirv_std::RuntimeArray<spirv_std::TypedBuffer<[u32]>>;
 
-/// Descriptor set and binding of [`BufferTable`].
-pub const BUFFER_TABLE_SET: u32 = 0;
-/// Binding of [`BufferTable`] in its set.
-pub const BUFFER_TABLE_BINDING: u32 = 0;
+pub use raykit_abi::{BUFFER_TABLE_BINDING, BUFFER_TABLE_SET};
 
 #[doc(hidden)]
 pub mod __private {
     //! Used by the code the macros generate; not a stable API.
+    /// The params layout check run by the tests `#[params]` programs generate (host only).
+    #[cfg(not(target_arch = "spirv"))]
+    pub use raykit_spirv;
     pub use spirv_std::spirv;
 }

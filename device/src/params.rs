@@ -20,56 +20,9 @@
 //! the struct, so device code (compiled once, before any device is known) and the
 //! host always agree; `#[params]` hides the choice from the program.
 
-/// One field of a launch-params struct.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub struct FieldLayout {
-    /// The field's name.
-    pub name: &'static str,
-    /// Its type, as written.
-    pub type_name: &'static str,
-    /// Byte offset from the struct's start.
-    pub offset: u32,
-    /// Size in bytes.
-    pub size: u32,
-    /// What kind of value it is, with its strides.
-    pub shape: Shape,
-}
-
-/// The shape of a params field, as far as its layout is concerned.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Shape {
-    /// A scalar, a vector or a handle: only offset and size matter.
-    Plain,
-    /// A matrix stored column by column, `column_stride` bytes apart.
-    Matrix {
-        /// Number of columns.
-        columns: u32,
-        /// Bytes from one column to the next (SPIR-V's `MatrixStride`).
-        column_stride: u32,
-    },
-    /// A fixed-size array.
-    Array {
-        /// Bytes from one element to the next (SPIR-V's `ArrayStride`).
-        stride: u32,
-        /// Number of elements.
-        len: u32,
-        /// The element's shape.
-        element: &'static Shape,
-    },
-    /// A nested struct, itself deriving `LaunchParams`.
-    Struct(&'static ParamsLayout),
-}
-
-/// The layout of a launch-params struct.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub struct ParamsLayout {
-    /// The struct's name.
-    pub name: &'static str,
-    /// `size_of` the struct.
-    pub size: u32,
-    /// Its fields, in declaration order.
-    pub fields: &'static [FieldLayout],
-}
+pub use raykit_abi::{
+    uses_push_constants, FieldLayout, ParamsLayout, Shape, PARAMS_BINDING, PARAMS_SET, PUSH_CONSTANT_BUDGET,
+};
 
 /// A struct that can be a pipeline's launch params. Derive it with
 /// `#[derive(LaunchParams)]`; implemented for `()` (no params).
@@ -86,22 +39,6 @@ pub trait LaunchParams: Copy + bytemuck::Pod {
 
 impl LaunchParams for () {
     const LAYOUT: ParamsLayout = ParamsLayout { name: "()", size: 0, fields: &[] };
-}
-
-/// Largest params struct delivered as push constants, in bytes: 128, the
-/// `maxPushConstantsSize` every Vulkan device guarantees. Larger structs go in a
-/// uniform buffer.
-pub const PUSH_CONSTANT_BUDGET: usize = 128;
-
-/// Descriptor set of the params uniform buffer (for params over
-/// [`PUSH_CONSTANT_BUDGET`]).
-pub const PARAMS_SET: u32 = 1;
-/// Binding of the params uniform buffer in [`PARAMS_SET`].
-pub const PARAMS_BINDING: u32 = 0;
-
-/// How params of type `P` reach the device: `true` for push constants.
-pub const fn uses_push_constants<P>() -> bool {
-    core::mem::size_of::<P>() <= PUSH_CONSTANT_BUDGET
 }
 
 /// A type that may be a field of launch params (or of SBT record data): its

@@ -6,7 +6,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use raykit::device::layout::{check, ParamsDelivery};
+use raykit::spirv::{check, ParamsDelivery};
 use raykit::device::LaunchParams;
 
 fuzz_target!(|data: &[u8]| {

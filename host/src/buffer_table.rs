@@ -48,7 +48,7 @@ impl BufferTable {
             .max(1);
 
         let bindings = [vk::DescriptorSetLayoutBinding::default()
-            .binding(0)
+            .binding(raykit_abi::BUFFER_TABLE_BINDING)
             .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
             .descriptor_count(capacity)
             .stage_flags(RT_STAGES)];
@@ -100,7 +100,7 @@ impl BufferTable {
         let info = [vk::DescriptorBufferInfo { buffer, offset: 0, range: vk::WHOLE_SIZE }];
         let write = vk::WriteDescriptorSet::default()
             .dst_set(self.set)
-            .dst_binding(0)
+            .dst_binding(raykit_abi::BUFFER_TABLE_BINDING)
             .dst_array_element(slot)
             .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
             .buffer_info(&info);

@@ -386,7 +386,7 @@ pub enum Error {
     /// A program's params block differs from the host's launch-params struct, or
     /// the program reads its params another way than raykit delivers them.
     #[error(transparent)]
-    ParamsLayout(Box<raykit_device::layout::LayoutError>),
+    ParamsLayout(Box<raykit_spirv::LayoutError>),
 
     /// Reading or writing the compile cache file failed.
     #[error("pipeline cache file {path}: {source}; set ContextOptions::pipeline_cache (or RAYKIT_PIPELINE_CACHE) to a writable directory, or turn the cache off")]
@@ -549,10 +549,10 @@ pub enum Error {
     CompactionNotAllowed,
 }
 
-impl From<raykit_device::layout::LayoutError> for Error {
-    fn from(e: raykit_device::layout::LayoutError) -> Self {
+impl From<raykit_spirv::LayoutError> for Error {
+    fn from(e: raykit_spirv::LayoutError) -> Self {
         match e {
-            raykit_device::layout::LayoutError::InvalidSpirv(reason) => Error::InvalidSpirv { reason },
+            raykit_spirv::LayoutError::InvalidSpirv(reason) => Error::InvalidSpirv { reason },
             other => Error::ParamsLayout(Box::new(other)),
         }
     }

@@ -30,7 +30,7 @@ pub use pipeline::library::{LibraryOptions, PipelineLibrary};
 pub use pipeline::timing::LaunchTimer;
 pub use pipeline::{params_delivery, LinkOptions, Pipeline, Specialization};
 pub use program_group::{EntryName, GroupKind, HitGroupBuilder, ProgramGroup};
-pub use raykit_device::layout::{BlockMember, BlockType, InterfaceSizes, LayoutError, ParamsBlock, ParamsDelivery};
+pub use raykit_spirv::{BlockMember, BlockType, InterfaceSizes, LayoutError, ParamsBlock, ParamsDelivery};
 pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
 pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
 
@@ -38,6 +38,8 @@ pub use ash;
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
 pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, Traversable};
+/// raykit's SPIR-V reflection and params layout check, for build tooling and tests.
+pub use raykit_spirv as spirv;
 
 /// Host objects are `Send + Sync`: each may be shared by threads, with the external
 /// synchronisation Vulkan requires (queue, command pool, allocator, descriptor

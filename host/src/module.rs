@@ -11,14 +11,13 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use ash::vk;
+use raykit_abi::ProgramPrefix;
 use raykit_device::ProgramKind;
-use rspirv::spirv::ExecutionModel;
+use rspirv::spirv::{ExecutionModel, Op, MAGIC_NUMBER as SPIRV_MAGIC};
 
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use raykit_device::layout::{InterfaceSizes, ParamsBlock};
-
-const SPIRV_MAGIC: u32 = 0x0723_0203;
+use raykit_spirv::{InterfaceSizes, ParamsBlock};
 
 /// One entry point of a module.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -52,16 +51,14 @@ pub(crate) struct ModuleInner {
     pub(crate) log: Vec<crate::log::ValidationMessage>,
 }
 
+/// The program kind of a ray-tracing execution model; `None` for other stages.
 fn kind_of(model: ExecutionModel) -> Option<ProgramKind> {
-    match model {
-        ExecutionModel::RayGenerationKHR => Some(ProgramKind::Raygen),
-        ExecutionModel::MissKHR => Some(ProgramKind::Miss),
-        ExecutionModel::ClosestHitKHR => Some(ProgramKind::ClosestHit),
-        ExecutionModel::AnyHitKHR => Some(ProgramKind::AnyHit),
-        ExecutionModel::IntersectionKHR => Some(ProgramKind::Intersection),
-        ExecutionModel::CallableKHR => Some(ProgramKind::Callable),
-        _ => None,
-    }
+    raykit_abi::ExecutionModel::from_u32(model as u32).map(raykit_abi::ExecutionModel::kind)
+}
+
+/// The opcode of an instruction, from its first word (`None` for opcodes rspirv does not know).
+fn opcode(first_word: u32) -> Option<Op> {
+    Op::from_u32(first_word & 0xffff)
 }
 
 /// Turns bytes into SPIR-V words, checking size and magic number.
@@ -85,10 +82,6 @@ pub(crate) fn words_of(bytes: &[u8]) -> Result<Vec<u32>> {
     Ok(words)
 }
 
-const OP_ENTRY_POINT: u32 = 15;
-const OP_FUNCTION: u32 = 54;
-const OP_FUNCTION_END: u32 = 56;
-
 /// Checks the module's structure before anything else reads it: instructions that
 /// fit in the module, the ID bound, functions that are closed, and entry points
 /// that name defined functions. This catches truncated and many corrupted modules,
@@ -109,20 +102,20 @@ fn check_structure(words: &[u32]) -> Result<()> {
     let mut at = 5;
     while at < words.len() {
         let word_count = (words[at] >> 16) as usize;
-        let opcode = words[at] & 0xffff;
+        let raw_opcode = words[at] & 0xffff;
         if word_count == 0 || at + word_count > words.len() {
             return invalid(format!(
-                "instruction at word {at} (opcode {opcode}) claims {word_count} words but the module ends at word {} — truncated?",
+                "instruction at word {at} (opcode {raw_opcode}) claims {word_count} words but the module ends at word {} — truncated?",
                 words.len()
             ));
         }
         let operand = |i: usize| if i < word_count { Some(words[at + i]) } else { None };
-        match opcode {
-            OP_ENTRY_POINT => match operand(2) {
+        match opcode(words[at]) {
+            Some(Op::EntryPoint) => match operand(2) {
                 Some(id) => entry_functions.push(id),
                 None => return invalid(format!("OpEntryPoint at word {at} is too short")),
             },
-            OP_FUNCTION => {
+            Some(Op::Function) => {
                 if open_function.is_some() {
                     return invalid(format!("OpFunction at word {at} inside another function"));
                 }
@@ -134,7 +127,7 @@ fn check_structure(words: &[u32]) -> Result<()> {
                 }
                 open_function = Some(at);
             }
-            OP_FUNCTION_END if open_function.take().is_none() => {
+            Some(Op::FunctionEnd) if open_function.take().is_none() => {
                 return invalid(format!("OpFunctionEnd at word {at} without OpFunction"));
             }
             _ => {}
@@ -156,22 +149,17 @@ fn check_structure(words: &[u32]) -> Result<()> {
 /// operands become errors).
 fn parse(words: &[u32]) -> Result<rspirv::dr::Module> {
     check_structure(words)?;
-    let module = raykit_device::layout::parse(&reflection_words(words)?)?;
+    let module = raykit_spirv::parse(&reflection_words(words)?)?;
     check_ids(&module, words[3])?;
     Ok(module)
 }
-
-const OP_EXTENSION: u32 = 10;
-const OP_EXT_INST_IMPORT: u32 = 11;
-const OP_EXT_INST: u32 = 12;
-const OP_SPEC_CONSTANT_OP: u32 = 52;
 
 /// Whether a structurally checked module declares `OpExtension name`.
 fn declares_extension(words: &[u32], name: &str) -> bool {
     let mut at = 5;
     while let Some(&first) = words.get(at) {
         let word_count = (first >> 16) as usize;
-        if first & 0xffff == OP_EXTENSION {
+        if opcode(first) == Some(Op::Extension) {
             let bytes: Vec<u8> =
                 words.get(at + 1..at + word_count).unwrap_or(&[]).iter().flat_map(|w| w.to_le_bytes()).collect();
             if bytes.split(|&b| b == 0).next() == Some(name.as_bytes()) {
@@ -205,7 +193,7 @@ fn reflection_words(words: &[u32]) -> Result<Vec<u32>> {
     };
     let mut debug_sets = std::collections::HashSet::new();
     for (_, inst) in instructions() {
-        if inst[0] & 0xffff == OP_EXT_INST_IMPORT && inst.len() >= 3 {
+        if opcode(inst[0]) == Some(Op::ExtInstImport) && inst.len() >= 3 {
             let name: Vec<u8> = inst[2..].iter().flat_map(|w| w.to_le_bytes()).take_while(|&b| b != 0).collect();
             let name = String::from_utf8_lossy(&name);
             if name.starts_with("NonSemantic.") || name == "DebugInfo" || name == "OpenCL.DebugInfo.100" {
@@ -215,9 +203,9 @@ fn reflection_words(words: &[u32]) -> Result<Vec<u32>> {
     }
     let mut kept = words[..5].to_vec();
     for (at, inst) in instructions() {
-        match inst[0] & 0xffff {
-            OP_EXT_INST if inst.len() >= 4 && debug_sets.contains(&inst[3]) => continue,
-            OP_SPEC_CONSTANT_OP if inst.len() >= 4 => {
+        match opcode(inst[0]) {
+            Some(Op::ExtInst) if inst.len() >= 4 && debug_sets.contains(&inst[3]) => continue,
+            Some(Op::SpecConstantOp) if inst.len() >= 4 => {
                 let computed = rspirv::grammar::INSTRUCTION_TABLE.lookup_opcode(inst[3]);
                 let holdable = computed.is_none_or(|g| {
                     !g.operands.iter().any(|o| {
@@ -283,8 +271,8 @@ fn check_ids(module: &rspirv::dr::Module, bound: u32) -> Result<()> {
 pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
     let words = words_of(bytes)?;
     let module = parse(&words)?;
-    let mut params = raykit_device::layout::reflect_params(&module)?;
-    let mut interfaces = raykit_device::layout::reflect_interface_sizes(&module)?;
+    let mut params = raykit_spirv::reflect_params(&module)?;
+    let mut interfaces = raykit_spirv::reflect_interface_sizes(&module)?;
     let mut entries = Vec::new();
     for inst in &module.entry_points {
         let (Some(rspirv::dr::Operand::ExecutionModel(model)), Some(rspirv::dr::Operand::LiteralString(name))) =
@@ -296,7 +284,9 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
             name: name.clone(),
             // A callable named `__exception__…` is an exception program.
             kind: match kind_of(*model) {
-                Some(ProgramKind::Callable) if name.starts_with("__exception__") => Some(ProgramKind::Exception),
+                Some(ProgramKind::Callable) if ProgramPrefix::of(name) == Some(ProgramPrefix::Exception) => {
+                    Some(ProgramKind::Exception)
+                }
                 other => other,
             },
             execution_model: format!("{model:?}"),
@@ -407,6 +397,31 @@ impl Drop for ModuleInner {
 mod tests {
     use super::*;
 
+    const OP_ENTRY_POINT: u32 = Op::EntryPoint as u32;
+    const OP_FUNCTION: u32 = Op::Function as u32;
+    const OP_FUNCTION_END: u32 = Op::FunctionEnd as u32;
+    const OP_SPEC_CONSTANT_OP: u32 = Op::SpecConstantOp as u32;
+
+    /// raykit-abi types its numbers in (it has no dependencies): they must be
+    /// rspirv's execution models and ash's shader stages.
+    #[test]
+    fn the_abi_numbers_are_spirv_and_vulkan_ones() {
+        use raykit_abi::ExecutionModel as Abi;
+        for (abi, spirv, stage) in [
+            (Abi::RayGeneration, ExecutionModel::RayGenerationKHR, vk::ShaderStageFlags::RAYGEN_KHR),
+            (Abi::Intersection, ExecutionModel::IntersectionKHR, vk::ShaderStageFlags::INTERSECTION_KHR),
+            (Abi::AnyHit, ExecutionModel::AnyHitKHR, vk::ShaderStageFlags::ANY_HIT_KHR),
+            (Abi::ClosestHit, ExecutionModel::ClosestHitKHR, vk::ShaderStageFlags::CLOSEST_HIT_KHR),
+            (Abi::Miss, ExecutionModel::MissKHR, vk::ShaderStageFlags::MISS_KHR),
+            (Abi::Callable, ExecutionModel::CallableKHR, vk::ShaderStageFlags::CALLABLE_KHR),
+        ] {
+            assert_eq!(abi.to_u32(), spirv as u32, "{abi:?}");
+            assert_eq!(vk::ShaderStageFlags::from_raw(abi.vulkan_stage()), stage, "{abi:?}");
+            assert_eq!(kind_of(spirv), Some(abi.kind()));
+        }
+        assert_eq!(kind_of(ExecutionModel::GLCompute), None);
+    }
+
     #[test]
     fn rejects_bytes_that_are_not_spirv() {
         assert!(matches!(reflect_entry_points(b"hello"), Err(Error::InvalidSpirv { .. })));
@@ -420,7 +435,13 @@ mod tests {
     fn tiny_module(with_function: bool) -> Vec<u32> {
         let mut w = vec![SPIRV_MAGIC, 0x0001_0400, 0, 10, 0];
         // OpEntryPoint: 4 words + "main\0" (2 words).
-        w.extend([(5 << 16) | OP_ENTRY_POINT, 5313, 1, u32::from_le_bytes(*b"main"), 0]);
+        w.extend([
+            (5 << 16) | OP_ENTRY_POINT,
+            ExecutionModel::RayGenerationKHR as u32,
+            1,
+            u32::from_le_bytes(*b"main"),
+            0,
+        ]);
         if with_function {
             w.extend([(5 << 16) | OP_FUNCTION, 2, 1, 0, 3, (1 << 16) | OP_FUNCTION_END]);
         }
@@ -431,7 +452,8 @@ mod tests {
     /// `%1 = OpTypeInt 32 0`, then `extra`.
     fn module_with(extra: &[u32]) -> Vec<u8> {
         let mut w = vec![SPIRV_MAGIC, 0x0001_0400, 0, 10, 0];
-        w.extend([(2 << 16) | 17, 1, (3 << 16) | 14, 0, 1, (4 << 16) | 21, 1, 32, 0]);
+        let (capability, memory_model, type_int) = (Op::Capability as u32, Op::MemoryModel as u32, Op::TypeInt as u32);
+        w.extend([(2 << 16) | capability, 1, (3 << 16) | memory_model, 0, 1, (4 << 16) | type_int, 1, 32, 0]);
         w.extend(extra);
         w.iter().flat_map(|w| w.to_le_bytes()).collect()
     }
@@ -444,8 +466,8 @@ mod tests {
         let err = reflect_entry_points(&bytes).map(|_| ()).unwrap_err().to_string();
         assert!(err.contains("OpSpecConstantOp at word 14 computes opcode 52"), "{err}");
         // A computable one parses.
-        let iadd = 128;
-        let ok = module_with(&[(4 << 16) | 43, 1, 3, 7, (6 << 16) | OP_SPEC_CONSTANT_OP, 1, 2, iadd, 3, 3]);
+        let (iadd, constant) = (Op::IAdd as u32, Op::Constant as u32);
+        let ok = module_with(&[(4 << 16) | constant, 1, 3, 7, (6 << 16) | OP_SPEC_CONSTANT_OP, 1, 2, iadd, 3, 3]);
         assert!(reflect_entry_points(&ok).is_ok(), "{:?}", reflect_entry_points(&ok).err());
     }
 

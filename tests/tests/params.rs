@@ -282,7 +282,7 @@ fn the_build_time_check_gives_the_link_time_message() -> anyhow::Result<()> {
         // What `cargo xtask build-shaders` runs for each `#[params]` program (the
         // test `#[raygen]` generates), on a program that opted out of it.
         let path = raykit::spirv_path("params-device");
-        let build_time = raykit::device::layout::check_file(
+        let build_time = raykit::spirv::check_file(
             &path,
             params_device::RG_TARGET_DEPENDENT.name,
             &TargetDependent::LAYOUT,

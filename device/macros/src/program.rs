@@ -2,8 +2,14 @@
 
 use proc_macro2::{Span, TokenStream};
 use quote::{format_ident, quote, quote_spanned};
+use raykit_abi::ProgramPrefix;
 use syn::spanned::Spanned;
 use syn::{FnArg, Ident, ItemFn, Pat, Type};
+
+/// An ABI number as an unsuffixed literal, as `#[spirv(...)]` attributes need.
+fn unsuffixed(value: u32) -> proc_macro2::Literal {
+    proc_macro2::Literal::u32_unsuffixed(value)
+}
 
 /// The program kinds these macros handle.
 #[derive(Copy, Clone, PartialEq, Eq)]
@@ -19,16 +25,17 @@ pub enum Stage {
 }
 
 impl Stage {
-    fn prefix(self) -> &'static str {
+    /// The OptiX prefix of its entry point, which also gives its kind and stage.
+    fn prefix(self) -> ProgramPrefix {
         match self {
-            Stage::Raygen => "__raygen__",
-            Stage::Miss => "__miss__",
-            Stage::ClosestHit => "__closesthit__",
-            Stage::AnyHit => "__anyhit__",
-            Stage::Intersection => "__intersection__",
-            Stage::DirectCallable => "__direct_callable__",
-            Stage::ContinuationCallable => "__continuation_callable__",
-            Stage::Exception => "__exception__",
+            Stage::Raygen => ProgramPrefix::Raygen,
+            Stage::Miss => ProgramPrefix::Miss,
+            Stage::ClosestHit => ProgramPrefix::ClosestHit,
+            Stage::AnyHit => ProgramPrefix::AnyHit,
+            Stage::Intersection => ProgramPrefix::Intersection,
+            Stage::DirectCallable => ProgramPrefix::DirectCallable,
+            Stage::ContinuationCallable => ProgramPrefix::ContinuationCallable,
+            Stage::Exception => ProgramPrefix::Exception,
         }
     }
     fn macro_name(self) -> &'static str {
@@ -43,27 +50,14 @@ impl Stage {
             Stage::Exception => "exception",
         }
     }
+    /// rust-gpu's execution-model attribute (`ray_generation`, `closest_hit`, …).
     fn spirv_execution_model(self) -> Ident {
-        let name = match self {
-            Stage::Raygen => "ray_generation",
-            Stage::Miss => "miss",
-            Stage::ClosestHit => "closest_hit",
-            Stage::AnyHit => "any_hit",
-            Stage::Intersection => "intersection",
-            Stage::DirectCallable | Stage::ContinuationCallable | Stage::Exception => "callable",
-        };
-        Ident::new(name, Span::call_site())
+        Ident::new(self.prefix().kind().execution_model().rust_gpu_attribute(), Span::call_site())
     }
+    /// `::raykit_device::ProgramKind::<kind>`.
     fn kind(self) -> TokenStream {
-        match self {
-            Stage::Raygen => quote!(::raykit_device::ProgramKind::Raygen),
-            Stage::Miss => quote!(::raykit_device::ProgramKind::Miss),
-            Stage::ClosestHit => quote!(::raykit_device::ProgramKind::ClosestHit),
-            Stage::AnyHit => quote!(::raykit_device::ProgramKind::AnyHit),
-            Stage::Intersection => quote!(::raykit_device::ProgramKind::Intersection),
-            Stage::DirectCallable | Stage::ContinuationCallable => quote!(::raykit_device::ProgramKind::Callable),
-            Stage::Exception => quote!(::raykit_device::ProgramKind::Exception),
-        }
+        let kind = Ident::new(&format!("{:?}", self.prefix().kind()), Span::call_site());
+        quote!(::raykit_device::ProgramKind::#kind)
     }
     fn context_type(self) -> &'static str {
         match self {
@@ -195,9 +189,11 @@ fn parse_spec_constant(attr: &syn::Attribute) -> syn::Result<(u32, u32)> {
         }
     })?;
     let id = id.ok_or_else(|| syn::Error::new(attr.span(), "#[spec_constant] needs `id = N`"))?;
-    // raykit_device::exception::EXCEPTION_SLOT_SPEC_ID
-    if id == 0x7261_0000 {
-        return Err(syn::Error::new(attr.span(), "specialization constant ID 0x72610000 is reserved by raykit"));
+    if raykit_abi::is_reserved_spec_id(id) {
+        return Err(syn::Error::new(
+            attr.span(),
+            format!("specialization constant ID {id:#010x} is reserved by raykit"),
+        ));
     }
     Ok((id, default))
 }
@@ -369,7 +365,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
     let params = parse_params(stage, &mut func)?;
 
     let fn_name = func.sig.ident.clone();
-    let entry_name = format!("{}{}", stage.prefix(), fn_name);
+    let entry_name = format!("{}{}", stage.prefix().as_str(), fn_name);
     let entry_const = format_ident!("{}", fn_name.to_string().to_uppercase(), span = fn_name.span());
     let wrapper = format_ident!("{}", entry_name);
     let kind = stage.kind();
@@ -475,8 +471,9 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 let pc = format_ident!("__{}_push_constants", name);
                 let ubo = format_ident!("__{}_uniform", name);
                 wrapper_params.push(quote! { #[spirv(push_constant)] #pc: &#ty });
+                let (set, binding) = (unsuffixed(raykit_abi::PARAMS_SET), unsuffixed(raykit_abi::PARAMS_BINDING));
                 wrapper_params.push(quote! {
-                    #[spirv(uniform, descriptor_set = 1, binding = 0)] #ubo: &#ty
+                    #[spirv(uniform, descriptor_set = #set, binding = #binding)] #ubo: &#ty
                 });
                 // rust-gpu gives every pointer one storage class, so the program
                 // is called from two branches, and the constant condition leaves
@@ -500,11 +497,11 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                         #[test]
                         #[allow(non_snake_case)]
                         fn #test_name() {
-                            let path = ::raykit_device::layout::built_spirv_path(
+                            let path = ::raykit_device::__private::raykit_spirv::built_spirv_path(
                                 env!("CARGO_MANIFEST_DIR"),
                                 env!("CARGO_PKG_NAME"),
                             );
-                            if let Err(e) = ::raykit_device::layout::check_file(
+                            if let Err(e) = ::raykit_device::__private::raykit_spirv::check_file(
                                 &path,
                                 #entry_name,
                                 &<#ty as ::raykit_device::LaunchParams>::LAYOUT,
@@ -527,8 +524,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 call_args.push(quote!(::core::ops::Deref::deref(#name)));
             }
             Role::SpecConstant { id, default } => {
-                let id = proc_macro2::Literal::u32_unsuffixed(*id);
-                let default = proc_macro2::Literal::u32_unsuffixed(*default);
+                let (id, default) = (unsuffixed(*id), unsuffixed(*default));
                 wrapper_params.push(quote! { #[spirv(spec_constant(id = #id, default = #default))] #name: u32 });
                 call_args.push(quote!(#name));
             }
@@ -604,6 +600,9 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
     };
 
     let doc = format!("The entry point `{entry_name}` (a {} program), for the host.", stage.context_type());
+    let (table_set, table_binding) =
+        (unsuffixed(raykit_abi::BUFFER_TABLE_SET), unsuffixed(raykit_abi::BUFFER_TABLE_BINDING));
+    let exception_slot_id = unsuffixed(raykit_abi::EXCEPTION_SLOT_SPEC_ID);
     Ok(quote! {
         #func
 
@@ -620,9 +619,10 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
         #[::raykit_device::__private::spirv(#model(entry_point_name = #entry_name))]
         pub fn #wrapper(
             #builtin_params
-            #[spirv(descriptor_set = 0, binding = 0, storage_buffer)] __buffers: &mut ::raykit_device::BufferTable,
+            #[spirv(descriptor_set = #table_set, binding = #table_binding, storage_buffer)]
+            __buffers: &mut ::raykit_device::BufferTable,
             // The exception buffer's slot (`raykit_device::exception::EXCEPTION_SLOT_SPEC_ID`).
-            #[spirv(spec_constant(id = 1918959616, default = 0))] __exception_slot: u32,
+            #[spirv(spec_constant(id = #exception_slot_id, default = 0))] __exception_slot: u32,
             #exception_call_param
             #(#wrapper_params,)*
         ) {

@@ -34,7 +34,7 @@ impl<'a> ClosestHit<'a> {
     /// Throws user exception `code` (OptiX's `optixThrowException`): the launch
     /// returns it to the host with this launch index, and the pipeline's
     /// `#[exception]` program, if any, runs now. The program goes on: return
-    /// after it (see [`crate::exception`]).
+    /// after it (see [`crate::exception`](mod@crate::exception)).
     pub fn throw_exception(&mut self, code: u32) {
         super::throw_and_handle(self.buffers, self.exception_slot, self.hit.launch_index, code, self.exception_call)
     }

@@ -1,6 +1,6 @@
 //! The exception stage (`__exception__`): OptiX's exception program, run on
 //! Vulkan as a callable after a user exception is thrown (see
-//! [`crate::exception`]).
+//! [`crate::exception`](mod@crate::exception)).
 
 use spirv_std::glam::UVec3;
 

@@ -47,7 +47,7 @@ macro_rules! launch_accessors {
         /// Throws user exception `code` (OptiX's `optixThrowException`): the
         /// launch returns it to the host with this launch index, and the
         /// pipeline's `#[exception]` program, if any, runs now. The program goes
-        /// on: return after it (see [`crate::exception`]).
+        /// on: return after it (see [`crate::exception`](mod@crate::exception)).
         pub fn throw_exception(&mut self, code: u32) {
             super::throw_and_handle(self.buffers, self.exception_slot, self.launch_index, code, self.exception_call)
         }
@@ -88,7 +88,7 @@ fn execute_callable<T>(sbt_index: u32, data: &mut T) {
 }
 
 /// Records user exception `code` thrown at `launch_index` in the exception
-/// buffer at `slot` of the table (see [`crate::exception`]); returns the
+/// buffer at `slot` of the table (see [`crate::exception`](mod@crate::exception)); returns the
 /// exception program's callable index ([`crate::exception::NO_EXCEPTION_PROGRAM`]
 /// when the pipeline has none).
 #[allow(unused_variables)]

@@ -235,7 +235,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                     cmd,
                     vk::PipelineBindPoint::RAY_TRACING_KHR,
                     inner.layout.handle,
-                    0,
+                    raykit_abi::BUFFER_TABLE_SET,
                     &[ctx.buffer_table.set],
                     &[],
                 );

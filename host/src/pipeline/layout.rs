@@ -8,8 +8,8 @@
 use std::sync::Arc;
 
 use ash::vk;
-use raykit_device::layout::ParamsDelivery;
 use raykit_device::LaunchParams;
+use raykit_spirv::ParamsDelivery;
 
 use crate::buffer_table::RT_STAGES;
 use crate::context::ContextInner;

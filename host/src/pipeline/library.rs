@@ -17,15 +17,16 @@
 //! that it compiled itself (`lvp_compile_ray_tracing_stages` sets the push-constant
 //! size in its loop over `pStages`, not over the libraries' stages), so a pipeline
 //! linked only from libraries reads zeros. On lavapipe, raykit adds one empty
-//! raygen stage of its own to every linked pipeline; no group uses it.
+//! raygen stage of its own to every linked pipeline ([`raykit_spirv::empty_raygen`]);
+//! no group uses it.
 
 use std::fmt;
 use std::marker::PhantomData;
 use std::sync::Arc;
 
 use ash::vk;
-use raykit_device::layout::InterfaceSizes;
 use raykit_device::LaunchParams;
+use raykit_spirv::InterfaceSizes;
 
 use super::exceptions::ExceptionBuffer;
 use super::handle::PipelineHandle;
@@ -35,49 +36,9 @@ use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
 
-/// An empty raygen shader (`void main() {}`, SPIR-V 1.4) that a linked pipeline
+/// An empty raygen shader ([`raykit_spirv::empty_raygen`]) that a linked pipeline
 /// compiles itself on lavapipe, so that lavapipe gives the pipeline's programs
-/// their push constants (see the module docs). Assembled with `spirv-as
-/// --target-env spv1.4` and checked with `spirv-val --target-env vulkan1.2`.
-const EMPTY_RAYGEN: [u32; 35] = [
-    0x0723_0203,
-    0x0001_0400,
-    0,
-    5,
-    0, // header: magic, version 1.4, generator, bound, schema
-    0x0002_0011,
-    0x117f, // OpCapability RayTracingKHR
-    0x0006_000a,
-    0x5f56_5053,
-    0x5f52_484b,
-    0x5f79_6172,
-    0x6361_7274,
-    0x0067_6e69, // OpExtension "SPV_KHR_ray_tracing"
-    0x0003_000e,
-    0,
-    1, // OpMemoryModel Logical GLSL450
-    0x0005_000f,
-    0x14c1,
-    1,
-    0x6e69_616d,
-    0, // OpEntryPoint RayGenerationKHR %1 "main"
-    0x0002_0013,
-    2, // %2 = OpTypeVoid
-    0x0003_0021,
-    3,
-    2, // %3 = OpTypeFunction %2
-    0x0005_0036,
-    2,
-    1,
-    0,
-    3, // %1 = OpFunction %2 None %3
-    0x0002_00f8,
-    4,           // %4 = OpLabel
-    0x0001_00fd, // OpReturn
-    0x0001_0038, // OpFunctionEnd
-];
-
-/// The module of [`EMPTY_RAYGEN`], alive while a linked pipeline is created.
+/// their push constants (see the module docs); alive while the pipeline is created.
 pub(crate) struct PushConstantCarrier {
     ctx: Arc<ContextInner>,
     module: vk::ShaderModule,
@@ -85,8 +46,9 @@ pub(crate) struct PushConstantCarrier {
 
 impl PushConstantCarrier {
     pub(crate) fn new(ctx: &Arc<ContextInner>) -> Result<PushConstantCarrier> {
-        let info = vk::ShaderModuleCreateInfo::default().code(&EMPTY_RAYGEN);
-        // SAFETY: `EMPTY_RAYGEN` is valid SPIR-V (checked with spirv-val); the device is live.
+        let code = raykit_spirv::empty_raygen();
+        let info = vk::ShaderModuleCreateInfo::default().code(&code);
+        // SAFETY: `empty_raygen` is valid SPIR-V (checked with spirv-val); the device is live.
         let module =
             unsafe { ctx.device.create_shader_module(&info, None) }.map_err(Error::vk("vkCreateShaderModule"))?;
         Ok(PushConstantCarrier { ctx: ctx.clone(), module })
@@ -272,7 +234,7 @@ fn check_interface(groups: &[&ProgramGroup], interface: InterfaceSizes) -> Resul
 mod tests {
     #[test]
     fn the_empty_raygen_is_a_raygen_module() {
-        let bytes: Vec<u8> = super::EMPTY_RAYGEN.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let bytes: Vec<u8> = raykit_spirv::empty_raygen().iter().flat_map(|w| w.to_le_bytes()).collect();
         let entries = crate::module::reflect_entry_points(&bytes).map_err(|e| e.to_string());
         let entries = entries.as_deref().map(|e| e.iter().map(|e| (e.name.as_str(), e.kind)).collect::<Vec<_>>());
         assert_eq!(entries, Ok(vec![("main", Some(raykit_device::ProgramKind::Raygen))]));

@@ -4,7 +4,7 @@
 //! A [`Pipeline<P>`] is typed by its launch params `P` (a struct that derives
 //! `LaunchParams`), and [`Pipeline::launch`] takes a `&P`. Linking checks every
 //! program's params block in the SPIR-V against `P`'s layout (see
-//! [`raykit_device::layout`]), as OptiX requires every module of a pipeline to agree on
+//! [`raykit_spirv::layout`]), as OptiX requires every module of a pipeline to agree on
 //! its `PipelineCompileOptions`. `P` travels as push constants when it is at most
 //! [`PUSH_CONSTANT_BUDGET`](raykit_device::PUSH_CONSTANT_BUDGET) bytes, otherwise
 //! in a uniform buffer the pipeline owns (set 1, binding 0); `#[params]` in device
@@ -38,8 +38,8 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
 use ash::vk;
-use raykit_device::layout::{InterfaceSizes, ParamsDelivery};
 use raykit_device::LaunchParams;
+use raykit_spirv::{InterfaceSizes, ParamsDelivery};
 
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};

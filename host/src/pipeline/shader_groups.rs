@@ -7,8 +7,8 @@
 use std::sync::Arc;
 
 use ash::vk;
-use raykit_device::layout::ParamsDelivery;
 use raykit_device::{LaunchParams, ProgramKind};
+use raykit_spirv::ParamsDelivery;
 
 use super::layout::params_delivery;
 use crate::context::ContextInner;
@@ -33,9 +33,9 @@ impl Specialization {
     }
 
     /// Sets constant `id` to `value` (a later value for the same ID replaces it).
-    /// ID 0x72610000 is reserved by raykit and ignored here.
+    /// IDs reserved by raykit ([`RESERVED_SPEC_IDS`](raykit_abi::RESERVED_SPEC_IDS)) are ignored here.
     pub fn set(mut self, id: u32, value: u32) -> Self {
-        if id != raykit_device::exception::EXCEPTION_SLOT_SPEC_ID {
+        if !raykit_abi::is_reserved_spec_id(id) {
             self.values.retain(|(i, _)| *i != id);
             self.values.push((id, value));
         }
@@ -171,7 +171,7 @@ pub(crate) fn check_groups<P: LaunchParams>(
         for program in group.programs() {
             let Some(info) = program.entry_info() else { continue };
             if !info.params.is_empty() {
-                raykit_device::layout::check(&P::LAYOUT, &info.name, &info.params, delivery)?;
+                raykit_spirv::check(&P::LAYOUT, &info.name, &info.params, delivery)?;
             }
         }
     }
@@ -235,16 +235,11 @@ fn group_role(programs: &GroupPrograms) -> GroupRole {
         GroupPrograms::Miss(_) => GroupRole::Miss,
         GroupPrograms::Hit { .. } => GroupRole::Hit,
         GroupPrograms::Exception(_) => GroupRole::DirectCallable,
-        GroupPrograms::Callable(p) => {
-            let name = p.name.to_bytes();
-            if name.starts_with(b"__direct_callable__") {
-                GroupRole::DirectCallable
-            } else if name.starts_with(b"__continuation_callable__") {
-                GroupRole::ContinuationCallable
-            } else {
-                GroupRole::Callable
-            }
-        }
+        GroupPrograms::Callable(p) => match raykit_abi::ProgramPrefix::of_bytes(p.name.to_bytes()) {
+            Some(raykit_abi::ProgramPrefix::DirectCallable) => GroupRole::DirectCallable,
+            Some(raykit_abi::ProgramPrefix::ContinuationCallable) => GroupRole::ContinuationCallable,
+            _ => GroupRole::Callable,
+        },
     }
 }
 
@@ -277,13 +272,5 @@ fn query_group_stack_sizes(
 }
 
 fn stage_flag(kind: ProgramKind) -> vk::ShaderStageFlags {
-    use ProgramKind as K;
-    match kind {
-        K::Raygen => vk::ShaderStageFlags::RAYGEN_KHR,
-        K::Miss => vk::ShaderStageFlags::MISS_KHR,
-        K::ClosestHit => vk::ShaderStageFlags::CLOSEST_HIT_KHR,
-        K::AnyHit => vk::ShaderStageFlags::ANY_HIT_KHR,
-        K::Intersection => vk::ShaderStageFlags::INTERSECTION_KHR,
-        K::Callable | K::Exception => vk::ShaderStageFlags::CALLABLE_KHR,
-    }
+    vk::ShaderStageFlags::from_raw(kind.vulkan_stage())
 }

@@ -1,11 +1,10 @@
-//! Launch-params layouts: what the SPIR-V says, and the check against the host
-//! (host target only).
+//! Launch-params layouts: what the SPIR-V says, and the check against the host.
 //!
 //! OptiX leaves it to the user to keep the device's `Params` and the host's copy
 //! in sync ("take care that CUDA vector types have specific alignment
 //! requirements"). raykit reads the params block of every entry point from the
 //! SPIR-V — the push-constant block, or the uniform block at set
-//! [`PARAMS_SET`](raykit_device::PARAMS_SET) — with its member `Offset`,
+//! [`PARAMS_SET`] — with its member `Offset`,
 //! `ArrayStride` and `MatrixStride` decorations, and compares it with the layout
 //! that `#[derive(LaunchParams)]` recorded on the host. A difference is a
 //! [`LayoutError::Mismatch`] naming the struct, the field, both offsets and
@@ -21,7 +20,7 @@
 //! interface.
 //!
 //! The reader is rspirv's data representation (naga's SPIR-V front-end rejects
-//! the ray-tracing stages); rspirv is a host-only dependency of this crate.
+//! the ray-tracing stages).
 
 // Layout errors carry the names and offsets that make them actionable; they are
 // rare and built once, so their size does not matter.
@@ -32,7 +31,7 @@ use std::collections::HashMap;
 use rspirv::dr::{Instruction, Operand};
 use rspirv::spirv::{Decoration, Op, StorageClass};
 
-use crate::params::{ParamsLayout, Shape};
+use raykit_abi::{ParamsLayout, Shape, PARAMS_BINDING, PARAMS_SET, PUSH_CONSTANT_BUDGET};
 
 /// Why a params block and a host layout cannot be used together.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -84,9 +83,9 @@ impl std::fmt::Display for LayoutError {
                  {expected}: params of at most {budget} bytes go in push constants, larger ones in a uniform buffer \
                  at set {set}, binding {binding}. Use `#[params]` in Rust programs; in GLSL declare the block \
                  accordingly (`layout(push_constant)` or `layout(set = {set}, binding = {binding}, scalar) uniform`)",
-                budget = crate::PUSH_CONSTANT_BUDGET,
-                set = crate::PARAMS_SET,
-                binding = crate::PARAMS_BINDING,
+                budget = PUSH_CONSTANT_BUDGET,
+                set = PARAMS_SET,
+                binding = PARAMS_BINDING,
             ),
         }
     }
@@ -360,7 +359,7 @@ impl<'m> Index<'m> {
             StorageClass::Uniform => {
                 let set = self.decoration(var, Decoration::DescriptorSet).flatten().unwrap_or(0);
                 let binding = self.decoration(var, Decoration::Binding).flatten().unwrap_or(0);
-                if (set, binding) != (crate::PARAMS_SET, crate::PARAMS_BINDING) {
+                if (set, binding) != (PARAMS_SET, PARAMS_BINDING) {
                     return Ok(None);
                 }
                 ParamsDelivery::UniformBuffer { set, binding }
@@ -587,7 +586,7 @@ pub fn check_file(path: &std::path::Path, entry: &str, host: &ParamsLayout, push
     let expected = if push_constants {
         ParamsDelivery::PushConstants
     } else {
-        ParamsDelivery::UniformBuffer { set: crate::PARAMS_SET, binding: crate::PARAMS_BINDING }
+        ParamsDelivery::UniformBuffer { set: PARAMS_SET, binding: PARAMS_BINDING }
     };
     check(host, entry, blocks, expected)
 }
@@ -783,7 +782,7 @@ fn field_type(host: &ParamsLayout, path: &str) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::FieldLayout;
+    use raykit_abi::FieldLayout;
 
     const INNER: ParamsLayout = ParamsLayout {
         name: "Inner",
@@ -865,7 +864,7 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(err.contains("only 3 fields"), "{err}");
-        let ubo = ParamsDelivery::UniformBuffer { set: 1, binding: 0 };
+        let ubo = ParamsDelivery::UniformBuffer { set: PARAMS_SET, binding: PARAMS_BINDING };
         let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4), plain(16, 16)])], ubo).unwrap_err();
         assert!(matches!(err, LayoutError::Delivery { .. }), "{err}");
     }

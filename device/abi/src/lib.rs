@@ -1,0 +1,63 @@
+//! # raykit-abi
+//!
+//! What raykit's device programs and its host must agree on, named once: the
+//! program kinds (OptiX name prefix, Vulkan shader stage, SPIR-V execution model,
+//! shader-group role), the descriptor sets and bindings raykit reserves, the
+//! reserved specialization-constant IDs, and the description of a launch-params
+//! struct's layout.
+//!
+//! The attribute macros (`raykit-macros`), the device crate (`raykit-device`, also
+//! built for the SPIR-V target) and the host (`raykit`, `raykit-spirv`) all read
+//! these definitions, so they cannot drift apart. The crate is `no_std` and has no
+//! dependencies.
+#![no_std]
+#![deny(missing_docs)]
+
+pub mod params;
+pub mod program;
+
+pub use params::{uses_push_constants, FieldLayout, ParamsLayout, Shape, PUSH_CONSTANT_BUDGET};
+pub use program::{ExecutionModel, GroupRole, ProgramKind, ProgramPrefix};
+
+/// Descriptor set of the bindless storage-buffer table every program sees.
+pub const BUFFER_TABLE_SET: u32 = 0;
+/// Binding of the bindless storage-buffer table in [`BUFFER_TABLE_SET`].
+pub const BUFFER_TABLE_BINDING: u32 = 0;
+
+/// Descriptor set of the params uniform buffer (for params over
+/// [`PUSH_CONSTANT_BUDGET`] bytes).
+pub const PARAMS_SET: u32 = 1;
+/// Binding of the params uniform buffer in [`PARAMS_SET`].
+pub const PARAMS_BINDING: u32 = 0;
+
+/// Specialization-constant ID carrying the exception buffer's slot in the
+/// bindless table (`"ra"` in its two high bytes). Reserved: programs may not
+/// declare it, and the host sets it when it links a pipeline.
+pub const EXCEPTION_SLOT_SPEC_ID: u32 = 0x7261_0000;
+
+/// The specialization-constant IDs raykit reserves for itself.
+pub const RESERVED_SPEC_IDS: [u32; 1] = [EXCEPTION_SLOT_SPEC_ID];
+
+/// Whether `id` is a specialization-constant ID reserved by raykit.
+pub const fn is_reserved_spec_id(id: u32) -> bool {
+    let mut i = 0;
+    while i < RESERVED_SPEC_IDS.len() {
+        if RESERVED_SPEC_IDS[i] == id {
+            return true;
+        }
+        i += 1;
+    }
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exception_slot_id_is_reserved() {
+        assert_eq!(EXCEPTION_SLOT_SPEC_ID, 1_918_959_616);
+        assert!(is_reserved_spec_id(EXCEPTION_SLOT_SPEC_ID));
+        assert!(!is_reserved_spec_id(0));
+    }
+}

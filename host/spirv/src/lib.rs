@@ -1,0 +1,23 @@
+//! # raykit-spirv
+//!
+//! raykit's host-side SPIR-V tooling, on rspirv (naga's SPIR-V reader rejects the
+//! ray-tracing stages):
+//!
+//! * [`layout`]: each entry point's launch-params block (`Offset`, `ArrayStride`,
+//!   `MatrixStride` decorations) and ray-payload and hit-attribute sizes, and the
+//!   check of a params block against the layout `#[derive(LaunchParams)]`
+//!   recorded on the host;
+//! * [`generate`]: small modules raykit builds itself, such as an empty raygen.
+//!
+//! The runtime (`raykit`) uses it when it loads modules and links pipelines; build
+//! tooling uses it to check freshly built SPIR-V before anything runs.
+#![deny(missing_docs)]
+
+pub mod generate;
+pub mod layout;
+
+pub use generate::empty_raygen;
+pub use layout::{
+    built_spirv_path, check, check_file, parse, reflect_interface_sizes, reflect_params, BlockMember, BlockType,
+    InterfaceSizes, LayoutError, ParamsBlock, ParamsDelivery,
+};
