@@ -11,8 +11,13 @@
 //!   1×1 launch (overhead) and at the primary-ray size, wall clock.
 //! * Creation: raykit's `Module::new` (with reflection) + program groups +
 //!   `Pipeline::new` + `Sbt::build`, against `vkCreateShaderModule` +
-//!   `vkCreatePipelineLayout` + `vkCreateRayTracingPipelinesKHR` + group handles
-//!   + a host-visible SBT buffer written by hand, for the primary-ray programs.
+//!   `vkCreatePipelineLayout` + `vkCreateRayTracingPipelinesKHR` + group handles and
+//!   a host-visible SBT buffer written by hand, for the primary-ray programs.
+//!   Twice, so that a compile cache never sits on one side only: without a cache
+//!   (raykit in a fresh context with the disk cache off, so its in-memory
+//!   `VkPipelineCache` starts empty; ash with no `VkPipelineCache`), and with a warm
+//!   one (raykit's context cache; ash's own `VkPipelineCache`; each warmed by one
+//!   creation before the samples).
 
 use std::ffi::CStr;
 use std::time::Instant;
@@ -20,7 +25,7 @@ use std::time::Instant;
 use anyhow::Context as _;
 use raykit::ash::vk;
 use raykit::glam::Vec3;
-use raykit::Context;
+use raykit::{Context, ContextOptions, PipelineCacheLocation};
 use triangle_device::MissData;
 
 use crate::stats::Summary;
@@ -140,7 +145,7 @@ fn rt_stages() -> vk::ShaderStageFlags {
 
 /// Launch-path comparison at `1×1` and at `size`.
 pub fn launches(ctx: &Context, scene: &PrimaryScene, size: (u32, u32), reps: usize) -> anyhow::Result<Vec<Row>> {
-    let p = crate::trace::primary_pipeline(ctx, false)?;
+    let p = crate::trace::primary_pipeline(ctx, crate::trace::Language::Rust)?;
     let ash = AshLauncher::new(ctx)?;
     let params = bytemuck::bytes_of(&scene.params);
     anyhow::ensure!(p.pipeline.raw_push_constant_size() as usize == params.len(), "the params are not push constants");
@@ -190,9 +195,14 @@ fn memory_properties(ctx: &Context) -> anyhow::Result<vk::PhysicalDeviceMemoryPr
     anyhow::bail!("raykit's device is not among the instance's devices")
 }
 
-/// Creates and destroys the primary-ray pipeline and SBT by hand; returns the
-/// seconds from SPIR-V bytes to a written SBT.
-fn ash_create(ctx: &Context, spirv: &[u32], memory: &vk::PhysicalDeviceMemoryProperties) -> anyhow::Result<f64> {
+/// Creates and destroys the primary-ray pipeline and SBT by hand, through `cache`
+/// (null: no cache); returns the seconds from SPIR-V bytes to a written SBT.
+fn ash_create(
+    ctx: &Context,
+    spirv: &[u32],
+    memory: &vk::PhysicalDeviceMemoryProperties,
+    cache: vk::PipelineCache,
+) -> anyhow::Result<f64> {
     let d = ctx.raw_device();
     let limits = ctx.limits();
     let start = Instant::now();
@@ -239,7 +249,7 @@ fn ash_create(ctx: &Context, spirv: &[u32], memory: &vk::PhysicalDeviceMemoryPro
             .layout(layout);
         let pipeline = ctx
             .raw_ray_tracing()
-            .create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), vk::PipelineCache::null(), &[info], None)
+            .create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), cache, &[info], None)
             .map_err(|(_, e)| e)?[0];
         let handle_size = limits.shader_group_handle_size as usize;
         let handles = ctx.raw_ray_tracing().get_ray_tracing_shader_group_handles(pipeline, 0, 3, 3 * handle_size)?;
@@ -291,44 +301,91 @@ fn ash_create(ctx: &Context, spirv: &[u32], memory: &vk::PhysicalDeviceMemoryPro
     }
 }
 
-/// Pipeline + SBT creation, raykit against hand-written ash, interleaved.
-pub fn creation(ctx: &Context, reps: usize) -> anyhow::Result<Row> {
+/// raykit's `Module::new` + program groups + `Pipeline::new` + `Sbt::build` in
+/// `ctx`; the seconds it took.
+fn raykit_create(ctx: &Context, bytes: &[u8]) -> anyhow::Result<f64> {
+    let start = Instant::now();
+    let module = raykit::Module::new(ctx, bytes)?;
+    let raygen = raykit::ProgramGroup::raygen(&module, triangle_device::RG)?;
+    let miss = raykit::ProgramGroup::miss(&module, triangle_device::MS)?;
+    let hit = raykit::ProgramGroup::hit_group(&module).closest_hit(triangle_device::CH).build()?;
+    let pipeline = raykit::Pipeline::<triangle_device::Params>::new(
+        ctx,
+        &[&raygen, &miss, &hit],
+        raykit::LinkOptions { max_trace_depth: 1 },
+    )?;
+    let _sbt = raykit::Sbt::builder(&pipeline)
+        .raygen(&raygen, ())
+        .miss(&miss, MissData { bg_color: Vec3::new(0.3, 0.1, 0.2) })
+        .hit(&hit, ())
+        .build()?;
+    Ok(start.elapsed().as_secs_f64())
+}
+
+/// One raykit sample and one ash sample, in the order `rep` picks.
+fn pair(
+    rep: usize,
+    raykit: impl FnOnce() -> anyhow::Result<f64>,
+    ash: impl FnOnce() -> anyhow::Result<f64>,
+) -> anyhow::Result<(f64, f64)> {
+    Ok(if rep.is_multiple_of(2) {
+        let r = raykit()?;
+        (r, ash()?)
+    } else {
+        let a = ash()?;
+        (raykit()?, a)
+    })
+}
+
+/// Pipeline + SBT creation, raykit against hand-written ash, interleaved: one row
+/// without a compile cache on either side, one with a warm cache on both.
+pub fn creation(ctx: &Context, reps: usize) -> anyhow::Result<Vec<Row>> {
     let path = raykit::spirv_path("triangle-device");
     let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
     let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
     let memory = memory_properties(ctx)?;
-    let raykit_create = || -> anyhow::Result<f64> {
-        let start = Instant::now();
-        let module = raykit::Module::new(ctx, &bytes)?;
-        let raygen = raykit::ProgramGroup::raygen(&module, triangle_device::RG)?;
-        let miss = raykit::ProgramGroup::miss(&module, triangle_device::MS)?;
-        let hit = raykit::ProgramGroup::hit_group(&module).closest_hit(triangle_device::CH).build()?;
-        let pipeline = raykit::Pipeline::<triangle_device::Params>::new(
-            ctx,
-            &[&raygen, &miss, &hit],
-            raykit::LinkOptions { max_trace_depth: 1 },
-        )?;
-        let _sbt = raykit::Sbt::builder(&pipeline)
-            .raygen(&raygen, ())
-            .miss(&miss, MissData { bg_color: Vec3::new(0.3, 0.1, 0.2) })
-            .hit(&hit, ())
-            .build()?;
-        Ok(start.elapsed().as_secs_f64())
+
+    // No cache: raykit has no cache-less mode (every context owns a VkPipelineCache),
+    // so each pair gets a fresh context whose cache starts empty (disk cache off);
+    // ash passes no cache. Context creation is outside the timed part.
+    let fresh = || {
+        Context::new(ContextOptions {
+            validation: Some(false),
+            device_name_contains: Some(ctx.device_name().to_owned()),
+            pipeline_cache: PipelineCacheLocation::Off,
+            ..Default::default()
+        })
     };
-    raykit_create()?;
-    ash_create(ctx, &words, &memory)?;
-    let mut pairs = Vec::with_capacity(reps);
+    let mut cold = Vec::with_capacity(reps);
     for rep in 0..reps {
-        let pair = if rep % 2 == 0 {
-            let r = raykit_create()?;
-            (r, ash_create(ctx, &words, &memory)?)
-        } else {
-            let a = ash_create(ctx, &words, &memory)?;
-            (raykit_create()?, a)
-        };
-        pairs.push(pair);
+        let fresh = fresh()?;
+        let null = vk::PipelineCache::null();
+        cold.push(pair(rep, || raykit_create(&fresh, &bytes), || ash_create(&fresh, &words, &memory, null))?);
     }
-    Ok(summarise("pipeline + SBT creation (primary-ray programs, from SPIR-V bytes)".to_owned(), &pairs))
+
+    // Warm cache: raykit's context cache and an ash-owned cache, each warmed by one
+    // creation first.
+    let d = ctx.raw_device();
+    // SAFETY: valid create info; destroyed below after its last use.
+    let cache = unsafe { d.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }?;
+    let warm = (|| -> anyhow::Result<Vec<(f64, f64)>> {
+        raykit_create(ctx, &bytes)?;
+        ash_create(ctx, &words, &memory, cache)?;
+        let mut warm = Vec::with_capacity(reps);
+        for rep in 0..reps {
+            warm.push(pair(rep, || raykit_create(ctx, &bytes), || ash_create(ctx, &words, &memory, cache))?);
+        }
+        Ok(warm)
+    })();
+    // SAFETY: no pipeline creation uses the cache any more.
+    unsafe { d.destroy_pipeline_cache(cache, None) };
+    Ok(vec![
+        summarise(
+            "pipeline + SBT creation, no cache (raykit: fresh context, empty VkPipelineCache; ash: none)".to_owned(),
+            &cold,
+        ),
+        summarise("pipeline + SBT creation, warm cache (both: in-memory VkPipelineCache)".to_owned(), &warm?),
+    ])
 }
 
 /// The rows as a Markdown table.

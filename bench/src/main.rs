@@ -4,7 +4,7 @@
 //! against a hand-written ash build, and memory before/after compaction;
 //! `stack` — per-group stack sizes and each stack-size estimate, with the
 //! driver default, for the example and test pipelines (no timing);
-//! `primary` and `path` — Rust device programs against their GLSL twins (primary
+//! `primary` and `path` — Rust device programs against their GLSL and WGSL twins (primary
 //! rays on a ≥ 1M-triangle mesh, the path tracer); `launch` — raykit's launch
 //! path and pipeline + SBT creation against hand-written ash; `shaders` — SPIR-V
 //! sizes (and build times measured by `cargo xtask bench`). `pipeline` — pipeline creation with the compile

@@ -73,7 +73,7 @@ fn shadows(ctx: &Context) -> anyhow::Result<Row> {
         &[&rg, &ms, &ms_shadow, &shade, &shadow_hit],
         LinkOptions { max_trace_depth: 2 },
     )?;
-    // The OptiX guide's path tracer: css_rg + max(css_ms1, css_ch1 + max(css_ms2, css_ch2)).
+    // OptiX's path-tracer example: css_rg + max(css_ms1, css_ch1 + max(css_ms2, css_ch2)).
     let mut g = CallGraph::new(2);
     let (camera, shadow) = (g.ray_type(), g.ray_type());
     let n_rg = g.raygen(p.group_stack_sizes(&rg)?.general);

@@ -50,7 +50,7 @@ pub fn run(suite: &str, ctx: &Context, opts: &Options, out: &Path) -> anyhow::Re
         "launch" => {
             let scene = crate::trace::primary_scene(ctx, opts.triangles, opts.primary_size)?;
             let mut rows = crate::launch::launches(ctx, &scene, opts.primary_size, opts.reps)?;
-            rows.push(crate::launch::creation(ctx, opts.reps * 4)?);
+            rows.extend(crate::launch::creation(ctx, opts.reps * 4)?);
             (crate::launch::markdown(&rows), crate::launch::json(&rows))
         }
         "shaders" => crate::shaders::markdown(&crate::shaders::sizes()?, out),

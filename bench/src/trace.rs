@@ -1,13 +1,17 @@
-//! The tracing suites: Rust device programs against their GLSL twins, through
-//! the same host code, on the same acceleration structures, interleaved.
+//! The tracing suites: Rust device programs against their GLSL and WGSL twins,
+//! through the same host code, on the same acceleration structures, interleaved.
 //!
 //! * `primary`: one camera ray per pixel on a procedural height-field mesh
 //!   (`--triangles`, default 1,000,000) at `--primary-size` (default 1920x1080),
-//!   with optixTriangle's programs (`triangle-device`, and
-//!   `examples/triangle/glsl` through `spirv-opt -O`, in `bench/glsl/`).
-//! * `path`: the path tracer (`path-tracer-device` and
-//!   `examples/path_tracer/glsl`) on the Cornell box at `--path-size` (default
-//!   512) with `--spp` paths per pixel in one launch (default 1).
+//!   with optixTriangle's programs (`triangle-device`;
+//!   `examples/triangle/glsl` through `spirv-opt -O`, in `bench/glsl/`;
+//!   `examples/triangle/wgsl`, compiled by naga when the suite starts).
+//! * `path`: the path tracer (`path-tracer-device`, `examples/path_tracer/glsl`
+//!   and `examples/path_tracer/wgsl`) on the Cornell box at `--path-size`
+//!   (default 512) with `--spp` paths per pixel in one launch (default 1).
+//!
+//! The WGSL programs are naga's SPIR-V as raykit loads it (no `spirv-opt`), as a
+//! wgpu user would ship them.
 //!
 //! Time is the GPU time of `vkCmdTraceRaysKHR` from timestamps where the queue
 //! has them, else the wall time of the whole launch (submission and wait
@@ -40,7 +44,7 @@ pub struct Options {
 pub struct Row {
     /// `primary` or `path`.
     pub suite: &'static str,
-    /// `Rust` or `GLSL`.
+    /// `Rust`, `GLSL` or `WGSL`.
     pub variant: &'static str,
     /// What was traced.
     pub setup: String,
@@ -116,9 +120,29 @@ fn seconds(d: Duration) -> f64 {
     d.as_secs_f64()
 }
 
-/// The primary-ray programs: Rust (`triangle-device`) or the GLSL twin.
-fn primary_programs(ctx: &Context, glsl: bool) -> anyhow::Result<[ProgramGroup; 3]> {
-    if glsl {
+/// The language of a suite's device programs.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Language {
+    /// rust-gpu.
+    Rust,
+    /// glslang, then `spirv-opt -O`.
+    Glsl,
+    /// naga.
+    Wgsl,
+}
+
+/// The primary-ray programs: Rust (`triangle-device`), the GLSL twin or the WGSL twin.
+fn primary_programs(ctx: &Context, language: Language) -> anyhow::Result<[ProgramGroup; 3]> {
+    if language == Language::Wgsl {
+        let source = include_str!("../../examples/triangle/wgsl/triangle.wgsl");
+        let module = Module::from_wgsl_named(ctx, source, "examples/triangle/wgsl/triangle.wgsl")?;
+        return Ok([
+            ProgramGroup::raygen(&module, "rg")?,
+            ProgramGroup::miss(&module, "ms")?,
+            ProgramGroup::hit_group(&module).closest_hit("ch").build()?,
+        ]);
+    }
+    if language == Language::Glsl {
         let rgen = Module::new(ctx, include_bytes!("../glsl/primary.rgen.spv"))?;
         let rmiss = Module::new(ctx, include_bytes!("../glsl/primary.rmiss.spv"))?;
         let rchit = Module::new(ctx, include_bytes!("../glsl/primary.rchit.spv"))?;
@@ -145,9 +169,9 @@ pub struct PrimaryPipeline {
     pub sbt: Sbt,
 }
 
-/// Links the primary-ray programs (Rust or GLSL) and lays out their SBT.
-pub fn primary_pipeline(ctx: &Context, glsl: bool) -> anyhow::Result<PrimaryPipeline> {
-    let [raygen, miss, hit] = primary_programs(ctx, glsl)?;
+/// Links the primary-ray programs and lays out their SBT.
+pub fn primary_pipeline(ctx: &Context, language: Language) -> anyhow::Result<PrimaryPipeline> {
+    let [raygen, miss, hit] = primary_programs(ctx, language)?;
     let pipeline = Pipeline::<PrimaryParams>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
     let sbt = Sbt::builder(&pipeline)
         .raygen(&raygen, ())
@@ -199,8 +223,9 @@ pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> an
     let built = Instant::now();
     let scene = primary_scene(ctx, opts.triangles, opts.primary_size)?;
     eprintln!("primary: {} triangles built in {:.1} s", opts.triangles, built.elapsed().as_secs_f64());
-    let rust = primary_pipeline(ctx, false)?;
-    let glsl = primary_pipeline(ctx, true)?;
+    let rust = primary_pipeline(ctx, Language::Rust)?;
+    let glsl = primary_pipeline(ctx, Language::Glsl)?;
+    let wgsl = primary_pipeline(ctx, Language::Wgsl)?;
     let rays = width as u64 * height as u64;
     let launch = |p: &PrimaryPipeline| -> anyhow::Result<(f64, u64)> {
         let dims = [width, height, 1];
@@ -214,14 +239,17 @@ pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> an
         };
         Ok((s, rays))
     };
-    let mut variants: Vec<Variant<'_>> =
-        vec![("Rust", Box::new(|| launch(&rust))), ("GLSL", Box::new(|| launch(&glsl)))];
+    let mut variants: Vec<Variant<'_>> = vec![
+        ("Rust", Box::new(|| launch(&rust))),
+        ("GLSL", Box::new(|| launch(&glsl))),
+        ("WGSL", Box::new(|| launch(&wgsl))),
+    ];
     let results = interleave(&mut variants, opts.reps)?;
-    // Both programs drew the same picture.
+    // The programs drew a picture.
     let picture = scene.image.read()?;
     anyhow::ensure!(picture.iter().any(|&p| p != picture[0]), "the primary-ray image is uniform");
     let setup = format!("{} triangles, {width}x{height}, 1 ray/pixel", opts.triangles);
-    Ok(rows("primary", &setup, timing_name(timer), &["Rust", "GLSL"], &results))
+    Ok(rows("primary", &setup, timing_name(timer), &["Rust", "GLSL", "WGSL"], &results))
 }
 
 /// The `path` suite.
@@ -230,6 +258,7 @@ pub fn path(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> anyho
     let size = opts.path_size;
     let mut rust = Renderer::new(ctx, &PathPrograms::rust(ctx)?, &scene, size, size)?;
     let mut glsl = Renderer::new(ctx, &PathPrograms::glsl(ctx)?, &scene, size, size)?;
+    let mut wgsl = Renderer::new(ctx, &PathPrograms::wgsl(ctx)?, &scene, size, size)?;
     let spp = opts.spp;
     let launch = |r: &mut Renderer| -> anyhow::Result<(f64, u64)> {
         r.reset();
@@ -243,12 +272,15 @@ pub fn path(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> anyho
         };
         Ok((s, r.rays()?))
     };
-    let mut variants: Vec<Variant<'_>> =
-        vec![("Rust", Box::new(|| launch(&mut rust))), ("GLSL", Box::new(|| launch(&mut glsl)))];
+    let mut variants: Vec<Variant<'_>> = vec![
+        ("Rust", Box::new(|| launch(&mut rust))),
+        ("GLSL", Box::new(|| launch(&mut glsl))),
+        ("WGSL", Box::new(|| launch(&mut wgsl))),
+    ];
     let results = interleave(&mut variants, opts.reps)?;
     drop(variants);
     let setup = format!("Cornell box, {size}x{size}, {spp} spp, max depth {}", path_tracer::device::scene::MAX_DEPTH);
-    Ok(rows("path", &setup, timing_name(timer), &["Rust", "GLSL"], &results))
+    Ok(rows("path", &setup, timing_name(timer), &["Rust", "GLSL", "WGSL"], &results))
 }
 
 fn timing_name(timer: Option<&LaunchTimer>) -> &'static str {

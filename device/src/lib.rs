@@ -15,13 +15,44 @@
 //! * `#[payload] p: &mut T` — the ray payload (outgoing in raygen, incoming in miss
 //!   and closest-hit).
 //!
-//! ```ignore
+//! ```
+//! use raykit_device::glam::{UVec3, Vec3};
+//! use raykit_device::{miss, raygen, Buffer, LaunchParams, Miss, RayType, Raygen, Traversable};
+//!
+//! /// The launch params, shared with the host (which checks the layout against the SPIR-V).
+//! #[repr(C)]
+//! #[derive(Copy, Clone, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
+//! pub struct Params {
+//!     pub image: Buffer<u32>,
+//!     pub width: u32,
+//!     pub scene: Traversable,
+//! }
+//!
+//! /// The one ray type: its payload is a colour.
+//! pub struct Radiance;
+//! impl RayType for Radiance {
+//!     type Payload = Vec3;
+//! }
+//!
+//! /// One ray down -z per pixel; stores the red channel of what came back.
 //! #[raygen]
 //! fn rg(ctx: &mut Raygen, #[params] params: &Params, #[payload] color: &mut Vec3) {
-//!     let ray = camera_ray(ctx.launch_index(), ctx.launch_dimensions(), params);
-//!     ctx.trace::<Radiance>(params.scene, ray, color);
-//!     ctx.store(params.image, ctx.launch_linear_index(), make_color(*color));
+//!     let index: UVec3 = ctx.launch_index();
+//!     let origin = Vec3::new(index.x as f32 / params.width as f32, index.y as f32, 1.0);
+//!     ctx.trace_from::<Radiance>(params.scene, origin, Vec3::NEG_Z, color);
+//!     let pixel = ctx.launch_linear_index();
+//!     ctx.store(params.image, pixel, (color.x * 255.0) as u32);
 //! }
+//!
+//! #[miss(ray = Radiance)]
+//! fn ms(_ctx: &mut Miss, #[payload] color: &mut Vec3) {
+//!     *color = Vec3::ONE;
+//! }
+//!
+//! // The host finds the entry points through constants the macros generate,
+//! // named as OptiX names its programs.
+//! assert_eq!(RG.name, "__raygen__rg");
+//! assert_eq!(MS.name, "__miss__ms");
 //! ```
 //!
 //! This crate also compiles for the host target: launch-params structs, record data

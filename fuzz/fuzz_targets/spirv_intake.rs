@@ -6,8 +6,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use raykit::spirv::{check, ParamsDelivery};
 use raykit::device::LaunchParams;
+use raykit::spirv::{check, ParamsDelivery};
 
 fuzz_target!(|data: &[u8]| {
     match raykit::module::reflect_entry_points(data) {

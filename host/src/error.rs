@@ -388,6 +388,12 @@ pub enum Error {
     #[error(transparent)]
     ParamsLayout(Box<raykit_spirv::LayoutError>),
 
+    /// WGSL source could not be compiled: a syntax or validation error (with
+    /// naga's diagnostic: `file:line:col` and a caret), a stage or intrinsic naga
+    /// lacks, or a declaration against raykit's WGSL conventions.
+    #[error(transparent)]
+    Wgsl(Box<raykit_wgsl::WgslError>),
+
     /// Reading or writing the compile cache file failed.
     #[error("pipeline cache file {path}: {source}; set ContextOptions::pipeline_cache (or RAYKIT_PIPELINE_CACHE) to a writable directory, or turn the cache off")]
     PipelineCacheIo {

@@ -4,7 +4,8 @@
 //! A [`Module`] is made from SPIR-V bytes or a `.spv` file (what
 //! `cargo xtask build-shaders` writes). raykit reads the module with rspirv (naga's
 //! SPIR-V reader rejects the ray-tracing stages) and lists its entry points with
-//! their stages, so program groups can be checked before Vulkan sees them. See
+//! their stages, so program groups can be checked before Vulkan sees them. WGSL
+//! source becomes a module through naga with [`Module::from_wgsl`] (see [`crate::wgsl`]). See
 //! [`vkCreateShaderModule`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCreateShaderModule.html).
 
 use std::path::{Path, PathBuf};
@@ -303,7 +304,7 @@ impl Module {
         Module::named(ctx, spirv, "from bytes")
     }
 
-    fn named(ctx: &Context, spirv: &[u8], name: &str) -> Result<Module> {
+    pub(crate) fn named(ctx: &Context, spirv: &[u8], name: &str) -> Result<Module> {
         let entry_points = reflect_entry_points(spirv)?;
         if !entry_points.iter().any(|e| e.kind.is_some()) {
             return Err(Error::NoRayTracingEntryPoints {

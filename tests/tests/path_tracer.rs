@@ -178,6 +178,7 @@ fn the_path_tracer_matches_its_cpu_reference_block_by_block() -> anyhow::Result<
     let reference = cpu_reference();
     with_context("the_path_tracer_matches_its_cpu_reference_block_by_block", |ctx| {
         render_and_compare(ctx, &Programs::rust(ctx)?, &reference, "Rust programs")?;
-        render_and_compare(ctx, &Programs::glsl(ctx)?, &reference, "GLSL twin")
+        render_and_compare(ctx, &Programs::glsl(ctx)?, &reference, "GLSL twin")?;
+        render_and_compare(ctx, &Programs::wgsl(ctx)?, &reference, "WGSL twin")
     })
 }

@@ -27,51 +27,77 @@ fn triangle_matches_the_cpu_reference() -> anyhow::Result<()> {
     with_context("triangle_matches_the_cpu_reference", |ctx| {
         let (width, height) = (320u32, 240u32);
         let pixels = triangle::render(ctx, width, height)?;
-        assert_eq!(pixels.len(), (width * height) as usize);
+        assert_matches_the_cpu_reference(&pixels, width, height);
+        Ok(())
+    })
+}
 
-        let params: Params =
-            triangle::params(width, height, raykit::Buffer::from_table_index(0), raykit::Traversable::NULL);
-        let bg = make_color(BG_COLOR);
-        let (mut bg_pixels, mut tri_pixels, mut tri_close) = (0usize, 0usize, 0usize);
-        let mut bg_wrong = Vec::new();
-        for y in 0..height {
-            for x in 0..width {
-                let got = pixels[(y * width + x) as usize];
-                let (origin, dir) = camera_ray(UVec2::new(x, y), UVec2::new(width, height), &params);
-                match intersect(origin, dir, VERTICES) {
-                    Some((_, bary)) => {
-                        tri_pixels += 1;
-                        if channel_distance(got, make_color(barycentric_color(bary))) <= 2 {
-                            tri_close += 1;
-                        }
+/// Every pixel against the CPU reference: the barycentric colour inside the
+/// triangle (99.5% within 2/255), the miss record's colour outside.
+fn assert_matches_the_cpu_reference(pixels: &[u32], width: u32, height: u32) {
+    assert_eq!(pixels.len(), (width * height) as usize);
+
+    let params: Params =
+        triangle::params(width, height, raykit::Buffer::from_table_index(0), raykit::Traversable::NULL);
+    let bg = make_color(BG_COLOR);
+    let (mut bg_pixels, mut tri_pixels, mut tri_close) = (0usize, 0usize, 0usize);
+    let mut bg_wrong = Vec::new();
+    for y in 0..height {
+        for x in 0..width {
+            let got = pixels[(y * width + x) as usize];
+            let (origin, dir) = camera_ray(UVec2::new(x, y), UVec2::new(width, height), &params);
+            match intersect(origin, dir, VERTICES) {
+                Some((_, bary)) => {
+                    tri_pixels += 1;
+                    if channel_distance(got, make_color(barycentric_color(bary))) <= 2 {
+                        tri_close += 1;
                     }
-                    None => {
-                        // Rays grazing an edge may legitimately go either way.
-                        if edge_margin(origin, dir, VERTICES) < -1e-3 {
-                            bg_pixels += 1;
-                            if got != bg {
-                                bg_wrong.push((x, y, got));
-                            }
+                }
+                None => {
+                    // Rays grazing an edge may legitimately go either way.
+                    if edge_margin(origin, dir, VERTICES) < -1e-3 {
+                        bg_pixels += 1;
+                        if got != bg {
+                            bg_wrong.push((x, y, got));
                         }
                     }
                 }
             }
         }
-        let total = (width * height) as usize;
-        assert!(tri_pixels > total / 10, "the triangle covers only {tri_pixels} of {total} pixels");
-        assert!(bg_pixels > total / 10, "only {bg_pixels} background pixels");
-        assert!(
-            bg_wrong.is_empty(),
-            "{} background pixels differ from bg_color {bg:#010x}, e.g. {:?}",
-            bg_wrong.len(),
-            &bg_wrong[..bg_wrong.len().min(5)]
-        );
-        let ratio = tri_close as f64 / tri_pixels as f64;
-        assert!(
-            ratio >= 0.995,
-            "only {tri_close} of {tri_pixels} triangle pixels ({:.3}%) within 2/255",
-            ratio * 100.0
-        );
+    }
+    let total = (width * height) as usize;
+    assert!(tri_pixels > total / 10, "the triangle covers only {tri_pixels} of {total} pixels");
+    assert!(bg_pixels > total / 10, "only {bg_pixels} background pixels");
+    assert!(
+        bg_wrong.is_empty(),
+        "{} background pixels differ from bg_color {bg:#010x}, e.g. {:?}",
+        bg_wrong.len(),
+        &bg_wrong[..bg_wrong.len().min(5)]
+    );
+    let ratio = tri_close as f64 / tri_pixels as f64;
+    assert!(ratio >= 0.995, "only {tri_close} of {tri_pixels} triangle pixels ({:.3}%) within 2/255", ratio * 100.0);
+}
+
+#[test]
+fn wgsl_twin_matches_the_cpu_reference() -> anyhow::Result<()> {
+    with_context("wgsl_twin_matches_the_cpu_reference", |ctx| {
+        let (width, height) = (320u32, 240u32);
+        let pixels = triangle::render_with(ctx, &triangle::Programs::wgsl(ctx)?, width, height)?;
+        assert_matches_the_cpu_reference(&pixels, width, height);
+        Ok(())
+    })
+}
+
+/// A WGSL raygen program linked with the Rust miss and closest-hit programs.
+#[test]
+fn wgsl_raygen_with_rust_miss_and_closest_hit_matches_the_cpu_reference() -> anyhow::Result<()> {
+    with_context("wgsl_raygen_with_rust_miss_and_closest_hit_matches_the_cpu_reference", |ctx| {
+        let (width, height) = (160u32, 120u32);
+        let wgsl = triangle::Programs::wgsl(ctx)?;
+        let rust = triangle::Programs::rust(ctx)?;
+        let mixed = triangle::Programs { raygen: wgsl.raygen, miss: rust.miss, hit: rust.hit };
+        let pixels = triangle::render_with(ctx, &mixed, width, height)?;
+        assert_matches_the_cpu_reference(&pixels, width, height);
         Ok(())
     })
 }

@@ -4,8 +4,11 @@
 //!   `target/spirv/`, installing the pinned nightly when missing.
 //! * `demo`: render the path tracer's Cornell box to a PNG (and PFM) with a
 //!   progress bar; `--example triangle` renders optixTriangle instead.
-//! * `test`: set up what is missing (nightly, lavapipe, validation layers), build
-//!   the shaders and run every test with validation on.
+//! * `lint`: the gates (rustfmt, clippy with `-D warnings`, rustdoc with `-D warnings`,
+//!   doctests, no undocumented binaries in git); see `lint.rs`.
+//! * `test`: set up what is missing (nightly, lavapipe, validation layers, glslang),
+//!   run `lint` (stopping at the first gate that fails), build the shaders and run
+//!   every test with validation on.
 //! * `bench`: build `raykit-bench` in release and run it (suites such as `accel`);
 //!   it writes `target/bench/bench.json` and `bench.md`. The binary needs only the
 //!   Vulkan loader and the SPIR-V files, so it can be copied to a GPU machine
@@ -15,6 +18,7 @@
 //! `xtask/shader-builder` program with the pinned nightly into a per-user cache
 //! and runs it.
 
+mod lint;
 mod setup;
 mod shaders;
 
@@ -58,7 +62,9 @@ enum Cmd {
         #[arg(long, default_value_t = 16)]
         spp: u32,
     },
-    /// Build the shaders and run the whole test suite with validation on.
+    /// Check formatting, clippy, rustdoc, doctests and committed binaries (each must pass).
+    Lint,
+    /// Run `lint`, build the shaders and run the whole test suite with validation on.
     Test {
         /// Extra arguments for `cargo test` (after `--`).
         #[arg(last = true)]
@@ -138,12 +144,19 @@ fn main() -> anyhow::Result<()> {
             run(&mut cmd, &format!("the {example} example"))?;
             println!("demo: wrote {}", output.display());
         }
+        Cmd::Lint => lint::run_all(&root)?,
         Cmd::Test { cargo_args } => {
             setup::ensure_toolchain()?;
             setup::ensure_vulkan(true)?;
+            setup::ensure_glsl_tools()?;
+            lint::run_all(&root)?;
             shaders::build_all(&root, false)?;
             let mut cmd = cargo();
-            cmd.args(["test", "--workspace"]).args(&cargo_args);
+            // The doctests ran in `lint`.
+            cmd.args(["test", "--workspace", "--lib", "--bins", "--tests"]).args(&cargo_args);
+            // The tools are installed above: the rebuild check of the committed SPIR-V
+            // must run, not skip.
+            cmd.env("RAYKIT_REQUIRE_GLSLANG", "1");
             cmd.env("RAYKIT_SPIRV_DIR", shaders::spirv_dir(&root));
             cmd.env("RAYKIT_VALIDATION", "1");
             if std::env::var_os("RAYKIT_REQUIRE_DEVICE").is_none() {

@@ -216,3 +216,40 @@ pub fn ensure_vulkan(validation: bool) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// The tools that rebuild the committed SPIR-V (`glslangValidator`, SPIRV-Tools),
+/// and the Debian packages that have them.
+const GLSL_TOOLS: [&str; 4] = ["glslangValidator", "spirv-opt", "spirv-val", "spirv-as"];
+const GLSL_PACKAGES: [&str; 2] = ["glslang-tools", "spirv-tools"];
+
+/// Makes sure glslang and the SPIRV-Tools are installed (installing them as root
+/// with apt), so the tests can rebuild the committed SPIR-V and compare it.
+pub fn ensure_glsl_tools() -> anyhow::Result<()> {
+    let missing = || -> Vec<&str> {
+        GLSL_TOOLS.into_iter().filter(|t| output(Command::new(t).arg("--version")).is_none()).collect()
+    };
+    let absent = missing();
+    if absent.is_empty() {
+        return Ok(());
+    }
+    if !(is_root() && Path::new("/usr/bin/apt-get").exists()) {
+        bail!(
+            "the tests rebuild the committed SPIR-V with {}, which are not installed. \
+             On Debian, as root: apt-get install -y {}",
+            absent.join(", "),
+            GLSL_PACKAGES.join(" ")
+        );
+    }
+    println!("xtask: installing {} for the tests (they rebuild the committed SPIR-V)", GLSL_PACKAGES.join(" "));
+    let mut install = vec!["install", "-y"];
+    install.extend(GLSL_PACKAGES);
+    if apt_get(&install).is_err() {
+        apt_get(&["update"])?;
+        apt_get(&install)?;
+    }
+    let absent = missing();
+    if !absent.is_empty() {
+        bail!("installed {} but {} still missing", GLSL_PACKAGES.join(" "), absent.join(", "));
+    }
+    Ok(())
+}

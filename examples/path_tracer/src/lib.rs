@@ -11,7 +11,8 @@
 //!
 //! The device half, and the math and scene both halves share, are in the
 //! `path-tracer-device` crate. [`Programs::glsl`] loads a GLSL twin of the same
-//! programs (`glsl/`), used by the benchmarks.
+//! programs (`glsl/`), and [`Programs::wgsl`] a WGSL twin (`wgsl/`, compiled by
+//! naga at build time), used by the tests and the benchmarks.
 
 use std::io::Write as _;
 use std::path::Path;
@@ -93,6 +94,24 @@ impl Programs {
         })
     }
 }
+
+impl Programs {
+    /// The WGSL twin (`wgsl/path_tracer.wgsl`, compiled by naga at build time):
+    /// one module, entry points `rg`, `ms`, `ms_shadow`, `ch`, `ch_shadow`.
+    pub fn wgsl(ctx: &Context) -> raykit::Result<Programs> {
+        let module = Module::new(ctx, WGSL_SPIRV)?;
+        Ok(Programs {
+            raygen: ProgramGroup::raygen(&module, "rg")?,
+            miss: ProgramGroup::miss(&module, "ms")?,
+            shadow_miss: ProgramGroup::miss(&module, "ms_shadow")?,
+            hit: ProgramGroup::hit_group(&module).closest_hit("ch").build()?,
+            shadow_hit: ProgramGroup::hit_group(&module).closest_hit("ch_shadow").build()?,
+        })
+    }
+}
+
+/// The WGSL twin's SPIR-V, compiled from `wgsl/path_tracer.wgsl` by `build.rs`.
+pub const WGSL_SPIRV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/path_tracer.wgsl.spv"));
 
 /// The GLSL twin's SPIR-V files (name, bytes), as committed in `glsl/`.
 pub const GLSL_SPIRV: [(&str, &[u8]); 5] = [

@@ -35,8 +35,11 @@ struct Cli {
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
     /// Use the GLSL twin of the device programs instead of the Rust ones.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "wgsl")]
     glsl: bool,
+    /// Use the WGSL twin of the device programs (compiled by naga at build time).
+    #[arg(long)]
+    wgsl: bool,
     /// Use the first ray-tracing device whose name contains this.
     #[arg(long)]
     device: Option<String>,
@@ -50,7 +53,11 @@ fn main() -> anyhow::Result<()> {
         device_name_contains: cli.device.clone(),
         ..Default::default()
     })?;
-    let programs = if cli.glsl { Programs::glsl(&ctx)? } else { Programs::rust(&ctx)? };
+    let programs = match (cli.glsl, cli.wgsl) {
+        (true, _) => Programs::glsl(&ctx)?,
+        (_, true) => Programs::wgsl(&ctx)?,
+        _ => Programs::rust(&ctx)?,
+    };
     let scene = Scene::new(&ctx)?;
     let mut renderer = Renderer::new(&ctx, &programs, &scene, cli.width, cli.height)?;
 
@@ -85,7 +92,11 @@ fn main() -> anyhow::Result<()> {
         ctx.device_name(),
         image.rays,
         image.rays as f64 / seconds / 1e6,
-        if cli.glsl { "GLSL" } else { "Rust" },
+        match (cli.glsl, cli.wgsl) {
+            (true, _) => "GLSL",
+            (_, true) => "WGSL",
+            _ => "Rust",
+        },
         cli.output.display(),
         pfm.display()
     );

@@ -1,5 +1,5 @@
-//! optixTriangle on raykit: the host half. [`render`] sets up the scene of
-//! OptiX's optixTriangle sample (one triangle, camera at `(0, 0, 2)` looking at the origin, 45° vertical
+//! optixTriangle on raykit: the host half. [`render`] sets up optixTriangle's
+//! scene (one triangle, camera at `(0, 0, 2)` looking at the origin, 45° vertical
 //! field of view), launches, and returns RGBA8 pixels. The device half, and the
 //! types both halves share, are in the `triangle-device` crate.
 
@@ -96,7 +96,21 @@ impl Programs {
             hit: ProgramGroup::hit_group(&hit).closest_hit("main").build()?,
         })
     }
+
+    /// The WGSL twin (`wgsl/triangle.wgsl`), compiled by naga when called; its
+    /// entry points are `rg`, `ms` and `ch`.
+    pub fn wgsl(ctx: &Context) -> raykit::Result<Programs> {
+        let module = Module::from_wgsl_named(ctx, WGSL, "examples/triangle/wgsl/triangle.wgsl")?;
+        Ok(Programs {
+            raygen: ProgramGroup::raygen(&module, "rg")?,
+            miss: ProgramGroup::miss(&module, "ms")?,
+            hit: ProgramGroup::hit_group(&module).closest_hit("ch").build()?,
+        })
+    }
 }
+
+/// The WGSL twin of the triangle programs.
+pub const WGSL: &str = include_str!("../wgsl/triangle.wgsl");
 
 /// Renders optixTriangle at `width × height` with the Rust programs; returns
 /// RGBA8 pixels, row 0 at the top.
@@ -125,3 +139,9 @@ pub fn write_png(path: &std::path::Path, width: u32, height: u32, pixels: &[u32]
     image::save_buffer(path, &bytes, width, height, image::ExtendedColorType::Rgba8)?;
     Ok(())
 }
+
+/// The README's examples, compiled as this crate's doctests (they use both
+/// halves of the triangle).
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+mod readme {}

@@ -303,10 +303,10 @@ fn rg_throw(ctx: &mut Raygen, #[params] p: &Params) {
 
 // ------------------------------------------------ specialization constants ---
 
-/// The specialization constant that picks [`spec_shade`]'s colour.
+/// The specialization constant that picks the colour of [`SPEC_SHADE`] (`spec_shade`).
 pub const SHADE_MODE_SPEC_ID: u32 = 7;
 
-/// Colours of [`spec_shade`] by the value of specialization constant
+/// Colours of [`SPEC_SHADE`] by the value of specialization constant
 /// [`SHADE_MODE_SPEC_ID`] (0 unless the pipeline sets it).
 pub const SPEC_COLORS: [Vec3; 2] = [Vec3::new(1.0, 0.5, 0.0), Vec3::new(0.0, 0.5, 1.0)];
 
@@ -315,7 +315,7 @@ fn spec_shade(_ctx: &mut ClosestHit, #[spec_constant(id = 7, default = 0)] mode:
     *color = if mode == 0 { SPEC_COLORS[0] } else { SPEC_COLORS[1] };
 }
 
-/// What [`on_exception`] writes at the pixel of an invocation that threw: this
+/// What [`ON_EXCEPTION`] (`on_exception`) writes at the pixel of an invocation that threw: this
 /// marker with the exception code in its low bits.
 pub const EXCEPTION_MARKER: u32 = 0xE000_0000;
 

@@ -6,7 +6,7 @@
 //! the same ray type on downwards (recursion: one trace level per layer, up to
 //! [`MAX_DEPTH`]), then blends its colour over what it got back with a weight picked
 //! from the array by the result: the array is live across the trace, so it has to
-//! be kept on the pipeline's stack. [`reference`] computes the same picture on the
+//! be kept on the pipeline's stack. [`reference()`] computes the same picture on the
 //! CPU from the same helpers.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
