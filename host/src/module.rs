@@ -358,6 +358,14 @@ impl Module {
     }
 }
 
+impl std::fmt::Debug for Module {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let entries: std::collections::BTreeMap<&str, &str> =
+            self.inner.entry_points.iter().map(|e| (e.name.as_str(), e.execution_model.as_str())).collect();
+        f.debug_struct("Module").field("entry_points", &entries).finish_non_exhaustive()
+    }
+}
+
 /// Where `cargo xtask build-shaders` puts the SPIR-V of device crate
 /// `crate_name`: `$RAYKIT_SPIRV_DIR/<crate_name>.spv` when that variable is set,
 /// else `spirv/<crate_name>.spv` in the nearest ancestor directory of the running
