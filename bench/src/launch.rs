@@ -7,7 +7,7 @@
 //!   careful Vulkan programmer writes it: one command buffer and one fence kept
 //!   from launch to launch, re-recorded each time (the params change), submitted
 //!   and waited for. Both trace raykit's own `VkPipeline` and SBT regions (from
-//!   `raykit::raw`), so the difference is the launch path alone. Measured on a
+//!   `raykit::pipeline::raw`), so the difference is the launch path alone. Measured on a
 //!   1×1 launch (overhead) and at the primary-ray size, wall clock.
 //! * Creation: raykit's `Module::new` (with reflection) + program groups +
 //!   `Pipeline::new` + `Sbt::build`, against `vkCreateShaderModule` +

@@ -29,6 +29,12 @@ pub struct DeviceWatcher {
     _debouncer: Debouncer<RecommendedWatcher>,
 }
 
+impl std::fmt::Debug for DeviceWatcher {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DeviceWatcher").finish_non_exhaustive()
+    }
+}
+
 fn watch_error(e: impl std::fmt::Display) -> Error {
     Error::Watch { reason: e.to_string() }
 }

@@ -114,7 +114,7 @@ pub(crate) struct ContextInner {
     /// Whether `VK_KHR_pipeline_library` is enabled (see [`crate::PipelineLibrary`]).
     pub(crate) pipeline_library: bool,
     /// Whether the driver is lavapipe (Mesa's CPU driver), whose workarounds
-    /// raykit applies (see `crate::library`).
+    /// raykit applies (see [`crate::pipeline::library`]).
     pub(crate) lavapipe: bool,
     device_name: String,
     /// The compile cache every pipeline creation goes through.
@@ -595,6 +595,45 @@ impl Context {
             reserved_bytes: report.total_capacity_bytes,
             blocks: report.blocks.len(),
         }
+    }
+}
+
+/// The Vulkan objects under a context, for interoperation and for comparisons with
+/// hand-written Vulkan. Using them is `unsafe` ash code under the rules
+/// [`crate::pipeline::raw`] states.
+impl Context {
+    /// The `ash` instance.
+    pub fn raw_instance(&self) -> &ash::Instance {
+        &self.inner.instance
+    }
+    /// The `ash` device.
+    pub fn raw_device(&self) -> &ash::Device {
+        &self.inner.device
+    }
+    /// The `VK_KHR_ray_tracing_pipeline` functions of the device.
+    pub fn raw_ray_tracing(&self) -> &ash::khr::ray_tracing_pipeline::Device {
+        &self.inner.rt
+    }
+    /// The bindless buffer table's descriptor set (set 0 of every raykit pipeline layout).
+    pub fn raw_buffer_table_set(&self) -> vk::DescriptorSet {
+        self.inner.buffer_table.set
+    }
+    /// The bindless buffer table's descriptor set layout.
+    pub fn raw_buffer_table_layout(&self) -> vk::DescriptorSetLayout {
+        self.inner.buffer_table.layout
+    }
+}
+
+impl std::fmt::Debug for Context {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let inner = &self.inner;
+        f.debug_struct("Context")
+            .field("device", &inner.device_name)
+            .field("queue_family", &inner.queue_family)
+            .field("validation", &inner.debug.is_some())
+            .field("pipeline_libraries", &inner.pipeline_library)
+            .field("limits", &inner.limits)
+            .finish_non_exhaustive()
     }
 }
 

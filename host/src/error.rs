@@ -4,6 +4,9 @@
 use ash::vk;
 use raykit_device::ProgramKind;
 
+use crate::program_group::kind::GroupKind;
+use crate::sbt::region::SbtRegion;
+
 /// Result with raykit's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
@@ -214,18 +217,18 @@ pub enum Error {
     #[error("{kind} program group is not part of the pipeline the SBT is built for; add it to Pipeline::new")]
     GroupNotInPipeline {
         /// The group's kind.
-        kind: &'static str,
+        kind: GroupKind,
     },
 
     /// An SBT record of the wrong kind of group was given.
     #[error("SBT {region} record needs a {expected} program group, got a {actual} group")]
     SbtGroupKind {
         /// Region being filled.
-        region: &'static str,
+        region: SbtRegion,
         /// Kind the region needs.
-        expected: &'static str,
+        expected: GroupKind,
         /// Kind given.
-        actual: &'static str,
+        actual: GroupKind,
     },
 
     /// A launch was given an SBT built for another pipeline.
@@ -238,7 +241,7 @@ pub enum Error {
     #[error("the SBT has no {region} record; add one with Sbt::builder(..).{region}(..)")]
     SbtMissing {
         /// The region.
-        region: &'static str,
+        region: SbtRegion,
     },
 
     /// The device cannot link pipelines from libraries.
@@ -290,7 +293,7 @@ pub enum Error {
     #[error("a {kind} program group is in libraries {first} and {second} of this link; each group may be in one of the libraries linked together (the SBT places groups by identity)")]
     GroupInSeveralLibraries {
         /// The group's kind.
-        kind: &'static str,
+        kind: GroupKind,
         /// The first library holding it.
         first: usize,
         /// Another library holding it.
@@ -305,7 +308,7 @@ pub enum Error {
     #[error("cannot update SBT {region} record: {reason}")]
     SbtUpdate {
         /// The region.
-        region: &'static str,
+        region: SbtRegion,
         /// Why not.
         reason: String,
     },
@@ -314,7 +317,7 @@ pub enum Error {
     #[error("SBT {region} slot {index} already holds a record; each ray type × geometry slot takes one (check the ray types' SBT_OFFSET/SBT_STRIDE/MISS_INDEX)")]
     SbtSlotTaken {
         /// The region.
-        region: &'static str,
+        region: SbtRegion,
         /// The slot.
         index: usize,
     },
@@ -323,7 +326,7 @@ pub enum Error {
     #[error("SBT {region} slot {index} is empty, but a later slot is filled; every slot a trace can reach needs a record (add one with `{region}_at({index}, ..)` or the ray type's `{region}_for`)")]
     SbtHole {
         /// The region.
-        region: &'static str,
+        region: SbtRegion,
         /// The empty slot.
         index: usize,
     },
@@ -408,7 +411,7 @@ pub enum Error {
         during: &'static str,
     },
 
-    // ---- Acceleration structures (issue 6) ----
+    // ---- Acceleration structures ----
     /// A build has nothing to build: no geometry, no primitives, no instances.
     #[error("acceleration structure build: {what}; give at least one triangle, AABB or instance, or leave the empty part out")]
     AccelEmpty {

@@ -2,23 +2,20 @@
 // compiles it as its own doctests, so it is left out of this crate's.
 #![cfg_attr(not(doctest), doc = include_str!("../../README.md"))]
 #![deny(missing_docs)]
+#![deny(missing_debug_implementations)]
 
 pub mod accel;
 mod buffer_table;
 pub mod cache;
 pub mod context;
 pub mod error;
-pub mod launch;
-pub mod library;
 pub mod log;
 pub mod memory;
 pub mod module;
 pub mod pipeline;
 pub mod program_group;
-pub mod raw;
 pub mod sbt;
 pub mod stack;
-pub mod timing;
 pub mod wgsl;
 
 pub use accel::{
@@ -28,17 +25,17 @@ pub use accel::{
 pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Context, ContextOptions, DeviceLimits, MemoryUsage};
 pub use error::{DeviceReport, Error, Result, UserException};
-pub use launch::Launch;
-pub use library::{LibraryOptions, PipelineLibrary};
 pub use log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
 pub use memory::DeviceBuffer;
 pub use module::{spirv_path, EmbeddedSpirv, EntryPointInfo, Module};
+pub use pipeline::launch::Launch;
+pub use pipeline::library::{LibraryOptions, PipelineLibrary};
+pub use pipeline::timing::LaunchTimer;
 pub use pipeline::{params_delivery, LinkOptions, Pipeline, Specialization};
-pub use program_group::{EntryName, HitGroupBuilder, ProgramGroup};
+pub use program_group::{EntryName, GroupKind, HitGroupBuilder, ProgramGroup};
 pub use raykit_spirv::{BlockMember, BlockType, InterfaceSizes, LayoutError, ParamsBlock, ParamsDelivery};
 pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
 pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
-pub use timing::LaunchTimer;
 pub use wgsl::WgslError;
 
 pub use ash;

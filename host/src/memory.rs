@@ -201,6 +201,18 @@ impl<T: Element> DeviceBuffer<T> {
     }
 }
 
+impl<T: Element> std::fmt::Debug for DeviceBuffer<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DeviceBuffer")
+            .field("element", &std::any::type_name::<T>())
+            .field("len", &self.len)
+            .field("bytes", &self.raw.size)
+            .field("table_index", &self.slot)
+            .field("host_visible", &self.raw.mapped().is_some())
+            .finish()
+    }
+}
+
 impl<T: Element> Drop for DeviceBuffer<T> {
     fn drop(&mut self) {
         self.raw.ctx.buffer_table.remove(self.slot);

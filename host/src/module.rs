@@ -365,6 +365,14 @@ impl Module {
     }
 }
 
+impl std::fmt::Debug for Module {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let entries: std::collections::BTreeMap<&str, &str> =
+            self.inner.entry_points.iter().map(|e| (e.name.as_str(), e.execution_model.as_str())).collect();
+        f.debug_struct("Module").field("entry_points", &entries).finish_non_exhaustive()
+    }
+}
+
 /// A device crate's SPIR-V, embedded in the executable by
 /// [`include_spirv!`](crate::include_spirv).
 #[derive(Copy, Clone, Debug)]

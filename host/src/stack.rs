@@ -10,7 +10,7 @@
 //! chain of calls, set with [`vkCmdSetRayTracingPipelineStackSizeKHR`] (raykit's
 //! pipelines have this dynamic state; see [`StackSize`] for the choices).
 //!
-//! The estimates here follow the seed guide (OptiX's "Pipeline Stack Size"),
+//! The estimates here follow the OptiX Programming Guide ("Pipeline Stack Size"),
 //! from coarse to tight:
 //!
 //! 1. [`conservative`]: every level of tracing may run the largest closest-hit or
@@ -23,8 +23,8 @@
 //!    closest-hit) with separate depths.
 //! 3. [`CallGraph`]: which ray types each program traces and which callables it
 //!    calls; the stack is the heaviest path through that graph, so a shadow ray's
-//!    programs are only stacked on the closest-hit that traces them. For the seed's
-//!    path tracer this gives `css_rg + max(css_ms1, css_ch1 + max(css_ms2, css_ch2))`
+//!    programs are only stacked on the closest-hit that traces them. For the
+//!    guide's path tracer (camera and shadow rays) this gives `css_rg + max(css_ms1, css_ch1 + max(css_ms2, css_ch2))`
 //!    instead of `css_rg + 2 * max(css_ch1, css_ch2, css_ms1, css_ms2)`.
 //!
 //! [`vulkan_default`] is what the Vulkan specification lets a pipeline without the
@@ -37,7 +37,7 @@
 //! stack for every shader, callables included, so raykit sets their sum
 //! ([`StackEstimate::total`]). Vulkan forbids `OpExecuteCallableKHR` in any-hit and
 //! intersection shaders, so the traversal term is zero on Vulkan unless a call
-//! depth from traversal is given; it is kept to reproduce the seed's formulas.
+//! depth from traversal is given; it is kept to reproduce OptiX's formulas.
 //! Vulkan does not distinguish direct from continuation callables either: both
 //! are callable shaders; raykit sorts callable groups by their OptiX prefix
 //! (`__direct_callable__`, `__continuation_callable__`), and counts a callable
@@ -209,7 +209,7 @@ fn level_terms(s: &StackSizes, d: &CallDepths) -> (u64, u64) {
     (css_cc_tree, css_ch_or_ms_plus_cc_tree)
 }
 
-/// The seed's simple, conservative estimate (OptiX's first formula):
+/// OptiX's simple, conservative estimate (the guide's first formula):
 ///
 /// ```text
 /// direct_from_traversal = max_dc_depth * dss_dc
@@ -237,7 +237,7 @@ pub fn conservative(s: &StackSizes, d: &CallDepths) -> StackEstimate {
     StackEstimate { direct_from_traversal: dc, direct_from_state: dc, continuation }
 }
 
-/// The seed's better estimate (OptiX's `optixUtilComputeStackSizes`):
+/// OptiX's better estimate (`optixUtilComputeStackSizes`):
 ///
 /// ```text
 /// direct_from_traversal = max_dc_depth_from_traversal * dss_dc
@@ -253,7 +253,7 @@ pub fn conservative(s: &StackSizes, d: &CallDepths) -> StackEstimate {
 /// are counted by the semantic type of their call site: traversal (any-hit,
 /// intersection) and state (raygen, miss, closest-hit), each with its own depth.
 ///
-/// The seed writes the level count as `(max_trace_depth - 1).max(1)`, which for a
+/// The OptiX Programming Guide writes the level count as `(max_trace_depth - 1).max(1)`, which for a
 /// depth of 1 counts two levels and can exceed [`conservative`]; OptiX's header
 /// (`optix_stack_size.h`) has `max(max_trace_depth, 1) - 1`, used here, which is
 /// never worse than the conservative estimate.
@@ -339,7 +339,7 @@ struct RayTypeNode {
 ///
 /// ```
 /// use raykit::stack::{CallGraph, GroupStackSizes};
-/// // The seed's path tracer: camera rays (ms1, ch1), shadow rays (ms2, ch2) traced by ch1.
+/// // The OptiX guide's path tracer: camera rays (ms1, ch1), shadow rays (ms2, ch2) traced by ch1.
 /// let mut graph = CallGraph::new(2);
 /// let (camera, shadow) = (graph.ray_type(), graph.ray_type());
 /// let rg = graph.raygen(16);
@@ -660,7 +660,7 @@ mod tests {
 
     #[test]
     fn refined_is_never_worse_than_conservative() {
-        // Including depth 1, where the seed's `(max_trace_depth - 1).max(1)` would
+        // Including depth 1, where the guide's `(max_trace_depth - 1).max(1)` would
         // count two levels.
         for depth in 0..6 {
             for (ch, ms, is, ah) in [(64, 8, 0, 0), (0, 0, 30, 30), (10, 90, 5, 0), (7, 7, 7, 7)] {
@@ -682,7 +682,7 @@ mod tests {
         assert_eq!(vulkan_default(&s, 3), refined(&as_refined, &CallDepths::new(3).direct_callables(2)).total());
     }
 
-    /// The seed's path tracer: camera rays (ms1, ch1), shadow rays (ms2, ch2)
+    /// The OptiX guide's path tracer: camera rays (ms1, ch1), shadow rays (ms2, ch2)
     /// traced from ch1.
     fn path_tracer(ms1: u64, ch1: u64, ms2: u64, ch2: u64) -> (CallGraph, StackSizes) {
         let mut g = CallGraph::new(2);

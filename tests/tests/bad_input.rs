@@ -518,7 +518,7 @@ fn sbt_without_a_raygen_record() -> anyhow::Result<()> {
                 "an SBT without raygen",
             )
         },
-        |e| matches!(e, Error::SbtMissing { region: "raygen" }),
+        |e| matches!(e, Error::SbtMissing { region: raykit::SbtRegion::Raygen }),
     )
 }
 
@@ -531,7 +531,7 @@ fn sbt_record_of_the_wrong_kind_of_group() -> anyhow::Result<()> {
             let l = linked(ctx)?;
             refused(Sbt::builder(&l.pipeline).raygen(&l.miss, ()).build(), "a miss group as raygen record")
         },
-        |e| matches!(e, Error::SbtGroupKind { region: "raygen", .. }),
+        |e| matches!(e, Error::SbtGroupKind { region: raykit::SbtRegion::Raygen, .. }),
     )
 }
 
@@ -552,7 +552,7 @@ fn sbt_record_of_a_group_not_in_the_pipeline() -> anyhow::Result<()> {
                 "a foreign group",
             )
         },
-        |e| matches!(e, Error::GroupNotInPipeline { kind: "miss" }),
+        |e| matches!(e, Error::GroupNotInPipeline { kind: raykit::GroupKind::Miss }),
     )
 }
 
@@ -600,7 +600,7 @@ fn hit_record_for_a_ray_type_the_sbt_does_not_have() -> anyhow::Result<()> {
                 Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR });
             refused(builder.hit(&l.hit, ()).hit_for::<Ghost, _>(0, &l.hit, ()).build(), "a ghost ray type's hit record")
         },
-        |e| matches!(e, Error::SbtHole { region: "hit", index: 1 }),
+        |e| matches!(e, Error::SbtHole { region: raykit::SbtRegion::Hit, index: 1 }),
     )
 }
 
@@ -615,7 +615,7 @@ fn two_records_in_one_sbt_slot() -> anyhow::Result<()> {
             let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, bg).hit(&l.hit, ());
             refused(builder.miss_for::<triangle_device::Radiance, _>(&l.miss, bg).build(), "two radiance miss records")
         },
-        |e| matches!(e, Error::SbtSlotTaken { region: "miss", index: 0 }),
+        |e| matches!(e, Error::SbtSlotTaken { region: raykit::SbtRegion::Miss, index: 0 }),
     )
 }
 

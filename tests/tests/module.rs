@@ -98,7 +98,7 @@ fn bad_modules_and_link_options_are_typed_errors() -> anyhow::Result<()> {
 
         let pipeline = Pipeline::<triangle_device::Params>::new(ctx, &[&raygen, &miss], LinkOptions::default())?;
         let err = raykit::Sbt::builder(&pipeline).miss(&miss, ()).build().err();
-        assert!(matches!(err, Some(Error::SbtMissing { region: "raygen" })), "{err:?}");
+        assert!(matches!(err, Some(Error::SbtMissing { region: raykit::SbtRegion::Raygen })), "{err:?}");
         let err = raykit::Sbt::builder(&pipeline).raygen(&miss, ()).build().err();
         assert!(matches!(err, Some(Error::SbtGroupKind { .. })), "{err:?}");
         let sbt = raykit::Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).build()?;

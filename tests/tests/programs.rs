@@ -245,7 +245,7 @@ fn instances_sharing_a_hit_program_read_their_own_sbt_records() -> anyhow::Resul
             .hit_at(1, &hit, program_model_device::ColorRecord { color: Vec3::ONE })
             .build()
             .err();
-        assert!(matches!(err, Some(Error::SbtHole { region: "hit", index: 0 })), "{err:?}");
+        assert!(matches!(err, Some(Error::SbtHole { region: raykit::SbtRegion::Hit, index: 0 })), "{err:?}");
         Ok(())
     })
 }

@@ -451,7 +451,10 @@ fn libraries_that_cannot_be_linked_together_are_refused_with_the_fix() -> anyhow
 
         let misses = PipelineLibrary::<Params>::new(ctx, &[miss], options)?;
         let err = Pipeline::link(ctx, &[&common, &misses, &hits], LinkOptions::default()).err();
-        assert!(matches!(err, Some(Error::GroupInSeveralLibraries { kind: "miss", first: 0, second: 1 })), "{err:?}");
+        assert!(
+            matches!(err, Some(Error::GroupInSeveralLibraries { kind: raykit::GroupKind::Miss, first: 0, second: 1 })),
+            "{err:?}"
+        );
 
         let err = Pipeline::link(ctx, &[&misses, &hits], LinkOptions::default()).err();
         assert!(matches!(err, Some(Error::NoRaygen)), "{err:?}");

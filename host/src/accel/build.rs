@@ -10,7 +10,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use super::input::{BuildInput, Shape};
-use super::AccelSizes;
+use super::structure::AccelSizes;
 use crate::context::{ContextInner, Submission};
 use crate::error::{Error, Result};
 use crate::memory::RawBuffer;

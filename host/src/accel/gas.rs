@@ -11,7 +11,7 @@ use glam::Vec3;
 
 use super::build::{self, Geometry, Job, PendingBuild};
 use super::input::{self, Aabb, Aabbs, BuildInput, Shape, Triangles};
-use super::{AccelSizes, AccelStructure, BuildOptions};
+use super::structure::{AccelSizes, AccelStructure, BuildOptions};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
 use crate::memory::RawBuffer;

@@ -10,7 +10,8 @@ use glam::Affine3A;
 use raykit_device::Traversable;
 
 use super::build::{self, Geometry, InputPacker, Job, PendingBuild};
-use super::{AccelSizes, AccelStructure, BuildOptions, Gas};
+use super::gas::Gas;
+use super::structure::{AccelSizes, AccelStructure, BuildOptions};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
 

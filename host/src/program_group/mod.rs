@@ -8,7 +8,10 @@
 //! [`VkRayTracingShaderGroupCreateInfoKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkRayTracingShaderGroupCreateInfoKHR.html)
 //! when a [`crate::Pipeline`] is linked.
 
+pub mod kind;
+
 use std::ffi::CString;
+use std::fmt;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -17,6 +20,7 @@ use raykit_device::{EntryPoint, ProgramKind};
 use crate::context::ContextInner;
 use crate::error::{Error, Result};
 use crate::module::{Module, ModuleInner};
+pub use kind::GroupKind;
 
 /// Names an entry point: a macro-generated [`EntryPoint`] constant (preferred) or
 /// a name such as `"main"`.
@@ -182,30 +186,52 @@ impl ProgramGroup {
         HitGroupBuilder { module, closest_hit: None, any_hit: None, intersection: None, error: None }
     }
 
-    /// This group's stack sizes in `pipeline`, as the driver reports them (OptiX's
-    /// `optixProgramGroupGetStackSize`; Vulkan knows them once the group is linked):
-    /// [`crate::Pipeline::group_stack_sizes`].
-    pub fn stack_sizes<P: raykit_device::LaunchParams>(
-        &self,
-        pipeline: &crate::Pipeline<P>,
-    ) -> Result<crate::stack::GroupStackSizes> {
-        pipeline.group_stack_sizes(self)
+    /// The group's kind.
+    pub fn kind(&self) -> GroupKind {
+        self.programs.kind()
     }
+}
 
-    /// The group's kind: `"raygen"`, `"miss"`, `"callable"` or `"hit"`.
-    pub fn kind_name(&self) -> &'static str {
-        match self.programs {
-            GroupPrograms::Raygen(_) => "raygen",
-            GroupPrograms::Miss(_) => "miss",
-            GroupPrograms::Callable(_) => "callable",
-            GroupPrograms::Exception(_) => "exception",
-            GroupPrograms::Hit { .. } => "hit",
+impl GroupPrograms {
+    /// The kind of group holding these programs.
+    pub(crate) fn kind(&self) -> GroupKind {
+        match self {
+            GroupPrograms::Raygen(_) => GroupKind::Raygen,
+            GroupPrograms::Miss(_) => GroupKind::Miss,
+            GroupPrograms::Callable(_) => GroupKind::Callable,
+            GroupPrograms::Exception(_) => GroupKind::Exception,
+            GroupPrograms::Hit { .. } => GroupKind::Hit,
         }
+    }
+}
+
+/// A program as `Debug` shows it: its entry-point name.
+impl fmt::Debug for Program {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Debug::fmt(&self.name, f)
+    }
+}
+
+impl fmt::Debug for ProgramGroup {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut s = f.debug_struct("ProgramGroup");
+        s.field("kind", &self.kind());
+        match &self.programs {
+            GroupPrograms::Raygen(p)
+            | GroupPrograms::Miss(p)
+            | GroupPrograms::Callable(p)
+            | GroupPrograms::Exception(p) => s.field("program", p),
+            GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
+                s.field("closest_hit", closest_hit).field("any_hit", any_hit).field("intersection", intersection)
+            }
+        };
+        s.finish()
     }
 }
 
 /// Builds a hit group; each program is checked as it is added.
 #[must_use]
+#[derive(Debug)]
 pub struct HitGroupBuilder<'m> {
     module: &'m Module,
     closest_hit: Option<Program>,

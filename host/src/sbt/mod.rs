@@ -7,6 +7,9 @@
 //! stride fits its largest record. See
 //! [the SBT chapter of the Vulkan spec](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#shader-binding-table).
 
+pub mod region;
+
+use std::fmt;
 use std::sync::Arc;
 
 use ash::vk;
@@ -16,10 +19,12 @@ use crate::context::DeviceLimits;
 use crate::error::{Error, Result};
 use crate::memory::RawBuffer;
 use crate::pipeline::{Pipeline, PipelineInner};
-use crate::program_group::{GroupPrograms, ProgramGroup};
+use crate::program_group::{GroupKind, ProgramGroup};
 use raykit_device::RayType;
+pub use region::SbtRegion;
 
 /// One SBT record before packing: a group and its data.
+#[derive(Debug)]
 pub struct SbtRecord<'g, T: bytemuck::Pod> {
     /// The program group whose handle heads the record.
     pub group: &'g ProgramGroup,
@@ -35,6 +40,7 @@ impl<'g, T: bytemuck::Pod> SbtRecord<'g, T> {
 }
 
 /// A record in type-erased form.
+#[derive(Debug)]
 struct PackedRecord {
     group_index: usize,
     data: Vec<u8>,
@@ -83,12 +89,7 @@ pub struct SbtBuilder<'p, P: raykit_device::LaunchParams> {
 }
 
 /// Puts `record` at `index` of `region`, growing it; a taken slot is an error.
-fn place(
-    slots: &mut Vec<Option<PackedRecord>>,
-    index: usize,
-    record: PackedRecord,
-    region: &'static str,
-) -> Result<()> {
+fn place(slots: &mut Vec<Option<PackedRecord>>, index: usize, record: PackedRecord, region: SbtRegion) -> Result<()> {
     if slots.len() <= index {
         slots.resize_with(index + 1, || None);
     }
@@ -100,29 +101,17 @@ fn place(
 }
 
 impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
-    fn pack<T: bytemuck::Pod>(
-        &mut self,
-        group: &ProgramGroup,
-        data: &T,
-        region: &'static str,
-        expected: &'static str,
-    ) -> Option<PackedRecord> {
+    fn pack<T: bytemuck::Pod>(&mut self, group: &ProgramGroup, data: &T, region: SbtRegion) -> Option<PackedRecord> {
         if self.error.is_some() {
             return None;
         }
-        let kind_ok = matches!(
-            (&group.programs, region),
-            (GroupPrograms::Raygen(_), "raygen")
-                | (GroupPrograms::Miss(_), "miss")
-                | (GroupPrograms::Hit { .. }, "hit")
-                | (GroupPrograms::Callable(_), "callable")
-        );
-        if !kind_ok {
-            self.error = Some(Error::SbtGroupKind { region, expected, actual: group.kind_name() });
+        let expected = region.group_kind();
+        if group.kind() != expected {
+            self.error = Some(Error::SbtGroupKind { region, expected, actual: group.kind() });
             return None;
         }
         let Some(group_index) = self.pipeline.group_index(group) else {
-            self.error = Some(Error::GroupNotInPipeline { kind: group.kind_name() });
+            self.error = Some(Error::GroupNotInPipeline { kind: group.kind() });
             return None;
         };
         Some(PackedRecord { group_index, data: bytemuck::bytes_of(data).to_vec() })
@@ -130,7 +119,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
 
     /// The raygen record (exactly one; a second replaces the first).
     pub fn raygen<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
-        if let Some(r) = self.pack(group, &data, "raygen", "raygen") {
+        if let Some(r) = self.pack(group, &data, SbtRegion::Raygen) {
             self.raygen = Some(r);
         }
         self
@@ -144,8 +133,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
 
     /// Places a miss record at miss index `index`.
     pub fn miss_at<T: bytemuck::Pod>(mut self, index: usize, group: &ProgramGroup, data: T) -> Self {
-        if let Some(r) = self.pack(group, &data, "miss", "miss") {
-            if let Err(e) = place(&mut self.miss, index, r, "miss") {
+        if let Some(r) = self.pack(group, &data, SbtRegion::Miss) {
+            if let Err(e) = place(&mut self.miss, index, r, SbtRegion::Miss) {
                 self.error = Some(e);
             }
         }
@@ -166,8 +155,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
 
     /// Places a hit record at index `index` of the hit region.
     pub fn hit_at<T: bytemuck::Pod>(mut self, index: usize, group: &ProgramGroup, data: T) -> Self {
-        if let Some(r) = self.pack(group, &data, "hit", "hit") {
-            if let Err(e) = place(&mut self.hit, index, r, "hit") {
+        if let Some(r) = self.pack(group, &data, SbtRegion::Hit) {
+            if let Err(e) = place(&mut self.hit, index, r, SbtRegion::Hit) {
                 self.error = Some(e);
             }
         }
@@ -184,7 +173,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     /// Appends a callable record; the n-th call is callable index n (the
     /// `sbt_index` of `ctx.call(sbt_index, data)` on the device).
     pub fn callable<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
-        if let Some(r) = self.pack(group, &data, "callable", "callable") {
+        if let Some(r) = self.pack(group, &data, SbtRegion::Callable) {
             self.callable.push(r);
         }
         self
@@ -192,12 +181,12 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
 
     /// Appends an [`SbtRecord`] to the region its group's kind belongs to.
     pub fn record<T: bytemuck::Pod>(self, record: SbtRecord<'_, T>) -> Self {
-        match record.group.programs {
-            GroupPrograms::Raygen(_) => self.raygen(record.group, record.data),
-            GroupPrograms::Miss(_) => self.miss(record.group, record.data),
-            GroupPrograms::Hit { .. } => self.hit(record.group, record.data),
+        match record.group.kind() {
+            GroupKind::Raygen => self.raygen(record.group, record.data),
+            GroupKind::Miss => self.miss(record.group, record.data),
+            GroupKind::Hit => self.hit(record.group, record.data),
             // Refused by `callable`: raykit places the exception record itself.
-            GroupPrograms::Callable(_) | GroupPrograms::Exception(_) => self.callable(record.group, record.data),
+            GroupKind::Callable | GroupKind::Exception => self.callable(record.group, record.data),
         }
     }
 
@@ -206,13 +195,13 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         if let Some(e) = self.error {
             return Err(e);
         }
-        let raygen = self.raygen.ok_or(Error::SbtMissing { region: "raygen" })?;
+        let raygen = self.raygen.ok_or(Error::SbtMissing { region: SbtRegion::Raygen })?;
         // A hole would hand the device an empty record: refuse it.
-        let filled = |slots: Vec<Option<PackedRecord>>, region: &'static str| -> Result<Vec<PackedRecord>> {
+        let filled = |slots: Vec<Option<PackedRecord>>, region: SbtRegion| -> Result<Vec<PackedRecord>> {
             slots.into_iter().enumerate().map(|(index, r)| r.ok_or(Error::SbtHole { region, index })).collect()
         };
-        let miss = filled(self.miss, "miss")?;
-        let hit = filled(self.hit, "hit")?;
+        let miss = filled(self.miss, SbtRegion::Miss)?;
+        let hit = filled(self.hit, SbtRegion::Hit)?;
         let pipeline = &self.pipeline.inner;
         let limits = pipeline.ctx.limits;
         let max_data = |records: &[PackedRecord]| records.iter().map(|r| r.data.len()).max().unwrap_or(0);
@@ -233,7 +222,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         // The exception program, if the pipeline has one, goes after the user's
         // callables; its index reaches the device through the exception buffer.
         let mut callable = self.callable;
-        let exception_index = match pipeline.groups.iter().position(|(_, kind)| *kind == "exception") {
+        let exception_index = match pipeline.groups.iter().position(|g| g.kind == GroupKind::Exception) {
             Some(group_index) => {
                 callable.push(PackedRecord { group_index, data: Vec::new() });
                 Some(callable.len() as u32 - 1)
@@ -284,6 +273,18 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     }
 }
 
+impl<P: raykit_device::LaunchParams> fmt::Debug for SbtBuilder<'_, P> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("SbtBuilder")
+            .field("raygen", &self.raygen.is_some())
+            .field("miss", &self.miss.len())
+            .field("hit", &self.hit.len())
+            .field("callable", &self.callable.len())
+            .field("error", &self.error)
+            .finish()
+    }
+}
+
 /// A shader binding table on the device, made for one pipeline.
 pub struct Sbt {
     pub(crate) pipeline: Arc<PipelineInner>,
@@ -300,19 +301,6 @@ pub struct Sbt {
     pub(crate) buffer: Arc<RawBuffer>,
 }
 
-/// An SBT region, for [`Sbt::update`].
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum SbtRegion {
-    /// The raygen record.
-    Raygen,
-    /// The miss records.
-    Miss,
-    /// The hit records.
-    Hit,
-    /// The callable records.
-    Callable,
-}
-
 impl Sbt {
     /// Starts an SBT for `pipeline`.
     pub fn builder<P: raykit_device::LaunchParams>(pipeline: &Pipeline<P>) -> SbtBuilder<'_, P> {
@@ -324,11 +312,10 @@ impl Sbt {
     /// material between launches. Call it between launches: while an async launch
     /// ([`Pipeline::launch_async`]) that uses this SBT is in flight, it fails.
     pub fn update<T: bytemuck::Pod>(&mut self, region: SbtRegion, index: usize, data: T) -> Result<()> {
-        let r = region as usize;
-        let name = ["raygen", "miss", "hit", "callable"][r];
+        let r = region.index();
         if index >= self.counts[r] {
             return Err(Error::SbtUpdate {
-                region: name,
+                region,
                 reason: format!("index {index} is past the region's {} record(s)", self.counts[r]),
             });
         }
@@ -338,7 +325,7 @@ impl Sbt {
         let bytes = bytemuck::bytes_of(&data);
         if bytes.len() as u64 > room {
             return Err(Error::SbtUpdate {
-                region: name,
+                region,
                 reason: format!(
                     "{} bytes of data do not fit the region's {room}-byte records; build a new SBT for larger data",
                     bytes.len()
@@ -348,19 +335,36 @@ impl Sbt {
         let at = (layout.offset + layout.stride * index as u64 + handle) as usize;
         // A launch in flight holds a clone of the buffer: the device may be reading it.
         let buffer = Arc::get_mut(&mut self.buffer).ok_or(Error::SbtUpdate {
-            region: name,
+            region,
             reason: "a launch using this SBT is still in flight; wait for it (Launch::wait) first".to_owned(),
         })?;
         let mapped = buffer
             .mapped_mut()
-            .ok_or(Error::SbtUpdate { region: name, reason: "the SBT buffer is not host-visible".to_owned() })?;
+            .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
         mapped[at..at + bytes.len()].copy_from_slice(bytes);
         Ok(())
+    }
+
+    /// The raygen, miss, hit and callable regions passed to `vkCmdTraceRaysKHR`, for
+    /// hand-written Vulkan (see [`crate::pipeline::raw`]).
+    pub fn raw_regions(&self) -> [vk::StridedDeviceAddressRegionKHR; 4] {
+        [self.raygen, self.miss, self.hit, self.callable]
     }
 
     /// Layouts of the raygen, miss, hit and callable regions.
     pub fn region_layouts(&self) -> [RegionLayout; 4] {
         self.layouts
+    }
+}
+
+impl fmt::Debug for Sbt {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut s = f.debug_struct("Sbt");
+        for region in SbtRegion::ALL {
+            let r = region.index();
+            s.field(region.name(), &format_args!("{} record(s), {:?}", self.counts[r], self.layouts[r]));
+        }
+        s.field("exception_index", &self.exception_index).finish()
     }
 }
 

@@ -10,9 +10,9 @@ use std::time::Duration;
 
 use ash::vk;
 
+use super::Pipeline;
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use crate::pipeline::Pipeline;
 use crate::sbt::Sbt;
 
 /// A timestamp query pool of two queries, and how to turn ticks into time.
@@ -40,6 +40,15 @@ impl LaunchTimer {
     /// Nanoseconds per timestamp tick.
     pub fn period_ns(&self) -> f64 {
         self.period_ns
+    }
+}
+
+impl std::fmt::Debug for LaunchTimer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LaunchTimer")
+            .field("period_ns", &self.period_ns)
+            .field("valid_bits", &self.valid_bits)
+            .finish_non_exhaustive()
     }
 }
 

@@ -4,7 +4,7 @@
 //!
 //! A [`PipelineLibrary<P>`] compiles its groups (with their specialization
 //! constants and their own user-exception buffer) when it is made;
-//! [`crate::Pipeline::link`] then joins libraries into a launchable pipeline
+//! [`Pipeline::link`](crate::Pipeline::link) then joins libraries into a launchable pipeline
 //! without compiling them again. Vulkan requires the libraries of one pipeline
 //! and the pipeline itself to agree on the recursion depth and on the
 //! *interface*: the largest ray payload and hit attributes any program uses
@@ -20,19 +20,20 @@
 //! raygen stage of its own to every linked pipeline ([`raykit_spirv::empty_raygen`]);
 //! no group uses it.
 
+use std::fmt;
 use std::marker::PhantomData;
 use std::sync::Arc;
 
 use ash::vk;
 use raykit_device::LaunchParams;
-use raykit_spirv::{InterfaceSizes, ParamsDelivery};
+use raykit_spirv::InterfaceSizes;
 
+use super::exceptions::ExceptionBuffer;
+use super::handle::PipelineHandle;
+use super::layout::PipelineLayout;
+use super::shader_groups::{check_groups, ShaderGroups, Specialization};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use crate::pipeline::{
-    check_groups, create_layout, create_ray_tracing_pipeline, params_delivery, params_set_layout, ExceptionBuffer,
-    ShaderGroups, Specialization,
-};
 use crate::program_group::ProgramGroup;
 
 /// An empty raygen shader ([`raykit_spirv::empty_raygen`]) that a linked pipeline
@@ -73,7 +74,7 @@ impl Drop for PushConstantCarrier {
 #[derive(Copy, Clone, Debug)]
 pub struct LibraryOptions {
     /// Maximum recursion depth of `trace` calls; must equal the
-    /// [`crate::LinkOptions::max_trace_depth`] of every pipeline it is linked into.
+    /// [`LinkOptions::max_trace_depth`](crate::LinkOptions::max_trace_depth) of every pipeline it is linked into.
     pub max_trace_depth: u32,
     /// The payload and hit-attribute sizes it is compiled for; `None` takes what
     /// its programs declare. Libraries linked together need the same interface.
@@ -94,17 +95,17 @@ pub struct PipelineLibrary<P: LaunchParams> {
 }
 
 pub(crate) struct LibraryInner {
+    // Field order is drop order: the library goes before its layout.
+    pub(crate) pipeline: PipelineHandle,
+    /// The layout it was compiled with, kept as long as the library.
+    _layout: PipelineLayout,
     pub(crate) ctx: Arc<ContextInner>,
-    pub(crate) pipeline: vk::Pipeline,
-    layout: vk::PipelineLayout,
-    params_set_layout: Option<vk::DescriptorSetLayout>,
     /// Its groups, in library order.
     pub(crate) groups: Vec<ProgramGroup>,
     /// Where its programs record user exceptions (their slot was specialized in).
     pub(crate) exceptions: Arc<ExceptionBuffer>,
     pub(crate) max_trace_depth: u32,
     pub(crate) interface: InterfaceSizes,
-    log: Vec<crate::log::ValidationMessage>,
 }
 
 /// `sizes` as Vulkan takes them (`VkRayTracingPipelineInterfaceCreateInfoKHR`).
@@ -116,14 +117,14 @@ pub(crate) fn interface_info(sizes: InterfaceSizes) -> vk::RayTracingPipelineInt
 
 impl<P: LaunchParams> PipelineLibrary<P> {
     /// Compiles `groups` into a library. Any groups may go in one (a library
-    /// needs no raygen group); see [`crate::Pipeline::link`].
+    /// needs no raygen group); see [`Pipeline::link`](crate::Pipeline::link).
     pub fn new(ctx: &Context, groups: &[&ProgramGroup], options: LibraryOptions) -> Result<PipelineLibrary<P>> {
         Self::with_specialization(ctx, groups, options, &Specialization::new())
     }
 
     /// Compiles `groups` into a library like [`PipelineLibrary::new`], with the
     /// specialization constants in `constants` (see
-    /// [`crate::Pipeline::with_specialization`]): they are fixed in the library.
+    /// [`Pipeline::with_specialization`](crate::Pipeline::with_specialization)): they are fixed in the library.
     pub fn with_specialization(
         ctx: &Context,
         groups: &[&ProgramGroup],
@@ -148,23 +149,8 @@ impl<P: LaunchParams> PipelineLibrary<P> {
             });
         }
         let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
-        // Wrapped at once, so an early return frees what exists.
-        let mut library = LibraryInner {
-            ctx: inner.clone(),
-            pipeline: vk::Pipeline::null(),
-            layout: vk::PipelineLayout::null(),
-            params_set_layout: None,
-            groups: groups.iter().map(|g| (*g).clone()).collect(),
-            exceptions,
-            max_trace_depth: options.max_trace_depth,
-            interface,
-            log: Vec::new(),
-        };
-        if params_delivery::<P>() != ParamsDelivery::PushConstants {
-            library.params_set_layout = Some(params_set_layout(inner)?);
-        }
-        library.layout = create_layout::<P>(inner, library.params_set_layout)?;
-        let shaders = ShaderGroups::new(groups, library.exceptions.slot, constants);
+        let layout = PipelineLayout::new::<P>(inner)?;
+        let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
         let specialization = shaders.specialization();
         let stages = shaders.stages(&specialization);
         let interface_create = interface_info(interface);
@@ -174,11 +160,18 @@ impl<P: LaunchParams> PipelineLibrary<P> {
             .groups(&shaders.group_infos)
             .max_pipeline_ray_recursion_depth(options.max_trace_depth)
             .library_interface(&interface_create)
-            .layout(library.layout);
-        let (pipeline, log) = create_ray_tracing_pipeline(inner, &create_info)?;
-        library.pipeline = pipeline;
-        library.log = log;
-        inner.set_name(pipeline, &format!("raykit pipeline library [{}]", shaders.names().join(", ")));
+            .layout(layout.handle);
+        let name = format!("raykit pipeline library [{}]", shaders.names().join(", "));
+        let pipeline = PipelineHandle::create(inner, &create_info, &name)?;
+        let library = LibraryInner {
+            pipeline,
+            _layout: layout,
+            ctx: inner.clone(),
+            groups: groups.iter().map(|g| (*g).clone()).collect(),
+            exceptions,
+            max_trace_depth: options.max_trace_depth,
+            interface,
+        };
         Ok(PipelineLibrary { inner: Arc::new(library), _params: PhantomData })
     }
 
@@ -206,7 +199,18 @@ impl<P: LaunchParams> PipelineLibrary<P> {
 
     /// What the validation layer reported while it was compiled; see [`crate::log`].
     pub fn creation_log(&self) -> &[crate::log::ValidationMessage] {
-        &self.inner.log
+        &self.inner.pipeline.log
+    }
+}
+
+impl<P: LaunchParams> fmt::Debug for PipelineLibrary<P> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("PipelineLibrary")
+            .field("params", &std::any::type_name::<P>())
+            .field("groups", &self.inner.groups)
+            .field("max_trace_depth", &self.inner.max_trace_depth)
+            .field("interface", &self.inner.interface)
+            .finish()
     }
 }
 
@@ -224,24 +228,6 @@ fn check_interface(groups: &[&ProgramGroup], interface: InterfaceSizes) -> Resul
         }
     }
     Ok(())
-}
-
-impl Drop for LibraryInner {
-    fn drop(&mut self) {
-        // SAFETY: pipelines linked from this library hold an `Arc` to it and are
-        // dropped first (after their launches finished), so nothing uses it.
-        unsafe {
-            if self.pipeline != vk::Pipeline::null() {
-                self.ctx.device.destroy_pipeline(self.pipeline, None);
-            }
-            if self.layout != vk::PipelineLayout::null() {
-                self.ctx.device.destroy_pipeline_layout(self.layout, None);
-            }
-            if let Some(set_layout) = self.params_set_layout {
-                self.ctx.device.destroy_descriptor_set_layout(set_layout, None);
-            }
-        }
-    }
 }
 
 #[cfg(test)]

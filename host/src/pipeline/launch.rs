@@ -35,11 +35,12 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::exceptions::ExceptionBuffer;
+use super::{Pipeline, PipelineInner};
 use crate::buffer_table::RT_STAGES;
 use crate::context::Submission;
 use crate::error::{Error, Result};
 use crate::memory::RawBuffer;
-use crate::pipeline::{ExceptionBuffer, Pipeline, PipelineInner};
 use crate::sbt::Sbt;
 
 /// A launch submitted to the device and not yet waited for (OptiX's launch on a
@@ -67,6 +68,16 @@ impl Drop for Launch {
                 }
             }
         }
+    }
+}
+
+impl std::fmt::Debug for Launch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let groups: Vec<_> = self.pipeline.groups.iter().map(|g| g.kind).collect();
+        f.debug_struct("Launch")
+            .field("pipeline_groups", &groups)
+            .field("exception_buffers", &self.pipeline.exceptions.len())
+            .finish_non_exhaustive()
     }
 }
 
@@ -103,13 +114,13 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
     }
 
     /// Submits a launch like [`Pipeline::launch`] and returns without waiting. See
-    /// the [module docs](crate::launch) for what may be in flight at once.
+    /// the [module docs](self) for what may be in flight at once.
     pub fn launch_async(&self, sbt: &Sbt, params: &P, dims: [u32; 3]) -> Result<Launch> {
         self.submit_launch(sbt, params, dims, None)
     }
 
     /// [`Pipeline::launch`], with GPU timestamps written into queries 0 and 1 of
-    /// `timestamps` around the trace (see `timing.rs`).
+    /// `timestamps` around the trace (see [`super::timing`]).
     pub(crate) fn launch_recording(
         &self,
         sbt: &Sbt,
@@ -217,13 +228,13 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                     vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
                     vk::AccessFlags::UNIFORM_READ | vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
                 );
-                device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, inner.pipeline);
+                device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, inner.pipeline.handle);
                 // The pipeline's stack size is dynamic state (see `crate::stack`).
                 ctx.rt.cmd_set_ray_tracing_pipeline_stack_size(cmd, stack_size);
                 device.cmd_bind_descriptor_sets(
                     cmd,
                     vk::PipelineBindPoint::RAY_TRACING_KHR,
-                    inner.layout,
+                    inner.layout.handle,
                     raykit_abi::BUFFER_TABLE_SET,
                     &[ctx.buffer_table.set],
                     &[],
@@ -232,14 +243,14 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                     device.cmd_bind_descriptor_sets(
                         cmd,
                         vk::PipelineBindPoint::RAY_TRACING_KHR,
-                        inner.layout,
+                        inner.layout.handle,
                         raykit_device::PARAMS_SET,
                         &[*set],
                         &[],
                     );
                 }
-                if inner.push_constant_size > 0 {
-                    device.cmd_push_constants(cmd, inner.layout, RT_STAGES, 0, params_bytes);
+                if inner.layout.push_constant_size > 0 {
+                    device.cmd_push_constants(cmd, inner.layout.handle, RT_STAGES, 0, params_bytes);
                 }
                 if let Some(pool) = timestamps {
                     device.cmd_reset_query_pool(cmd, pool, 0, 2);

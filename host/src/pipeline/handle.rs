@@ -1,0 +1,66 @@
+//! An owned `VkPipeline`: a ray-tracing pipeline or pipeline library, created
+//! through the context's pipeline cache and destroyed when dropped. See
+//! [`vkCreateRayTracingPipelinesKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCreateRayTracingPipelinesKHR.html).
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use crate::context::ContextInner;
+use crate::error::{Error, Result};
+use crate::log::ValidationMessage;
+
+/// A created ray-tracing pipeline (or library), with what the validation layer
+/// reported while it was created.
+pub(crate) struct PipelineHandle {
+    ctx: Arc<ContextInner>,
+    pub(crate) handle: vk::Pipeline,
+    pub(crate) log: Vec<ValidationMessage>,
+}
+
+impl PipelineHandle {
+    /// Creates one ray-tracing pipeline (or library) from `create_info` through the
+    /// context's pipeline cache, and names it `name`.
+    pub(crate) fn create(
+        ctx: &Arc<ContextInner>,
+        create_info: &vk::RayTracingPipelineCreateInfoKHR<'_>,
+        name: &str,
+    ) -> Result<PipelineHandle> {
+        let (pipelines, log) = crate::log::capture(|| {
+            // SAFETY: the callers' create infos are valid: every stage's module is
+            // alive, libraries are live pipeline libraries of this device, and the
+            // recursion depth was checked against the device limit.
+            unsafe {
+                ctx.rt.create_ray_tracing_pipelines(
+                    vk::DeferredOperationKHR::null(),
+                    ctx.pipeline_cache.handle,
+                    std::slice::from_ref(create_info),
+                    None,
+                )
+            }
+        });
+        match pipelines {
+            Ok(p) => {
+                let pipeline = PipelineHandle { ctx: ctx.clone(), handle: p[0], log };
+                ctx.set_name(pipeline.handle, name);
+                Ok(pipeline)
+            }
+            Err((p, e)) => {
+                for pipeline in p.into_iter().filter(|p| *p != vk::Pipeline::null()) {
+                    // SAFETY: never used.
+                    unsafe { ctx.device.destroy_pipeline(pipeline, None) };
+                }
+                Err(Error::vk("vkCreateRayTracingPipelinesKHR")(e))
+            }
+        }
+    }
+}
+
+impl Drop for PipelineHandle {
+    fn drop(&mut self) {
+        // SAFETY: its owner holds it until nothing uses it: SBTs and launches in
+        // flight hold an `Arc` of the pipeline (a launch waits for its work before it
+        // is dropped), and pipelines linked from a library hold an `Arc` of it.
+        unsafe { self.ctx.device.destroy_pipeline(self.handle, None) };
+    }
+}

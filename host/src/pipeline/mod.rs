@@ -1,0 +1,414 @@
+//! Pipelines: program groups linked into a Vulkan ray-tracing pipeline, OptiX's
+//! `optixPipelineCreate`.
+//!
+//! A [`Pipeline<P>`] is typed by its launch params `P` (a struct that derives
+//! `LaunchParams`), and [`Pipeline::launch`] takes a `&P`. Linking checks every
+//! program's params block in the SPIR-V against `P`'s layout (see
+//! [`raykit_spirv::layout`]), as OptiX requires every module of a pipeline to agree on
+//! its `PipelineCompileOptions`. `P` travels as push constants when it is at most
+//! [`PUSH_CONSTANT_BUDGET`](raykit_device::PUSH_CONSTANT_BUDGET) bytes, otherwise
+//! in a uniform buffer the pipeline owns (set 1, binding 0); `#[params]` in device
+//! code follows the same rule. Every program sees the context's bindless buffer
+//! table at set 0, binding 0.
+//!
+//! Pipelines are created with the dynamic stack-size state
+//! (`VK_DYNAMIC_STATE_RAY_TRACING_PIPELINE_STACK_SIZE_KHR`): linking reads every
+//! group's stack sizes from the driver ([`Pipeline::group_stack_sizes`]), and each
+//! launch sets the size chosen with [`Pipeline::set_stack_size`] (by default the
+//! value Vulkan defines for a pipeline without that state); see [`crate::stack`].
+//! See [`vkCreateRayTracingPipelinesKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCreateRayTracingPipelinesKHR.html).
+//!
+//! A pipeline is linked from program groups ([`Pipeline::new`]) or from pipeline
+//! libraries ([`library`], [`Pipeline::link`]), launched ([`launch`], and [`timing`]
+//! for GPU-timed launches), and its Vulkan handles are reachable for interoperation
+//! ([`raw`]).
+
+mod exceptions;
+mod handle;
+pub mod launch;
+mod layout;
+pub mod library;
+pub mod raw;
+mod shader_groups;
+pub mod timing;
+
+use std::fmt;
+use std::marker::PhantomData;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{Arc, Mutex};
+
+use ash::vk;
+use raykit_device::LaunchParams;
+use raykit_spirv::{InterfaceSizes, ParamsDelivery};
+
+use crate::context::{Context, ContextInner};
+use crate::error::{Error, Result};
+use crate::memory::RawBuffer;
+use crate::program_group::ProgramGroup;
+use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
+use exceptions::ExceptionBuffer;
+use handle::PipelineHandle;
+pub use layout::params_delivery;
+use layout::{ParamsUniform, PipelineLayout};
+use library::{interface_info, LibraryInner, PipelineLibrary, PushConstantCarrier};
+pub use shader_groups::Specialization;
+use shader_groups::{check_groups, check_linkable, CompiledGroup, LinkedGroup, ShaderGroups};
+
+/// Link options (OptiX's `OptixPipelineLinkOptions`).
+#[derive(Copy, Clone, Debug)]
+pub struct LinkOptions {
+    /// Maximum recursion depth of `trace` calls: 1 when only raygen traces.
+    pub max_trace_depth: u32,
+}
+
+impl Default for LinkOptions {
+    fn default() -> Self {
+        LinkOptions { max_trace_depth: 1 }
+    }
+}
+
+/// A linked ray-tracing pipeline whose programs take launch params `P`.
+pub struct Pipeline<P: LaunchParams> {
+    pub(crate) inner: Arc<PipelineInner>,
+    _params: PhantomData<fn(&P)>,
+}
+
+/// A created pipeline with everything it owns.
+pub(crate) struct PipelineInner {
+    // Field order is drop order: the pipeline, then the params uniform (its set was
+    // allocated with the layout's params set layout), then the layout, then the
+    // libraries the pipeline was linked from.
+    pub(crate) pipeline: PipelineHandle,
+    /// The params uniform buffer, for params over the push-constant budget.
+    pub(crate) params_uniform: Option<ParamsUniform>,
+    pub(crate) layout: PipelineLayout,
+    /// The libraries it was linked from, kept alive as long as it is.
+    pub(crate) libraries: Vec<Arc<LibraryInner>>,
+    pub(crate) ctx: Arc<ContextInner>,
+    /// Its groups, in pipeline order.
+    pub(crate) groups: Vec<LinkedGroup>,
+    /// `shaderGroupHandleSize` bytes per group, in pipeline order.
+    pub(crate) handles: Vec<u8>,
+    /// `maxPipelineRayRecursionDepth`.
+    pub(crate) max_trace_depth: u32,
+    /// The stack size every launch sets (`vkCmdSetRayTracingPipelineStackSizeKHR`).
+    pub(crate) stack_size: AtomicU32,
+    /// Where programs record user exceptions: one buffer per set of programs
+    /// compiled together (the pipeline itself, or each linked library). Launches
+    /// zero and copy them on the device (see [`launch`]).
+    pub(crate) exceptions: Vec<Arc<ExceptionBuffer>>,
+    /// Finished launches' exception readback buffers, reused by later launches
+    /// (an allocation per launch is slow on some drivers).
+    pub(crate) readbacks: Mutex<Vec<RawBuffer>>,
+}
+
+/// What a pipeline is made of besides its stages: its groups, its user-exception
+/// buffers and the libraries it is linked from.
+struct PipelineParts<'g> {
+    groups: Vec<CompiledGroup<'g>>,
+    exceptions: Vec<Arc<ExceptionBuffer>>,
+    libraries: Vec<Arc<LibraryInner>>,
+}
+
+impl PipelineInner {
+    /// Creates the pipeline for params `P` from `create_info` (its stages, groups
+    /// and libraries) with its own layout, params uniform buffer (for params over
+    /// the push-constant budget), recursion depth and the dynamic stack-size state;
+    /// names it `name`; reads its groups' handles and stack sizes, and sets the
+    /// default stack size.
+    fn new<P: LaunchParams>(
+        ctx: &Arc<ContextInner>,
+        max_trace_depth: u32,
+        create_info: vk::RayTracingPipelineCreateInfoKHR<'_>,
+        name: &str,
+        parts: PipelineParts<'_>,
+    ) -> Result<PipelineInner> {
+        let layout = PipelineLayout::new::<P>(ctx)?;
+        let params_uniform = ParamsUniform::for_layout::<P>(ctx, &layout)?;
+        // The stack size is set by every launch (see `crate::stack`).
+        let dynamic_states = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
+        let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        let create_info = create_info
+            .max_pipeline_ray_recursion_depth(max_trace_depth)
+            .dynamic_state(&dynamic_state)
+            .layout(layout.handle);
+        let pipeline = PipelineHandle::create(ctx, &create_info, name)?;
+        let count = parts.groups.len();
+        let handle_size = ctx.limits.shader_group_handle_size as usize;
+        // SAFETY: the pipeline is live and has exactly `count` groups.
+        let handles = unsafe {
+            ctx.rt.get_ray_tracing_shader_group_handles(pipeline.handle, 0, count as u32, count * handle_size)
+        }
+        .map_err(Error::vk("vkGetRayTracingShaderGroupHandlesKHR"))?;
+        let groups: Vec<LinkedGroup> =
+            parts.groups.iter().map(|g| LinkedGroup::read(ctx, pipeline.handle, g)).collect();
+        let default = stack::vulkan_default(&stack_sizes(&groups), max_trace_depth);
+        Ok(PipelineInner {
+            pipeline,
+            params_uniform,
+            layout,
+            libraries: parts.libraries,
+            ctx: ctx.clone(),
+            groups,
+            handles,
+            max_trace_depth,
+            stack_size: AtomicU32::new(stack_bytes(default)?),
+            exceptions: parts.exceptions,
+            readbacks: Mutex::new(Vec::new()),
+        })
+    }
+}
+
+/// The maxima of `groups`' stack sizes by program kind.
+fn stack_sizes(groups: &[LinkedGroup]) -> StackSizes {
+    StackSizes::from_groups(groups.iter().map(|g| (g.role, g.stack_sizes)))
+}
+
+impl<P: LaunchParams> Pipeline<P> {
+    /// Links `groups` into a pipeline. There must be a raygen group.
+    pub fn new(ctx: &Context, groups: &[&ProgramGroup], options: LinkOptions) -> Result<Pipeline<P>> {
+        Self::with_specialization(ctx, groups, options, &Specialization::new())
+    }
+
+    /// Links `groups` like [`Pipeline::new`], with the specialization constants
+    /// in `constants` (OptiX's parameter specialization): every program's
+    /// `#[spec_constant(id = N)]` parameter takes the value set for `N`, or its
+    /// default. One module can so give several pipelines that behave differently,
+    /// with the branches on those constants compiled away by the driver.
+    pub fn with_specialization(
+        ctx: &Context,
+        groups: &[&ProgramGroup],
+        options: LinkOptions,
+        constants: &Specialization,
+    ) -> Result<Pipeline<P>> {
+        let inner = &ctx.inner;
+        check_groups::<P>(inner, groups, options.max_trace_depth)?;
+        check_linkable(groups.iter().copied())?;
+        let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
+        let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
+        let specialization = shaders.specialization();
+        let stages = shaders.stages(&specialization);
+        let create_info = vk::RayTracingPipelineCreateInfoKHR::default().stages(&stages).groups(&shaders.group_infos);
+        let name = format!("raykit pipeline [{}]", shaders.names().join(", "));
+        let parts = PipelineParts {
+            groups: groups
+                .iter()
+                .enumerate()
+                .map(|(i, g)| CompiledGroup { group: g, library: None, index: i as u32 })
+                .collect(),
+            exceptions: vec![exceptions],
+            libraries: Vec::new(),
+        };
+        Ok(Pipeline::from_inner(PipelineInner::new::<P>(inner, options.max_trace_depth, create_info, &name, parts)?))
+    }
+
+    /// Links a pipeline from `libraries` (OptiX's "program groups can be used
+    /// across pipelines", on `VK_KHR_pipeline_library`): their program groups,
+    /// compiled when each [`PipelineLibrary`] was made, become this pipeline's
+    /// groups, so linking compiles nothing again. One library may go into many
+    /// pipelines. Together the libraries need one raygen group, at most one
+    /// exception group, and no group twice; every library must have been made with
+    /// `options.max_trace_depth` and the same [`InterfaceSizes`]. The SBT, stack
+    /// sizing and launches work as for [`Pipeline::new`].
+    pub fn link(ctx: &Context, libraries: &[&PipelineLibrary<P>], options: LinkOptions) -> Result<Pipeline<P>> {
+        let inner = &ctx.inner;
+        if !inner.pipeline_library {
+            return Err(Error::PipelineLibrariesUnsupported);
+        }
+        if libraries.iter().any(|l| !Arc::ptr_eq(&l.inner.ctx, inner)) {
+            return Err(Error::ContextMismatch);
+        }
+        let interface = libraries.first().map(|l| l.inner.interface).unwrap_or_default();
+        for (index, library) in libraries.iter().enumerate() {
+            if library.inner.max_trace_depth != options.max_trace_depth {
+                return Err(Error::LibraryMismatch {
+                    what: "max_trace_depth",
+                    index,
+                    found: library.inner.max_trace_depth.to_string(),
+                    expected: options.max_trace_depth.to_string(),
+                    fix: "Give LibraryOptions::max_trace_depth the pipeline's LinkOptions::max_trace_depth.",
+                });
+            }
+            if library.inner.interface != interface {
+                return Err(Error::LibraryMismatch {
+                    what: "interface",
+                    index,
+                    found: describe_interface(library.inner.interface),
+                    expected: describe_interface(interface),
+                    fix: "Make every library with LibraryOptions { interface: Some(PipelineLibrary::interface_for(&[every group of every library])), .. }.",
+                });
+            }
+        }
+        let groups: Vec<&ProgramGroup> = libraries.iter().flat_map(|l| l.inner.groups.iter()).collect();
+        let mut owner: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
+        for (index, library) in libraries.iter().enumerate() {
+            for group in &library.inner.groups {
+                if let Some(first) = owner.insert(group.id, index) {
+                    return Err(Error::GroupInSeveralLibraries { kind: group.kind(), first, second: index });
+                }
+            }
+        }
+        check_linkable(groups.iter().copied())?;
+        let library_pipelines: Vec<vk::Pipeline> = libraries.iter().map(|l| l.inner.pipeline.handle).collect();
+        let library_info = vk::PipelineLibraryCreateInfoKHR::default().libraries(&library_pipelines);
+        let interface_create = interface_info(interface);
+        // lavapipe gives push constants only to pipelines that compile a stage
+        // themselves (see [`library`]); give it one that does nothing.
+        let carrier = if inner.lavapipe { Some(PushConstantCarrier::new(inner)?) } else { None };
+        let carrier_stage: Vec<vk::PipelineShaderStageCreateInfo<'_>> =
+            carrier.iter().map(PushConstantCarrier::stage).collect();
+        let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
+            .stages(&carrier_stage)
+            .library_info(&library_info)
+            .library_interface(&interface_create);
+        let name = format!("raykit pipeline linked from {} libraries", libraries.len());
+        let parts = PipelineParts {
+            groups: libraries
+                .iter()
+                .flat_map(|l| {
+                    l.inner.groups.iter().enumerate().map(|(i, group)| CompiledGroup {
+                        group,
+                        library: Some(l.inner.pipeline.handle),
+                        index: i as u32,
+                    })
+                })
+                .collect(),
+            exceptions: libraries.iter().map(|l| l.inner.exceptions.clone()).collect(),
+            libraries: libraries.iter().map(|l| l.inner.clone()).collect(),
+        };
+        Ok(Pipeline::from_inner(PipelineInner::new::<P>(inner, options.max_trace_depth, create_info, &name, parts)?))
+    }
+
+    /// The stack sizes the driver reports for `group`'s shaders in this pipeline
+    /// (`vkGetRayTracingShaderGroupStackSizeKHR`; OptiX's
+    /// `optixProgramGroupGetStackSize`). Vulkan knows them only once the group is
+    /// linked, hence a pipeline method.
+    pub fn group_stack_sizes(&self, group: &ProgramGroup) -> Result<GroupStackSizes> {
+        let index = self.group_index(group).ok_or(Error::GroupNotInPipeline { kind: group.kind() })?;
+        Ok(self.inner.groups[index].stack_sizes)
+    }
+
+    /// Every group's role and stack sizes, in the order the groups were linked.
+    pub fn all_group_stack_sizes(&self) -> Vec<(GroupRole, GroupStackSizes)> {
+        self.inner.groups.iter().map(|g| (g.role, g.stack_sizes)).collect()
+    }
+
+    /// The maxima of the groups' stack sizes by program kind: the input of
+    /// [`stack::conservative`], [`stack::refined`] and [`stack::vulkan_default`].
+    pub fn stack_sizes(&self) -> StackSizes {
+        stack_sizes(&self.inner.groups)
+    }
+
+    /// What the validation layer reported while the pipeline was linked (OptiX's
+    /// log string of `optixPipelineCreate`); see [`crate::log`].
+    pub fn creation_log(&self) -> &[crate::log::ValidationMessage] {
+        &self.inner.pipeline.log
+    }
+
+    /// The pipeline's `max_trace_depth` (`maxPipelineRayRecursionDepth`).
+    pub fn max_trace_depth(&self) -> u32 {
+        self.inner.max_trace_depth
+    }
+
+    /// The stack size Vulkan defines for this pipeline were it made without the
+    /// dynamic stack-size state ([`stack::vulkan_default`]).
+    pub fn driver_default_stack_size(&self) -> u64 {
+        stack::vulkan_default(&self.stack_sizes(), self.inner.max_trace_depth)
+    }
+
+    /// The size `choice` gives for this pipeline, in bytes, without setting it.
+    pub fn compute_stack_size(&self, choice: &StackSize<'_>) -> Result<u32> {
+        let max_depth = self.inner.max_trace_depth;
+        let check_depth = |depth: u32| -> Result<()> {
+            if depth > max_depth {
+                return Err(Error::StackSize {
+                    reason: format!("the estimate's trace depth {depth} is over the pipeline's max_trace_depth {max_depth}; raise LinkOptions::max_trace_depth or lower the estimate's"),
+                });
+            }
+            Ok(())
+        };
+        let bytes = match choice {
+            StackSize::DriverDefault => self.driver_default_stack_size(),
+            StackSize::Conservative(depths) => {
+                check_depth(depths.max_trace_depth)?;
+                stack::conservative(&self.stack_sizes(), depths).total()
+            }
+            StackSize::Refined(depths) => {
+                check_depth(depths.max_trace_depth)?;
+                stack::refined(&self.stack_sizes(), depths).total()
+            }
+            StackSize::CallGraph(graph) => {
+                check_depth(graph.max_trace_depth())?;
+                graph.estimate()?
+            }
+            StackSize::Explicit(bytes) => u64::from(*bytes),
+        };
+        stack_bytes(bytes)
+    }
+
+    /// Chooses the stack size every later launch sets
+    /// (`vkCmdSetRayTracingPipelineStackSizeKHR`; OptiX's
+    /// `optixPipelineSetStackSize`) and returns it in bytes. Until called, launches
+    /// use [`StackSize::DriverDefault`].
+    pub fn set_stack_size(&self, choice: &StackSize<'_>) -> Result<u32> {
+        let bytes = self.compute_stack_size(choice)?;
+        self.inner.stack_size.store(bytes, Ordering::Relaxed);
+        Ok(bytes)
+    }
+
+    /// The stack size launches set, in bytes.
+    pub fn stack_size(&self) -> u32 {
+        self.inner.stack_size.load(Ordering::Relaxed)
+    }
+
+    /// How this pipeline delivers its params: push constants, or a uniform buffer
+    /// for params over [`PUSH_CONSTANT_BUDGET`](raykit_device::PUSH_CONSTANT_BUDGET) bytes.
+    pub fn params_delivery(&self) -> ParamsDelivery {
+        params_delivery::<P>()
+    }
+
+    /// The position of `group` in this pipeline, if it was linked into it.
+    pub(crate) fn group_index(&self, group: &ProgramGroup) -> Option<usize> {
+        self.inner.groups.iter().position(|g| g.id == group.id)
+    }
+
+    fn from_inner(inner: PipelineInner) -> Pipeline<P> {
+        Pipeline { inner: Arc::new(inner), _params: PhantomData }
+    }
+}
+
+// Stack sizes exist only once a group is linked, so the pipeline module adds this
+// query to program groups (which know nothing of pipelines).
+impl ProgramGroup {
+    /// This group's stack sizes in `pipeline`, as the driver reports them (OptiX's
+    /// `optixProgramGroupGetStackSize`; Vulkan knows them once the group is linked):
+    /// [`Pipeline::group_stack_sizes`].
+    pub fn stack_sizes<P: LaunchParams>(&self, pipeline: &Pipeline<P>) -> Result<GroupStackSizes> {
+        pipeline.group_stack_sizes(self)
+    }
+}
+
+impl<P: LaunchParams> fmt::Debug for Pipeline<P> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let inner = &self.inner;
+        let groups: Vec<_> = inner.groups.iter().map(|g| g.kind).collect();
+        f.debug_struct("Pipeline")
+            .field("params", &std::any::type_name::<P>())
+            .field("params_delivery", &params_delivery::<P>())
+            .field("groups", &groups)
+            .field("libraries", &inner.libraries.len())
+            .field("max_trace_depth", &inner.max_trace_depth)
+            .field("stack_size", &self.stack_size())
+            .finish()
+    }
+}
+
+fn describe_interface(sizes: InterfaceSizes) -> String {
+    format!("an interface of {} B of ray payload and {} B of hit attributes", sizes.payload, sizes.hit_attributes)
+}
+
+/// A stack size as `vkCmdSetRayTracingPipelineStackSizeKHR` takes it.
+fn stack_bytes(bytes: u64) -> Result<u32> {
+    u32::try_from(bytes)
+        .map_err(|_| Error::StackSize { reason: format!("{bytes} bytes do not fit the 32 bits Vulkan takes") })
+}

@@ -1,0 +1,28 @@
+//! The Vulkan handles under a pipeline, for interoperation and for comparisons
+//! with hand-written Vulkan (raykit's benchmarks launch raykit's own pipeline and
+//! SBT through plain ash calls, with [`Context::raw_device`](crate::Context::raw_device)
+//! and [`Sbt::raw_regions`](crate::Sbt::raw_regions) beside these). Getting a handle
+//! is safe; using it is `unsafe` ash code whose caller keeps raykit's rules: the
+//! owning raykit object outlives every use, and the queue is externally
+//! synchronised (raykit submits to queue 0 of
+//! [`Context::queue_family`](crate::Context::queue_family), under its own lock).
+
+use ash::vk;
+
+use super::Pipeline;
+
+impl<P: raykit_device::LaunchParams> Pipeline<P> {
+    /// The `VkPipeline`.
+    pub fn raw_pipeline(&self) -> vk::Pipeline {
+        self.inner.pipeline.handle
+    }
+    /// The `VkPipelineLayout`.
+    pub fn raw_layout(&self) -> vk::PipelineLayout {
+        self.inner.layout.handle
+    }
+    /// Bytes of push constants the launch pushes (0 when the params go through a
+    /// uniform buffer).
+    pub fn raw_push_constant_size(&self) -> u32 {
+        self.inner.layout.push_constant_size
+    }
+}

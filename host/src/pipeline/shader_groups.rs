@@ -1,0 +1,276 @@
+//! Program groups as Vulkan takes them: shader stages, shader groups and the
+//! specialization every stage gets
+//! ([`VkRayTracingShaderGroupCreateInfoKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkRayTracingShaderGroupCreateInfoKHR.html)),
+//! the rules a set of groups compiled together must follow, and what the driver
+//! reports for each group once it is linked (handle and stack sizes).
+
+use std::sync::Arc;
+
+use ash::vk;
+use raykit_device::{LaunchParams, ProgramKind};
+use raykit_spirv::ParamsDelivery;
+
+use super::layout::params_delivery;
+use crate::context::ContextInner;
+use crate::error::{Error, Result};
+use crate::program_group::{GroupKind, GroupPrograms, Program, ProgramGroup};
+use crate::stack::{GroupRole, GroupStackSizes};
+
+/// Values of specialization constants for
+/// [`Pipeline::with_specialization`](crate::Pipeline::with_specialization):
+/// `u32`s by constant ID (device programs declare them as
+/// `#[spec_constant(id = N, default = D)] x: u32`).
+#[derive(Clone, Debug, Default)]
+#[must_use]
+pub struct Specialization {
+    values: Vec<(u32, u32)>,
+}
+
+impl Specialization {
+    /// No constants set: every program sees its defaults.
+    pub fn new() -> Self {
+        Specialization::default()
+    }
+
+    /// Sets constant `id` to `value` (a later value for the same ID replaces it).
+    /// IDs reserved by raykit ([`RESERVED_SPEC_IDS`](raykit_abi::RESERVED_SPEC_IDS)) are ignored here.
+    pub fn set(mut self, id: u32, value: u32) -> Self {
+        if !raykit_abi::is_reserved_spec_id(id) {
+            self.values.retain(|(i, _)| *i != id);
+            self.values.push((id, value));
+        }
+        self
+    }
+
+    /// Sets constant `id` to the bits of `value`.
+    pub fn set_f32(self, id: u32, value: f32) -> Self {
+        self.set(id, value.to_bits())
+    }
+}
+
+/// The shader stages and groups of a set of program groups compiled together,
+/// with the specialization every stage gets: the exception buffer's slot and
+/// the user's constants.
+pub(crate) struct ShaderGroups {
+    programs: Vec<Program>,
+    pub(crate) group_infos: Vec<vk::RayTracingShaderGroupCreateInfoKHR<'static>>,
+    spec_data: Vec<u8>,
+    spec_entries: Vec<vk::SpecializationMapEntry>,
+}
+
+impl ShaderGroups {
+    pub(crate) fn new(groups: &[&ProgramGroup], exception_slot: u32, constants: &Specialization) -> ShaderGroups {
+        // One shader stage per program; groups refer to stages by index.
+        let mut programs: Vec<Program> = Vec::new();
+        let mut stage_index = |p: Option<&Program>| -> u32 {
+            match p {
+                Some(p) => {
+                    programs.push(p.clone());
+                    programs.len() as u32 - 1
+                }
+                None => vk::SHADER_UNUSED_KHR,
+            }
+        };
+        let mut group_infos = Vec::with_capacity(groups.len());
+        for group in groups {
+            let info = match &group.programs {
+                GroupPrograms::Raygen(p)
+                | GroupPrograms::Miss(p)
+                | GroupPrograms::Callable(p)
+                | GroupPrograms::Exception(p) => vk::RayTracingShaderGroupCreateInfoKHR::default()
+                    .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
+                    .general_shader(stage_index(Some(p)))
+                    .closest_hit_shader(vk::SHADER_UNUSED_KHR)
+                    .any_hit_shader(vk::SHADER_UNUSED_KHR)
+                    .intersection_shader(vk::SHADER_UNUSED_KHR),
+                GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
+                    let ty = if intersection.is_some() {
+                        vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP
+                    } else {
+                        vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP
+                    };
+                    vk::RayTracingShaderGroupCreateInfoKHR::default()
+                        .ty(ty)
+                        .general_shader(vk::SHADER_UNUSED_KHR)
+                        .closest_hit_shader(stage_index(closest_hit.as_ref()))
+                        .any_hit_shader(stage_index(any_hit.as_ref()))
+                        .intersection_shader(stage_index(intersection.as_ref()))
+                }
+            };
+            group_infos.push(info);
+        }
+        // The user-exception buffer's slot, for every program as a specialization
+        // constant (modules without that constant ignore it).
+        let mut values = vec![(raykit_device::exception::EXCEPTION_SLOT_SPEC_ID, exception_slot)];
+        values.extend(constants.values.iter().copied());
+        let spec_data: Vec<u8> = values.iter().flat_map(|(_, v)| v.to_ne_bytes()).collect();
+        let spec_entries: Vec<vk::SpecializationMapEntry> = values
+            .iter()
+            .enumerate()
+            .map(|(i, (id, _))| vk::SpecializationMapEntry {
+                constant_id: *id,
+                offset: (i * std::mem::size_of::<u32>()) as u32,
+                size: std::mem::size_of::<u32>(),
+            })
+            .collect();
+        ShaderGroups { programs, group_infos, spec_data, spec_entries }
+    }
+
+    /// The specialization every stage gets; it borrows `self`.
+    pub(crate) fn specialization(&self) -> vk::SpecializationInfo<'_> {
+        vk::SpecializationInfo::default().map_entries(&self.spec_entries).data(&self.spec_data)
+    }
+
+    /// One stage create info per program, each with `specialization`.
+    pub(crate) fn stages<'a>(
+        &'a self,
+        specialization: &'a vk::SpecializationInfo<'a>,
+    ) -> Vec<vk::PipelineShaderStageCreateInfo<'a>> {
+        self.programs
+            .iter()
+            .map(|p| {
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(stage_flag(p.kind))
+                    .module(p.module.shader)
+                    .name(&p.name)
+                    .specialization_info(specialization)
+            })
+            .collect()
+    }
+
+    /// The programs' entry-point names, for debug names.
+    pub(crate) fn names(&self) -> Vec<&str> {
+        self.programs.iter().filter_map(|p| p.name.to_str().ok()).collect()
+    }
+}
+
+/// What every set of program groups compiled together (a pipeline or a library)
+/// must satisfy: one context, a trace depth within the device's limit, and
+/// every program's params block laid out as `P` (OptiX's rule that all modules
+/// agree on their `PipelineCompileOptions`).
+pub(crate) fn check_groups<P: LaunchParams>(
+    inner: &Arc<ContextInner>,
+    groups: &[&ProgramGroup],
+    max_trace_depth: u32,
+) -> Result<()> {
+    let limits = inner.limits;
+    if max_trace_depth > limits.max_ray_recursion_depth {
+        return Err(Error::TraceDepthTooLarge { requested: max_trace_depth, limit: limits.max_ray_recursion_depth });
+    }
+    if groups.iter().any(|g| !Arc::ptr_eq(&g.ctx, inner)) {
+        return Err(Error::ContextMismatch);
+    }
+    let params_size = std::mem::size_of::<P>();
+    let delivery = params_delivery::<P>();
+    // Launches write uniform params with `vkCmdUpdateBuffer`, which takes at most 65536 bytes.
+    let uniform_limit = limits.max_uniform_buffer_range.min(65536);
+    if delivery != ParamsDelivery::PushConstants && params_size > uniform_limit as usize {
+        return Err(Error::ParamsTooLarge { size: params_size, limit: uniform_limit });
+    }
+    for group in groups {
+        for program in group.programs() {
+            let Some(info) = program.entry_info() else { continue };
+            if !info.params.is_empty() {
+                raykit_spirv::check(&P::LAYOUT, &info.name, &info.params, delivery)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// What the groups of a launchable pipeline must have: a raygen group, and at
+/// most one exception group.
+pub(crate) fn check_linkable<'g>(groups: impl Iterator<Item = &'g ProgramGroup> + Clone) -> Result<()> {
+    if groups.clone().filter(|g| g.kind() == GroupKind::Exception).count() > 1 {
+        return Err(Error::SeveralExceptionPrograms);
+    }
+    if !groups.clone().any(|g| g.kind() == GroupKind::Raygen) {
+        return Err(Error::NoRaygen);
+    }
+    Ok(())
+}
+
+/// A group of a pipeline being created, and where it was compiled: its index in
+/// the pipeline (or library) that compiled it.
+pub(crate) struct CompiledGroup<'g> {
+    pub(crate) group: &'g ProgramGroup,
+    /// The library that compiled it; `None` when the pipeline itself does.
+    pub(crate) library: Option<vk::Pipeline>,
+    /// Its index in the pipeline or library that compiled it.
+    pub(crate) index: u32,
+}
+
+/// A group of a created pipeline, in pipeline order.
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct LinkedGroup {
+    /// The [`ProgramGroup`]'s identity.
+    pub(crate) id: u64,
+    pub(crate) kind: GroupKind,
+    /// How it counts in the stack formulas.
+    pub(crate) role: GroupRole,
+    /// Its stack sizes, as the driver reports them.
+    pub(crate) stack_sizes: GroupStackSizes,
+}
+
+impl LinkedGroup {
+    /// Reads `compiled`'s stack sizes from the pipeline that compiled it (`pipeline`,
+    /// or its library) at its index there, as `vkGetRayTracingShaderGroupStackSizeKHR`
+    /// requires.
+    pub(crate) fn read(ctx: &ContextInner, pipeline: vk::Pipeline, compiled: &CompiledGroup<'_>) -> LinkedGroup {
+        let group = compiled.group;
+        let compiled_in = compiled.library.unwrap_or(pipeline);
+        LinkedGroup {
+            id: group.id,
+            kind: group.kind(),
+            role: group_role(&group.programs),
+            stack_sizes: query_group_stack_sizes(ctx, compiled_in, compiled.index, &group.programs),
+        }
+    }
+}
+
+/// How a group counts in the stack formulas; callables by their OptiX prefix.
+fn group_role(programs: &GroupPrograms) -> GroupRole {
+    match programs {
+        GroupPrograms::Raygen(_) => GroupRole::Raygen,
+        GroupPrograms::Miss(_) => GroupRole::Miss,
+        GroupPrograms::Hit { .. } => GroupRole::Hit,
+        GroupPrograms::Exception(_) => GroupRole::DirectCallable,
+        GroupPrograms::Callable(p) => match raykit_abi::ProgramPrefix::of_bytes(p.name.to_bytes()) {
+            Some(raykit_abi::ProgramPrefix::DirectCallable) => GroupRole::DirectCallable,
+            Some(raykit_abi::ProgramPrefix::ContinuationCallable) => GroupRole::ContinuationCallable,
+            _ => GroupRole::Callable,
+        },
+    }
+}
+
+/// The driver's stack sizes of group `index` of `pipeline`, for the shaders it has.
+fn query_group_stack_sizes(
+    ctx: &ContextInner,
+    pipeline: vk::Pipeline,
+    index: u32,
+    programs: &GroupPrograms,
+) -> GroupStackSizes {
+    let query = |shader: vk::ShaderGroupShaderKHR| -> u64 {
+        // SAFETY: `index` is a group of the live `pipeline`, which has a shader of
+        // kind `shader` (only those are asked for).
+        unsafe { ctx.rt.get_ray_tracing_shader_group_stack_size(pipeline, index, shader) }
+    };
+    match programs {
+        GroupPrograms::Raygen(_)
+        | GroupPrograms::Miss(_)
+        | GroupPrograms::Callable(_)
+        | GroupPrograms::Exception(_) => {
+            GroupStackSizes { general: query(vk::ShaderGroupShaderKHR::GENERAL), ..Default::default() }
+        }
+        GroupPrograms::Hit { closest_hit, any_hit, intersection } => GroupStackSizes {
+            general: 0,
+            closest_hit: if closest_hit.is_some() { query(vk::ShaderGroupShaderKHR::CLOSEST_HIT) } else { 0 },
+            any_hit: if any_hit.is_some() { query(vk::ShaderGroupShaderKHR::ANY_HIT) } else { 0 },
+            intersection: if intersection.is_some() { query(vk::ShaderGroupShaderKHR::INTERSECTION) } else { 0 },
+        },
+    }
+}
+
+fn stage_flag(kind: ProgramKind) -> vk::ShaderStageFlags {
+    vk::ShaderStageFlags::from_raw(kind.vulkan_stage())
+}

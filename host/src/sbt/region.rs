@@ -1,0 +1,72 @@
+//! The four regions of a shader binding table, as `vkCmdTraceRaysKHR` takes them.
+
+use std::fmt;
+
+use crate::program_group::kind::GroupKind;
+
+/// An SBT region: where [`SbtBuilder`](crate::SbtBuilder) places records, and what
+/// [`Sbt::update`](crate::Sbt::update) and errors name.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum SbtRegion {
+    /// The raygen record.
+    Raygen,
+    /// The miss records.
+    Miss,
+    /// The hit records.
+    Hit,
+    /// The callable records.
+    Callable,
+}
+
+impl SbtRegion {
+    /// The regions in the order `vkCmdTraceRaysKHR` takes them (and
+    /// [`Sbt::region_layouts`](crate::Sbt::region_layouts) returns them).
+    pub const ALL: [SbtRegion; 4] = [SbtRegion::Raygen, SbtRegion::Miss, SbtRegion::Hit, SbtRegion::Callable];
+
+    /// Its position in [`SbtRegion::ALL`].
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Its lower-case name, as errors print it: `"raygen"`, `"miss"`, `"hit"` or
+    /// `"callable"` (also the name of the builder method that fills it).
+    pub const fn name(self) -> &'static str {
+        match self {
+            SbtRegion::Raygen => "raygen",
+            SbtRegion::Miss => "miss",
+            SbtRegion::Hit => "hit",
+            SbtRegion::Callable => "callable",
+        }
+    }
+
+    /// The kind of group whose records the user places in it. (raykit places the
+    /// exception group's record in the callable region itself.)
+    pub const fn group_kind(self) -> GroupKind {
+        match self {
+            SbtRegion::Raygen => GroupKind::Raygen,
+            SbtRegion::Miss => GroupKind::Miss,
+            SbtRegion::Hit => GroupKind::Hit,
+            SbtRegion::Callable => GroupKind::Callable,
+        }
+    }
+}
+
+impl fmt::Display for SbtRegion {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::SbtRegion;
+
+    #[test]
+    fn regions_are_in_trace_rays_order_with_their_names() {
+        let names: Vec<(usize, String)> = SbtRegion::ALL.iter().map(|r| (r.index(), r.to_string())).collect();
+        assert_eq!(
+            names,
+            [(0, "raygen".to_owned()), (1, "miss".to_owned()), (2, "hit".to_owned()), (3, "callable".to_owned())]
+        );
+    }
+}
