@@ -27,7 +27,7 @@ pub use context::{Context, ContextOptions, DeviceLimits, MemoryUsage};
 pub use error::{DeviceReport, Error, Result, UserException};
 pub use log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
 pub use memory::DeviceBuffer;
-pub use module::{spirv_path, EntryPointInfo, Module};
+pub use module::{spirv_path, EmbeddedSpirv, EntryPointInfo, Module};
 pub use pipeline::launch::Launch;
 pub use pipeline::library::{LibraryOptions, PipelineLibrary};
 pub use pipeline::timing::LaunchTimer;
@@ -39,6 +39,7 @@ pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
 pub use wgsl::WgslError;
 
 pub use ash;
+pub use bytemuck;
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
 pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, Traversable};

@@ -335,6 +335,13 @@ impl Module {
         Module::from_file(ctx, spirv_path(crate_name))
     }
 
+    /// Loads SPIR-V embedded in the executable at compile time (see
+    /// [`include_spirv!`](crate::include_spirv)): no file is needed at run time,
+    /// and the bytes come from the same build as the crate's entry-point constants.
+    pub fn from_embedded(ctx: &Context, spirv: &EmbeddedSpirv) -> Result<Module> {
+        Module::named(ctx, spirv.bytes, spirv.crate_name)
+    }
+
     /// Loads a module from a `.spv` file.
     pub fn from_file(ctx: &Context, path: impl AsRef<Path>) -> Result<Module> {
         let path = path.as_ref();
@@ -364,6 +371,35 @@ impl std::fmt::Debug for Module {
             self.inner.entry_points.iter().map(|e| (e.name.as_str(), e.execution_model.as_str())).collect();
         f.debug_struct("Module").field("entry_points", &entries).finish_non_exhaustive()
     }
+}
+
+/// A device crate's SPIR-V, embedded in the executable by
+/// [`include_spirv!`](crate::include_spirv).
+#[derive(Copy, Clone, Debug)]
+pub struct EmbeddedSpirv {
+    /// The device crate's package name.
+    pub crate_name: &'static str,
+    /// Its SPIR-V module.
+    pub bytes: &'static [u8],
+}
+
+/// Embeds the SPIR-V of a device crate in the executable: an
+/// [`EmbeddedSpirv`] for [`Module::from_embedded`]. The crate must be built by
+/// the including crate's `build.rs` with `raykit_builder::DeviceBuild::build_script`,
+/// which sets `<crate>.spv` (spirv-builder's convention) to the file.
+///
+/// ```ignore
+/// static SPIRV: raykit::EmbeddedSpirv = raykit::include_spirv!("my-device");
+/// let module = raykit::Module::from_embedded(&ctx, &SPIRV)?;
+/// ```
+#[macro_export]
+macro_rules! include_spirv {
+    ($crate_name:literal) => {
+        $crate::EmbeddedSpirv {
+            crate_name: $crate_name,
+            bytes: ::core::include_bytes!(::core::env!(::core::concat!($crate_name, ".spv"))),
+        }
+    };
 }
 
 /// Where `cargo xtask build-shaders` puts the SPIR-V of device crate

@@ -3,7 +3,7 @@
 //!
 //! 1. `rustfmt`: `cargo fmt --all -- --check` with the tree's `rustfmt.toml`.
 //! 2. `rustfmt outside the workspace`: the crates the workspace excludes
-//!    (`xtask/shader-builder` pins a nightly without rustfmt, `fuzz` is built by
+//!    (`builder/shader-builder` pins a nightly without rustfmt, `fuzz` is built by
 //!    cargo-fuzz), checked with this stable rustfmt and the same `rustfmt.toml`.
 //! 3. `committed binaries`: every binary file `git ls-files` lists is a test
 //!    fixture with a `build.sh` and a `SHA256SUMS` beside it naming it
@@ -22,7 +22,7 @@ use anyhow::{bail, Context as _};
 /// Files of the crates outside the workspace that rustfmt checks (it follows their
 /// `mod` declarations).
 const EXCLUDED_CRATE_ROOTS: [&str; 3] =
-    ["xtask/shader-builder/build.rs", "xtask/shader-builder/src/main.rs", "fuzz/fuzz_targets/spirv_intake.rs"];
+    ["builder/shader-builder/build.rs", "builder/shader-builder/src/main.rs", "fuzz/fuzz_targets/spirv_intake.rs"];
 
 /// One gate: its name, the command, and what to run to fix or see the problem.
 struct Gate {

@@ -9,13 +9,16 @@
 //! * `test`: set up what is missing (nightly, lavapipe, validation layers, glslang),
 //!   run `lint` (stopping at the first gate that fails), build the shaders and run
 //!   every test with validation on.
+//! * `new-project PATH`: write a new project that uses raykit (see the README's
+//!   "Use raykit in your own project").
 //! * `bench`: build `raykit-bench` in release and run it (suites such as `accel`);
 //!   it writes `target/bench/bench.json` and `bench.md`. The binary needs only the
 //!   Vulkan loader and the SPIR-V files, so it can be copied to a GPU machine
 //!   without Rust.
 //!
-//! xtask never links rust-gpu's codegen backend: it builds the small
-//! `xtask/shader-builder` program with the pinned nightly into a per-user cache
+//! Shader builds go through the `raykit-builder` library, as in any project using
+//! raykit; xtask never links rust-gpu's codegen backend: raykit-builder builds its
+//! small `shader-builder` program with the pinned nightly into a per-user cache
 //! and runs it.
 
 mod lint;
@@ -72,6 +75,12 @@ enum Cmd {
     },
     /// Only install what is missing (toolchain, Vulkan driver, validation layers).
     Setup,
+    /// Write a new project that uses raykit (a host binary whose build.rs builds
+    /// its device crate through raykit-builder) into PATH, missing or empty.
+    NewProject {
+        /// Where to write it.
+        path: PathBuf,
+    },
     /// Build and run the benchmarks (target/bench/bench.{json,md}).
     Bench {
         /// Build the shaders first (suites that trace need them; `accel` does not),
@@ -202,6 +211,13 @@ fn main() -> anyhow::Result<()> {
         Cmd::Setup => {
             setup::ensure_toolchain()?;
             setup::ensure_vulkan(true)?;
+        }
+        Cmd::NewProject { path } => {
+            let files = raykit_builder::write_new_project(&path, &root)?;
+            for file in files {
+                println!("new-project: wrote {}", file.display());
+            }
+            println!("new-project: now `cd {} && cargo run --release`", path.display());
         }
     }
     Ok(())

@@ -10,68 +10,14 @@ use std::process::Command;
 
 use anyhow::{bail, Context as _};
 
-/// The nightly rust-gpu 0.11 requires.
-pub const TOOLCHAIN: &str = "nightly-2026-08-15";
-/// Its components.
-pub const COMPONENTS: [&str; 3] = ["rust-src", "rustc-dev", "llvm-tools"];
-
 fn output(cmd: &mut Command) -> Option<String> {
     let out = cmd.output().ok()?;
     out.status.success().then(|| String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
-/// `rustup`, with the toolchain override variables that cargo's proxy sets removed.
-pub fn rustup() -> Command {
-    let mut cmd = Command::new("rustup");
-    cmd.env_remove("RUSTUP_TOOLCHAIN");
-    cmd
-}
-
-/// Installs the pinned nightly and its components when missing.
+/// Installs the pinned nightly and its components when missing (through raykit-builder).
 pub fn ensure_toolchain() -> anyhow::Result<()> {
-    let Some(list) = output(rustup().args(["toolchain", "list"])) else {
-        bail!(
-            "rustup is not available. raykit's shader builds need rustup to install {TOOLCHAIN}; install rustup \
-             (https://rustup.rs) or run: rustup toolchain install {TOOLCHAIN} --profile minimal --component {}",
-            COMPONENTS.join(",")
-        );
-    };
-    let installed = list.lines().any(|l| l.starts_with(TOOLCHAIN));
-    let missing_components: Vec<&str> = if installed {
-        let have =
-            output(rustup().args(["component", "list", "--installed", "--toolchain", TOOLCHAIN])).unwrap_or_default();
-        COMPONENTS.iter().copied().filter(|c| !have.lines().any(|l| l.starts_with(c))).collect()
-    } else {
-        COMPONENTS.to_vec()
-    };
-    if installed && missing_components.is_empty() {
-        return Ok(());
-    }
-    if !installed {
-        println!(
-            "xtask: installing the Rust toolchain {TOOLCHAIN} with {} (needed by rust-gpu 0.11 for shader builds)",
-            COMPONENTS.join(", ")
-        );
-        crate::run(
-            rustup().args([
-                "toolchain",
-                "install",
-                TOOLCHAIN,
-                "--profile",
-                "minimal",
-                "--component",
-                &COMPONENTS.join(","),
-            ]),
-            &format!("rustup toolchain install {TOOLCHAIN}"),
-        )?;
-    } else {
-        println!("xtask: adding components {} to {TOOLCHAIN}", missing_components.join(", "));
-        crate::run(
-            rustup().args(["component", "add", "--toolchain", TOOLCHAIN]).args(&missing_components),
-            "rustup component add",
-        )?;
-    }
-    Ok(())
+    Ok(raykit_builder::ensure_toolchain(raykit_builder::Report::Terminal)?)
 }
 
 /// What the Vulkan probe found.

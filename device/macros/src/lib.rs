@@ -3,8 +3,9 @@
 //! Each macro wraps a plain Rust function and emits the SPIR-V entry point with
 //! OptiX's prefixed name (`__raygen__<name>`, `__miss__<name>`,
 //! `__closesthit__<name>`), plus a constant `<NAME>: raykit_device::EntryPoint`
-//! through which the host names the program. Use them through `raykit-device`,
-//! which re-exports them.
+//! through which the host names the program. Use them through `raykit-device`
+//! or `raykit` (as `raykit::device`), which re-export them: the generated code
+//! names whichever of the two the calling crate depends on.
 //!
 //! The function's parameters are matched by role:
 //! * one parameter without a raykit attribute: the stage context
@@ -29,56 +30,57 @@
 
 mod launch_params;
 mod program;
+mod root;
 
 use proc_macro::TokenStream;
 
 /// Marks a ray-generation program (`__raygen__<name>`).
 #[proc_macro_attribute]
 pub fn raygen(attr: TokenStream, item: TokenStream) -> TokenStream {
-    program::expand(program::Stage::Raygen, attr.into(), item.into()).into()
+    root::resolve(program::expand(program::Stage::Raygen, attr.into(), item.into())).into()
 }
 
 /// Marks a miss program (`__miss__<name>`). Optional `ray = RayType`.
 #[proc_macro_attribute]
 pub fn miss(attr: TokenStream, item: TokenStream) -> TokenStream {
-    program::expand(program::Stage::Miss, attr.into(), item.into()).into()
+    root::resolve(program::expand(program::Stage::Miss, attr.into(), item.into())).into()
 }
 
 /// Marks a closest-hit program (`__closesthit__<name>`). Optional `ray = RayType`.
 #[proc_macro_attribute]
 pub fn closest_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
-    program::expand(program::Stage::ClosestHit, attr.into(), item.into()).into()
+    root::resolve(program::expand(program::Stage::ClosestHit, attr.into(), item.into())).into()
 }
 
 /// Marks an any-hit program (`__anyhit__<name>`). Optional `ray = RayType`.
 #[proc_macro_attribute]
 pub fn any_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
-    program::expand(program::Stage::AnyHit, attr.into(), item.into()).into()
+    root::resolve(program::expand(program::Stage::AnyHit, attr.into(), item.into())).into()
 }
 
 /// Marks an intersection program (`__intersection__<name>`).
 #[proc_macro_attribute]
 pub fn intersection(attr: TokenStream, item: TokenStream) -> TokenStream {
-    program::expand(program::Stage::Intersection, attr.into(), item.into()).into()
+    root::resolve(program::expand(program::Stage::Intersection, attr.into(), item.into())).into()
 }
 
 /// Marks a direct callable (`__direct_callable__<name>`): may not trace.
 #[proc_macro_attribute]
 pub fn direct_callable(attr: TokenStream, item: TokenStream) -> TokenStream {
-    program::expand(program::Stage::DirectCallable, attr.into(), item.into()).into()
+    root::resolve(program::expand(program::Stage::DirectCallable, attr.into(), item.into())).into()
 }
 
 /// Marks a continuation callable (`__continuation_callable__<name>`): may trace.
 #[proc_macro_attribute]
 pub fn continuation_callable(attr: TokenStream, item: TokenStream) -> TokenStream {
-    program::expand(program::Stage::ContinuationCallable, attr.into(), item.into()).into()
+    root::resolve(program::expand(program::Stage::ContinuationCallable, attr.into(), item.into())).into()
 }
 
 /// Marks an exception program (`__exception__<name>`), run after a user
 /// exception is thrown (see `raykit_device::exception`).
 #[proc_macro_attribute]
 pub fn exception(attr: TokenStream, item: TokenStream) -> TokenStream {
-    program::expand(program::Stage::Exception, attr.into(), item.into()).into()
+    root::resolve(program::expand(program::Stage::Exception, attr.into(), item.into())).into()
 }
 
 /// Records the layout of a launch-params struct (`#[repr(C)]`, `Copy`,
@@ -87,5 +89,5 @@ pub fn exception(attr: TokenStream, item: TokenStream) -> TokenStream {
 /// compile errors.
 #[proc_macro_derive(LaunchParams)]
 pub fn derive_launch_params(item: TokenStream) -> TokenStream {
-    launch_params::derive(item.into()).into()
+    root::resolve(launch_params::derive(item.into())).into()
 }

@@ -147,6 +147,27 @@ impl Scene {
     }
 }
 
+/// The pipeline and SBT of `programs`: one radiance and one shadow hit group per material.
+fn link(ctx: &Context, programs: &Programs) -> raykit::Result<(Pipeline<Params>, Sbt)> {
+    let Programs { raygen, miss, shadow_miss, hit, shadow_hit } = programs;
+    let pipeline = Pipeline::<Params>::new(
+        ctx,
+        &[raygen, miss, shadow_miss, hit, shadow_hit],
+        LinkOptions { max_trace_depth: 1 },
+    )?;
+    let mut sbt = Sbt::builder(&pipeline)
+        .raygen(raygen, RaygenRecord::new(&scene::LIGHT))
+        .miss_for::<Radiance, _>(miss, ())
+        .miss_for::<Shadow, _>(shadow_miss, ());
+    for (geometry, group) in MATERIALS.iter().enumerate() {
+        let record =
+            HitRecord { emission: group.emission, first_triangle: group.first_triangle, albedo: group.albedo, _pad: 0 };
+        sbt = sbt.hit_for::<Radiance, _>(geometry, hit, record).hit_for::<Shadow, _>(geometry, shadow_hit, ());
+    }
+    let sbt = sbt.build()?;
+    Ok((pipeline, sbt))
+}
+
 /// A linked path tracer for one image size: pipeline, SBT, accumulation buffer.
 pub struct Renderer {
     pipeline: Pipeline<Params>,
@@ -162,26 +183,7 @@ pub struct Renderer {
 impl Renderer {
     /// Links `programs` and lays out the SBT for a `width × height` render of `scene`.
     pub fn new(ctx: &Context, programs: &Programs, scene: &Scene, width: u32, height: u32) -> raykit::Result<Renderer> {
-        let Programs { raygen, miss, shadow_miss, hit, shadow_hit } = programs;
-        let pipeline = Pipeline::<Params>::new(
-            ctx,
-            &[raygen, miss, shadow_miss, hit, shadow_hit],
-            LinkOptions { max_trace_depth: 1 },
-        )?;
-        let mut sbt = Sbt::builder(&pipeline)
-            .raygen(raygen, RaygenRecord::new(&scene::LIGHT))
-            .miss_for::<Radiance, _>(miss, ())
-            .miss_for::<Shadow, _>(shadow_miss, ());
-        for (geometry, group) in MATERIALS.iter().enumerate() {
-            let record = HitRecord {
-                emission: group.emission,
-                first_triangle: group.first_triangle,
-                albedo: group.albedo,
-                _pad: 0,
-            };
-            sbt = sbt.hit_for::<Radiance, _>(geometry, hit, record).hit_for::<Shadow, _>(geometry, shadow_hit, ());
-        }
-        let sbt = sbt.build()?;
+        let (pipeline, sbt) = link(ctx, programs)?;
         let accum = ctx.buffer::<Vec4>(width as usize * height as usize)?;
         let camera = camera_frame(width as f32 / height as f32);
         let params = Params {
@@ -199,6 +201,18 @@ impl Renderer {
             handle: scene.ias.handle(),
         };
         Ok(Renderer { pipeline, sbt, accum, params, samples_done: 0, subframe: 0 })
+    }
+
+    /// Hot reload: links new `programs` (rebuilt from edited device code) and
+    /// lays out the SBT again from the same records; keeps the scene and the
+    /// accumulation buffer, and starts sampling over. On an error the renderer
+    /// keeps its current pipeline.
+    pub fn swap_programs(&mut self, ctx: &Context, programs: &Programs) -> raykit::Result<()> {
+        let (pipeline, sbt) = link(ctx, programs)?;
+        self.pipeline = pipeline;
+        self.sbt = sbt;
+        self.reset();
+        Ok(())
     }
 
     /// Image size.

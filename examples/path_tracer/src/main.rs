@@ -1,6 +1,9 @@
-//! `cargo run --release -p path_tracer -- [--width W] [--height H] [--spp N] [--output FILE.png]`:
+//! `cargo run --release -p path_tracer -- [--width W] [--height H] [--spp N] [--output FILE.png] [--watch]`:
 //! renders optixPathTracer's Cornell box progressively, with a progress bar, to a
-//! tonemapped PNG and the linear radiance as PFM next to it.
+//! tonemapped PNG and the linear radiance as PFM next to it. With `--watch` it then
+//! keeps running: each save of the device crate's sources rebuilds it, swaps the
+//! pipeline and renders the picture again (a compile error is printed and the old
+//! pipeline stays).
 //!
 //! Build the shaders first (`cargo xtask build-shaders`), or run `cargo xtask demo`.
 
@@ -43,6 +46,10 @@ struct Cli {
     /// Use the first ray-tracing device whose name contains this.
     #[arg(long)]
     device: Option<String>,
+    /// After rendering, watch `examples/path_tracer/device` and render again
+    /// after each change (hot reload), until interrupted.
+    #[arg(long, conflicts_with_all = ["glsl", "wgsl"])]
+    watch: bool,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -61,6 +68,15 @@ fn main() -> anyhow::Result<()> {
     let scene = Scene::new(&ctx)?;
     let mut renderer = Renderer::new(&ctx, &programs, &scene, cli.width, cli.height)?;
 
+    render(&cli, &ctx, &mut renderer)?;
+    if cli.watch {
+        watch(&cli, &ctx, &mut renderer)?;
+    }
+    Ok(())
+}
+
+/// Renders `cli.spp` paths per pixel with a progress bar and writes the pictures.
+fn render(cli: &Cli, ctx: &raykit::Context, renderer: &mut Renderer) -> anyhow::Result<()> {
     let bar = ProgressBar::new(cli.spp as u64);
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} spp  {msg}")
@@ -101,4 +117,35 @@ fn main() -> anyhow::Result<()> {
         pfm.display()
     );
     Ok(())
+}
+
+/// Hot reload: rebuilds the device crate on each change and renders again.
+fn watch(cli: &Cli, ctx: &raykit::Context, renderer: &mut Renderer) -> anyhow::Result<()> {
+    let device = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("device");
+    let spv = raykit::spirv_path("path-tracer-device");
+    let out_dir = spv.parent().context("the SPIR-V path has a directory")?.to_path_buf();
+    let target = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("..").join("target");
+    let build = raykit_builder::DeviceBuild::new(&device)
+        .name("path-tracer-device")
+        .out_dir(out_dir)
+        .target_dir(target)
+        .check_params(false)
+        .report(raykit_builder::Report::Quiet);
+    let watcher = raykit_builder::DeviceWatcher::new(build, std::time::Duration::from_millis(100))?;
+    println!("watching {} (Ctrl-C to stop)", device.display());
+    loop {
+        let Some(rebuild) = watcher.next_timeout(std::time::Duration::from_secs(3600)) else { continue };
+        let reloaded = rebuild.result.map_err(anyhow::Error::from).and_then(|built| {
+            let module = raykit::Module::from_file(ctx, &built.spv)?;
+            renderer.swap_programs(ctx, &Programs::rust_from(&module)?)?;
+            Ok(())
+        });
+        match reloaded {
+            Ok(()) => {
+                println!("reloaded in {:.2} s", rebuild.changed_at.elapsed().as_secs_f64());
+                render(cli, ctx, renderer)?;
+            }
+            Err(e) => eprintln!("keeping the previous pipeline: {e:#}"),
+        }
+    }
 }

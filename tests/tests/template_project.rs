@@ -1,0 +1,154 @@
+//! The new-project template, used as a user would: written outside the
+//! workspace, built with plain `cargo build` (its build.rs compiles its device
+//! crate through raykit-builder, sharing the per-user codegen cache), run on the
+//! Vulkan driver with validation on, its picture checked against a CPU reference; then its binary
+//! alone, copied into an empty directory, still runs; and a params struct that
+//! disagrees with its device crate fails `cargo build` with raykit's layout
+//! message.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::Instant;
+
+const WIDTH: u32 = 64;
+const HEIGHT: u32 = 48;
+/// The template's colours (`my-app-device`'s `HIT_COLOR` and `BACKGROUND`), as RGB bytes.
+const HIT: [u8; 3] = [0xff, 0xc0, 0x30];
+const BACKGROUND: [u8; 3] = [0x10, 0x20, 0x40];
+
+fn raykit_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the tests crate is inside the workspace").to_path_buf()
+}
+
+/// A fresh directory under the system's temporary directory (outside the workspace).
+fn temp_dir(what: &str) -> PathBuf {
+    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
+    let dir = std::env::temp_dir().join(format!("raykit-{what}-{}-{nanos}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("creating a temporary directory");
+    dir
+}
+
+/// `cargo build` in `project`, as a user runs it, with a target directory kept
+/// across runs (raykit and its dependencies compile once).
+fn cargo_build(project: &Path) -> Output {
+    let mut cmd = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
+    for (key, _) in std::env::vars_os() {
+        if key.to_str().is_some_and(|k| k.starts_with("CARGO") && k != "CARGO_HOME") {
+            cmd.env_remove(key);
+        }
+    }
+    cmd.arg("build")
+        .current_dir(project)
+        .env("CARGO_TARGET_DIR", raykit_root().join("target").join("template-project"));
+    cmd.output().expect("running cargo build")
+}
+
+fn text(output: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr))
+}
+
+/// Reads the template's binary P6 PPM.
+fn read_ppm(path: &Path) -> Vec<[u8; 3]> {
+    let bytes = std::fs::read(path).expect("the app writes its picture");
+    let header = format!("P6\n{WIDTH} {HEIGHT}\n255\n");
+    assert!(bytes.starts_with(header.as_bytes()), "unexpected PPM header in {}", path.display());
+    let body = &bytes[header.len()..];
+    assert_eq!(body.len(), (WIDTH * HEIGHT * 3) as usize);
+    body.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+}
+
+/// Signed distance-like margin of point `p` inside the template's triangle
+/// (positive inside), in the camera's [-1, 1]² view.
+fn inside_margin(p: (f32, f32)) -> f32 {
+    let tri = [(-0.5f32, -0.5f32), (0.5, -0.5), (0.0, 0.5)];
+    let mut margin = f32::INFINITY;
+    for i in 0..3 {
+        let (a, b) = (tri[i], tri[(i + 1) % 3]);
+        let (ex, ey) = (b.0 - a.0, b.1 - a.1);
+        let len = (ex * ex + ey * ey).sqrt();
+        // Counter-clockwise triangle: inside is to the left of each edge.
+        margin = margin.min((ex * (p.1 - a.1) - ey * (p.0 - a.0)) / len);
+    }
+    margin
+}
+
+/// Checks the picture against the CPU reference: every pixel whose centre is
+/// clearly inside the triangle has the hit colour, every pixel clearly outside
+/// the background; pixels within 1e-3 of an edge may be either.
+fn check_picture(pixels: &[[u8; 3]]) {
+    let (mut hits, mut misses) = (0, 0);
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let p = ((x as f32 + 0.5) / WIDTH as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / HEIGHT as f32 * 2.0);
+            let got = pixels[(y * WIDTH + x) as usize];
+            let margin = inside_margin(p);
+            if margin > 1e-3 {
+                assert_eq!(got, HIT, "pixel ({x}, {y}) sees the triangle");
+                hits += 1;
+            } else if margin < -1e-3 {
+                assert_eq!(got, BACKGROUND, "pixel ({x}, {y}) sees nothing");
+                misses += 1;
+            } else {
+                assert!(got == HIT || got == BACKGROUND, "pixel ({x}, {y}) on an edge is {got:?}");
+            }
+        }
+    }
+    // The triangle covers 1/8 of the view.
+    assert!(hits > 300 && misses > 2500, "{hits} hit pixels, {misses} background pixels");
+}
+
+fn run_app(binary: &Path, cwd: &Path) -> Vec<[u8; 3]> {
+    // With the validation layer on: the app fails on any message.
+    let output = Command::new(binary)
+        .arg("picture.ppm")
+        .current_dir(cwd)
+        .env("RAYKIT_VALIDATION", "1")
+        .output()
+        .expect("running the app");
+    assert!(output.status.success(), "{} failed:\n{}", binary.display(), text(&output));
+    read_ppm(&cwd.join("picture.ppm"))
+}
+
+#[test]
+fn template_project_builds_runs_alone_and_rejects_a_params_mismatch() {
+    let project = temp_dir("template");
+    raykit_builder::write_new_project(&project, &raykit_root()).expect("writing the template");
+
+    // 1. Plain `cargo build`: build.rs compiles the device crate to SPIR-V.
+    let started = Instant::now();
+    let output = cargo_build(&project);
+    assert!(output.status.success(), "cargo build of the template failed:\n{}", text(&output));
+    eprintln!("template project built in {:.1} s", started.elapsed().as_secs_f64());
+    let binary = raykit_root().join("target").join("template-project").join("debug").join("my-app");
+    let pixels = run_app(&binary, &project);
+    check_picture(&pixels);
+
+    // 2. The binary alone in an empty directory: the SPIR-V is inside it.
+    let alone = temp_dir("template-binary");
+    let copy = alone.join("my-app");
+    std::fs::copy(&binary, &copy).expect("copying the binary");
+    assert_eq!(std::fs::read_dir(&alone).map(|d| d.count()).unwrap_or(0), 1, "only the binary is there");
+    assert_eq!(run_app(&copy, &alone), pixels, "the copied binary renders the same picture");
+
+    // 3. A params struct the device lays out differently: `cargo build` fails
+    //    with raykit's layout message.
+    let lib = project.join("device").join("src").join("lib.rs");
+    let source = std::fs::read_to_string(&lib).expect("reading the device crate");
+    let mismatched = source.replacen(
+        "    /// The scene.\n",
+        "    /// Only on the device: moves `scene` by 16 bytes there.\n    #[cfg(target_arch = \"spirv\")]\n    pub extra: [u32; 4],\n    /// The scene.\n",
+        1,
+    );
+    assert_ne!(mismatched, source, "the template's Params has a `/// The scene.` field");
+    std::fs::write(&lib, mismatched).expect("editing the device crate");
+    let output = cargo_build(&project);
+    let log = text(&output);
+    assert!(!output.status.success(), "cargo build accepted a params mismatch:\n{log}");
+    assert!(
+        log.contains("launch params `Params` do not match the SPIR-V of `__raygen__rg`"),
+        "cargo build failed without raykit's layout message:\n{log}"
+    );
+
+    let _ = std::fs::remove_dir_all(&project);
+    let _ = std::fs::remove_dir_all(&alone);
+}
