@@ -512,13 +512,10 @@ impl Drop for Submission {
         // Keep a few finished pairs for the next submissions.
         const KEEP: usize = 8;
         let mut recycled = self.ctx.recycled.lock().unwrap_or_else(|p| p.into_inner());
+        let reuse = waited && !self.ctx.shared.is_lost() && recycled.len() < KEEP;
         // SAFETY: the work has finished (waited above), so the fence is signalled
         // and the command buffer idle.
-        if waited
-            && !self.ctx.shared.is_lost()
-            && recycled.len() < KEEP
-            && unsafe { device.reset_fences(&[self.fence]) }.is_ok()
-        {
+        if reuse && unsafe { device.reset_fences(&[self.fence]) }.is_ok() {
             recycled.push((self.cmd, self.fence));
             return;
         }

@@ -241,11 +241,11 @@ pub(crate) unsafe extern "system" fn debug_callback(
     // SAFETY: `user_data` is the instance's `Routes`, which lives for the rest of the
     // process; `data` and the strings and objects it points to are valid for this call.
     let (routes, data) = unsafe { (&*(user_data as *const Routes), &*data) };
-    // SAFETY: as above: null or valid NUL-terminated strings.
     let text = |p: *const std::ffi::c_char| {
         if p.is_null() {
             String::new()
         } else {
+            // SAFETY: as above: the strings of `data` are valid and NUL-terminated.
             unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
         }
     };
