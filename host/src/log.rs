@@ -59,7 +59,8 @@ pub struct LoggedObject {
     pub object_type: String,
     /// Its handle.
     pub handle: u64,
-    /// Its debug name, if it has one (raykit names what it makes).
+    /// Its debug name, if it has one (raykit names what it makes), as it was given:
+    /// without the context id raykit's debug names carry for routing.
     pub name: Option<String>,
 }
 
