@@ -65,8 +65,9 @@ pub struct LoggedObject {
 }
 
 /// A user's log callback (OptiX's `OptixLogCallback`): called with every message
-/// the context's debug messenger reports, on the thread of the Vulkan call that
-/// caused it.
+/// that reaches its context, on the thread of the Vulkan call that caused it. It
+/// may run while raykit creates or destroys a device, under the lock that guards
+/// that: it must not create or drop a [`crate::Context`] itself.
 #[derive(Clone)]
 pub struct LogCallback(Arc<dyn Fn(&ValidationMessage) + Send + Sync>);
 
