@@ -1,41 +1,69 @@
-//! The device context: one Vulkan device with ray-tracing pipelines, like OptiX's
-//! `OptixDeviceContext`.
+//! The device context, like OptiX's `OptixDeviceContext`: what every raykit object
+//! is made on.
 //!
 //! [`Context::new`] picks the first physical device that has
 //! [`VK_KHR_ray_tracing_pipeline`](https://registry.khronos.org/vulkan/specs/latest/man/html/VK_KHR_ray_tracing_pipeline.html)
 //! and the features raykit needs; when none has, the error lists every device seen
-//! and what each lacks. The context owns the logical device, the queue, the memory
-//! allocator (gpu-allocator) and the bindless buffer table; every other raykit
-//! object keeps it alive through an `Arc`, so no handle outlives its device.
+//! and what each lacks. Every other raykit object keeps its context alive through an
+//! `Arc`, so no handle outlives its context or device.
+//!
+//! # One device per GPU
+//!
+//! As OptiX runs several device contexts on one CUDA context, every context made
+//! for one GPU shares one `VkDevice` and its queue: any number of contexts may be
+//! used on any number of threads. A process-wide registry holds one `VkInstance` per
+//! validation setting (made on first use, kept for the life of the process) and, per
+//! GPU, one device with a count of its contexts: the first context creates it, the
+//! last one dropped destroys it. Instances and devices are created and destroyed
+//! under the registry's lock, one call at a time, and a GPU never has two live
+//! devices with one validation setting (NVIDIA's driver does not tolerate concurrent
+//! work on several `VkDevice`s of one process).
+//!
+//! Shared by the contexts of a device: the `VkDevice`, its one queue (behind one
+//! mutex that every context takes to submit, as `vkQueueSubmit` requires), its
+//! limits, and whether it was lost. Each context's own: its options (validation log,
+//! log callback, compile cache), its command pool and recycled command buffers and
+//! fences (a pool is externally synchronised: one per context keeps threads of
+//! different contexts from waiting on each other), its memory allocator
+//! (gpu-allocator, so [`Context::memory_usage`] counts what this context holds), and
+//! its bindless buffer table (descriptor set layout, pool and set: a context's
+//! pipelines reach only its own buffers). Validation messages reach the context
+//! whose objects they name (see [`crate::log`]).
+//!
+//! # Lost device
+//!
+//! When a call reports `VK_ERROR_DEVICE_LOST`
+//! ([lost device](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#devsandqueues-lost-device)),
+//! the device is marked lost: that call and every later launch, build, buffer,
+//! module or pipeline creation on every context of the device returns
+//! [`Error::DeviceLost`], and the objects still drop cleanly. The next
+//! [`Context::new`] gets a new device, Vulkan's way back from a lost device.
 
-use std::ffi::{c_void, CStr};
 use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use ash::vk;
 
 use crate::buffer_table::BufferTable;
 use crate::cache::{CacheKey, DiskCache, PipelineCacheInfo, PipelineCacheLocation};
-use crate::error::{DeviceReport, Error, Result};
-use crate::log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
-
-/// Device extensions raykit needs.
-const REQUIRED_EXTENSIONS: [&CStr; 3] = [
-    ash::khr::ray_tracing_pipeline::NAME,
-    ash::khr::acceleration_structure::NAME,
-    ash::khr::deferred_host_operations::NAME,
-];
-
-const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+use crate::device_registry::{SharedDevice, SharedInstance};
+use crate::error::{Error, Result};
+use crate::log::{LogCallback, MessageLog};
 
 /// How to create a [`Context`].
 #[derive(Clone, Debug, Default)]
 pub struct ContextOptions {
     /// Enable the Khronos validation layer and collect its messages in
     /// [`Context::messages`]. `None` means: on when the environment variable
-    /// `RAYKIT_VALIDATION` is `1`.
+    /// `RAYKIT_VALIDATION` is `1`. The layer is a property of the Vulkan instance:
+    /// contexts with validation and contexts without it use two devices on one GPU,
+    /// which NVIDIA's driver may not tolerate when both work at once; keep one
+    /// setting per process there.
     pub validation: Option<bool>,
     /// Use the first ray-tracing device whose name contains this string.
+    /// Contexts made for the same GPU (with the same validation setting) share its
+    /// `VkDevice`.
     pub device_name_contains: Option<String>,
     /// Where the on-disk compile cache lives, or [`PipelineCacheLocation::Off`]
     /// (see [`crate::cache`]). On by default.
@@ -84,19 +112,19 @@ pub struct DeviceLimits {
 pub struct Context {
     pub(crate) inner: Arc<ContextInner>,
 }
-
 pub(crate) struct ContextInner {
-    _entry: ash::Entry,
-    pub(crate) instance: ash::Instance,
-    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
-    /// Owned by the messenger callback's user data; freed after the messenger.
-    log_ptr: *const MessageLog,
+    /// This context's id, which its objects' debug names carry (see [`crate::log`]).
+    pub(crate) id: u64,
+    /// The device, shared with every other context on the same GPU.
+    pub(crate) shared: Arc<SharedDevice>,
     pub(crate) log: MessageLog,
+    // Copies of the shared device's function tables and properties, read often.
+    pub(crate) instance: ash::Instance,
     pub(crate) device: ash::Device,
     pub(crate) rt: ash::khr::ray_tracing_pipeline::Device,
     pub(crate) accel: ash::khr::acceleration_structure::Device,
-    queue: Mutex<vk::Queue>,
-    queue_family: u32,
+    /// This context's command pool: a pool is externally synchronised, so each
+    /// context has its own.
     command_pool: Mutex<vk::CommandPool>,
     /// Finished command buffers and their (reset) fences, reused by later
     /// submissions: allocating both for every launch costs more than the launch
@@ -116,421 +144,82 @@ pub(crate) struct ContextInner {
     /// Whether the driver is lavapipe (Mesa's CPU driver), whose workarounds
     /// raykit applies (see [`crate::pipeline::library`]).
     pub(crate) lavapipe: bool,
-    device_name: String,
-    /// The compile cache every pipeline creation goes through.
+    /// The compile cache every pipeline creation of this context goes through.
     pub(crate) pipeline_cache: DiskCache,
-    /// `vkSetDebugUtilsObjectNameEXT`, when VK_EXT_debug_utils is on.
-    debug_names: Option<ash::ext::debug_utils::Device>,
 }
 
-// SAFETY: the raw `log_ptr` points at a `MessageLog` (itself Send + Sync) that lives
-// as long as the context; every other field is Send + Sync, and Vulkan objects that
-// need external synchronisation (queue, command pool, allocator) sit behind mutexes.
-unsafe impl Send for ContextInner {}
-// SAFETY: as above.
-unsafe impl Sync for ContextInner {}
-
-unsafe extern "system" fn debug_callback(
-    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
-    _types: vk::DebugUtilsMessageTypeFlagsEXT,
-    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
-    user_data: *mut c_void,
-) -> vk::Bool32 {
-    // SAFETY: `user_data` is the `MessageLog` box installed with the messenger, alive
-    // until after the messenger is destroyed; `data` is valid for this call.
-    unsafe {
-        if user_data.is_null() || data.is_null() {
-            return vk::FALSE;
-        }
-        let log = &*(user_data as *const MessageLog);
-        let data = &*data;
-        let text = if data.p_message.is_null() {
-            String::new()
-        } else {
-            CStr::from_ptr(data.p_message).to_string_lossy().into_owned()
-        };
-        let id = if data.p_message_id_name.is_null() {
-            String::new()
-        } else {
-            CStr::from_ptr(data.p_message_id_name).to_string_lossy().into_owned()
-        };
-        let objects = if data.p_objects.is_null() || data.object_count == 0 {
-            Vec::new()
-        } else {
-            std::slice::from_raw_parts(data.p_objects, data.object_count as usize)
-                .iter()
-                .map(|o| LoggedObject {
-                    object_type: format!("{:?}", o.object_type),
-                    handle: o.object_handle,
-                    name: (!o.p_object_name.is_null())
-                        .then(|| CStr::from_ptr(o.p_object_name).to_string_lossy().into_owned()),
-                })
-                .collect()
-        };
-        let severity = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
-            Severity::Error
-        } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
-            Severity::Warning
-        } else {
-            Severity::Info
-        };
-        log.push(ValidationMessage { severity, id, text, objects });
-    }
-    vk::FALSE
-}
-
-/// Serialises the creation and destruction of instances and devices across the
-/// process: every `vkCreateInstance`, `vkCreateDevice`, `vkDestroyDevice` and
-/// `vkDestroyInstance` raykit makes holds this lock.
-///
-/// NVIDIA's driver (580, H100) sometimes never returns from `vkDestroyDevice`
-/// when other threads create or destroy their own instance and device at the
-/// same time: in a plain-ash program of 4 threads, each making an instance and a
-/// device, submitting 200 empty command buffers and destroying both, 8 of 40
-/// runs hung in `vkDestroyDevice`; with these calls under one lock, 0 of 20.
-/// This does not make several contexts used at once from several threads safe
-/// on that driver: raykit's own 4-thread runs still hang there (in a context's
-/// drop, or while one thread links a pipeline and others make contexts). One
-/// context shared by all threads works (`Context` is `Clone + Send + Sync`).
-fn lifecycle_lock() -> std::sync::MutexGuard<'static, ()> {
-    static LIFECYCLE: Mutex<()> = Mutex::new(());
-    LIFECYCLE.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
-}
-
-/// Keeps the Vulkan loader and the drivers it loads in memory for the life of
-/// the process, through one instance made on the first [`Context::new`] and never
-/// destroyed (no layers, no devices: it holds nothing else).
-///
-/// The loader unloads a driver's library when the last instance using it is
-/// destroyed, and loads it again for the next one. NVIDIA's driver (580 on an
-/// H100) does not survive that: after about thirty contexts made and destroyed
-/// one after the other in one process, `vkCreateInstance` fails with "Unable to
-/// find a Vulkan driver". Keeping one instance alive keeps the library loaded.
-fn keep_driver_loaded(entry: &ash::Entry) {
-    static KEEP_ALIVE: std::sync::OnceLock<Option<(ash::Entry, ash::Instance)>> = std::sync::OnceLock::new();
-    KEEP_ALIVE.get_or_init(|| {
-        let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
-        let info = vk::InstanceCreateInfo::default().application_info(&app);
-        let _lifecycle = lifecycle_lock();
-        // SAFETY: a valid create info with no layers or extensions; the instance is
-        // intentionally never destroyed (see above).
-        unsafe { entry.create_instance(&info, None) }.ok().map(|instance| (entry.clone(), instance))
-    });
-}
-
-fn version_string(v: u32) -> String {
-    format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v))
-}
-
-/// The feature structs raykit enables, chained for query or creation.
-#[derive(Default)]
-struct Features {
-    rt: vk::PhysicalDeviceRayTracingPipelineFeaturesKHR<'static>,
-    accel: vk::PhysicalDeviceAccelerationStructureFeaturesKHR<'static>,
-    v12: vk::PhysicalDeviceVulkan12Features<'static>,
-    base: vk::PhysicalDeviceFeatures,
-}
-
-impl Features {
-    /// Queries what `physical` supports.
-    fn query(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Features {
-        let mut f = Features::default();
-        let mut features2 =
-            vk::PhysicalDeviceFeatures2::default().push_next(&mut f.rt).push_next(&mut f.accel).push_next(&mut f.v12);
-        // SAFETY: `physical` came from this instance; the chain is well formed.
-        unsafe { instance.get_physical_device_features2(physical, &mut features2) };
-        f.base = features2.features;
-        f.rt.p_next = std::ptr::null_mut();
-        f.accel.p_next = std::ptr::null_mut();
-        f.v12.p_next = std::ptr::null_mut();
-        f
-    }
-
-    /// The subset raykit turns on.
-    fn required() -> Features {
-        Features {
-            rt: vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true),
-            accel: vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true),
-            v12: vk::PhysicalDeviceVulkan12Features::default()
-                .buffer_device_address(true)
-                .scalar_block_layout(true)
-                .vulkan_memory_model(true)
-                .runtime_descriptor_array(true)
-                .descriptor_binding_partially_bound(true)
-                .descriptor_binding_storage_buffer_update_after_bind(true)
-                .descriptor_indexing(true),
-            // Device programs access buffers without bounds checks and rely on
-            // robustBufferAccess for out-of-range indices (see raykit-device).
-            base: vk::PhysicalDeviceFeatures::default().shader_int64(true).robust_buffer_access(true),
-        }
-    }
-
-    /// Names of required features `self` lacks.
-    fn missing(&self) -> Vec<String> {
-        let checks: [(&str, vk::Bool32); 10] = [
-            ("vulkanMemoryModel", self.v12.vulkan_memory_model),
-            ("rayTracingPipeline", self.rt.ray_tracing_pipeline),
-            ("accelerationStructure", self.accel.acceleration_structure),
-            ("bufferDeviceAddress", self.v12.buffer_device_address),
-            ("scalarBlockLayout", self.v12.scalar_block_layout),
-            ("runtimeDescriptorArray", self.v12.runtime_descriptor_array),
-            ("descriptorBindingPartiallyBound", self.v12.descriptor_binding_partially_bound),
-            (
-                "descriptorBindingStorageBufferUpdateAfterBind",
-                self.v12.descriptor_binding_storage_buffer_update_after_bind,
-            ),
-            ("shaderInt64", self.base.shader_int64),
-            ("robustBufferAccess", self.base.robust_buffer_access),
-        ];
-        checks.iter().filter(|(_, on)| *on == vk::FALSE).map(|(n, _)| format!("feature {n}")).collect()
-    }
-}
-
-/// Checks one physical device; returns its report (empty `missing` = usable).
-fn inspect_device(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Result<(DeviceReport, Option<u32>)> {
-    // SAFETY: `physical` came from this instance.
-    let props = unsafe { instance.get_physical_device_properties(physical) };
-    let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let mut missing = Vec::new();
-    if props.api_version < vk::API_VERSION_1_2 {
-        missing.push("Vulkan 1.2".to_owned());
-    }
-    // SAFETY: as above.
-    let extensions = unsafe { instance.enumerate_device_extension_properties(physical) }
-        .map_err(Error::vk("vkEnumerateDeviceExtensionProperties"))?;
-    for required in REQUIRED_EXTENSIONS {
-        let has = extensions.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == required));
-        if !has {
-            missing.push(format!("extension {}", required.to_string_lossy()));
-        }
-    }
-    if props.api_version >= vk::API_VERSION_1_2 {
-        missing.extend(Features::query(instance, physical).missing());
-    }
-    // SAFETY: as above.
-    let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-    let queue_family = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)).map(|i| i as u32);
-    if queue_family.is_none() {
-        missing.push("a compute queue".to_owned());
-    }
-    let report = DeviceReport {
-        name,
-        device_type: format!("{:?}", props.device_type),
-        api_version: version_string(props.api_version),
-        missing,
-    };
-    Ok((report, queue_family))
+/// Hands out context ids.
+fn next_context_id() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 impl Context {
-    /// Creates a context on the first device with ray-tracing pipelines.
+    /// Creates a context on the first device with ray-tracing pipelines; when
+    /// another context already uses that GPU, the new one shares its `VkDevice`.
     pub fn new(options: ContextOptions) -> Result<Context> {
         let validation =
             options.validation.unwrap_or_else(|| std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1"));
-        // SAFETY: loading the system Vulkan loader runs its initialisation code; we
-        // trust the installed loader as every Vulkan program does.
-        let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::LoaderMissing(e.to_string()))?;
-        keep_driver_loaded(&entry);
-
-        let mut layers: Vec<*const std::ffi::c_char> = Vec::new();
-        let mut instance_extensions: Vec<*const std::ffi::c_char> = Vec::new();
-        // The messenger (and debug names) need VK_EXT_debug_utils: always there with
-        // the validation layer; for a log callback alone, where the loader has it.
-        // SAFETY: plain enumeration call.
-        let loader_has_debug_utils = unsafe { entry.enumerate_instance_extension_properties(None) }.is_ok_and(|exts| {
-            exts.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::debug_utils::NAME))
-        });
-        let debug = validation || (options.log_callback.is_some() && loader_has_debug_utils);
-        if debug && !validation {
-            instance_extensions.push(ash::ext::debug_utils::NAME.as_ptr());
-        }
-        if validation {
-            // SAFETY: plain enumeration call.
-            let available = unsafe { entry.enumerate_instance_layer_properties() }
-                .map_err(Error::vk("vkEnumerateInstanceLayerProperties"))?;
-            if !available.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER)) {
-                return Err(Error::ValidationLayerMissing);
-            }
-            layers.push(VALIDATION_LAYER.as_ptr());
-            instance_extensions.push(ash::ext::debug_utils::NAME.as_ptr());
-        }
-        let app_info = vk::ApplicationInfo::default()
-            .application_name(c"raykit")
-            .engine_name(c"raykit")
-            .api_version(vk::API_VERSION_1_2);
+        let instance = crate::device_registry::instance(validation)?;
+        let id = next_context_id();
         let log = MessageLog::with_callback(options.log_callback.clone());
-        let log_ptr = Box::into_raw(Box::new(log.clone())) as *const MessageLog;
-        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-            .message_severity(
-                vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
-            )
-            .message_type(
-                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
-            )
-            .pfn_user_callback(Some(debug_callback))
-            .user_data(log_ptr as *mut c_void);
-        let mut instance_info = vk::InstanceCreateInfo::default()
-            .application_info(&app_info)
-            .enabled_layer_names(&layers)
-            .enabled_extension_names(&instance_extensions);
-        if debug {
-            // Also catches messages of instance creation and destruction.
-            instance_info = instance_info.push_next(&mut messenger_info);
-        }
-        let created = {
-            let _lifecycle = lifecycle_lock();
-            // SAFETY: the create info and everything it points to live across the call.
-            unsafe { entry.create_instance(&instance_info, None) }
-        };
-        let instance = match created {
-            Ok(i) => i,
-            Err(e) => {
-                // SAFETY: the box was made above and is not shared yet.
-                drop(unsafe { Box::from_raw(log_ptr as *mut MessageLog) });
-                return Err(Error::vk("vkCreateInstance")(e));
-            }
-        };
-        // From here on, `Partial` destroys what was made if a later step fails.
-        let mut partial = Partial { entry, instance, debug: None, log_ptr, armed: true };
-        let instance = partial.instance();
-        let entry = partial.entry();
-        if debug {
-            let debug_utils = ash::ext::debug_utils::Instance::new(entry, instance);
-            // SAFETY: the create info is valid; the callback's user data outlives the messenger.
-            let messenger = unsafe { debug_utils.create_debug_utils_messenger(&messenger_info, None) }
-                .map_err(Error::vk("vkCreateDebugUtilsMessengerEXT"))?;
-            partial.debug = Some((debug_utils, messenger));
-        }
-        let instance = partial.instance();
-
-        // SAFETY: plain enumeration call on a live instance.
-        let physical_devices =
-            unsafe { instance.enumerate_physical_devices() }.map_err(Error::vk("vkEnumeratePhysicalDevices"))?;
-        let mut reports = Vec::new();
-        let mut chosen = None;
-        for &physical in &physical_devices {
-            let (report, family) = inspect_device(instance, physical)?;
-            let name_ok = options.device_name_contains.as_ref().is_none_or(|want| report.name.contains(want.as_str()));
-            if chosen.is_none() && report.missing.is_empty() && name_ok {
-                if let Some(family) = family {
-                    chosen = Some((physical, family, report.name.clone()));
-                }
-            }
-            reports.push(report);
-        }
-        let Some((physical_device, queue_family, device_name)) = chosen else {
-            if let Some(want) = &options.device_name_contains {
-                for r in &mut reports {
-                    if !r.name.contains(want.as_str()) {
-                        r.missing.push(format!("a name containing {want:?}"));
-                    }
-                }
-            }
-            return Err(Error::NoRayTracingDevice { devices: reports });
-        };
-
-        let mut features = Features::required();
-        let priorities = [1.0f32];
-        let queue_infos =
-            [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
-        let mut extension_ptrs: Vec<_> = REQUIRED_EXTENSIONS.iter().map(|e| e.as_ptr()).collect();
-        // Optional: lets modules carry debug info (glslang's -gVS, NonSemantic.Shader.DebugInfo.100).
-        // SAFETY: `physical_device` came from this instance.
-        let device_extensions = unsafe { instance.enumerate_device_extension_properties(physical_device) }
-            .map_err(Error::vk("vkEnumerateDeviceExtensionProperties"))?;
-        let has_extension = |name: &std::ffi::CStr| {
-            device_extensions.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name))
-        };
-        let non_semantic_info = has_extension(ash::khr::shader_non_semantic_info::NAME);
-        if non_semantic_info {
-            extension_ptrs.push(ash::khr::shader_non_semantic_info::NAME.as_ptr());
-        }
-        // Optional: pipeline libraries (`PipelineLibrary`, `Pipeline::link`).
-        let pipeline_library = has_extension(ash::khr::pipeline_library::NAME);
-        if pipeline_library {
-            extension_ptrs.push(ash::khr::pipeline_library::NAME.as_ptr());
-        }
-        let device_info = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&queue_infos)
-            .enabled_extension_names(&extension_ptrs)
-            .enabled_features(&features.base)
-            .push_next(&mut features.rt)
-            .push_next(&mut features.accel)
-            .push_next(&mut features.v12);
-        let device = {
-            let _lifecycle = lifecycle_lock();
-            // SAFETY: the physical device supports every extension and feature enabled
-            // (checked by `inspect_device`); the create info lives across the call.
-            unsafe { instance.create_device(physical_device, &device_info, None) }
-        }
-        .map_err(Error::vk("vkCreateDevice"))?;
-        let device_guard = DeviceGuard { device: device.clone(), armed: true };
-
-        let DeviceProperties { limits, driver_id, launch_dimension_limits } =
-            query_properties(instance, physical_device);
-        let lavapipe = driver_id == vk::DriverId::MESA_LLVMPIPE;
-        let debug_names = debug.then(|| ash::ext::debug_utils::Device::new(instance, &device));
-        let rt = ash::khr::ray_tracing_pipeline::Device::new(instance, &device);
-        let accel = ash::khr::acceleration_structure::Device::new(instance, &device);
-        // SAFETY: queue family and index 0 were requested at device creation.
-        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        // Routed before the device is made, so messages of its creation reach the log.
+        instance.routes.add(id, log.clone());
+        let mut route = RouteGuard { instance, id, armed: true };
+        let shared = crate::device_registry::acquire(instance, options.device_name_contains.as_deref())?;
+        let mut hold = DeviceHold { shared: shared.clone(), armed: true };
+        let device = &shared.device;
+        let physical = shared.physical;
         let pool_info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(queue_family)
+            .queue_family_index(shared.queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER | vk::CommandPoolCreateFlags::TRANSIENT);
         // SAFETY: valid device and create info.
         let command_pool =
             unsafe { device.create_command_pool(&pool_info, None) }.map_err(Error::vk("vkCreateCommandPool"))?;
-        let pool_guard = PoolGuard(&device, command_pool);
+        let pool_guard = PoolGuard(device, command_pool);
         let allocator = gpu_allocator::vulkan::Allocator::new(&gpu_allocator::vulkan::AllocatorCreateDesc {
-            instance: instance.clone(),
+            instance: instance.instance.clone(),
             device: device.clone(),
-            physical_device,
+            physical_device: physical,
             debug_settings: Default::default(),
             buffer_device_address: true,
             allocation_sizes: Default::default(),
         })
         .map_err(|source| Error::Allocation { what: "the memory allocator", source })?;
-        let buffer_table = BufferTable::new(&device, instance, physical_device)?;
+        let buffer_table = BufferTable::new(device, &instance.instance, physical)?;
         std::mem::forget(pool_guard);
-        // SAFETY: `physical_device` belongs to `instance`.
-        let properties = unsafe { instance.get_physical_device_properties(physical_device) };
-        let pipeline_cache = DiskCache::open(&device, CacheKey::of(&properties), &options.pipeline_cache);
-
-        let device = device_guard.take();
-        let (entry, instance, debug) = partial.take();
-        Ok(Context {
-            inner: Arc::new(ContextInner {
-                _entry: entry,
-                instance,
-                debug,
-                log_ptr,
-                log,
-                device,
-                rt,
-                accel,
-                queue: Mutex::new(queue),
-                queue_family,
-                command_pool: Mutex::new(command_pool),
-                recycled: Mutex::new(Vec::new()),
-                allocator: ManuallyDrop::new(Mutex::new(allocator)),
-                buffer_table: ManuallyDrop::new(buffer_table),
-                limits,
-                launch_dimension_limits,
-                non_semantic_info,
-                pipeline_library,
-                lavapipe,
-                device_name,
-                pipeline_cache,
-                debug_names,
-            }),
-        })
+        let pipeline_cache = DiskCache::open(device, CacheKey::of(&shared.properties), &options.pipeline_cache);
+        let inner = ContextInner {
+            id,
+            log,
+            instance: instance.instance.clone(),
+            device: device.clone(),
+            rt: shared.rt.clone(),
+            accel: shared.accel.clone(),
+            command_pool: Mutex::new(command_pool),
+            recycled: Mutex::new(Vec::new()),
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            buffer_table: ManuallyDrop::new(buffer_table),
+            limits: shared.limits,
+            launch_dimension_limits: shared.launch_dimension_limits,
+            non_semantic_info: shared.non_semantic_info,
+            pipeline_library: shared.pipeline_library,
+            lavapipe: shared.lavapipe,
+            pipeline_cache,
+            shared,
+        };
+        inner.set_name(command_pool, "command pool");
+        inner.set_name(inner.buffer_table.set, "buffer table");
+        inner.set_name(inner.buffer_table.layout, "buffer table layout");
+        // The context now owns the route and the hold.
+        route.armed = false;
+        hold.armed = false;
+        Ok(Context { inner: Arc::new(inner) })
     }
 
     /// The name of the device in use.
     pub fn device_name(&self) -> &str {
-        &self.inner.device_name
+        &self.inner.shared.name
     }
 
     /// Whether this device links pipelines from libraries
@@ -544,7 +233,28 @@ impl Context {
         &self.inner.limits
     }
 
-    /// Validation messages collected so far (empty when validation is off). The
+    /// Whether this context and `other` share one `VkDevice` (contexts made for one
+    /// GPU do).
+    pub fn shares_device_with(&self, other: &Context) -> bool {
+        Arc::ptr_eq(&self.inner.shared, &other.inner.shared)
+    }
+
+    /// Whether the device was lost (`VK_ERROR_DEVICE_LOST`): then every context on it
+    /// refuses new work with [`Error::DeviceLost`]; drop them, and make a new context.
+    pub fn is_device_lost(&self) -> bool {
+        self.inner.shared.is_lost()
+    }
+
+    /// Test hook: the next submission on this context's device (by any context on
+    /// it) fails as if the device was lost, without reaching the driver.
+    #[cfg(feature = "fault-injection")]
+    #[doc(hidden)]
+    pub fn inject_device_loss_at_next_submit(&self) {
+        self.inner.shared.inject_loss();
+    }
+
+    /// Validation messages collected so far (empty when validation is off): those
+    /// naming this context's objects, and those naming no context's. The
     /// returned log is shared: it keeps collecting, also while the context is
     /// destroyed, so a test can check for leaks reported at destruction.
     pub fn messages(&self) -> MessageLog {
@@ -553,7 +263,7 @@ impl Context {
 
     /// The queue family used for all work.
     pub fn queue_family(&self) -> u32 {
-        self.inner.queue_family
+        self.inner.shared.queue_family
     }
 
     /// Names `handle` (an object of this context's device) for validation messages
@@ -628,9 +338,10 @@ impl std::fmt::Debug for Context {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let inner = &self.inner;
         f.debug_struct("Context")
-            .field("device", &inner.device_name)
-            .field("queue_family", &inner.queue_family)
-            .field("validation", &inner.debug.is_some())
+            .field("id", &inner.id)
+            .field("device", &inner.shared.name)
+            .field("queue_family", &inner.shared.queue_family)
+            .field("device_lost", &inner.shared.is_lost())
             .field("pipeline_libraries", &inner.pipeline_library)
             .field("limits", &inner.limits)
             .finish_non_exhaustive()
@@ -651,15 +362,21 @@ pub struct MemoryUsage {
 }
 
 impl ContextInner {
-    /// Gives `handle` a debug name, so validation messages and tools name it. Does
-    /// nothing without VK_EXT_debug_utils.
+    /// Gives `handle` a debug name, so validation messages and tools name it; the
+    /// name carries the context's id, which routes messages about the object to this
+    /// context (see [`crate::log`]). Does nothing without VK_EXT_debug_utils.
     pub(crate) fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
-        let Some(debug) = &self.debug_names else { return };
-        let Ok(name) = std::ffi::CString::new(name) else { return };
+        let Some(debug) = &self.shared.debug_names else { return };
+        let Ok(name) = std::ffi::CString::new(crate::log::tagged_name(self.id, name)) else { return };
         let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&name);
         // SAFETY: `handle` is a live object of this device (callers name what they
         // just made); naming needs no external synchronisation of the object.
         let _ = unsafe { debug.set_debug_utils_object_name(&info) };
+    }
+
+    /// `Err(DeviceLost)` once the device was lost: every context on it refuses new work.
+    pub(crate) fn check_device(&self, during: &'static str) -> Result<()> {
+        self.shared.check(during)
     }
 
     pub(crate) fn allocator(&self) -> MutexGuard<'_, gpu_allocator::vulkan::Allocator> {
@@ -688,6 +405,7 @@ impl ContextInner {
         during: &'static str,
         record: impl FnOnce(vk::CommandBuffer),
     ) -> Result<Submission> {
+        self.check_device(during)?;
         let device = &self.device;
         let pool = self.command_pool.lock().unwrap_or_else(|p| p.into_inner());
         let reused = self.recycled.lock().unwrap_or_else(|p| p.into_inner()).pop();
@@ -701,6 +419,7 @@ impl ContextInner {
                 // SAFETY: the pool is externally synchronised by the mutex held.
                 let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }
                     .map_err(Error::vk("vkAllocateCommandBuffers"))?[0];
+                self.set_name(cmd, "command buffer");
                 (cmd, vk::Fence::null())
             }
         };
@@ -717,16 +436,22 @@ impl ContextInner {
                 // SAFETY: valid device.
                 fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
                     .map_err(Error::vk("vkCreateFence"))?;
+                self.set_name(fence, "fence");
             }
             let cmds = [cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-            let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
-            // SAFETY: the queue is externally synchronised by its mutex; the command
-            // buffer is fully recorded; the fence is unsignalled (new or reset).
-            unsafe { device.queue_submit(*queue, &submit, fence) }.map_err(|e| match e {
-                vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during },
-                other => Error::Vulkan { call: "vkQueueSubmit", result: other },
-            })
+            // One queue for every context on the device, behind one lock.
+            let queue = self.shared.queue.lock().unwrap_or_else(|p| p.into_inner());
+            // Checked again under the queue's lock: no submission follows a loss.
+            self.check_device(during)?;
+            let submitted = if self.shared.take_injected_loss() {
+                Err(vk::Result::ERROR_DEVICE_LOST)
+            } else {
+                // SAFETY: the queue is externally synchronised by its mutex; the command
+                // buffer is fully recorded; the fence is unsignalled (new or reset).
+                unsafe { device.queue_submit(*queue, &submit, fence) }
+            };
+            submitted.map_err(self.shared.error("vkQueueSubmit", during))
         })();
         if let Err(e) = result {
             // SAFETY: nothing was submitted: the command buffer and fence are idle.
@@ -749,11 +474,10 @@ impl Submission {
         if self.waited {
             return Ok(true);
         }
+        self.ctx.check_device(self.during)?;
         // SAFETY: the fence belongs to this device and is alive.
-        unsafe { self.ctx.device.get_fence_status(self.fence) }.map_err(|e| match e {
-            vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during: self.during },
-            other => Error::Vulkan { call: "vkGetFenceStatus", result: other },
-        })
+        unsafe { self.ctx.device.get_fence_status(self.fence) }
+            .map_err(self.ctx.shared.error("vkGetFenceStatus", self.during))
     }
 
     /// Blocks until the work has finished.
@@ -761,29 +485,37 @@ impl Submission {
         if self.waited {
             return Ok(());
         }
-        // SAFETY: the fence belongs to this device and was submitted.
-        let waited = unsafe { self.ctx.device.wait_for_fences(&[self.fence], true, u64::MAX) };
-        waited.map_err(|e| match e {
-            vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during: self.during },
-            other => Error::Vulkan { call: "vkWaitForFences", result: other },
-        })?;
+        // Once the device is lost, the work's results are lost with it.
+        self.ctx.check_device(self.during)?;
+        self.wait_fence()?;
         self.waited = true;
         Ok(())
+    }
+
+    /// Waits for the fence. A lost device reports `VK_ERROR_DEVICE_LOST` at once.
+    fn wait_fence(&self) -> Result<()> {
+        // SAFETY: the fence belongs to this device and was submitted.
+        let waited = unsafe { self.ctx.device.wait_for_fences(&[self.fence], true, u64::MAX) };
+        waited.map_err(self.ctx.shared.error("vkWaitForFences", self.during))
     }
 }
 
 impl Drop for Submission {
     fn drop(&mut self) {
-        // A failed wait means a lost device; destroying the objects is still allowed then.
-        let waited = self.wait().is_ok();
+        // Waits on the fence even when the device was marked lost: another context's
+        // call may have seen the loss while this work still runs (or the loss was
+        // injected). A failed wait means a lost device; destroying the objects is
+        // still allowed then.
+        let waited = self.waited || self.wait_fence().is_ok();
         let pool = self.ctx.command_pool.lock().unwrap_or_else(|p| p.into_inner());
         let device = &self.ctx.device;
         // Keep a few finished pairs for the next submissions.
         const KEEP: usize = 8;
         let mut recycled = self.ctx.recycled.lock().unwrap_or_else(|p| p.into_inner());
+        let reuse = waited && !self.ctx.shared.is_lost() && recycled.len() < KEEP;
         // SAFETY: the work has finished (waited above), so the fence is signalled
         // and the command buffer idle.
-        if waited && recycled.len() < KEEP && unsafe { device.reset_fences(&[self.fence]) }.is_ok() {
+        if reuse && unsafe { device.reset_fences(&[self.fence]) }.is_ok() {
             recycled.push((self.cmd, self.fence));
             return;
         }
@@ -794,53 +526,13 @@ impl Drop for Submission {
         }
     }
 }
-
-/// What raykit reads of a physical device's properties, in one query.
-struct DeviceProperties {
-    limits: DeviceLimits,
-    driver_id: vk::DriverId,
-    launch_dimension_limits: [u64; 3],
-}
-
-fn query_properties(instance: &ash::Instance, physical: vk::PhysicalDevice) -> DeviceProperties {
-    let mut rt = vk::PhysicalDeviceRayTracingPipelinePropertiesKHR::default();
-    let mut accel = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
-    let mut driver = vk::PhysicalDeviceDriverProperties::default();
-    let mut props2 =
-        vk::PhysicalDeviceProperties2::default().push_next(&mut rt).push_next(&mut accel).push_next(&mut driver);
-    // SAFETY: the chain is well formed; `physical` belongs to `instance`.
-    unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
-    let limits = props2.properties.limits;
-    let device_limits = DeviceLimits {
-        shader_group_handle_size: rt.shader_group_handle_size,
-        shader_group_handle_alignment: rt.shader_group_handle_alignment,
-        shader_group_base_alignment: rt.shader_group_base_alignment,
-        max_shader_group_stride: rt.max_shader_group_stride,
-        max_ray_recursion_depth: rt.max_ray_recursion_depth,
-        max_ray_dispatch_invocation_count: rt.max_ray_dispatch_invocation_count,
-        max_ray_hit_attribute_size: rt.max_ray_hit_attribute_size,
-        max_push_constants_size: limits.max_push_constants_size,
-        max_uniform_buffer_range: limits.max_uniform_buffer_range,
-        min_uniform_buffer_offset_alignment: limits.min_uniform_buffer_offset_alignment,
-        min_scratch_alignment: accel.min_acceleration_structure_scratch_offset_alignment,
-        max_geometry_count: accel.max_geometry_count,
-        max_primitive_count: accel.max_primitive_count,
-        max_instance_count: accel.max_instance_count,
-    };
-    // `vkCmdTraceRaysKHR` takes at most `maxComputeWorkGroupCount[i] × maxComputeWorkGroupSize[i]` per dimension.
-    let launch_dimension_limits: [u64; 3] = std::array::from_fn(|i| {
-        limits.max_compute_work_group_count[i] as u64 * limits.max_compute_work_group_size[i] as u64
-    });
-    DeviceProperties { limits: device_limits, driver_id: driver.driver_id, launch_dimension_limits }
-}
-
 impl Drop for ContextInner {
     fn drop(&mut self) {
-        // SAFETY: every child object holds an `Arc` to this context, so none is
-        // alive now; the device is idle after the wait; objects are destroyed in
-        // reverse order of creation, the messenger last so it reports leaks.
+        // SAFETY: every child object and every submission holds an `Arc` to this
+        // context, so none is alive now and none of its work is pending (a
+        // submission waits for its work when dropped). Only this context's objects
+        // are destroyed here; the device goes with the last context on it.
         unsafe {
-            let _ = self.device.device_wait_idle();
             // Errors cannot be returned from drop; `Context::save_pipeline_cache`
             // reports them to whoever wants to know.
             let _ = self.pipeline_cache.save(&self.device);
@@ -853,80 +545,42 @@ impl Drop for ContextInner {
             }
             let pool = self.command_pool.get_mut().unwrap_or_else(|p| p.into_inner());
             self.device.destroy_command_pool(*pool, None);
-            let lifecycle = lifecycle_lock();
-            self.device.destroy_device(None);
-            drop(lifecycle);
-            if let Some((debug_utils, messenger)) = self.debug.take() {
-                debug_utils.destroy_debug_utils_messenger(messenger, None);
-            }
-            let _lifecycle = lifecycle_lock();
-            self.instance.destroy_instance(None);
-            drop(Box::from_raw(self.log_ptr as *mut MessageLog));
+            // The log stays routed until the device (if this was its last context)
+            // is destroyed, so it hears about objects left alive on it.
+            crate::device_registry::release(&self.shared);
         }
+        self.shared.instance.routes.remove(self.id);
         self.log.mark_destroyed();
     }
 }
 
-/// Destroys the instance (and messenger) if context creation fails part-way.
-struct Partial {
-    entry: ash::Entry,
-    instance: ash::Instance,
-    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
-    log_ptr: *const MessageLog,
-    /// Cleared by `take`, when the context owns all of it.
+/// Stops routing messages to a context whose creation failed.
+struct RouteGuard {
+    instance: &'static SharedInstance,
+    id: u64,
     armed: bool,
 }
 
-impl Partial {
-    fn instance(&self) -> &ash::Instance {
-        &self.instance
-    }
-    fn entry(&self) -> &ash::Entry {
-        &self.entry
-    }
-    fn take(
-        mut self,
-    ) -> (ash::Entry, ash::Instance, Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>) {
-        self.armed = false;
-        (self.entry.clone(), self.instance.clone(), self.debug.take())
-    }
-}
-
-impl Drop for Partial {
-    fn drop(&mut self) {
-        if !self.armed {
-            return;
-        }
-        // SAFETY: only objects created above and not handed to a context remain.
-        unsafe {
-            if let Some((debug_utils, messenger)) = self.debug.take() {
-                debug_utils.destroy_debug_utils_messenger(messenger, None);
-            }
-            let _lifecycle = lifecycle_lock();
-            self.instance.destroy_instance(None);
-            drop(Box::from_raw(self.log_ptr as *mut MessageLog));
-        }
-    }
-}
-
-/// Destroys the device if context creation fails after it was made.
-struct DeviceGuard {
-    device: ash::Device,
-    /// Cleared by `take`, when the context owns the device.
-    armed: bool,
-}
-impl DeviceGuard {
-    fn take(mut self) -> ash::Device {
-        self.armed = false;
-        self.device.clone()
-    }
-}
-impl Drop for DeviceGuard {
+impl Drop for RouteGuard {
     fn drop(&mut self) {
         if self.armed {
-            let _lifecycle = lifecycle_lock();
-            // SAFETY: nothing else uses the device yet.
-            unsafe { self.device.destroy_device(None) };
+            self.instance.routes.remove(self.id);
+        }
+    }
+}
+
+/// Hands the device back if context creation fails after it was acquired.
+struct DeviceHold {
+    shared: Arc<SharedDevice>,
+    armed: bool,
+}
+
+impl Drop for DeviceHold {
+    fn drop(&mut self) {
+        if self.armed {
+            // SAFETY: the failed creation destroyed what it made (its guards drop
+            // before this one) and made nothing else on the device.
+            unsafe { crate::device_registry::release(&self.shared) };
         }
     }
 }

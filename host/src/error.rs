@@ -405,7 +405,10 @@ pub enum Error {
     },
 
     /// The GPU stopped responding.
-    #[error("the device was lost during {during}; the Context is no longer usable — create a new one")]
+    #[error(
+        "the device was lost during {during}; every Context on it refuses new work from now on — drop them and \
+         create a new Context (it gets a new device)"
+    )]
     DeviceLost {
         /// What was running.
         during: &'static str,
@@ -567,6 +570,9 @@ impl From<raykit_spirv::LayoutError> for Error {
 impl Error {
     /// Wraps a failed Vulkan call.
     pub(crate) fn vk(call: &'static str) -> impl FnOnce(vk::Result) -> Error {
-        move |result| Error::Vulkan { call, result }
+        move |result| match result {
+            vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during: call },
+            result => Error::Vulkan { call, result },
+        }
     }
 }

@@ -8,6 +8,7 @@ pub mod accel;
 mod buffer_table;
 pub mod cache;
 pub mod context;
+mod device_registry;
 pub mod error;
 pub mod log;
 pub mod memory;

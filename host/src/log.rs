@@ -8,14 +8,25 @@
 //! reported, with its level, text and the objects it concerns — named, since raykit
 //! names the Vulkan objects it makes (`vkSetDebugUtilsObjectNameEXT`).
 //!
+//! Each context's messages are its own, also when several contexts share one device
+//! (see [`crate::context`]): raykit's debug names carry the id of the context that made
+//! the object (`raykit#3 DeviceBuffer`), and the messenger hands a message to the
+//! contexts whose objects it names, with the names as given (without the id). A
+//! message that names no object of a live context (one about the device or queue
+//! themselves, or about an object made through the raw handles and not named with
+//! [`crate::Context::set_debug_name`]) goes to every context on the instance.
+//!
 //! The layer reports on the thread that makes the Vulkan call, so raykit also
 //! collects what was reported during one creation call: [`crate::Module::creation_log`]
 //! and [`crate::Pipeline::creation_log`] (OptiX's log strings of
 //! `optixModuleCreate` and `optixPipelineCreate`).
 
 use std::cell::RefCell;
+use std::ffi::{c_void, CStr};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
+
+use ash::vk;
 
 /// How serious a message is.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -48,13 +59,15 @@ pub struct LoggedObject {
     pub object_type: String,
     /// Its handle.
     pub handle: u64,
-    /// Its debug name, if it has one (raykit names what it makes).
+    /// Its debug name, if it has one (raykit names what it makes), as it was given:
+    /// without the context id raykit's debug names carry for routing.
     pub name: Option<String>,
 }
 
 /// A user's log callback (OptiX's `OptixLogCallback`): called with every message
-/// the context's debug messenger reports, on the thread of the Vulkan call that
-/// caused it.
+/// that reaches its context, on the thread of the Vulkan call that caused it. It
+/// may run while raykit creates or destroys a device, under the lock that guards
+/// that: it must not create or drop a [`crate::Context`] itself.
 #[derive(Clone)]
 pub struct LogCallback(Arc<dyn Fn(&ValidationMessage) + Send + Sync>);
 
@@ -131,8 +144,9 @@ impl MessageLog {
         MessageLog { messages: Arc::default(), callback, destroyed: Arc::default() }
     }
 
+    /// Adds `message` to this log (and hands it to the log callback). The
+    /// messenger records it in the thread's captures once, before delivering it.
     pub(crate) fn push(&self, message: ValidationMessage) {
-        record_in_captures(&message);
         if let Some(callback) = &self.callback {
             // This runs inside Vulkan's callback: a panic must not unwind into C.
             let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| callback.call(&message)));
@@ -150,9 +164,10 @@ impl MessageLog {
         std::mem::take(&mut *self.messages.lock().unwrap_or_else(|p| p.into_inner()))
     }
 
-    /// Whether the context this log belongs to has been destroyed: its device and
-    /// instance are gone, and the validation layer has said what it had to say
-    /// about objects left alive. `false` after the last [`crate::Context`] handle
+    /// Whether the context this log belongs to has been destroyed: every object it
+    /// made is gone and, if it was the last context on its device, the device too
+    /// (and the validation layer has said what it had to say about objects left
+    /// alive on it). `false` after the last [`crate::Context`] handle
     /// was dropped means some raykit object (a buffer, a pipeline, …) still holds
     /// the context — leaked with `std::mem::forget`, kept in a static, or in a
     /// reference cycle.
@@ -162,5 +177,142 @@ impl MessageLog {
 
     pub(crate) fn mark_destroyed(&self) {
         self.destroyed.store(true, Ordering::Release);
+    }
+}
+
+/// The prefix of raykit's debug names, before the context id.
+const TAG: &str = "raykit#";
+
+/// `name` as the debug name of an object of context `context`.
+pub(crate) fn tagged_name(context: u64, name: &str) -> String {
+    format!("{TAG}{context} {name}")
+}
+
+/// The context id and the name given, of a debug name made by [`tagged_name`].
+fn untag(name: &str) -> (Option<u64>, &str) {
+    let Some(rest) = name.strip_prefix(TAG) else { return (None, name) };
+    let Some((id, given)) = rest.split_once(' ') else { return (None, name) };
+    match id.parse() {
+        Ok(id) => (Some(id), given),
+        Err(_) => (None, name),
+    }
+}
+
+/// The live contexts of one instance and their logs: where its messenger delivers.
+#[derive(Default)]
+pub(crate) struct Routes {
+    contexts: Mutex<Vec<(u64, MessageLog)>>,
+}
+
+impl Routes {
+    /// Delivers messages naming context `id`'s objects (and those naming none) to `log`.
+    pub(crate) fn add(&self, id: u64, log: MessageLog) {
+        self.contexts.lock().unwrap_or_else(|p| p.into_inner()).push((id, log));
+    }
+
+    /// Stops delivering to context `id`.
+    pub(crate) fn remove(&self, id: u64) {
+        self.contexts.lock().unwrap_or_else(|p| p.into_inner()).retain(|(i, _)| *i != id);
+    }
+
+    /// The logs `message` goes to: those of the contexts in `named`, or every
+    /// context's when none of them is alive.
+    fn targets(&self, named: &[u64]) -> Vec<MessageLog> {
+        let contexts = self.contexts.lock().unwrap_or_else(|p| p.into_inner());
+        let chosen: Vec<MessageLog> =
+            contexts.iter().filter(|(id, _)| named.contains(id)).map(|(_, log)| log.clone()).collect();
+        if chosen.is_empty() {
+            contexts.iter().map(|(_, log)| log.clone()).collect()
+        } else {
+            chosen
+        }
+    }
+}
+
+/// The debug messenger's callback: turns the message into a [`ValidationMessage`],
+/// records it in this thread's captures and delivers it to the contexts it concerns.
+pub(crate) unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user_data: *mut c_void,
+) -> vk::Bool32 {
+    if user_data.is_null() || data.is_null() {
+        return vk::FALSE;
+    }
+    // SAFETY: `user_data` is the instance's `Routes`, which lives for the rest of the
+    // process; `data` and the strings and objects it points to are valid for this call.
+    let (routes, data) = unsafe { (&*(user_data as *const Routes), &*data) };
+    let text = |p: *const std::ffi::c_char| {
+        if p.is_null() {
+            String::new()
+        } else {
+            // SAFETY: as above: the strings of `data` are valid and NUL-terminated.
+            unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+        }
+    };
+    let mut named = Vec::new();
+    let objects = if data.p_objects.is_null() || data.object_count == 0 {
+        Vec::new()
+    } else {
+        // SAFETY: `p_objects` holds `object_count` objects.
+        unsafe { std::slice::from_raw_parts(data.p_objects, data.object_count as usize) }
+            .iter()
+            .map(|o| {
+                let name = (!o.p_object_name.is_null()).then(|| text(o.p_object_name)).map(|name| {
+                    let (context, given) = untag(&name);
+                    named.extend(context);
+                    given.to_owned()
+                });
+                LoggedObject { object_type: format!("{:?}", o.object_type), handle: o.object_handle, name }
+            })
+            .collect()
+    };
+    let severity = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        Severity::Error
+    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
+        Severity::Warning
+    } else {
+        Severity::Info
+    };
+    let message = ValidationMessage { severity, id: text(data.p_message_id_name), text: text(data.p_message), objects };
+    record_in_captures(&message);
+    for log in routes.targets(&named) {
+        log.push(message.clone());
+    }
+    vk::FALSE
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn debug_names_carry_the_context_and_give_the_name_back() {
+        assert_eq!(untag(&tagged_name(17, "DeviceBuffer")), (Some(17), "DeviceBuffer"));
+        assert_eq!(untag(&tagged_name(3, "raykit module a b")), (Some(3), "raykit module a b"));
+        assert_eq!(untag("deliberately leaked fence"), (None, "deliberately leaked fence"));
+        assert_eq!(untag("raykit#x y"), (None, "raykit#x y"));
+        assert_eq!(untag("raykit#5"), (None, "raykit#5"));
+    }
+
+    #[test]
+    fn messages_go_to_the_contexts_they_name_or_to_all() {
+        let routes = Routes::default();
+        let (a, b) = (MessageLog::default(), MessageLog::default());
+        routes.add(1, a.clone());
+        routes.add(2, b.clone());
+        assert_eq!(routes.targets(&[2]).len(), 1);
+        routes.targets(&[2])[0].push(ValidationMessage {
+            severity: Severity::Error,
+            id: String::new(),
+            text: "x".into(),
+            objects: Vec::new(),
+        });
+        assert_eq!((a.snapshot().len(), b.snapshot().len()), (0, 1));
+        assert_eq!(routes.targets(&[]).len(), 2);
+        assert_eq!(routes.targets(&[9]).len(), 2, "a context that is gone: every live one");
+        routes.remove(1);
+        assert_eq!(routes.targets(&[1]).len(), 1);
     }
 }

@@ -37,6 +37,7 @@ impl RawBuffer {
         location: MemoryLocation,
         alignment: u64,
     ) -> Result<RawBuffer> {
+        ctx.check_device("a buffer allocation")?;
         let device = &ctx.device;
         let info = vk::BufferCreateInfo::default()
             .size(size.max(1))

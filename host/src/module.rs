@@ -305,6 +305,7 @@ impl Module {
     }
 
     pub(crate) fn named(ctx: &Context, spirv: &[u8], name: &str) -> Result<Module> {
+        ctx.inner.check_device("a module creation")?;
         let entry_points = reflect_entry_points(spirv)?;
         if !entry_points.iter().any(|e| e.kind.is_some()) {
             return Err(Error::NoRayTracingEntryPoints {

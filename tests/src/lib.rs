@@ -49,9 +49,11 @@ pub fn with_context_validation(
     )
 }
 
-fn run(name: &str, options: ContextOptions, test: impl FnOnce(&Context) -> anyhow::Result<()>) -> anyhow::Result<()> {
-    let ctx = match Context::new(options) {
-        Ok(ctx) => ctx,
+/// A context made with `options`, or `None` (after a loud SKIPPED line) when there
+/// is no ray-tracing device and `RAYKIT_REQUIRE_DEVICE` is not `1`.
+pub fn context_or_skip(name: &str, options: ContextOptions) -> anyhow::Result<Option<Context>> {
+    match Context::new(options) {
+        Ok(ctx) => Ok(Some(ctx)),
         Err(e @ (Error::NoRayTracingDevice { .. } | Error::LoaderMissing(_))) => {
             if std::env::var("RAYKIT_REQUIRE_DEVICE").is_ok_and(|v| v == "1") {
                 anyhow::bail!("{name}: RAYKIT_REQUIRE_DEVICE=1 and no usable device: {e}");
@@ -59,10 +61,55 @@ fn run(name: &str, options: ContextOptions, test: impl FnOnce(&Context) -> anyho
             eprintln!(
                 "SKIPPED {name}: no ray-tracing device ({e}); set RAYKIT_REQUIRE_DEVICE=1 to make this a failure"
             );
-            return Ok(());
+            Ok(None)
         }
-        Err(e) => return Err(e.into()),
-    };
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// The options tests use: validation as `RAYKIT_VALIDATION` says, no disk cache.
+pub fn test_options() -> ContextOptions {
+    ContextOptions {
+        validation: Some(validation_on()),
+        pipeline_cache: PipelineCacheLocation::Off,
+        ..Default::default()
+    }
+}
+
+/// Whether `RAYKIT_VALIDATION=1` (as `cargo xtask test` sets it).
+pub fn validation_on() -> bool {
+    std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1")
+}
+
+/// Makes the validation layer report an error naming an object of `ctx` called
+/// `name`: a buffer made without `SHADER_DEVICE_ADDRESS` usage (and without memory)
+/// is asked for its device address. Only with validation on, where the layer stops
+/// the invalid call before the driver; returns whether it did anything.
+pub fn provoke_validation_error(ctx: &Context, name: &str) -> anyhow::Result<bool> {
+    use raykit::ash::vk;
+    if !validation_on() {
+        return Ok(false);
+    }
+    let device = ctx.raw_device();
+    let info = vk::BufferCreateInfo::default().size(256).usage(vk::BufferUsageFlags::STORAGE_BUFFER);
+    // SAFETY: a valid create info on the context's live device.
+    let buffer = unsafe { device.create_buffer(&info, None) }?;
+    ctx.set_debug_name(buffer, name);
+    // SAFETY: invalid on purpose (VUID-VkBufferDeviceAddressInfo-buffer-02601): the
+    // validation layer is on, reports it and does not pass the call to the driver.
+    let _ = unsafe { device.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(buffer)) };
+    // SAFETY: the buffer was made above and never used.
+    unsafe { device.destroy_buffer(buffer, None) };
+    Ok(true)
+}
+
+/// Whether `message` names an object called `name`.
+pub fn names_object(message: &raykit::ValidationMessage, name: &str) -> bool {
+    message.objects.iter().any(|o| o.name.as_deref() == Some(name))
+}
+
+fn run(name: &str, options: ContextOptions, test: impl FnOnce(&Context) -> anyhow::Result<()>) -> anyhow::Result<()> {
+    let Some(ctx) = context_or_skip(name, options)? else { return Ok(()) };
     let log = ctx.messages();
     let result = test(&ctx);
     drop(ctx);
@@ -133,4 +180,71 @@ pub fn ray_triangle(
     let v = dir.dot(q) / det;
     let t = e2.dot(q) / det;
     (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > t_min && t < t_max).then_some((t, raykit::glam::Vec2::new(u, v)))
+}
+
+/// Distance of the barycentrics of the ray's hit with `tri`'s plane from the
+/// triangle's edges (negative outside).
+fn edge_margin(origin: raykit::glam::Vec3, dir: raykit::glam::Vec3, tri: [raykit::glam::Vec3; 3]) -> f32 {
+    let e1 = tri[1] - tri[0];
+    let e2 = tri[2] - tri[0];
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    let s = origin - tri[0];
+    let u = s.dot(p) / det;
+    let v = dir.dot(s.cross(e1)) / det;
+    u.min(v).min(1.0 - u - v)
+}
+
+/// Checks an optixTriangle picture (`triangle::render`) against the CPU reference
+/// of the same scene: the barycentric colour inside the triangle (99.5% of its
+/// pixels within 2/255), exactly the miss record's colour outside (rays grazing an
+/// edge may go either way).
+pub fn check_triangle_picture(pixels: &[u32], width: u32, height: u32) -> anyhow::Result<()> {
+    use raykit::glam::UVec2;
+    use triangle::{BG_COLOR, VERTICES};
+    use triangle_device::{barycentric_color, camera_ray, make_color, Params};
+    anyhow::ensure!(pixels.len() == (width * height) as usize, "{} pixels for {width}x{height}", pixels.len());
+    let params: Params =
+        triangle::params(width, height, raykit::Buffer::from_table_index(0), raykit::Traversable::NULL);
+    let bg = make_color(BG_COLOR);
+    let (mut bg_pixels, mut tri_pixels, mut tri_close) = (0usize, 0usize, 0usize);
+    let mut bg_wrong = Vec::new();
+    for y in 0..height {
+        for x in 0..width {
+            let got = pixels[(y * width + x) as usize];
+            let (origin, dir) = camera_ray(UVec2::new(x, y), UVec2::new(width, height), &params);
+            match ray_triangle(origin, dir, VERTICES, 0.0, f32::INFINITY) {
+                Some((_, bary)) => {
+                    tri_pixels += 1;
+                    if channel_distance(got, make_color(barycentric_color(bary))) <= 2 {
+                        tri_close += 1;
+                    }
+                }
+                None => {
+                    if edge_margin(origin, dir, VERTICES) < -1e-3 {
+                        bg_pixels += 1;
+                        if got != bg {
+                            bg_wrong.push((x, y, got));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let total = (width * height) as usize;
+    anyhow::ensure!(tri_pixels > total / 10, "the triangle covers only {tri_pixels} of {total} pixels");
+    anyhow::ensure!(bg_pixels > total / 10, "only {bg_pixels} background pixels");
+    anyhow::ensure!(
+        bg_wrong.is_empty(),
+        "{} background pixels differ from bg_color {bg:#010x}, e.g. {:?}",
+        bg_wrong.len(),
+        &bg_wrong[..bg_wrong.len().min(5)]
+    );
+    let ratio = tri_close as f64 / tri_pixels as f64;
+    anyhow::ensure!(
+        ratio >= 0.995,
+        "only {tri_close} of {tri_pixels} triangle pixels ({:.3}%) within 2/255",
+        ratio * 100.0
+    );
+    Ok(())
 }

@@ -6,10 +6,10 @@
 //! object left alive, fails it.
 //!
 //! Cases that cannot be provoked here:
-//! * device lost during a launch: lavapipe cannot lose its device. Every fence
-//!   wait in `context.rs` maps `VK_ERROR_DEVICE_LOST` to [`Error::DeviceLost`].
-//!   The waits have no timeout: on a GPU the driver's watchdog turns a program
-//!   that never ends into a lost device; on lavapipe such a launch hangs.
+//! * device lost during a launch: lavapipe cannot lose its device; `device_lost.rs`
+//!   injects `VK_ERROR_DEVICE_LOST` at submission instead. The waits have no
+//!   timeout: on a GPU the driver's watchdog turns a program that never ends into a
+//!   lost device; on lavapipe such a launch hangs.
 //!
 //! A hit group "for a ray type that does not exist" is caught by what it leaves
 //! behind (an SBT with a hole); raykit does not know which ray types the programs

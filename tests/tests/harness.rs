@@ -2,15 +2,28 @@
 //! means nothing. Each test here leaks on purpose inside `with_context`, checks
 //! that the harness fails with the reason, and then cleans up, so the test
 //! itself leaves nothing behind.
+//!
+//! Contexts on one GPU share its device, and the layer reports objects left alive
+//! when the device is destroyed, with its last context: the tests here take turns,
+//! so each test's context is the only one on the device of this test binary.
+
+use std::sync::{Mutex, MutexGuard};
 
 use raykit::ash::vk;
 use raykit_tests::{with_context, with_context_validation};
+
+/// Held by each test of this file while it runs.
+fn one_at_a_time() -> MutexGuard<'static, ()> {
+    static TURN: Mutex<()> = Mutex::new(());
+    TURN.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
 
 /// A raykit object that outlives the test keeps the context (and its device)
 /// alive: the harness reports that the context was not destroyed. Releasing the
 /// object afterwards destroys the context, with nothing for the layer to report.
 #[test]
 fn harness_reports_a_raykit_object_that_outlives_the_test() -> anyhow::Result<()> {
+    let _turn = one_at_a_time();
     let mut kept = None;
     let mut log = None;
     let result = with_context("leaks a buffer on purpose", |ctx| {
@@ -35,11 +48,13 @@ fn harness_reports_a_raykit_object_that_outlives_the_test() -> anyhow::Result<()
     Ok(())
 }
 
-/// A Vulkan object left alive when the device is destroyed is reported by the
-/// validation layer through the context's messenger, which is still alive at that
-/// point; the harness turns the report into a failure naming the object.
+/// A Vulkan object left alive when the device is destroyed (with its last context)
+/// is reported by the validation layer to that context's log, which is still
+/// routed at that point; the harness turns the report into a failure naming the
+/// object.
 #[test]
 fn harness_reports_vulkan_objects_left_alive_at_device_destruction() -> anyhow::Result<()> {
+    let _turn = one_at_a_time();
     let mut created = false;
     let result = with_context_validation("leaks a VkSampler on purpose", true, |ctx| {
         let info = vk::SamplerCreateInfo::default();
@@ -66,6 +81,7 @@ fn harness_reports_vulkan_objects_left_alive_at_device_destruction() -> anyhow::
 /// The same check passes when the test cleans up after itself.
 #[test]
 fn harness_passes_a_test_that_cleans_up() -> anyhow::Result<()> {
+    let _turn = one_at_a_time();
     with_context_validation("creates and destroys a VkSampler", true, |ctx| {
         let info = vk::SamplerCreateInfo::default();
         // SAFETY: a valid create info on the context's live device.

@@ -1,26 +1,8 @@
 //! optixTriangle rendered on the device against a CPU reference of the same scene.
 
-use raykit::glam::{UVec2, Vec2, Vec3};
 use raykit_tests::{channel_distance, with_context};
-use triangle::{BG_COLOR, VERTICES};
-use triangle_device::{barycentric_color, camera_ray, make_color, Params};
-
-/// `(t, (u, v))` of the hit of the ray with triangle `tri`.
-fn intersect(origin: Vec3, dir: Vec3, tri: [Vec3; 3]) -> Option<(f32, Vec2)> {
-    raykit_tests::ray_triangle(origin, dir, tri, 0.0, f32::INFINITY)
-}
-
-/// Distance of barycentrics `(u, v)` from the triangle's edges (negative outside).
-fn edge_margin(origin: Vec3, dir: Vec3, tri: [Vec3; 3]) -> f32 {
-    let e1 = tri[1] - tri[0];
-    let e2 = tri[2] - tri[0];
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    let s = origin - tri[0];
-    let u = s.dot(p) / det;
-    let v = dir.dot(s.cross(e1)) / det;
-    u.min(v).min(1.0 - u - v)
-}
+use triangle::BG_COLOR;
+use triangle_device::make_color;
 
 #[test]
 fn triangle_matches_the_cpu_reference() -> anyhow::Result<()> {
@@ -32,50 +14,11 @@ fn triangle_matches_the_cpu_reference() -> anyhow::Result<()> {
     })
 }
 
-/// Every pixel against the CPU reference: the barycentric colour inside the
-/// triangle (99.5% within 2/255), the miss record's colour outside.
+/// Every pixel against the CPU reference (see [`raykit_tests::check_triangle_picture`]).
 fn assert_matches_the_cpu_reference(pixels: &[u32], width: u32, height: u32) {
-    assert_eq!(pixels.len(), (width * height) as usize);
-
-    let params: Params =
-        triangle::params(width, height, raykit::Buffer::from_table_index(0), raykit::Traversable::NULL);
-    let bg = make_color(BG_COLOR);
-    let (mut bg_pixels, mut tri_pixels, mut tri_close) = (0usize, 0usize, 0usize);
-    let mut bg_wrong = Vec::new();
-    for y in 0..height {
-        for x in 0..width {
-            let got = pixels[(y * width + x) as usize];
-            let (origin, dir) = camera_ray(UVec2::new(x, y), UVec2::new(width, height), &params);
-            match intersect(origin, dir, VERTICES) {
-                Some((_, bary)) => {
-                    tri_pixels += 1;
-                    if channel_distance(got, make_color(barycentric_color(bary))) <= 2 {
-                        tri_close += 1;
-                    }
-                }
-                None => {
-                    // Rays grazing an edge may legitimately go either way.
-                    if edge_margin(origin, dir, VERTICES) < -1e-3 {
-                        bg_pixels += 1;
-                        if got != bg {
-                            bg_wrong.push((x, y, got));
-                        }
-                    }
-                }
-            }
-        }
+    if let Err(e) = raykit_tests::check_triangle_picture(pixels, width, height) {
+        panic!("{e}");
     }
-    let total = (width * height) as usize;
-    assert!(tri_pixels > total / 10, "the triangle covers only {tri_pixels} of {total} pixels");
-    assert!(bg_pixels > total / 10, "only {bg_pixels} background pixels");
-    assert!(
-        bg_wrong.is_empty(),
-        "{} background pixels differ from bg_color {bg:#010x}, e.g. {:?}",
-        bg_wrong.len(),
-        &bg_wrong[..bg_wrong.len().min(5)]
-    );
-    let ratio = tri_close as f64 / tri_pixels as f64;
-    assert!(ratio >= 0.995, "only {tri_close} of {tri_pixels} triangle pixels ({:.3}%) within 2/255", ratio * 100.0);
 }
 
 #[test]

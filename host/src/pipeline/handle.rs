@@ -26,6 +26,7 @@ impl PipelineHandle {
         create_info: &vk::RayTracingPipelineCreateInfoKHR<'_>,
         name: &str,
     ) -> Result<PipelineHandle> {
+        ctx.check_device("a pipeline creation")?;
         let (pipelines, log) = crate::log::capture(|| {
             // SAFETY: the callers' create infos are valid: every stage's module is
             // alive, libraries are live pipeline libraries of this device, and the

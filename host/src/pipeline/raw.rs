@@ -5,7 +5,8 @@
 //! is safe; using it is `unsafe` ash code whose caller keeps raykit's rules: the
 //! owning raykit object outlives every use, and the queue is externally
 //! synchronised (raykit submits to queue 0 of
-//! [`Context::queue_family`](crate::Context::queue_family), under its own lock).
+//! [`Context::queue_family`](crate::Context::queue_family), under a lock shared by
+//! every context on the device).
 
 use ash::vk;
 

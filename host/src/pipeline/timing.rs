@@ -28,7 +28,7 @@ impl LaunchTimer {
     /// (`timestampValidBits == 0` or a zero `timestampPeriod`).
     pub fn new(ctx: &Context) -> Result<Option<LaunchTimer>> {
         let inner = &ctx.inner;
-        let Some((period_ns, valid_bits)) = timestamp_support(ctx)? else {
+        let Some((period_ns, valid_bits)) = timestamp_support(ctx) else {
             return Ok(None);
         };
         let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2);
@@ -60,31 +60,16 @@ impl Drop for LaunchTimer {
 }
 
 /// The queue's timestamp period (ns) and valid bits, if it has timestamps.
-fn timestamp_support(ctx: &Context) -> Result<Option<(f64, u32)>> {
-    let inner = &ctx.inner;
-    let instance = &inner.instance;
-    // SAFETY: the instance is alive. The context keeps no physical-device handle;
-    // the one with its name and queue family stands for it (devices of one name
-    // have one set of properties).
-    let physicals =
-        unsafe { instance.enumerate_physical_devices() }.map_err(Error::vk("vkEnumeratePhysicalDevices"))?;
-    for physical in physicals {
-        // SAFETY: `physical` came from this instance.
-        let props = unsafe { instance.get_physical_device_properties(physical) };
-        let name = props.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        if name != ctx.device_name() {
-            continue;
-        }
-        // SAFETY: as above.
-        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-        let Some(family) = families.get(ctx.queue_family() as usize) else { continue };
-        let period = props.limits.timestamp_period as f64;
-        if family.timestamp_valid_bits == 0 || period <= 0.0 {
-            return Ok(None);
-        }
-        return Ok(Some((period, family.timestamp_valid_bits)));
+fn timestamp_support(ctx: &Context) -> Option<(f64, u32)> {
+    let shared = &ctx.inner.shared;
+    // SAFETY: the physical device belongs to the context's live instance.
+    let families = unsafe { shared.instance.instance.get_physical_device_queue_family_properties(shared.physical) };
+    let family = families.get(shared.queue_family as usize)?;
+    let period = shared.properties.limits.timestamp_period as f64;
+    if family.timestamp_valid_bits == 0 || period <= 0.0 {
+        return None;
     }
-    Ok(None)
+    Some((period, family.timestamp_valid_bits))
 }
 
 impl<P: raykit_device::LaunchParams> Pipeline<P> {
@@ -105,7 +90,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
             )
         }
-        .map_err(Error::vk("vkGetQueryPoolResults"))?;
+        .map_err(timer.ctx.shared.error("vkGetQueryPoolResults", "a timed launch"))?;
         let mask = if timer.valid_bits >= 64 { u64::MAX } else { (1u64 << timer.valid_bits) - 1 };
         let elapsed = ticks[1].wrapping_sub(ticks[0]) & mask;
         Ok(Duration::from_nanos((elapsed as f64 * timer.period_ns) as u64))
