@@ -110,8 +110,9 @@ impl BufferTable {
         Ok(slot)
     }
 
-    /// Returns a slot to the free list.
-    pub(crate) fn remove(&self, slot: u32) {
+    /// Returns a slot to the free list, once no pending work uses it (see
+    /// [`crate::timeline`]).
+    pub(crate) fn remove(&self, _device: &ash::Device, slot: u32) {
         self.free.lock().unwrap_or_else(|p| p.into_inner()).push(slot);
     }
 

@@ -18,6 +18,7 @@ use crate::buffer_table::BufferTable;
 use crate::cache::{CacheKey, DiskCache, PipelineCacheInfo, PipelineCacheLocation};
 use crate::error::{DeviceReport, Error, Result};
 use crate::log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
+use crate::timeline::Timeline;
 
 /// Device extensions raykit needs.
 const REQUIRED_EXTENSIONS: [&CStr; 3] = [
@@ -104,6 +105,8 @@ pub(crate) struct ContextInner {
     recycled: Mutex<Vec<(vk::CommandBuffer, vk::Fence)>>,
     pub(crate) allocator: ManuallyDrop<Mutex<gpu_allocator::vulkan::Allocator>>,
     pub(crate) buffer_table: ManuallyDrop<BufferTable>,
+    /// Epochs of submissions and the objects waiting for them (see [`crate::timeline`]).
+    pub(crate) timeline: Timeline,
     pub(crate) limits: DeviceLimits,
     /// Largest launch width, height and depth: `maxComputeWorkGroupCount[i] ×
     /// maxComputeWorkGroupSize[i]`, as `vkCmdTraceRaysKHR` requires.
@@ -258,7 +261,8 @@ impl Features {
                 .runtime_descriptor_array(true)
                 .descriptor_binding_partially_bound(true)
                 .descriptor_binding_storage_buffer_update_after_bind(true)
-                .descriptor_indexing(true),
+                .descriptor_indexing(true)
+                .timeline_semaphore(true),
             // Device programs access buffers without bounds checks and rely on
             // robustBufferAccess for out-of-range indices (see raykit-device).
             base: vk::PhysicalDeviceFeatures::default().shader_int64(true).robust_buffer_access(true),
@@ -267,7 +271,8 @@ impl Features {
 
     /// Names of required features `self` lacks.
     fn missing(&self) -> Vec<String> {
-        let checks: [(&str, vk::Bool32); 10] = [
+        let checks: [(&str, vk::Bool32); 11] = [
+            ("timelineSemaphore", self.v12.timeline_semaphore),
             ("vulkanMemoryModel", self.v12.vulkan_memory_model),
             ("rayTracingPipeline", self.rt.ray_tracing_pipeline),
             ("accelerationStructure", self.accel.acceleration_structure),
@@ -493,6 +498,7 @@ impl Context {
         })
         .map_err(|source| Error::Allocation { what: "the memory allocator", source })?;
         let buffer_table = BufferTable::new(&device, instance, physical_device)?;
+        let timeline = Timeline::new(&device)?;
         std::mem::forget(pool_guard);
         // SAFETY: `physical_device` belongs to `instance`.
         let properties = unsafe { instance.get_physical_device_properties(physical_device) };
@@ -516,6 +522,7 @@ impl Context {
                 recycled: Mutex::new(Vec::new()),
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 buffer_table: ManuallyDrop::new(buffer_table),
+                timeline,
                 limits,
                 launch_dimension_limits,
                 non_semantic_info,
@@ -587,6 +594,9 @@ impl Context {
     /// Device memory raykit holds now, from its allocator (gpu-allocator): what
     /// live buffers and acceleration structures use, and the memory blocks
     /// reserved for them.
+    ///
+    /// Objects dropped while the device may still use them count until their work
+    /// has finished and they are collected (see [`Context::poll`]).
     pub fn memory_usage(&self) -> MemoryUsage {
         let report = self.inner.allocator().generate_report();
         MemoryUsage {
@@ -595,6 +605,33 @@ impl Context {
             reserved_bytes: report.total_capacity_bytes,
             blocks: report.blocks.len(),
         }
+    }
+}
+
+impl Context {
+    /// Destroys the objects dropped while work that may use them was pending, once
+    /// that work has finished (see [`crate::timeline`]); every submission does it
+    /// too. Does not block.
+    pub fn poll(&self) -> Result<()> {
+        self.inner.collect()
+    }
+
+    /// Blocks until the device has finished everything submitted so far, then
+    /// destroys every object dropped meanwhile.
+    pub fn wait_idle(&self) -> Result<()> {
+        self.inner.wait_for_pending_work()?;
+        self.inner.collect()
+    }
+
+    /// The epoch of the last submission on this context's GPU timeline, and the
+    /// highest epoch the device has finished.
+    pub fn timeline_epochs(&self) -> Result<(u64, u64)> {
+        Ok((self.inner.last_submitted_epoch(), self.inner.completed_epoch()?))
+    }
+
+    /// Number of dropped objects still waiting for their work to finish.
+    pub fn pending_retirements(&self) -> usize {
+        self.inner.pending_retirements()
     }
 }
 
@@ -678,6 +715,8 @@ pub(crate) struct Submission {
     fence: vk::Fence,
     during: &'static str,
     waited: bool,
+    /// The submission's epoch on the context's timeline.
+    pub(crate) epoch: u64,
 }
 
 impl ContextInner {
@@ -688,6 +727,20 @@ impl ContextInner {
         during: &'static str,
         record: impl FnOnce(vk::CommandBuffer),
     ) -> Result<Submission> {
+        self.submit_checked(during, || Ok(()), record)
+    }
+
+    /// [`ContextInner::submit`], running `check` first under the timeline's lock:
+    /// what `check` finds alive stays alive until the work has finished, as a
+    /// drop after it waits for this submission's epoch (see [`crate::timeline`]).
+    pub(crate) fn submit_checked(
+        self: &Arc<Self>,
+        during: &'static str,
+        check: impl FnOnce() -> Result<()>,
+        record: impl FnOnce(vk::CommandBuffer),
+    ) -> Result<Submission> {
+        let mut timeline = self.timeline.lock();
+        check()?;
         let device = &self.device;
         let pool = self.command_pool.lock().unwrap_or_else(|p| p.into_inner());
         let reused = self.recycled.lock().unwrap_or_else(|p| p.into_inner()).pop();
@@ -704,6 +757,7 @@ impl ContextInner {
                 (cmd, vk::Fence::null())
             }
         };
+        let epoch = timeline.last_submitted + 1;
         let result = (|| {
             let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
             // SAFETY: a fresh or finished (recycled) command buffer of a pool made
@@ -719,10 +773,17 @@ impl ContextInner {
                     .map_err(Error::vk("vkCreateFence"))?;
             }
             let cmds = [cmd];
-            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            let signal = [self.timeline.semaphore];
+            let values = [epoch];
+            let mut timeline_info = vk::TimelineSemaphoreSubmitInfo::default().signal_semaphore_values(&values);
+            let submit = [vk::SubmitInfo::default()
+                .command_buffers(&cmds)
+                .signal_semaphores(&signal)
+                .push_next(&mut timeline_info)];
             let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
             // SAFETY: the queue is externally synchronised by its mutex; the command
-            // buffer is fully recorded; the fence is unsignalled (new or reset).
+            // buffer is fully recorded; the fence is unsignalled (new or reset); the
+            // epoch is above every value signalled before (under the timeline lock).
             unsafe { device.queue_submit(*queue, &submit, fence) }.map_err(|e| match e {
                 vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during },
                 other => Error::Vulkan { call: "vkQueueSubmit", result: other },
@@ -739,7 +800,11 @@ impl ContextInner {
             return Err(e);
         }
         drop(pool);
-        Ok(Submission { ctx: self.clone(), cmd, fence, during, waited: false })
+        timeline.last_submitted = epoch;
+        // Retire on every submission what finished meanwhile.
+        self.collect_locked(&mut timeline);
+        drop(timeline);
+        Ok(Submission { ctx: self.clone(), cmd, fence, during, waited: false, epoch })
     }
 }
 
@@ -841,6 +906,9 @@ impl Drop for ContextInner {
         // reverse order of creation, the messenger last so it reports leaks.
         unsafe {
             let _ = self.device.device_wait_idle();
+            // Objects dropped while work was pending: the device is idle now.
+            self.destroy_all_retired();
+            self.timeline.destroy(&self.device);
             // Errors cannot be returned from drop; `Context::save_pipeline_cache`
             // reports them to whoever wants to know.
             let _ = self.pipeline_cache.save(&self.device);

@@ -279,6 +279,7 @@ impl Gas {
                 let mut submission = ctx.submit("a compacted-size query", |cmd| {
                     // SAFETY: the structure is built and alive; the pool has one query.
                     unsafe {
+                        build::after_earlier_work_barrier(&ctx, cmd);
                         ctx.device.cmd_reset_query_pool(cmd, pool.pool, 0, 1);
                         ctx.accel.cmd_write_acceleration_structures_properties(
                             cmd,
@@ -303,6 +304,7 @@ impl Gas {
             // SAFETY: both structures are alive until the wait below; the
             // destination is at least the queried compacted size.
             unsafe {
+                build::after_earlier_work_barrier(&ctx, cmd);
                 ctx.accel.cmd_copy_acceleration_structure(cmd, &info);
                 build::build_barrier(&ctx, cmd);
             }

@@ -124,10 +124,10 @@ impl AccelStructure {
 
 impl Drop for AccelStructure {
     fn drop(&mut self) {
-        // SAFETY: every submission that uses the structure is waited on before its
-        // owner can be dropped (launches block; a `PendingBuild` waits in its own
-        // drop, before the structures it holds); instances that reference it hold
+        // Pending launches and builds may still use it: the timeline destroys it
+        // once the last submitted epoch has finished (its storage buffer, dropped
+        // after this, waits for the same epoch). Instances that reference it hold
         // an `Arc` to it.
-        unsafe { self.ctx.accel.destroy_acceleration_structure(self.handle, None) };
+        self.ctx.retire(crate::timeline::Retired::Accel(self.handle));
     }
 }

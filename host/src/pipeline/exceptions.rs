@@ -58,6 +58,7 @@ impl ExceptionBuffer {
 
 impl Drop for ExceptionBuffer {
     fn drop(&mut self) {
-        self.ctx.buffer_table.remove(self.slot);
+        // The slot is reused only once no pending work can write it.
+        self.ctx.retire(crate::timeline::Retired::Slot(self.slot));
     }
 }
