@@ -9,6 +9,7 @@ mod buffer_table;
 pub mod cache;
 pub mod context;
 pub mod error;
+pub mod handles;
 pub mod log;
 pub mod memory;
 pub mod module;

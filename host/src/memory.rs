@@ -116,6 +116,9 @@ impl Drop for RawBuffer {
 pub struct DeviceBuffer<T: Element> {
     raw: RawBuffer,
     slot: u32,
+    /// The handle's value: the slot, and the generation that tells this buffer
+    /// from earlier and later ones in the slot (see [`crate::handles`]).
+    handle: u32,
     len: usize,
     _element: PhantomData<T>,
 }
@@ -147,8 +150,17 @@ impl<T: Element> DeviceBuffer<T> {
             location,
             16,
         )?;
-        let slot = ctx.inner.buffer_table.insert(&ctx.inner.device, raw.buffer)?;
-        Ok(DeviceBuffer { raw, slot, len, _element: PhantomData })
+        let table = &ctx.inner.buffer_table;
+        let (slot, handle) = match table.insert(&ctx.inner.device, raw.buffer) {
+            // Slots of buffers dropped while work used them come back once it has
+            // finished: collect those, then try again.
+            Err(Error::BufferTableFull { .. }) => {
+                ctx.inner.collect()?;
+                table.insert(&ctx.inner.device, raw.buffer)?
+            }
+            other => other?,
+        };
+        Ok(DeviceBuffer { raw, slot, handle, len, _element: PhantomData })
     }
 
     /// A zero-filled buffer of `len` elements, for results the host reads back.
@@ -169,7 +181,7 @@ impl<T: Element> DeviceBuffer<T> {
 
     /// The handle device programs use (put it in the launch params).
     pub fn handle(&self) -> Buffer<T> {
-        Buffer::from_table_index(self.slot)
+        Buffer::from_table_index(self.handle)
     }
 
     /// Number of elements.
@@ -276,7 +288,9 @@ impl<T: Element> std::fmt::Debug for DeviceBuffer<T> {
 
 impl<T: Element> Drop for DeviceBuffer<T> {
     fn drop(&mut self) {
-        // The slot is reused only once no pending work can read it.
+        // Launches refuse its handle from now on; the slot is reused only once no
+        // pending work can read it.
+        self.raw.ctx.buffer_table.kill(self.slot);
         self.raw.ctx.retire(Retired::Slot(self.slot));
     }
 }

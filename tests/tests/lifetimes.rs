@@ -170,3 +170,175 @@ fn a_refit_and_a_build_while_a_launch_traces_the_gas_wait_for_it() -> anyhow::Re
         Ok(())
     })
 }
+
+/// The quad scene, its pipeline and buffers, for the handle checks.
+struct Quad {
+    pipeline: Pipeline<Params>,
+    sbt: Sbt,
+    gas: Gas,
+    scene: Ias,
+    image: DeviceBuffer<u32>,
+    spheres: DeviceBuffer<Vec4>,
+}
+
+impl Quad {
+    fn new(ctx: &Context) -> anyhow::Result<Quad> {
+        let (pipeline, sbt) = radiance_pipeline(ctx)?;
+        let options = BuildOptions::default().allow_update(true);
+        let gas = Gas::builder().triangles(Triangles::new(&scene_vertices(0.5, 0))).options(options).build(ctx)?;
+        let scene = Ias::single(ctx, &gas)?;
+        Ok(Quad { pipeline, sbt, gas, scene, image: ctx.buffer(16 * 16)?, spheres: ctx.buffer(1)? })
+    }
+
+    fn params(&self) -> Params {
+        Params {
+            image: self.image.handle(),
+            spheres: self.spheres.handle(),
+            size: UVec2::splat(16),
+            scene: self.scene.handle(),
+        }
+    }
+
+    fn launch(&self, params: &Params) -> raykit::Result<()> {
+        self.pipeline.launch(&self.sbt, params, [16, 16, 1])
+    }
+}
+
+/// Asserts `result` is `Error::InvalidHandle` for `field`, mentioning `says`.
+fn assert_invalid(result: raykit::Result<()>, field: &str, says: &str) {
+    match result {
+        Err(raykit::Error::InvalidHandle { field: f, problem, fix }) => {
+            assert_eq!(f, field);
+            let text = format!("{problem}; {fix}");
+            assert!(text.contains(says), "the error should say {says:?}: {text}");
+        }
+        other => panic!("expected InvalidHandle for `{field}`, got {other:?}"),
+    }
+}
+
+#[test]
+fn stale_recycled_and_foreign_buffer_handles_are_refused_naming_the_field() -> anyhow::Result<()> {
+    with_context("stale_recycled_and_foreign_buffer_handles_are_refused_naming_the_field", |ctx| {
+        let quad = Quad::new(ctx)?;
+        quad.launch(&quad.params())?;
+        let centre = quad.image.read()?[8 * 16 + 8];
+        assert_eq!(centre, pack(SPEC_COLORS[0]), "the valid launch renders the quad");
+
+        // Stale: the handle of a dropped buffer.
+        let dropped = ctx.buffer::<u32>(16 * 16)?;
+        let stale = Params { image: dropped.handle(), ..quad.params() };
+        drop(dropped);
+        assert_invalid(quad.launch(&stale), "image", "dropped");
+        // Still refused once its slot is free again.
+        ctx.wait_idle()?;
+        assert_invalid(quad.launch(&stale), "image", "dropped");
+
+        // Recycled slot: a handle naming the slot of a live buffer with the
+        // generation of the buffer that held the slot before.
+        let live = ctx.buffer::<u32>(16 * 16)?;
+        let slot = live.handle().table_index();
+        let old_generation = stale.image.raw() >> 12;
+        let recycled = raykit::Buffer::<u32>::from_table_index(slot | (old_generation << 12));
+        assert_ne!(recycled, live.handle());
+        assert_invalid(quad.launch(&Params { image: recycled, ..quad.params() }), "image", "slot reused");
+        // The live buffer's own handle is accepted.
+        quad.launch(&Params { image: live.handle(), ..quad.params() })?;
+        assert_eq!(live.read()?[8 * 16 + 8], pack(SPEC_COLORS[0]));
+
+        // Foreign: a buffer of another context.
+        let other = Context::new(raykit::ContextOptions {
+            validation: Some(std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1")),
+            pipeline_cache: raykit::PipelineCacheLocation::Off,
+            ..Default::default()
+        })?;
+        let foreign = other.buffer::<Vec4>(1)?;
+        assert_invalid(
+            quad.launch(&Params { spheres: foreign.handle(), ..quad.params() }),
+            "spheres",
+            "another Context",
+        );
+        drop(foreign);
+        assert!(other.messages().take().is_empty());
+        drop(other);
+
+        // Nothing was written by the refused launches.
+        assert_eq!(quad.image.read()?[8 * 16 + 8], pack(SPEC_COLORS[0]));
+        Ok(())
+    })
+}
+
+#[test]
+fn a_dropped_ias_and_an_ias_over_a_refitted_gas_are_refused_at_launch() -> anyhow::Result<()> {
+    with_context("a_dropped_ias_and_an_ias_over_a_refitted_gas_are_refused_at_launch", |ctx| {
+        let mut quad = Quad::new(ctx)?;
+        let dropped = Ias::single(ctx, &quad.gas)?;
+        let params = Params { scene: dropped.handle(), ..quad.params() };
+        drop(dropped);
+        assert_invalid(quad.launch(&params), "scene", "no live IAS");
+
+        // Refit the GAS: the IAS over it is stale until updated.
+        quad.gas.update(&[Triangles::new(&scene_vertices(0.25, 0)).into()])?;
+        assert_invalid(quad.launch(&quad.params()), "scene", "update the IAS");
+        let scene = Ias::single(ctx, &quad.gas)?;
+        quad.scene = scene;
+        quad.launch(&quad.params())?;
+        let image = quad.image.read()?;
+        // The quad now spans [-0.25, 0.25]²: the centre is inside, pixel (3, 8) outside.
+        assert_eq!([image[8 * 16 + 8], image[8 * 16 + 3]], [pack(SPEC_COLORS[0]), pack(BACKGROUND)]);
+        // The null traversable is accepted (it traces nothing on the device).
+        assert_eq!(raykit::Traversable::NULL.device_address(), 0);
+        Ok(())
+    })
+}
+
+/// Renders the program-model spheres (three AABBs) with `spheres` as the sphere buffer handle.
+fn render_spheres(ctx: &Context, spheres: raykit::Buffer<Vec4>) -> anyhow::Result<Vec<u32>> {
+    use raykit::{Aabb, Aabbs, GeometryFlags};
+    let boxes: Vec<Aabb> =
+        program_model::SPHERES.iter().map(|s| Aabb::new(s.truncate() - s.w, s.truncate() + s.w)).collect();
+    let gas = Gas::builder().aabbs(Aabbs::new(&boxes).flags(GeometryFlags::OPAQUE)).build(ctx)?;
+    let scene = Ias::single(ctx, &gas)?;
+    let module = Module::from_device_crate(ctx, "program-model-device")?;
+    let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+    let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
+    let hit = ProgramGroup::hit_group(&module)
+        .intersection(program_model_device::SPHERE)
+        .closest_hit(program_model_device::SPHERE_SHADE)
+        .build()?;
+    let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions::default())?;
+    let sbt = Sbt::builder(&pipeline)
+        .raygen(&raygen, ())
+        .miss_for::<Radiance, _>(&miss, ())
+        .hit_for::<Radiance, _>(0, &hit, ())
+        .build()?;
+    let image = ctx.buffer::<u32>(64 * 64)?;
+    let params = Params { image: image.handle(), spheres, size: UVec2::splat(64), scene: scene.handle() };
+    pipeline.launch(&sbt, &params, [64, 64, 1])?;
+    Ok(image.read()?)
+}
+
+#[test]
+fn device_reads_through_the_null_handle_and_past_a_buffers_end_give_zero() -> anyhow::Result<()> {
+    with_context("device_reads_through_the_null_handle_and_past_a_buffers_end_give_zero", |ctx| {
+        let all = ctx.buffer_from::<Vec4>(&program_model::SPHERES)?;
+        let full = render_spheres(ctx, all.handle())?;
+        let background = pack(BACKGROUND);
+        assert!(full.iter().filter(|&&p| p != background).count() > 500, "the three spheres cover the picture");
+
+        // The null handle (a zeroed Buffer, never written): every load gives a
+        // zero sphere, which no ray hits: only background.
+        let null = render_spheres(ctx, raykit::Buffer::from_table_index(0))?;
+        assert!(null.iter().all(|&p| p == background), "reads through the null handle were not zero");
+
+        // One sphere in the buffer, three primitives: loads past the end give
+        // zero, exactly as a buffer holding zeros there.
+        let first = ctx.buffer_from::<Vec4>(&program_model::SPHERES[..1])?;
+        let past_end = render_spheres(ctx, first.handle())?;
+        let zeros = ctx.buffer_from::<Vec4>(&[program_model::SPHERES[0], Vec4::ZERO, Vec4::ZERO])?;
+        let want = render_spheres(ctx, zeros.handle())?;
+        assert_eq!(mismatches(&past_end, &want), 0, "reads past the buffer's end were not zero");
+        assert_ne!(past_end, full);
+        assert!(past_end.iter().any(|&p| p != background), "the first sphere is drawn");
+        Ok(())
+    })
+}

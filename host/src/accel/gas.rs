@@ -249,6 +249,7 @@ impl Gas {
             query_compacted: false,
         };
         build::submit(&ctx, &[job], vec![p.input_buffer])?.wait()?;
+        self.accel.version.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
         self.compacted_size = None;
         Ok(())
     }

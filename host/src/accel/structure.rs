@@ -97,6 +97,9 @@ pub(crate) struct AccelStructure {
     pub(crate) handle: vk::AccelerationStructureKHR,
     pub(crate) address: u64,
     pub(crate) size: u64,
+    /// Bumped by every refit, so an IAS built over an older version is refused
+    /// at launch (see [`crate::handles`]).
+    pub(crate) version: std::sync::atomic::AtomicU64,
     _storage: RawBuffer,
 }
 
@@ -118,7 +121,7 @@ impl AccelStructure {
         let address_info = vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(handle);
         // SAFETY: `handle` is a live acceleration structure of this device.
         let address = unsafe { ctx.accel.get_acceleration_structure_device_address(&address_info) };
-        Ok(AccelStructure { ctx: ctx.clone(), handle, address, size, _storage: storage })
+        Ok(AccelStructure { ctx: ctx.clone(), handle, address, size, version: Default::default(), _storage: storage })
     }
 }
 

@@ -35,7 +35,7 @@ impl ExceptionBuffer {
             gpu_allocator::MemoryLocation::GpuOnly,
             16,
         )?;
-        let slot = ctx.buffer_table.insert(&ctx.device, buffer.buffer)?;
+        let (slot, _) = ctx.buffer_table.insert(&ctx.device, buffer.buffer)?;
         Ok(ExceptionBuffer { ctx: ctx.clone(), buffer, slot })
     }
 

@@ -200,7 +200,8 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 16,
             )?,
         };
-        let submission = ctx.submit("a launch", |cmd| {
+        let check = || ctx.check_handles(&inner.handle_fields, params_bytes);
+        let submission = ctx.submit_checked("a launch", check, |cmd| {
             // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
             // SBT buffers are alive until the work is done (the returned `Launch`
             // holds them, and their drops wait for this submission's epoch on the
