@@ -342,3 +342,44 @@ fn device_reads_through_the_null_handle_and_past_a_buffers_end_give_zero() -> an
         Ok(())
     })
 }
+
+#[test]
+fn sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt() -> anyhow::Result<()> {
+    use program_model_device::ColorRecord;
+    with_context("sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt", |ctx| {
+        let (red, green) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let module = Module::from_device_crate(ctx, "program-model-device")?;
+        let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+        let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
+        let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::RECORD_COLOR).build()?;
+        let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions::default())?;
+        let mut sbt = Sbt::builder(&pipeline)
+            .raygen(&raygen, ())
+            .miss_for::<Radiance, _>(&miss, ())
+            .hit_for::<Radiance, _>(0, &hit, ColorRecord { color: red })
+            .build()?;
+        let gas = Gas::triangles(ctx, &scene_vertices(0.5, 200_000), None)?;
+        let scene = Ias::single(ctx, &gas)?;
+        let spheres = ctx.buffer::<Vec4>(1)?;
+        let first = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
+        let second = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
+
+        let launch = pipeline.launch_async(&sbt, &params(&first, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
+        assert!(!launch.is_done()?, "the launch finished before the update: make it larger");
+        // Data of another type than the record was built with is refused, even if it fits.
+        match sbt.update(raykit::SbtRegion::Hit, 0, 7u32) {
+            Err(raykit::Error::SbtUpdate { reason, .. }) => {
+                assert!(reason.contains("ColorRecord") && reason.contains("u32"), "{reason}")
+            }
+            other => panic!("a u32 into a ColorRecord record was not refused: {other:?}"),
+        }
+        // An update while the launch runs goes into a copy the next launch uses.
+        sbt.update(raykit::SbtRegion::Hit, 0, ColorRecord { color: green })?;
+        pipeline.launch(&sbt, &params(&second, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
+        launch.wait()?;
+        let centre = ((HEIGHT / 2) * WIDTH + WIDTH / 2) as usize;
+        assert_eq!(first.read()?[centre], pack(red), "the launch in flight saw the update");
+        assert_eq!(second.read()?[centre], pack(green), "the launch after the update did not see it");
+        Ok(())
+    })
+}
