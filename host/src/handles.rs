@@ -21,12 +21,12 @@
 //! the device reads through a bad one.
 
 use std::collections::HashMap;
+use std::sync::atomic::AtomicU64;
 use std::sync::atomic::Ordering;
-use std::sync::{Mutex, Weak};
+use std::sync::{Arc, Mutex};
 
 use raykit_device::{ParamsLayout, Shape};
 
-use crate::accel::AccelStructure;
 use crate::context::ContextInner;
 use crate::error::{Error, Result};
 
@@ -73,8 +73,8 @@ fn collect_shape(shape: &Shape, offset: u32, name: String, out: &mut Vec<HandleF
     }
 }
 
-/// The GASes an IAS was built over, with the version of each at the build.
-pub(crate) type BuiltOver = Vec<(Weak<AccelStructure>, u64)>;
+/// The versions of the GASes an IAS was built over, with the value of each at the build.
+pub(crate) type BuiltOver = Vec<(Arc<AtomicU64>, u64)>;
 
 /// The live instance acceleration structures of a context, by device address.
 #[derive(Default)]
@@ -139,9 +139,7 @@ impl ContextInner {
                             fix: "put the handle() of a live Ias of this Context in the params",
                         });
                     };
-                    let stale = over.iter().position(|(gas, version)| {
-                        gas.upgrade().is_some_and(|g| g.version.load(Ordering::Acquire) != *version)
-                    });
+                    let stale = over.iter().position(|(now, built)| now.load(Ordering::Acquire) != *built);
                     if let Some(instance) = stale {
                         return Err(Error::InvalidHandle {
                             field: field.name.clone(),

@@ -298,7 +298,7 @@ impl Ias {
         let over = self
             .gases
             .iter()
-            .map(|g| (Arc::downgrade(g), g.version.load(std::sync::atomic::Ordering::Acquire)))
+            .map(|g| (g.version.clone(), g.version.load(std::sync::atomic::Ordering::Acquire)))
             .collect();
         self.accel.ctx.traversables.insert(self.accel.address, over);
     }

@@ -65,5 +65,4 @@ pub use build::PendingBuild;
 pub use gas::{Compaction, Gas, GasBuilder};
 pub use ias::{Ias, IasBuilder, Instance, InstanceFlags};
 pub use input::{Aabb, Aabbs, BuildInput, GeometryFlags, Indices, Triangles};
-pub(crate) use structure::AccelStructure;
 pub use structure::{AccelSizes, BuildOptions, BuildPreference};
