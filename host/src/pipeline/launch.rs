@@ -26,8 +26,8 @@
 //!
 //! So no lock is held between submission and completion, and any thread may launch
 //! while launches of the same pipeline are in flight. A [`Launch`] holds `Arc`s of
-//! the pipeline and the SBT's buffer; [`crate::Sbt::update`] refuses while a launch
-//! holds the SBT.
+//! the pipeline and the SBT's buffer; [`crate::Sbt::update`] while a launch holds
+//! the SBT writes into a copy, so the launch keeps the records it was given.
 //!
 //! # Dropping what a launch uses
 //! Each launch is an epoch on the context's GPU timeline ([`crate::timeline`]). The
