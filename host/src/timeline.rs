@@ -152,6 +152,10 @@ impl ContextInner {
 
     /// [`ContextInner::collect`] with the lock held.
     pub(crate) fn collect_locked(&self, state: &mut TimelineState) {
+        // Nothing waits: skip the semaphore read (launches stay cheap).
+        if state.pending.is_empty() {
+            return;
+        }
         if let Ok(completed) = self.completed_epoch() {
             self.collect_up_to(state, completed);
         }
