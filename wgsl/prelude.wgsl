@@ -16,7 +16,9 @@ enable wgpu_binding_array;
 // ---- Buffers: the bindless table ------------------------------------------
 // Every `Buffer<T>` handle in params or a record is an index into this table
 // (descriptor set 0, binding 0). Read element i of a Buffer<u32> `b` with
-// `buffers[b].words[i]`; for f32 use bitcast<f32>(…), for vectors several words.
+// `buffers[b & 4095u].words[i]` (a handle is the table slot in its low 12 bits and
+// a generation the host checks above them); for f32 use bitcast<f32>(…), for
+// vectors several words.
 struct Words { words: array<u32> }
 @group(0) @binding(0) var<storage, read_write> buffers: binding_array<Words>;
 

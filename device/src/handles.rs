@@ -27,8 +27,14 @@ impl Traversable {
     pub const NULL: Traversable = Traversable { address: 0 };
 
     /// Wraps a device address of an acceleration structure. Host-side code should use
-    /// `raykit::Ias::handle` instead.
-    pub const fn from_device_address(address: u64) -> Self {
+    /// `raykit::Ias::handle` instead, whose handle every launch checks.
+    ///
+    /// # Safety
+    /// `address` must be 0 or the device address of an acceleration structure
+    /// that stays alive and built while any launch that traces it runs: tracing
+    /// any other address makes the device read arbitrary memory. raykit's launches
+    /// refuse params whose traversable is not a live IAS of their context.
+    pub const unsafe fn from_device_address(address: u64) -> Self {
         Traversable { address }
     }
 
@@ -47,6 +53,19 @@ impl Traversable {
 }
 
 /// A typed handle to a storage buffer of `T`s in the bindless buffer table.
+///
+/// Every launch checks the handles in its params on the host: a handle of a
+/// dropped buffer, or of another context, is refused before the device sees it.
+/// Handles the host cannot see (in SBT records or in buffers) reach the device
+/// as they are, and the device does not check elements either. What a read then
+/// gives is defined (Vulkan's `robustBufferAccess2` and `nullDescriptor`, which
+/// raykit enables):
+/// * the null handle (slot 0, a zeroed `Buffer`), a never-written slot or the slot
+///   of a dropped buffer: reads give zero, writes are discarded;
+/// * a handle past the table: programs use its low bits
+///   (`index % raykit_abi::BUFFER_TABLE_SLOTS`), which name one of the above or a
+///   live buffer;
+/// * an element past the buffer's end: reads give zero, writes are discarded.
 #[repr(C)]
 pub struct Buffer<T> {
     index: u32,
@@ -60,8 +79,14 @@ impl<T> Buffer<T> {
         Buffer { index, _element: PhantomData }
     }
 
-    /// The slot of the buffer table this handle names.
+    /// The slot of the buffer table this handle names (its value modulo the
+    /// table's size, so that every handle names a slot of the table).
     pub const fn table_index(self) -> u32 {
+        self.index & (raykit_abi::BUFFER_TABLE_SLOTS - 1)
+    }
+
+    /// The handle's value as the host stored it.
+    pub const fn raw(self) -> u32 {
         self.index
     }
 }
@@ -102,8 +127,9 @@ pub trait Element: Copy + bytemuck::Pod {
     /// Writes the element at word `base`.
     fn write(self, words: &mut [u32], base: usize);
     /// Reads the element that starts at word `base` without checking the
-    /// words against the slice's length (raykit checks the whole element once
-    /// before calling it). The default calls [`Element::read`].
+    /// words against the slice's length (device buffers: an access past the
+    /// end is defined by `robustBufferAccess2`, see [`Buffer`]). The default
+    /// calls [`Element::read`].
     ///
     /// # Safety
     /// `base + WORDS` must not exceed `words.len()`.

@@ -76,11 +76,14 @@ plain_fields!(
     glam::IVec2,
     glam::IVec3,
     glam::IVec4,
-    crate::Traversable,
 );
 
+impl DeviceField for crate::Traversable {
+    const SHAPE: Shape = Shape::Traversable;
+}
+
 impl<T: 'static> DeviceField for crate::Buffer<T> {
-    const SHAPE: Shape = Shape::Plain;
+    const SHAPE: Shape = Shape::Buffer;
 }
 
 macro_rules! matrix_fields {

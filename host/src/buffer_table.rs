@@ -7,15 +7,23 @@
 //! `PARTIALLY_BOUND` and `UPDATE_AFTER_BIND`
 //! ([descriptor indexing](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#descriptorsets-updates-consecutive)),
 //! so slots can be filled while the set is bound and empty slots are legal.
+//!
+//! Slot 0 is the null handle (a zeroed `Buffer<T>`): it is never given to a
+//! buffer and holds a null descriptor (`VK_EXT_robustness2`'s `nullDescriptor`),
+//! as does every slot whose buffer was dropped and whose pending work finished:
+//! device reads through them give zero and writes are discarded. The table has
+//! exactly [`raykit_abi::BUFFER_TABLE_SLOTS`] slots and device programs mask
+//! handles to that range, so no handle value reaches outside the table.
 
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 
 use ash::vk;
 
 use crate::error::{Error, Result};
 
-/// Upper bound of the table's size; the device's limits may lower it.
-const MAX_SLOTS: u32 = 4096;
+/// The table's size.
+const SLOTS: u32 = raykit_abi::BUFFER_TABLE_SLOTS;
 
 /// Stages that see the table.
 pub(crate) const RT_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
@@ -32,20 +40,38 @@ pub(crate) struct BufferTable {
     pool: vk::DescriptorPool,
     pub(crate) set: vk::DescriptorSet,
     capacity: u32,
-    /// Free slots; the descriptor set is also updated under this lock.
+    /// Free slots, the next to use last; the descriptor set is also updated
+    /// under this lock.
     free: Mutex<Vec<u32>>,
+    /// The generation of the live buffer in each slot, 0 when none (cleared when
+    /// the buffer is dropped, before its slot waits for its pending work).
+    live: Vec<AtomicU32>,
+}
+
+/// Bits of a handle that name the slot; the bits above carry the generation.
+const SLOT_BITS: u32 = SLOTS.trailing_zeros();
+
+/// Generations are unique across the process (until they wrap after 2^20 buffers),
+/// so a handle of another context, or of a buffer whose slot was reused, differs
+/// from the live one's.
+fn next_generation() -> u32 {
+    static NEXT: AtomicU32 = AtomicU32::new(1);
+    loop {
+        let g = NEXT.fetch_add(1, Ordering::Relaxed) & ((1 << (32 - SLOT_BITS)) - 1);
+        if g != 0 {
+            return g;
+        }
+    }
+}
+
+/// The handle device programs get: the slot in the low bits, the generation above.
+pub(crate) fn handle_value(slot: u32, generation: u32) -> u32 {
+    slot | (generation << SLOT_BITS)
 }
 
 impl BufferTable {
-    pub(crate) fn new(device: &ash::Device, instance: &ash::Instance, physical: vk::PhysicalDevice) -> Result<Self> {
-        let mut indexing = vk::PhysicalDeviceDescriptorIndexingProperties::default();
-        let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut indexing);
-        // SAFETY: well-formed chain; `physical` belongs to `instance`.
-        unsafe { instance.get_physical_device_properties2(physical, &mut props) };
-        let capacity = MAX_SLOTS
-            .min(indexing.max_per_stage_descriptor_update_after_bind_storage_buffers)
-            .min(indexing.max_descriptor_set_update_after_bind_storage_buffers)
-            .max(1);
+    pub(crate) fn new(device: &ash::Device) -> Result<Self> {
+        let capacity = SLOTS;
 
         let bindings = [vk::DescriptorSetLayoutBinding::default()
             .binding(raykit_abi::BUFFER_TABLE_BINDING)
@@ -89,14 +115,16 @@ impl BufferTable {
                 return Err(Error::vk("vkAllocateDescriptorSets")(e));
             }
         };
-        let free = (0..capacity).rev().collect();
-        Ok(BufferTable { layout, pool, set, capacity, free: Mutex::new(free) })
+        // Slot 0 stays null; the others are used lowest first.
+        let free = (1..capacity).rev().collect();
+        let live = (0..capacity).map(|_| AtomicU32::new(0)).collect();
+        let table = BufferTable { layout, pool, set, capacity, free: Mutex::new(free), live };
+        table.write(device, 0, vk::Buffer::null());
+        Ok(table)
     }
 
-    /// Takes a free slot and points it at `buffer`.
-    pub(crate) fn insert(&self, device: &ash::Device, buffer: vk::Buffer) -> Result<u32> {
-        let mut free = self.free.lock().unwrap_or_else(|p| p.into_inner());
-        let slot = free.pop().ok_or(Error::BufferTableFull { capacity: self.capacity })?;
+    /// Points `slot` at `buffer` (or the null descriptor).
+    fn write(&self, device: &ash::Device, slot: u32, buffer: vk::Buffer) {
         let info = [vk::DescriptorBufferInfo { buffer, offset: 0, range: vk::WHOLE_SIZE }];
         let write = vk::WriteDescriptorSet::default()
             .dst_set(self.set)
@@ -104,15 +132,48 @@ impl BufferTable {
             .dst_array_element(slot)
             .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
             .buffer_info(&info);
-        // SAFETY: the set is externally synchronised by the `free` lock held; the
-        // binding is UPDATE_AFTER_BIND so pending launches are unaffected.
+        // SAFETY: the set is externally synchronised: callers hold the `free` lock
+        // or own the table exclusively; the binding is UPDATE_AFTER_BIND, so pending
+        // launches are unaffected, and `nullDescriptor` is enabled for null buffers.
         unsafe { device.update_descriptor_sets(&[write], &[]) };
-        Ok(slot)
     }
 
-    /// Returns a slot to the free list.
-    pub(crate) fn remove(&self, slot: u32) {
-        self.free.lock().unwrap_or_else(|p| p.into_inner()).push(slot);
+    /// Whether `handle` is the null handle or names the live buffer of its slot.
+    pub(crate) fn is_live(&self, handle: u32) -> bool {
+        let (slot, generation) = (handle & (SLOTS - 1), handle >> SLOT_BITS);
+        handle == 0 || (generation != 0 && self.live[slot as usize].load(Ordering::Acquire) == generation)
+    }
+
+    /// Marks `slot` as no longer holding a live buffer (its buffer was dropped);
+    /// launches refuse handles to it from now on.
+    pub(crate) fn kill(&self, slot: u32) {
+        if let Some(l) = self.live.get(slot as usize) {
+            l.store(0, Ordering::Release);
+        }
+    }
+
+    /// Takes a free slot and points it at `buffer`; returns the slot and the
+    /// handle value (slot and generation) of the buffer.
+    pub(crate) fn insert(&self, device: &ash::Device, buffer: vk::Buffer) -> Result<(u32, u32)> {
+        let mut free = self.free.lock().unwrap_or_else(|p| p.into_inner());
+        // Slot 0 is the null handle: one less than the table for buffers.
+        let slot = free.pop().ok_or(Error::BufferTableFull { capacity: self.capacity - 1 })?;
+        self.write(device, slot, buffer);
+        let generation = next_generation();
+        if let Some(l) = self.live.get(slot as usize) {
+            l.store(generation, Ordering::Release);
+        }
+        Ok((slot, handle_value(slot, generation)))
+    }
+
+    /// Returns a slot to the free list, once no pending work uses it (see
+    /// [`crate::timeline`]).
+    pub(crate) fn remove(&self, device: &ash::Device, slot: u32) {
+        let mut free = self.free.lock().unwrap_or_else(|p| p.into_inner());
+        // Reads through a stale handle give zero from now on.
+        self.write(device, slot, vk::Buffer::null());
+        // Reused last (first in, first out), so stale handles stay refused longest.
+        free.insert(0, slot);
     }
 
     /// # Safety

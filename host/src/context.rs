@@ -49,7 +49,9 @@ use crate::buffer_table::BufferTable;
 use crate::cache::{CacheKey, DiskCache, PipelineCacheInfo, PipelineCacheLocation};
 use crate::device_registry::{SharedDevice, SharedInstance};
 use crate::error::{Error, Result};
+use crate::handles::LiveTraversables;
 use crate::log::{LogCallback, MessageLog};
+use crate::timeline::Timeline;
 
 /// How to create a [`Context`].
 #[derive(Clone, Debug, Default)]
@@ -132,6 +134,10 @@ pub(crate) struct ContextInner {
     recycled: Mutex<Vec<(vk::CommandBuffer, vk::Fence)>>,
     pub(crate) allocator: ManuallyDrop<Mutex<gpu_allocator::vulkan::Allocator>>,
     pub(crate) buffer_table: ManuallyDrop<BufferTable>,
+    /// Epochs of submissions and the objects waiting for them (see [`crate::timeline`]).
+    pub(crate) timeline: Timeline,
+    /// The live IASes, which launches check `Traversable`s against (see [`crate::handles`]).
+    pub(crate) traversables: LiveTraversables,
     pub(crate) limits: DeviceLimits,
     /// Largest launch width, height and depth: `maxComputeWorkGroupCount[i] ×
     /// maxComputeWorkGroupSize[i]`, as `vkCmdTraceRaysKHR` requires.
@@ -186,7 +192,8 @@ impl Context {
             allocation_sizes: Default::default(),
         })
         .map_err(|source| Error::Allocation { what: "the memory allocator", source })?;
-        let buffer_table = BufferTable::new(device, &instance.instance, physical)?;
+        let buffer_table = BufferTable::new(device)?;
+        let timeline = Timeline::new(device)?;
         std::mem::forget(pool_guard);
         let pipeline_cache = DiskCache::open(device, CacheKey::of(&shared.properties), &options.pipeline_cache);
         let inner = ContextInner {
@@ -200,6 +207,8 @@ impl Context {
             recycled: Mutex::new(Vec::new()),
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             buffer_table: ManuallyDrop::new(buffer_table),
+            timeline,
+            traversables: LiveTraversables::default(),
             limits: shared.limits,
             launch_dimension_limits: shared.launch_dimension_limits,
             non_semantic_info: shared.non_semantic_info,
@@ -297,6 +306,9 @@ impl Context {
     /// Device memory raykit holds now, from its allocator (gpu-allocator): what
     /// live buffers and acceleration structures use, and the memory blocks
     /// reserved for them.
+    ///
+    /// Objects dropped while the device may still use them count until their work
+    /// has finished and they are collected (see [`Context::poll`]).
     pub fn memory_usage(&self) -> MemoryUsage {
         let report = self.inner.allocator().generate_report();
         MemoryUsage {
@@ -305,6 +317,33 @@ impl Context {
             reserved_bytes: report.total_capacity_bytes,
             blocks: report.blocks.len(),
         }
+    }
+}
+
+impl Context {
+    /// Destroys the objects dropped while work that may use them was pending, once
+    /// that work has finished (see [`crate::timeline`]); every submission does it
+    /// too. Does not block.
+    pub fn poll(&self) -> Result<()> {
+        self.inner.collect()
+    }
+
+    /// Blocks until the device has finished everything submitted so far, then
+    /// destroys every object dropped meanwhile.
+    pub fn wait_idle(&self) -> Result<()> {
+        self.inner.wait_for_pending_work()?;
+        self.inner.collect()
+    }
+
+    /// The epoch of the last submission on this context's GPU timeline, and the
+    /// highest epoch the device has finished.
+    pub fn timeline_epochs(&self) -> Result<(u64, u64)> {
+        Ok((self.inner.last_submitted_epoch(), self.inner.completed_epoch()?))
+    }
+
+    /// Number of dropped objects still waiting for their work to finish.
+    pub fn pending_retirements(&self) -> usize {
+        self.inner.pending_retirements()
     }
 }
 
@@ -395,6 +434,8 @@ pub(crate) struct Submission {
     fence: vk::Fence,
     during: &'static str,
     waited: bool,
+    /// The submission's epoch on the context's timeline.
+    pub(crate) epoch: u64,
 }
 
 impl ContextInner {
@@ -405,6 +446,20 @@ impl ContextInner {
         during: &'static str,
         record: impl FnOnce(vk::CommandBuffer),
     ) -> Result<Submission> {
+        self.submit_checked(during, || Ok(()), record)
+    }
+
+    /// [`ContextInner::submit`], running `check` first under the timeline's lock:
+    /// what `check` finds alive stays alive until the work has finished, as a
+    /// drop after it waits for this submission's epoch (see [`crate::timeline`]).
+    pub(crate) fn submit_checked(
+        self: &Arc<Self>,
+        during: &'static str,
+        check: impl FnOnce() -> Result<()>,
+        record: impl FnOnce(vk::CommandBuffer),
+    ) -> Result<Submission> {
+        let mut timeline = self.timeline.lock();
+        check()?;
         self.check_device(during)?;
         let device = &self.device;
         let pool = self.command_pool.lock().unwrap_or_else(|p| p.into_inner());
@@ -423,6 +478,7 @@ impl ContextInner {
                 (cmd, vk::Fence::null())
             }
         };
+        let epoch = timeline.last_submitted + 1;
         let result = (|| {
             let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
             // SAFETY: a fresh or finished (recycled) command buffer of a pool made
@@ -439,7 +495,13 @@ impl ContextInner {
                 self.set_name(fence, "fence");
             }
             let cmds = [cmd];
-            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            let signal = [self.timeline.semaphore];
+            let values = [epoch];
+            let mut timeline_info = vk::TimelineSemaphoreSubmitInfo::default().signal_semaphore_values(&values);
+            let submit = [vk::SubmitInfo::default()
+                .command_buffers(&cmds)
+                .signal_semaphores(&signal)
+                .push_next(&mut timeline_info)];
             // One queue for every context on the device, behind one lock.
             let queue = self.shared.queue.lock().unwrap_or_else(|p| p.into_inner());
             // Checked again under the queue's lock: no submission follows a loss.
@@ -448,7 +510,8 @@ impl ContextInner {
                 Err(vk::Result::ERROR_DEVICE_LOST)
             } else {
                 // SAFETY: the queue is externally synchronised by its mutex; the command
-                // buffer is fully recorded; the fence is unsignalled (new or reset).
+                // buffer is fully recorded; the fence is unsignalled (new or reset); the
+                // epoch is above every value signalled before (under the timeline lock).
                 unsafe { device.queue_submit(*queue, &submit, fence) }
             };
             submitted.map_err(self.shared.error("vkQueueSubmit", during))
@@ -464,7 +527,11 @@ impl ContextInner {
             return Err(e);
         }
         drop(pool);
-        Ok(Submission { ctx: self.clone(), cmd, fence, during, waited: false })
+        timeline.last_submitted = epoch;
+        // Retire on every submission what finished meanwhile.
+        self.collect_locked(&mut timeline);
+        drop(timeline);
+        Ok(Submission { ctx: self.clone(), cmd, fence, during, waited: false, epoch })
     }
 }
 
@@ -533,6 +600,12 @@ impl Drop for ContextInner {
         // submission waits for its work when dropped). Only this context's objects
         // are destroyed here; the device goes with the last context on it.
         unsafe {
+            // This context's work: the queue is shared with other contexts, so wait on
+            // this context's timeline rather than for the whole device. A lost device
+            // ends the wait with an error; the objects may be destroyed then.
+            let _ = self.wait_for_pending_work();
+            self.destroy_all_retired();
+            self.timeline.destroy(&self.device);
             // Errors cannot be returned from drop; `Context::save_pipeline_cache`
             // reports them to whoever wants to know.
             let _ = self.pipeline_cache.save(&self.device);

@@ -14,10 +14,13 @@ use crate::error::{DeviceReport, Error, Result};
 use crate::log::{debug_callback, Routes};
 
 /// Device extensions raykit needs.
-const REQUIRED_EXTENSIONS: [&CStr; 3] = [
+const REQUIRED_EXTENSIONS: [&CStr; 4] = [
     ash::khr::ray_tracing_pipeline::NAME,
     ash::khr::acceleration_structure::NAME,
     ash::khr::deferred_host_operations::NAME,
+    // Defined device reads through null and stale buffer handles and past a
+    // buffer's end (`nullDescriptor`, `robustBufferAccess2`; see `raykit_device::Buffer`).
+    ash::ext::robustness2::NAME,
 ];
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -298,7 +301,8 @@ fn create_device(
         .enabled_features(&features.base)
         .push_next(&mut features.rt)
         .push_next(&mut features.accel)
-        .push_next(&mut features.v12);
+        .push_next(&mut features.v12)
+        .push_next(&mut features.robustness2);
     // SAFETY: the physical device supports every extension and feature enabled
     // (checked by `inspect_device`); the create info lives across the call; the
     // registry's lock is held by the caller.
@@ -341,6 +345,7 @@ struct Features {
     rt: vk::PhysicalDeviceRayTracingPipelineFeaturesKHR<'static>,
     accel: vk::PhysicalDeviceAccelerationStructureFeaturesKHR<'static>,
     v12: vk::PhysicalDeviceVulkan12Features<'static>,
+    robustness2: vk::PhysicalDeviceRobustness2FeaturesEXT<'static>,
     base: vk::PhysicalDeviceFeatures,
 }
 
@@ -348,14 +353,18 @@ impl Features {
     /// Queries what `physical` supports.
     fn query(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Features {
         let mut f = Features::default();
-        let mut features2 =
-            vk::PhysicalDeviceFeatures2::default().push_next(&mut f.rt).push_next(&mut f.accel).push_next(&mut f.v12);
+        let mut features2 = vk::PhysicalDeviceFeatures2::default()
+            .push_next(&mut f.rt)
+            .push_next(&mut f.accel)
+            .push_next(&mut f.v12)
+            .push_next(&mut f.robustness2);
         // SAFETY: `physical` came from this instance; the chain is well formed.
         unsafe { instance.get_physical_device_features2(physical, &mut features2) };
         f.base = features2.features;
         f.rt.p_next = std::ptr::null_mut();
         f.accel.p_next = std::ptr::null_mut();
         f.v12.p_next = std::ptr::null_mut();
+        f.robustness2.p_next = std::ptr::null_mut();
         f
     }
 
@@ -371,16 +380,23 @@ impl Features {
                 .runtime_descriptor_array(true)
                 .descriptor_binding_partially_bound(true)
                 .descriptor_binding_storage_buffer_update_after_bind(true)
-                .descriptor_indexing(true),
+                .descriptor_indexing(true)
+                .timeline_semaphore(true),
+            robustness2: vk::PhysicalDeviceRobustness2FeaturesEXT::default()
+                .robust_buffer_access2(true)
+                .null_descriptor(true),
             // Device programs access buffers without bounds checks and rely on
-            // robustBufferAccess for out-of-range indices (see raykit-device).
+            // robustBufferAccess2 for out-of-range indices (see raykit-device).
             base: vk::PhysicalDeviceFeatures::default().shader_int64(true).robust_buffer_access(true),
         }
     }
 
     /// Names of required features `self` lacks.
     fn missing(&self) -> Vec<String> {
-        let checks: [(&str, vk::Bool32); 10] = [
+        let checks: [(&str, vk::Bool32); 13] = [
+            ("robustBufferAccess2", self.robustness2.robust_buffer_access2),
+            ("nullDescriptor", self.robustness2.null_descriptor),
+            ("timelineSemaphore", self.v12.timeline_semaphore),
             ("vulkanMemoryModel", self.v12.vulkan_memory_model),
             ("rayTracingPipeline", self.rt.ray_tracing_pipeline),
             ("accelerationStructure", self.accel.acceleration_structure),

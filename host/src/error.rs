@@ -237,6 +237,19 @@ pub enum Error {
     )]
     SbtOfAnotherPipeline,
 
+    /// A handle in the launch params does not name a live object of the launching
+    /// context: a dropped or foreign buffer, a dropped or foreign IAS, or an IAS
+    /// whose GASes changed since it was built.
+    #[error("launch params field `{field}`: {problem}; {fix}")]
+    InvalidHandle {
+        /// The field, as a path (`scene`, `inner.buffers[2]`).
+        field: String,
+        /// What is wrong with it.
+        problem: String,
+        /// How to fix it.
+        fix: &'static str,
+    },
+
     /// An SBT region that must be present is missing.
     #[error("the SBT has no {region} record; add one with Sbt::builder(..).{region}(..)")]
     SbtMissing {

@@ -10,6 +10,7 @@ pub mod cache;
 pub mod context;
 mod device_registry;
 pub mod error;
+pub mod handles;
 pub mod log;
 pub mod memory;
 pub mod module;
@@ -17,6 +18,7 @@ pub mod pipeline;
 pub mod program_group;
 pub mod sbt;
 pub mod stack;
+pub mod timeline;
 pub mod wgsl;
 
 pub use accel::{
@@ -27,7 +29,7 @@ pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Context, ContextOptions, DeviceLimits, MemoryUsage};
 pub use error::{DeviceReport, Error, Result, UserException};
 pub use log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
-pub use memory::DeviceBuffer;
+pub use memory::{DeviceBuffer, PendingRead};
 pub use module::{spirv_path, EmbeddedSpirv, EntryPointInfo, Module};
 pub use pipeline::launch::Launch;
 pub use pipeline::library::{LibraryOptions, PipelineLibrary};

@@ -14,8 +14,9 @@ use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 use raykit_device::{Buffer, Element};
 
-use crate::context::{Context, ContextInner};
+use crate::context::{Context, ContextInner, Submission};
 use crate::error::{Error, Result};
+use crate::timeline::Retired;
 
 /// A Vulkan buffer with its memory, freed on drop.
 pub(crate) struct RawBuffer {
@@ -105,12 +106,9 @@ impl RawBuffer {
 
 impl Drop for RawBuffer {
     fn drop(&mut self) {
-        // SAFETY: raykit waits for all work using a buffer before its owner can be
-        // dropped (launches and builds are blocking), so the buffer is idle.
-        unsafe { self.ctx.device.destroy_buffer(self.buffer, None) };
-        if let Some(allocation) = self.allocation.take() {
-            let _ = self.ctx.allocator().free(allocation);
-        }
+        // Work in flight may still use the buffer: the timeline destroys it, and
+        // frees its memory, once the last submitted epoch has finished.
+        self.ctx.retire(Retired::Buffer(self.buffer, self.allocation.take()));
     }
 }
 
@@ -119,6 +117,9 @@ impl Drop for RawBuffer {
 pub struct DeviceBuffer<T: Element> {
     raw: RawBuffer,
     slot: u32,
+    /// The handle's value: the slot, and the generation that tells this buffer
+    /// from earlier and later ones in the slot (see [`crate::handles`]).
+    handle: u32,
     len: usize,
     _element: PhantomData<T>,
 }
@@ -142,9 +143,25 @@ impl<T: Element> DeviceBuffer<T> {
             element_size,
             reason: "the size overflows 64 bits",
         })?;
-        let raw = RawBuffer::new(&ctx.inner, "DeviceBuffer", size, vk::BufferUsageFlags::STORAGE_BUFFER, location, 16)?;
-        let slot = ctx.inner.buffer_table.insert(&ctx.inner.device, raw.buffer)?;
-        Ok(DeviceBuffer { raw, slot, len, _element: PhantomData })
+        let raw = RawBuffer::new(
+            &ctx.inner,
+            "DeviceBuffer",
+            size,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            location,
+            16,
+        )?;
+        let table = &ctx.inner.buffer_table;
+        let (slot, handle) = match table.insert(&ctx.inner.device, raw.buffer) {
+            // Slots of buffers dropped while work used them come back once it has
+            // finished: collect those, then try again.
+            Err(Error::BufferTableFull { .. }) => {
+                ctx.inner.collect()?;
+                table.insert(&ctx.inner.device, raw.buffer)?
+            }
+            other => other?,
+        };
+        Ok(DeviceBuffer { raw, slot, handle, len, _element: PhantomData })
     }
 
     /// A zero-filled buffer of `len` elements, for results the host reads back.
@@ -165,7 +182,7 @@ impl<T: Element> DeviceBuffer<T> {
 
     /// The handle device programs use (put it in the launch params).
     pub fn handle(&self) -> Buffer<T> {
-        Buffer::from_table_index(self.slot)
+        Buffer::from_table_index(self.handle)
     }
 
     /// Number of elements.
@@ -178,15 +195,69 @@ impl<T: Element> DeviceBuffer<T> {
         self.len == 0
     }
 
-    /// Copies the buffer's contents to the host. Call after the launch that wrote
-    /// them returned.
+    /// Copies the buffer's contents to the host. Waits first for the work
+    /// submitted so far (launches, copies) to finish, so the contents are those
+    /// pending launches leave; see [`DeviceBuffer::read_async`] for a copy that
+    /// does not block.
     pub fn read(&self) -> Result<Vec<T>> {
+        self.raw.ctx.wait_for_pending_work()?;
         let bytes = self.raw.mapped().ok_or(Error::BufferSize {
             len: self.len,
             element_size: std::mem::size_of::<T>(),
             reason: "the buffer is not host-visible",
         })?;
         Ok(bytemuck::pod_collect_to_vec(bytes))
+    }
+
+    /// Submits a copy of the buffer's contents, as the work submitted before it
+    /// leaves them, into host memory owned by the returned [`PendingRead`], and
+    /// returns without waiting. The buffer may be dropped at once: the copy keeps
+    /// what it reads alive on the device (see [`crate::timeline`]).
+    pub fn read_async(&self) -> Result<PendingRead<T>> {
+        let ctx = &self.raw.ctx;
+        let staging = RawBuffer::new(
+            ctx,
+            "DeviceBuffer readback",
+            self.raw.size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+            16,
+        )?;
+        let (src, dst, size) = (self.raw.buffer, staging.buffer, self.raw.size);
+        let submission = ctx.submit("a buffer readback", |cmd| {
+            let before = vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
+                .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
+            let after = vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::HOST_READ);
+            // SAFETY: both buffers are alive while the copy is pending (`staging` is
+            // owned by the returned `PendingRead`, the source's drop waits for this
+            // epoch); `cmd` is recording; the sizes match.
+            unsafe {
+                let device = &ctx.device;
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::ALL_COMMANDS,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::DependencyFlags::empty(),
+                    &[before],
+                    &[],
+                    &[],
+                );
+                device.cmd_copy_buffer(cmd, src, dst, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::HOST,
+                    vk::DependencyFlags::empty(),
+                    &[after],
+                    &[],
+                    &[],
+                );
+            }
+        })?;
+        Ok(PendingRead { submission, staging, len: self.len, _element: PhantomData })
     }
 
     /// Overwrites the buffer's first `data.len()` elements.
@@ -198,6 +269,8 @@ impl<T: Element> DeviceBuffer<T> {
                 reason: "more elements than the buffer holds",
             });
         }
+        // Pending launches may read or write the buffer: let them finish first.
+        self.raw.ctx.wait_for_pending_work()?;
         self.raw.write_bytes(bytemuck::cast_slice(data))
     }
 }
@@ -216,7 +289,10 @@ impl<T: Element> std::fmt::Debug for DeviceBuffer<T> {
 
 impl<T: Element> Drop for DeviceBuffer<T> {
     fn drop(&mut self) {
-        self.raw.ctx.buffer_table.remove(self.slot);
+        // Launches refuse its handle from now on; the slot is reused only once no
+        // pending work can read it.
+        self.raw.ctx.buffer_table.kill(self.slot);
+        self.raw.ctx.retire(Retired::Slot(self.slot));
     }
 }
 
@@ -229,5 +305,40 @@ impl Context {
     /// A [`DeviceBuffer`] holding a copy of `data`.
     pub fn buffer_from<T: Element>(&self, data: &[T]) -> Result<DeviceBuffer<T>> {
         DeviceBuffer::from_slice(self, data)
+    }
+}
+
+/// A copy of a [`DeviceBuffer`] on its way to the host
+/// ([`DeviceBuffer::read_async`]); owns the host memory it lands in.
+#[must_use = "a PendingRead is waited on to get the contents"]
+pub struct PendingRead<T: Element> {
+    // Field order: the submission (which waits when dropped) goes first.
+    submission: Submission,
+    staging: RawBuffer,
+    len: usize,
+    _element: PhantomData<T>,
+}
+
+impl<T: Element> PendingRead<T> {
+    /// Whether the copy has finished, without blocking.
+    pub fn is_done(&self) -> Result<bool> {
+        self.submission.is_done()
+    }
+
+    /// Blocks until the copy has finished and returns the contents.
+    pub fn wait(mut self) -> Result<Vec<T>> {
+        self.submission.wait()?;
+        let bytes = self.staging.mapped().ok_or(Error::BufferSize {
+            len: self.len,
+            element_size: std::mem::size_of::<T>(),
+            reason: "the readback buffer is not host-visible",
+        })?;
+        Ok(bytemuck::pod_collect_to_vec(bytes))
+    }
+}
+
+impl<T: Element> std::fmt::Debug for PendingRead<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PendingRead").field("len", &self.len).field("epoch", &self.submission.epoch).finish()
     }
 }

@@ -161,14 +161,14 @@ struct Large {
 fn rg() {
     var i = 0u;
     for (var c = 0u; c < 4u; c++) {
-        for (var r = 0u; r < 4u; r++) { buffers[params.out].words[i] = bitcast<u32>(params.m[c][r]); i++; }
+        for (var r = 0u; r < 4u; r++) { buffers[params.out & 4095u].words[i] = bitcast<u32>(params.m[c][r]); i++; }
     }
     for (var k = 0u; k < 4u; k++) {
-        for (var r = 0u; r < 4u; r++) { buffers[params.out].words[i] = bitcast<u32>(params.v[k][r]); i++; }
+        for (var r = 0u; r < 4u; r++) { buffers[params.out & 4095u].words[i] = bitcast<u32>(params.v[k][r]); i++; }
     }
-    for (var k = 0u; k < 8u; k++) { buffers[params.out].words[i] = bitcast<u32>(params.tail[k]); i++; }
-    buffers[params.out].words[i] = params.id.x;
-    buffers[params.out].words[i + 1u] = params.id.y;
+    for (var k = 0u; k < 8u; k++) { buffers[params.out & 4095u].words[i] = bitcast<u32>(params.tail[k]); i++; }
+    buffers[params.out & 4095u].words[i] = params.id.x;
+    buffers[params.out & 4095u].words[i + 1u] = params.id.y;
 }
 "#;
 

@@ -24,6 +24,11 @@ pub const BUFFER_TABLE_SET: u32 = 0;
 /// Binding of the bindless storage-buffer table in [`BUFFER_TABLE_SET`].
 pub const BUFFER_TABLE_BINDING: u32 = 0;
 
+/// Number of slots of the bindless storage-buffer table. Device programs mask a
+/// `Buffer<T>` handle with `BUFFER_TABLE_SLOTS - 1`, so no handle value indexes
+/// outside the table.
+pub const BUFFER_TABLE_SLOTS: u32 = 4096;
+
 /// Descriptor set of the params uniform buffer (for params over
 /// [`PUSH_CONSTANT_BUDGET`] bytes).
 pub const PARAMS_SET: u32 = 1;

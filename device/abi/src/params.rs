@@ -23,8 +23,14 @@ pub struct FieldLayout {
 /// The shape of a params field, as far as its layout is concerned.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Shape {
-    /// A scalar, a vector or a handle: only offset and size matter.
+    /// A scalar or a vector: only offset and size matter.
     Plain,
+    /// A `Buffer<T>` handle (a `u32`): the host checks it names a live buffer of
+    /// the launching context at every launch.
+    Buffer,
+    /// A `Traversable` (a `u64` device address): the host checks it names a live,
+    /// up-to-date instance acceleration structure of the launching context.
+    Traversable,
     /// A matrix stored column by column, `column_stride` bytes apart.
     Matrix {
         /// Number of columns.

@@ -142,16 +142,18 @@ fn throw_and_handle(
 /// Reads element `index` of `buffer` from the bindless table.
 ///
 /// No bounds check in the program: raykit creates every device with
-/// `robustBufferAccess`, under which a read past the end of the buffer returns
-/// zero or a value from inside the buffer, never memory outside it. (A check
-/// per access, `OpArrayLength` and a branch, made the path tracer run at half
-/// the speed of its GLSL twin on an NVIDIA H100.)
+/// `robustBufferAccess2` and `nullDescriptor`, under which a read past the end
+/// of the buffer, or through a null or emptied slot, returns zero (see
+/// [`Buffer`] for every case). (A check per access, `OpArrayLength` and a
+/// branch, made the path tracer run at half the speed of its GLSL twin on an
+/// NVIDIA H100.)
 #[allow(unused_variables)]
 fn load<T: Element>(table: &BufferTable, buffer: Buffer<T>, index: u32) -> T {
     #[cfg(target_arch = "spirv")]
     {
-        // SAFETY: the host fills every slot that a live `Buffer` handle names;
-        // an index past the end is defined under robustBufferAccess (above).
+        // SAFETY: `table_index` is below the table's size; every slot holds a
+        // buffer or a null descriptor, and an index past a buffer's end is
+        // defined under robustBufferAccess2 (above).
         unsafe {
             let words: &[u32] = table.index(buffer.table_index() as usize);
             T::read_unchecked(words, (index * T::WORDS) as usize)
@@ -162,7 +164,7 @@ fn load<T: Element>(table: &BufferTable, buffer: Buffer<T>, index: u32) -> T {
 }
 
 /// Writes element `index` of `buffer` in the bindless table. A write past the
-/// end is discarded (`robustBufferAccess`, see [`load`]).
+/// end, or through a null slot, is discarded (`robustBufferAccess2`, see [`load`]).
 #[allow(unused_variables)]
 fn store<T: Element>(table: &mut BufferTable, buffer: Buffer<T>, index: u32, value: T) {
     #[cfg(target_arch = "spirv")]

@@ -22,6 +22,9 @@ layout(push_constant, scalar) uniform Params {
 } params;
 
 layout(set = 0, binding = 0, scalar) buffer Words { uint words[]; } buffers[];
+// A Buffer<T> handle is a table slot (low 12 bits) and a generation the host
+// checks (the bits above): index the table with the slot bits only.
+#define SLOT(handle) ((handle) & 4095u)
 
 // The radiance ray's payload (math::HitInfo): t < 0 is a miss.
 struct HitInfo {

@@ -11,9 +11,9 @@ layout(shaderRecordEXT, scalar) buffer HitRecord {
 
 void main() {
     uint base = (material.first_triangle + gl_PrimitiveID) * 3u;
-    vec3 n = vec3(uintBitsToFloat(buffers[params.normals].words[base]),
-                  uintBitsToFloat(buffers[params.normals].words[base + 1u]),
-                  uintBitsToFloat(buffers[params.normals].words[base + 2u]));
+    vec3 n = vec3(uintBitsToFloat(buffers[SLOT(params.normals)].words[base]),
+                  uintBitsToFloat(buffers[SLOT(params.normals)].words[base + 1u]),
+                  uintBitsToFloat(buffers[SLOT(params.normals)].words[base + 2u]));
     hit.normal = dot(n, gl_WorldRayDirectionEXT) > 0.0 ? -n : n;
     hit.t = gl_HitTEXT;
     hit.emission = material.emission;

@@ -178,17 +178,17 @@ fn rg(@builtin(ray_invocation_id) launch_id: vec3<u32>, @builtin(num_ray_invocat
     var previous = vec4<f32>(0.0);
     if params.subframe != 0u {
         previous = vec4<f32>(
-            bitcast<f32>(buffers[params.accum].words[base]),
-            bitcast<f32>(buffers[params.accum].words[base + 1u]),
-            bitcast<f32>(buffers[params.accum].words[base + 2u]),
-            bitcast<f32>(buffers[params.accum].words[base + 3u]),
+            bitcast<f32>(buffers[params.accum & 4095u].words[base]),
+            bitcast<f32>(buffers[params.accum & 4095u].words[base + 1u]),
+            bitcast<f32>(buffers[params.accum & 4095u].words[base + 2u]),
+            bitcast<f32>(buffers[params.accum & 4095u].words[base + 3u]),
         );
     }
     let total = previous + vec4<f32>(sum, f32(rays));
-    buffers[params.accum].words[base] = bitcast<u32>(total.x);
-    buffers[params.accum].words[base + 1u] = bitcast<u32>(total.y);
-    buffers[params.accum].words[base + 2u] = bitcast<u32>(total.z);
-    buffers[params.accum].words[base + 3u] = bitcast<u32>(total.w);
+    buffers[params.accum & 4095u].words[base] = bitcast<u32>(total.x);
+    buffers[params.accum & 4095u].words[base + 1u] = bitcast<u32>(total.y);
+    buffers[params.accum & 4095u].words[base + 2u] = bitcast<u32>(total.z);
+    buffers[params.accum & 4095u].words[base + 3u] = bitcast<u32>(total.w);
 }
 
 @miss @incoming_payload(hit_in)
@@ -206,9 +206,9 @@ fn ch(@builtin(primitive_index) primitive: u32, @builtin(world_ray_direction) di
       @builtin(ray_t_current_max) t: f32) {
     let base = (material.first_triangle + primitive) * 3u;
     let n = vec3<f32>(
-        bitcast<f32>(buffers[params.normals].words[base]),
-        bitcast<f32>(buffers[params.normals].words[base + 1u]),
-        bitcast<f32>(buffers[params.normals].words[base + 2u]),
+        bitcast<f32>(buffers[params.normals & 4095u].words[base]),
+        bitcast<f32>(buffers[params.normals & 4095u].words[base + 1u]),
+        bitcast<f32>(buffers[params.normals & 4095u].words[base + 2u]),
     );
     var normal = n;
     if dot(n, direction) > 0.0 {

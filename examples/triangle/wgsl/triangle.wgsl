@@ -48,7 +48,7 @@ fn rg(@builtin(ray_invocation_id) id: vec3<u32>, @builtin(num_ray_invocations) d
     color = vec3<f32>(0.0);
     traceRay(scene, RayDesc(0u, 0xffu, 0.0, 1e16, vec3f(params.cam_eye), dir), &color);
     let pixel = id.x + dims.x * id.y;
-    buffers[params.image].words[pixel] = q(color.x) | (q(color.y) << 8u) | (q(color.z) << 16u) | (255u << 24u);
+    buffers[params.image & 4095u].words[pixel] = q(color.x) | (q(color.y) << 8u) | (q(color.z) << 16u) | (255u << 24u);
 }
 
 @miss @incoming_payload(incoming_color)

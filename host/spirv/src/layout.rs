@@ -676,7 +676,7 @@ fn compare(
                     )));
                 }
             }
-            (Shape::Plain, _) => {
+            (Shape::Plain | Shape::Buffer | Shape::Traversable, _) => {
                 if member.size > field.size {
                     return Err(mismatch(format!("offset {}, size {}", member.offset, member.size)));
                 }

@@ -284,8 +284,8 @@ impl QueryPool {
 
 impl Drop for QueryPool {
     fn drop(&mut self) {
-        // SAFETY: the submission using the pool has finished before its owner drops it.
-        unsafe { self.ctx.device.destroy_query_pool(self.pool, None) };
+        // Destroyed once the submission writing it has finished.
+        self.ctx.retire(crate::timeline::Retired::QueryPool(self.pool));
     }
 }
 
@@ -303,6 +303,30 @@ pub(crate) fn build_barrier(ctx: &ContextInner, cmd: vk::CommandBuffer) {
             cmd,
             vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
             vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR | vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+            vk::DependencyFlags::empty(),
+            &[barrier],
+            &[],
+            &[],
+        )
+    };
+}
+
+/// The memory barrier before builds, refits and copies: they start only after
+/// earlier submissions (launches that trace the structures among them) have
+/// finished reading and writing, so a refit never changes a structure under a
+/// trace in flight.
+pub(crate) fn after_earlier_work_barrier(ctx: &ContextInner, cmd: vk::CommandBuffer) {
+    let barrier = vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE)
+        .dst_access_mask(
+            vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
+        );
+    // SAFETY: `cmd` is in the recording state.
+    unsafe {
+        ctx.device.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::ALL_COMMANDS,
+            vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
             vk::DependencyFlags::empty(),
             &[barrier],
             &[],
@@ -376,6 +400,7 @@ pub(crate) fn submit(ctx: &Arc<ContextInner>, jobs: &[Job], mut buffers: Vec<Raw
         // submission has finished (held by the returned `InFlight` and by the
         // caller's result); scratch ranges do not overlap; destinations are distinct.
         unsafe {
+            after_earlier_work_barrier(ctx, cmd);
             if let Some(q) = &queries {
                 ctx.device.cmd_reset_query_pool(cmd, q.pool, 0, q.count);
             }

@@ -249,6 +249,7 @@ impl Gas {
             query_compacted: false,
         };
         build::submit(&ctx, &[job], vec![p.input_buffer])?.wait()?;
+        self.accel.version.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
         self.compacted_size = None;
         Ok(())
     }
@@ -279,6 +280,7 @@ impl Gas {
                 let mut submission = ctx.submit("a compacted-size query", |cmd| {
                     // SAFETY: the structure is built and alive; the pool has one query.
                     unsafe {
+                        build::after_earlier_work_barrier(&ctx, cmd);
                         ctx.device.cmd_reset_query_pool(cmd, pool.pool, 0, 1);
                         ctx.accel.cmd_write_acceleration_structures_properties(
                             cmd,
@@ -303,6 +305,7 @@ impl Gas {
             // SAFETY: both structures are alive until the wait below; the
             // destination is at least the queried compacted size.
             unsafe {
+                build::after_earlier_work_barrier(&ctx, cmd);
                 ctx.accel.cmd_copy_acceleration_structure(cmd, &info);
                 build::build_barrier(&ctx, cmd);
             }

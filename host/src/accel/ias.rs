@@ -224,6 +224,7 @@ impl IasBuilder<'_> {
             options: self.options,
             sizes,
         };
+        ias.register();
         Ok(PendingBuild::new(in_flight, ias, |_, _| {}))
     }
 }
@@ -287,7 +288,19 @@ impl Ias {
         };
         build::submit(&ctx, &[job], vec![buffer])?.wait()?;
         self.gases = instances.iter().map(|i| i.accel.clone()).collect();
+        self.register();
         Ok(())
+    }
+
+    /// Records this IAS, with the versions of the GASes it was built over, as
+    /// what launches may trace.
+    fn register(&self) {
+        let over = self
+            .gases
+            .iter()
+            .map(|g| (g.version.clone(), g.version.load(std::sync::atomic::Ordering::Acquire)))
+            .collect();
+        self.accel.ctx.traversables.insert(self.accel.address, over);
     }
 
     /// Rebuilds the IAS over `instances` with its options; the count may change.
@@ -300,7 +313,9 @@ impl Ias {
 
     /// The handle device programs trace against (put it in the launch params).
     pub fn handle(&self) -> Traversable {
-        Traversable::from_device_address(self.accel.address)
+        // SAFETY: the address of this live, built IAS; launches check it is still
+        // alive and up to date when they are submitted (see `crate::handles`).
+        unsafe { Traversable::from_device_address(self.accel.address) }
     }
 
     /// Number of instances.
@@ -316,6 +331,14 @@ impl Ias {
     /// The sizes the driver reported for the build.
     pub fn build_sizes(&self) -> AccelSizes {
         self.sizes
+    }
+}
+
+impl Drop for Ias {
+    fn drop(&mut self) {
+        // Launches refuse its handle from now on; the structure itself waits for
+        // the pending work that may trace it (see `crate::timeline`).
+        self.accel.ctx.traversables.remove(self.accel.address);
     }
 }
 

@@ -97,6 +97,10 @@ pub(crate) struct AccelStructure {
     pub(crate) handle: vk::AccelerationStructureKHR,
     pub(crate) address: u64,
     pub(crate) size: u64,
+    /// Bumped by every refit, so an IAS built over an older version is refused
+    /// at launch (see [`crate::handles`], which holds clones of it: never the
+    /// structure, whose drop must not happen under a launch's checks).
+    pub(crate) version: Arc<std::sync::atomic::AtomicU64>,
     _storage: RawBuffer,
 }
 
@@ -118,16 +122,16 @@ impl AccelStructure {
         let address_info = vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(handle);
         // SAFETY: `handle` is a live acceleration structure of this device.
         let address = unsafe { ctx.accel.get_acceleration_structure_device_address(&address_info) };
-        Ok(AccelStructure { ctx: ctx.clone(), handle, address, size, _storage: storage })
+        Ok(AccelStructure { ctx: ctx.clone(), handle, address, size, version: Default::default(), _storage: storage })
     }
 }
 
 impl Drop for AccelStructure {
     fn drop(&mut self) {
-        // SAFETY: every submission that uses the structure is waited on before its
-        // owner can be dropped (launches block; a `PendingBuild` waits in its own
-        // drop, before the structures it holds); instances that reference it hold
+        // Pending launches and builds may still use it: the timeline destroys it
+        // once the last submitted epoch has finished (its storage buffer, dropped
+        // after this, waits for the same epoch). Instances that reference it hold
         // an `Arc` to it.
-        unsafe { self.ctx.accel.destroy_acceleration_structure(self.handle, None) };
+        self.ctx.retire(crate::timeline::Retired::Accel(self.handle));
     }
 }

@@ -35,7 +35,7 @@ impl ExceptionBuffer {
             gpu_allocator::MemoryLocation::GpuOnly,
             16,
         )?;
-        let slot = ctx.buffer_table.insert(&ctx.device, buffer.buffer)?;
+        let (slot, _) = ctx.buffer_table.insert(&ctx.device, buffer.buffer)?;
         Ok(ExceptionBuffer { ctx: ctx.clone(), buffer, slot })
     }
 
@@ -58,6 +58,7 @@ impl ExceptionBuffer {
 
 impl Drop for ExceptionBuffer {
     fn drop(&mut self) {
-        self.ctx.buffer_table.remove(self.slot);
+        // The slot is reused only once no pending work can write it.
+        self.ctx.retire(crate::timeline::Retired::Slot(self.slot));
     }
 }

@@ -59,9 +59,8 @@ impl PipelineHandle {
 
 impl Drop for PipelineHandle {
     fn drop(&mut self) {
-        // SAFETY: its owner holds it until nothing uses it: SBTs and launches in
-        // flight hold an `Arc` of the pipeline (a launch waits for its work before it
-        // is dropped), and pipelines linked from a library hold an `Arc` of it.
-        unsafe { self.ctx.device.destroy_pipeline(self.handle, None) };
+        // Pipelines linked from a library hold an `Arc` of it; launches in flight
+        // may still use it: the timeline destroys it once they have finished.
+        self.ctx.retire(crate::timeline::Retired::Pipeline(self.handle));
     }
 }

@@ -26,10 +26,16 @@
 //!
 //! So no lock is held between submission and completion, and any thread may launch
 //! while launches of the same pipeline are in flight. A [`Launch`] holds `Arc`s of
-//! the pipeline and the SBT's buffer, so neither is destroyed under the device, even
-//! if the handle is leaked; [`crate::Sbt::update`] refuses while a launch holds the
-//! SBT. The buffers the params name are the caller's: keep them alive, and read the
-//! results only after [`Launch::wait`] (or once [`Launch::is_done`] says so).
+//! the pipeline and the SBT's buffer; [`crate::Sbt::update`] while a launch holds
+//! the SBT writes into a copy, so the launch keeps the records it was given.
+//!
+//! # Dropping what a launch uses
+//! Each launch is an epoch on the context's GPU timeline ([`crate::timeline`]). The
+//! buffers, acceleration structures, SBT and pipeline a pending launch uses may be
+//! dropped at any time: they are destroyed, and their memory and bindless slots
+//! reused, only once the launch has finished. [`crate::DeviceBuffer::read`] waits
+//! for pending work; [`crate::DeviceBuffer::read_async`] submits a copy into host
+//! memory of its own, so a launch's image can be read even after it was dropped.
 
 use std::sync::Arc;
 
@@ -194,10 +200,12 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 16,
             )?,
         };
-        let submission = ctx.submit("a launch", |cmd| {
+        let check = || ctx.check_handles(&inner.handle_fields, params_bytes);
+        let submission = ctx.submit_checked("a launch", check, |cmd| {
             // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
             // SBT buffers are alive until the work is done (the returned `Launch`
-            // holds them and waits before dropping them); `cmd` is recording.
+            // holds them, and their drops wait for this submission's epoch on the
+            // timeline); `cmd` is recording.
             unsafe {
                 // Earlier submissions (launches of this pipeline among them) finish
                 // with the uniform buffer and the exception counters before this

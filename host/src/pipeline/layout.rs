@@ -49,9 +49,8 @@ impl ParamsSetLayout {
 
 impl Drop for ParamsSetLayout {
     fn drop(&mut self) {
-        // SAFETY: the pipeline layout made with it and the descriptor sets allocated
-        // with it are gone (see `PipelineLayout` and `crate::pipeline::PipelineInner`).
-        unsafe { self.ctx.device.destroy_descriptor_set_layout(self.handle, None) };
+        // Destroyed once the work that may use it has finished (see `crate::timeline`).
+        self.ctx.retire(crate::timeline::Retired::DescriptorSetLayout(self.handle));
     }
 }
 
@@ -93,9 +92,8 @@ impl PipelineLayout {
 
 impl Drop for PipelineLayout {
     fn drop(&mut self) {
-        // SAFETY: the pipeline (or library) made with it is destroyed first, and no
-        // launch of it is in flight; `params_set` is dropped after this.
-        unsafe { self.ctx.device.destroy_pipeline_layout(self.handle, None) };
+        // Destroyed once the work that may use it has finished (see `crate::timeline`).
+        self.ctx.retire(crate::timeline::Retired::PipelineLayout(self.handle));
     }
 }
 
@@ -171,8 +169,7 @@ impl ParamsUniform {
 
 impl Drop for ParamsUniform {
     fn drop(&mut self) {
-        // SAFETY: every launch holds an `Arc` of the pipeline that owns this, and
-        // waits before dropping it, so the set is idle; freeing the pool frees it.
-        unsafe { self.ctx.device.destroy_descriptor_pool(self.pool, None) };
+        // Destroyed (with its set) once the launches that may use it have finished.
+        self.ctx.retire(crate::timeline::Retired::DescriptorPool(self.pool));
     }
 }

@@ -100,6 +100,8 @@ pub(crate) struct PipelineInner {
     /// Finished launches' exception readback buffers, reused by later launches
     /// (an allocation per launch is slow on some drivers).
     pub(crate) readbacks: Mutex<Vec<RawBuffer>>,
+    /// Where `P`'s `Buffer` and `Traversable` fields are, checked by every launch.
+    pub(crate) handle_fields: Vec<crate::handles::HandleField>,
 }
 
 /// What a pipeline is made of besides its stages: its groups, its user-exception
@@ -155,6 +157,7 @@ impl PipelineInner {
             stack_size: AtomicU32::new(stack_bytes(default)?),
             exceptions: parts.exceptions,
             readbacks: Mutex::new(Vec::new()),
+            handle_fields: crate::handles::handle_fields(&P::LAYOUT),
         })
     }
 }

@@ -3,7 +3,9 @@
 //! SBT through plain ash calls, with [`Context::raw_device`](crate::Context::raw_device)
 //! and [`Sbt::raw_regions`](crate::Sbt::raw_regions) beside these). Getting a handle
 //! is safe; using it is `unsafe` ash code whose caller keeps raykit's rules: the
-//! owning raykit object outlives every use, and the queue is externally
+//! owning raykit object outlives every use (work submitted through these handles
+//! is not on raykit's GPU timeline, [`crate::timeline`], so raykit cannot defer the
+//! object's destruction for it), and the queue is externally
 //! synchronised (raykit submits to queue 0 of
 //! [`Context::queue_family`](crate::Context::queue_family), under a lock shared by
 //! every context on the device).

@@ -54,8 +54,8 @@ impl std::fmt::Debug for LaunchTimer {
 
 impl Drop for LaunchTimer {
     fn drop(&mut self) {
-        // SAFETY: the pool is not in use: every launch using it was waited for.
-        unsafe { self.ctx.device.destroy_query_pool(self.pool, None) };
+        // Destroyed once the launches writing it have finished.
+        self.ctx.retire(crate::timeline::Retired::QueryPool(self.pool));
     }
 }
 

@@ -44,6 +44,21 @@ impl<'g, T: bytemuck::Pod> SbtRecord<'g, T> {
 struct PackedRecord {
     group_index: usize,
     data: Vec<u8>,
+    /// The data's type, which [`Sbt::update`] must be given again.
+    data_type: DataType,
+}
+
+/// The type of a record's data: its id and its name for errors.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+struct DataType {
+    id: std::any::TypeId,
+    name: &'static str,
+}
+
+impl DataType {
+    fn of<T: 'static>() -> DataType {
+        DataType { id: std::any::TypeId::of::<T>(), name: std::any::type_name::<T>() }
+    }
 }
 
 /// Byte layout of one region.
@@ -114,7 +129,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             self.error = Some(Error::GroupNotInPipeline { kind: group.kind() });
             return None;
         };
-        Some(PackedRecord { group_index, data: bytemuck::bytes_of(data).to_vec() })
+        Some(PackedRecord { group_index, data: bytemuck::bytes_of(data).to_vec(), data_type: DataType::of::<T>() })
     }
 
     /// The raygen record (exactly one; a second replaces the first).
@@ -224,7 +239,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         let mut callable = self.callable;
         let exception_index = match pipeline.groups.iter().position(|g| g.kind == GroupKind::Exception) {
             Some(group_index) => {
-                callable.push(PackedRecord { group_index, data: Vec::new() });
+                callable.push(PackedRecord { group_index, data: Vec::new(), data_type: DataType::of::<()>() });
                 Some(callable.len() as u32 - 1)
             }
             None => None,
@@ -267,6 +282,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             callable: region(cl),
             layouts: [rg, ms, ht, cl],
             counts: [1, miss.len(), hit.len(), callable.len()],
+            data_types: [raygen_records, &miss[..], &hit[..], &callable[..]]
+                .map(|records| records.iter().map(|r| r.data_type).collect()),
             exception_index,
             buffer: Arc::new(buffer),
         })
@@ -295,6 +312,8 @@ pub struct Sbt {
     layouts: [RegionLayout; 4],
     /// Record counts per region (raygen, miss, hit, callable).
     counts: [usize; 4],
+    /// The data type of each record, per region.
+    data_types: [Vec<DataType>; 4],
     /// The exception program's index in the callable region, if the pipeline has one.
     pub(crate) exception_index: Option<u32>,
     /// Shared with launches in flight ([`crate::Launch`]), which keep it alive.
@@ -309,14 +328,27 @@ impl Sbt {
 
     /// Overwrites the data of record `index` of `region` (the group stays),
     /// without rebuilding the SBT or the pipeline — OptiX's way of changing a
-    /// material between launches. Call it between launches: while an async launch
-    /// ([`Pipeline::launch_async`]) that uses this SBT is in flight, it fails.
+    /// material between launches. `data` must be of the type the record was built
+    /// with. Launches already submitted keep the records they were given: while
+    /// one is in flight, the update goes into a copy of the SBT that later launches
+    /// use (the old one is freed once those launches finish, see [`crate::timeline`]).
     pub fn update<T: bytemuck::Pod>(&mut self, region: SbtRegion, index: usize, data: T) -> Result<()> {
         let r = region.index();
         if index >= self.counts[r] {
             return Err(Error::SbtUpdate {
                 region,
                 reason: format!("index {index} is past the region's {} record(s)", self.counts[r]),
+            });
+        }
+        let built = self.data_types[r][index];
+        if built != DataType::of::<T>() {
+            return Err(Error::SbtUpdate {
+                region,
+                reason: format!(
+                    "record {index} holds `{}`, not `{}`; pass data of the type the record was built with",
+                    built.name,
+                    std::any::type_name::<T>()
+                ),
             });
         }
         let layout = self.layouts[r];
@@ -333,15 +365,42 @@ impl Sbt {
             });
         }
         let at = (layout.offset + layout.stride * index as u64 + handle) as usize;
-        // A launch in flight holds a clone of the buffer: the device may be reading it.
-        let buffer = Arc::get_mut(&mut self.buffer).ok_or(Error::SbtUpdate {
-            region,
-            reason: "a launch using this SBT is still in flight; wait for it (Launch::wait) first".to_owned(),
-        })?;
+        // A launch in flight holds a clone of the buffer: the device may be reading
+        // it. Write into a copy, which launches from now on use.
+        if Arc::get_mut(&mut self.buffer).is_none() {
+            self.copy_on_write(region)?;
+        }
+        let buffer = Arc::get_mut(&mut self.buffer)
+            .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is shared".to_owned() })?;
         let mapped = buffer
             .mapped_mut()
             .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
         mapped[at..at + bytes.len()].copy_from_slice(bytes);
+        Ok(())
+    }
+
+    /// Replaces the buffer with a copy of it, for an update while launches use it.
+    fn copy_on_write(&mut self, region: SbtRegion) -> Result<()> {
+        let old = &self.buffer;
+        let ctx = &self.pipeline.ctx;
+        let mut copy = RawBuffer::new(
+            ctx,
+            "shader binding table",
+            old.size,
+            vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR,
+            MemoryLocation::CpuToGpu,
+            ctx.limits.shader_group_base_alignment as u64,
+        )?;
+        let bytes =
+            old.mapped().ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
+        copy.write_bytes(bytes)?;
+        let (from, to) = (old.address, copy.address);
+        for r in [&mut self.raygen, &mut self.miss, &mut self.hit, &mut self.callable] {
+            if r.size != 0 {
+                r.device_address = r.device_address - from + to;
+            }
+        }
+        self.buffer = Arc::new(copy);
         Ok(())
     }
 

@@ -1,0 +1,200 @@
+//! Checked handles: every launch checks the [`Buffer`](raykit_device::Buffer) and
+//! [`Traversable`](raykit_device::Traversable) fields of its params (found through
+//! [`LaunchParams::LAYOUT`](raykit_device::LaunchParams::LAYOUT)) against the
+//! objects alive in the launching context, and refuses a dropped, foreign or stale
+//! one with [`Error::InvalidHandle`] naming the field.
+//!
+//! * A buffer handle is a slot of the context's bindless table in its low 12 bits
+//!   and a generation in the 20 bits above, unique in the process (until it wraps
+//!   after 2^20 buffers). It must be the null handle (0) or the handle of a live
+//!   [`crate::DeviceBuffer`] of this context: the handle of a dropped buffer (its
+//!   slot reused or not) and that of another context's buffer carry another
+//!   generation than the slot's and are refused. Device programs use only the slot
+//!   bits (`Buffer::table_index`); programs in GLSL or WGSL mask the handle with
+//!   `BUFFER_TABLE_SLOTS - 1` (4095) the same way.
+//! * A traversable must be [`Traversable::NULL`](raykit_device::Traversable::NULL)
+//!   or the address of a live [`crate::Ias`] of this context, built (or updated)
+//!   after the last refit of every GAS it instances.
+//!
+//! What raykit cannot see it does not check: handles stored inside SBT records or
+//! inside buffers reach the device unchecked; see [`raykit_device::Buffer`] for what
+//! the device reads through a bad one.
+
+use std::collections::HashMap;
+use std::sync::atomic::AtomicU64;
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex};
+
+use raykit_device::{ParamsLayout, Shape};
+
+use crate::context::ContextInner;
+use crate::error::{Error, Result};
+
+/// What a handle field holds.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+enum HandleKind {
+    Buffer,
+    Traversable,
+}
+
+/// One handle in a params struct: where it is and what it is called.
+#[derive(Clone, Debug)]
+pub(crate) struct HandleField {
+    offset: u32,
+    kind: HandleKind,
+    name: String,
+}
+
+/// Every handle field of `layout`, nested structs and arrays included, in order.
+pub(crate) fn handle_fields(layout: &ParamsLayout) -> Vec<HandleField> {
+    let mut out = Vec::new();
+    collect(layout, 0, "", &mut out);
+    out
+}
+
+fn collect(layout: &ParamsLayout, base: u32, prefix: &str, out: &mut Vec<HandleField>) {
+    for field in layout.fields {
+        let name = if prefix.is_empty() { field.name.to_owned() } else { format!("{prefix}.{}", field.name) };
+        collect_shape(&field.shape, base + field.offset, name, out);
+    }
+}
+
+fn collect_shape(shape: &Shape, offset: u32, name: String, out: &mut Vec<HandleField>) {
+    match shape {
+        Shape::Buffer => out.push(HandleField { offset, kind: HandleKind::Buffer, name }),
+        Shape::Traversable => out.push(HandleField { offset, kind: HandleKind::Traversable, name }),
+        Shape::Struct(inner) => collect(inner, offset, &name, out),
+        Shape::Array { stride, len, element } => {
+            for i in 0..*len {
+                collect_shape(element, offset + i * stride, format!("{name}[{i}]"), out);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The versions of the GASes an IAS was built over, with the value of each at the build.
+pub(crate) type BuiltOver = Vec<(Arc<AtomicU64>, u64)>;
+
+/// The live instance acceleration structures of a context, by device address.
+#[derive(Default)]
+pub(crate) struct LiveTraversables {
+    by_address: Mutex<HashMap<u64, BuiltOver>>,
+}
+
+impl LiveTraversables {
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<u64, BuiltOver>> {
+        self.by_address.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Records (or re-records after an update) the IAS at `address`.
+    pub(crate) fn insert(&self, address: u64, over: BuiltOver) {
+        self.lock().insert(address, over);
+    }
+
+    /// Forgets the IAS at `address` (it was dropped).
+    pub(crate) fn remove(&self, address: u64) {
+        self.lock().remove(&address);
+    }
+}
+
+impl ContextInner {
+    /// Checks the handles of `params` (laid out as `fields` says).
+    pub(crate) fn check_handles(&self, fields: &[HandleField], params: &[u8]) -> Result<()> {
+        if fields.is_empty() {
+            return Ok(());
+        }
+        let read = |offset: u32, n: usize| params.get(offset as usize..offset as usize + n);
+        let mut tlas = None;
+        for field in fields {
+            match field.kind {
+                HandleKind::Buffer => {
+                    let Some(bytes) = read(field.offset, 4) else { continue };
+                    let handle = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
+                    if !self.buffer_table.is_live(handle) {
+                        return Err(Error::InvalidHandle {
+                            field: field.name.clone(),
+                            problem: format!(
+                                "buffer handle {handle:#x} names no live DeviceBuffer of this Context (its buffer was dropped, its slot reused, or it belongs to another Context)"
+                            ),
+                            fix: "put the handle() of a DeviceBuffer of this Context, alive until the launch is submitted, in the params",
+                        });
+                    }
+                }
+                HandleKind::Traversable => {
+                    let Some(bytes) = read(field.offset, 8) else { continue };
+                    let mut word = [0u8; 8];
+                    word.copy_from_slice(bytes);
+                    let address = u64::from_le_bytes(word);
+                    if address == 0 {
+                        continue;
+                    }
+                    let map = tlas.get_or_insert_with(|| self.traversables.lock());
+                    let Some(over) = map.get(&address) else {
+                        return Err(Error::InvalidHandle {
+                            field: field.name.clone(),
+                            problem: format!(
+                                "traversable {address:#x} is no live IAS of this Context (it was dropped, rebuilt, or belongs to another Context)"
+                            ),
+                            fix: "put the handle() of a live Ias of this Context in the params",
+                        });
+                    };
+                    let stale = over.iter().position(|(now, built)| now.load(Ordering::Acquire) != *built);
+                    if let Some(instance) = stale {
+                        return Err(Error::InvalidHandle {
+                            field: field.name.clone(),
+                            problem: format!(
+                                "the GAS of instance {instance} was refitted since this IAS was built"
+                            ),
+                            fix: "update the IAS (Ias::update with its instances) or rebuild it after refitting its GASes",
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use raykit_device::FieldLayout;
+
+    #[test]
+    fn handle_fields_are_found_in_nested_structs_and_arrays() {
+        static ELEMENT: Shape = Shape::Buffer;
+        static INNER: ParamsLayout = ParamsLayout {
+            name: "Inner",
+            size: 12,
+            fields: &[
+                FieldLayout { name: "n", type_name: "u32", offset: 0, size: 4, shape: Shape::Plain },
+                FieldLayout {
+                    name: "bufs",
+                    type_name: "[Buffer<u32>; 2]",
+                    offset: 4,
+                    size: 8,
+                    shape: Shape::Array { stride: 4, len: 2, element: &ELEMENT },
+                },
+            ],
+        };
+        static OUTER: ParamsLayout = ParamsLayout {
+            name: "Outer",
+            size: 24,
+            fields: &[
+                FieldLayout { name: "scene", type_name: "Traversable", offset: 0, size: 8, shape: Shape::Traversable },
+                FieldLayout { name: "inner", type_name: "Inner", offset: 8, size: 12, shape: Shape::Struct(&INNER) },
+            ],
+        };
+        let found: Vec<(u32, HandleKind, String)> =
+            handle_fields(&OUTER).into_iter().map(|f| (f.offset, f.kind, f.name)).collect();
+        assert_eq!(
+            found,
+            [
+                (0, HandleKind::Traversable, "scene".to_owned()),
+                (12, HandleKind::Buffer, "inner.bufs[0]".to_owned()),
+                (16, HandleKind::Buffer, "inner.bufs[1]".to_owned()),
+            ]
+        );
+    }
+}
