@@ -331,6 +331,52 @@ pub enum Error {
         index: usize,
     },
 
+    /// An SBT index is past what a trace can select, or its arithmetic overflows.
+    #[error("SBT {region} index {index} is out of range: a {region} region holds at most {limit} records (Vulkan reads {bits} bits of it); use a smaller index")]
+    SbtIndexOutOfRange {
+        /// The region.
+        region: SbtRegion,
+        /// The index, or how it was computed when that overflowed.
+        index: String,
+        /// The most records the region may hold.
+        limit: usize,
+        /// How many bits of the index Vulkan reads.
+        bits: u32,
+    },
+
+    /// The SBT lacks a record that a trace of its pipeline selects.
+    #[error("the SBT has {have} {region} record(s), but `{program}` traces rays that select {region} record {}; add it with Sbt::builder(..).{region}_at({}, ..) (or the ray type's `{region}_for`)", .needed - 1, .needed - 1)]
+    SbtIncomplete {
+        /// The region.
+        region: SbtRegion,
+        /// How many records it needs.
+        needed: usize,
+        /// How many it has.
+        have: usize,
+        /// The program whose trace selects the missing record.
+        program: String,
+    },
+
+    /// A pipeline's programs trace deeper than its `max_trace_depth`.
+    #[error("`{program}` needs a trace depth of at least {needed} ({why}), but the pipeline is linked with max_trace_depth {max_trace_depth}; raise LinkOptions::max_trace_depth to the deepest recursion the programs reach")]
+    TraceDepthExceeded {
+        /// The program that traces.
+        program: String,
+        /// The least depth it needs.
+        needed: u32,
+        /// The depth asked for.
+        max_trace_depth: u32,
+        /// Why it needs it.
+        why: &'static str,
+    },
+
+    /// The SBT's host copy could not be allocated.
+    #[error("the SBT needs {bytes} bytes, which cannot be allocated; use fewer or smaller records")]
+    SbtTooLarge {
+        /// Its size.
+        bytes: u64,
+    },
+
     /// A record's data is too large for the device.
     #[error("SBT record data of {size} bytes: record stride {stride} exceeds this device's maxShaderGroupStride {limit}; keep large data in a `Buffer<T>` and put its handle in the record")]
     SbtRecordTooLarge {

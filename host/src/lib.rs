@@ -16,6 +16,7 @@ pub mod pipeline;
 pub mod program_group;
 pub mod sbt;
 pub mod stack;
+pub mod validate;
 pub mod wgsl;
 
 pub use accel::{

@@ -36,6 +36,8 @@ pub struct EntryPointInfo {
     /// The bytes of ray payload and hit attributes it declares, which a
     /// [`crate::PipelineLibrary`]'s interface must cover.
     pub interface: InterfaceSizes,
+    /// The rays it traces (through its call graph), with their constant SBT operands.
+    pub traces: raykit_spirv::EntryTraces,
 }
 
 /// A SPIR-V module on the device, with its entry points.
@@ -48,6 +50,8 @@ pub(crate) struct ModuleInner {
     pub(crate) ctx: Arc<ContextInner>,
     pub(crate) shader: vk::ShaderModule,
     pub(crate) entry_points: Vec<EntryPointInfo>,
+    /// Its SPIR-V, validated again with each pipeline's specialization constants.
+    pub(crate) words: Vec<u32>,
     /// Messages reported while it was created.
     pub(crate) log: Vec<crate::log::ValidationMessage>,
 }
@@ -61,6 +65,9 @@ fn kind_of(model: ExecutionModel) -> Option<ProgramKind> {
 fn opcode(first_word: u32) -> Option<Op> {
     Op::from_u32(first_word & 0xffff)
 }
+
+/// The largest ID bound Vulkan drivers accept (SPIR-V's universal limit, as SPIRV-Tools checks it).
+pub const MAX_ID_BOUND: u32 = (1 << 22) - 1;
 
 /// Turns bytes into SPIR-V words, checking size and magic number.
 pub(crate) fn words_of(bytes: &[u8]) -> Result<Vec<u32>> {
@@ -94,8 +101,8 @@ fn check_structure(words: &[u32]) -> Result<()> {
         return invalid(format!("unknown SPIR-V version word {version:#010x}"));
     }
     let bound = words[3];
-    if bound == 0 || bound > 1 << 22 {
-        return invalid(format!("ID bound {bound} is out of range"));
+    if bound == 0 || bound > MAX_ID_BOUND {
+        return invalid(format!("ID bound {bound} is out of range 1..={MAX_ID_BOUND} (SPIR-V's universal limit)"));
     }
     let mut functions = std::collections::HashSet::new();
     let mut entry_functions = Vec::new();
@@ -274,6 +281,7 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
     let module = parse(&words)?;
     let mut params = raykit_spirv::reflect_params(&module)?;
     let mut interfaces = raykit_spirv::reflect_interface_sizes(&module)?;
+    let mut traces = raykit_spirv::reflect_traces(&module);
     let mut entries = Vec::new();
     for inst in &module.entry_points {
         let (Some(rspirv::dr::Operand::ExecutionModel(model)), Some(rspirv::dr::Operand::LiteralString(name))) =
@@ -293,6 +301,7 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
             execution_model: format!("{model:?}"),
             params: params.remove(name).unwrap_or_default(),
             interface: interfaces.remove(name).unwrap_or_default(),
+            traces: traces.remove(name).unwrap_or_default(),
         });
     }
     Ok(entries)
@@ -312,6 +321,7 @@ impl Module {
             });
         }
         let words = words_of(spirv)?;
+        crate::validate::spirv::validate(&words)?;
         if !ctx.inner.non_semantic_info && declares_extension(&words, "SPV_KHR_non_semantic_info") {
             return Err(Error::SpirvExtensionUnsupported {
                 spirv_extension: "SPV_KHR_non_semantic_info".to_owned(),
@@ -326,7 +336,7 @@ impl Module {
         });
         let shader = shader.map_err(Error::vk("vkCreateShaderModule"))?;
         ctx.inner.set_name(shader, &format!("raykit module {name}"));
-        Ok(Module { inner: Arc::new(ModuleInner { ctx: ctx.inner.clone(), shader, entry_points, log }) })
+        Ok(Module { inner: Arc::new(ModuleInner { ctx: ctx.inner.clone(), shader, entry_points, words, log }) })
     }
 
     /// Loads the SPIR-V that `cargo xtask build-shaders` built for the device crate

@@ -570,7 +570,9 @@ fn sbt_record_data_too_large() -> anyhow::Result<()> {
             anyhow::ensure!(ctx.limits().max_shader_group_stride < 65536, "this device allows 64 KiB records");
             let l = linked(ctx)?;
             let huge: HugeRecord = bytemuck::Zeroable::zeroed();
-            refused(Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).hit(&l.hit, huge).build(), "a 64 KiB record")
+            let bg = MissData { bg_color: BG_COLOR };
+            let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, bg);
+            refused(builder.hit(&l.hit, huge).build(), "a 64 KiB record")
         },
         |e| matches!(e, Error::SbtRecordTooLarge { size: 65536, .. }),
     )
@@ -1016,4 +1018,306 @@ fn more_live_buffers_than_the_buffer_table_holds() -> anyhow::Result<()> {
         },
         |e| matches!(e, Error::BufferTableFull { .. }),
     )
+}
+
+// ---------------------------------------------------------------------------
+// Inputs that used to crash the driver or raykit itself. Each runs in a child
+// process (this test binary again, with only that test, selected by
+// `RAYKIT_BAD_INPUT_CHILD`), so a regression fails the test instead of killing
+// the whole test binary; a child that hangs is killed after `CHILD_TIMEOUT`.
+
+/// Names the test a child process runs.
+const CHILD_VAR: &str = "RAYKIT_BAD_INPUT_CHILD";
+const CHILD_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(300);
+
+/// Runs `body` in a child process: test `name` of this binary, alone.
+fn in_child(name: &str, body: impl FnOnce() -> anyhow::Result<()>) -> anyhow::Result<()> {
+    if std::env::var(CHILD_VAR).is_ok_and(|c| c == name) {
+        return body();
+    }
+    use std::io::Read;
+    let mut child = std::process::Command::new(std::env::current_exe()?)
+        .args([name, "--exact", "--test-threads=1", "--nocapture"])
+        .env(CHILD_VAR, name)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()?;
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait()? {
+            break status;
+        }
+        if start.elapsed() > CHILD_TIMEOUT {
+            child.kill()?;
+            child.wait()?;
+            anyhow::bail!("{name}: the child process hung for {CHILD_TIMEOUT:?} and was killed");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let (mut out, mut err) = (String::new(), String::new());
+    child.stdout.take().map(|mut o| o.read_to_string(&mut out));
+    child.stderr.take().map(|mut e| e.read_to_string(&mut err));
+    anyhow::ensure!(status.success(), "{name}: the child process failed ({status}):\n{out}\n{err}");
+    anyhow::ensure!(out.contains("1 passed"), "{name}: the child process ran no test:\n{out}\n{err}");
+    Ok(())
+}
+
+/// An SBT of the triangle's pipeline with `edit` applied to a builder that has
+/// the raygen record.
+fn triangle_sbt(
+    ctx: &Context,
+    edit: impl for<'a> FnOnce(raykit::SbtBuilder<'a, Params>, &'a Linked) -> raykit::SbtBuilder<'a, Params>,
+) -> anyhow::Result<Error> {
+    let l = linked(ctx)?;
+    let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ());
+    let result = edit(builder, &l).build();
+    refused(result, "the SBT")
+}
+
+#[test]
+fn sbt_without_a_miss_record_for_a_pipeline_that_traces() -> anyhow::Result<()> {
+    in_child("sbt_without_a_miss_record_for_a_pipeline_that_traces", || {
+        case(
+            "sbt_without_a_miss_record_for_a_pipeline_that_traces",
+            &["0 miss record(s)", "`__raygen__rg`", "miss_at(0, ..)"],
+            |ctx| triangle_sbt(ctx, |b, l| b.hit(&l.hit, ())),
+            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Miss, needed: 1, have: 0, .. }),
+        )
+    })
+}
+
+#[test]
+fn sbt_without_a_hit_record_for_a_pipeline_with_hit_groups() -> anyhow::Result<()> {
+    in_child("sbt_without_a_hit_record_for_a_pipeline_with_hit_groups", || {
+        case(
+            "sbt_without_a_hit_record_for_a_pipeline_with_hit_groups",
+            &["0 hit record(s)", "hit_at(0, ..)"],
+            |ctx| triangle_sbt(ctx, |b, l| b.miss(&l.miss, MissData { bg_color: BG_COLOR })),
+            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Hit, needed: 1, have: 0, .. }),
+        )
+    })
+}
+
+#[test]
+fn hit_at_usize_max() -> anyhow::Result<()> {
+    in_child("hit_at_usize_max", || {
+        case(
+            "hit_at_usize_max",
+            &[&format!("SBT hit index {} is out of range", usize::MAX), "at most 16777216", "24 bits"],
+            |ctx| {
+                triangle_sbt(ctx, |b, l| {
+                    b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_at(usize::MAX, &l.hit, ())
+                })
+            },
+            |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, limit: 16_777_216, .. }),
+        )
+    })
+}
+
+#[test]
+fn hit_for_a_huge_geometry_index() -> anyhow::Result<()> {
+    in_child("hit_for_a_huge_geometry_index", || {
+        case(
+            "hit_for_a_huge_geometry_index",
+            &["geometry × SBT_STRIDE + SBT_OFFSET", "out of range"],
+            |ctx| {
+                triangle_sbt(ctx, |b, l| {
+                    b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_for::<Ghost, _>(usize::MAX / 2, &l.hit, ())
+                })
+            },
+            |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, .. }),
+        )
+    })
+}
+
+#[test]
+fn miss_at_two_to_the_forty() -> anyhow::Result<()> {
+    in_child("miss_at_two_to_the_forty", || {
+        case(
+            "miss_at_two_to_the_forty",
+            &["SBT miss index 1099511627776 is out of range", "at most 65536", "16 bits"],
+            |ctx| {
+                triangle_sbt(ctx, |b, l| b.miss_at(1 << 40, &l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()))
+            },
+            |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Miss, limit: 65536, .. }),
+        )
+    })
+}
+
+#[test]
+fn miss_index_just_past_sixteen_bits() -> anyhow::Result<()> {
+    case(
+        "miss_index_just_past_sixteen_bits",
+        &["SBT miss index 65536 is out of range"],
+        |ctx| triangle_sbt(ctx, |b, l| b.miss_at(65536, &l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ())),
+        |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Miss, .. }),
+    )
+}
+
+#[test]
+fn hit_index_just_past_twenty_four_bits() -> anyhow::Result<()> {
+    case(
+        "hit_index_just_past_twenty_four_bits",
+        &["SBT hit index 16777216 is out of range"],
+        |ctx| triangle_sbt(ctx, |b, l| b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_at(1 << 24, &l.hit, ())),
+        |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, .. }),
+    )
+}
+
+#[test]
+fn sbt_hit_records_a_million_slots_apart() -> anyhow::Result<()> {
+    // Within the limit but with a hole: refused before anything is allocated.
+    case(
+        "sbt_hit_records_a_million_slots_apart",
+        &["SBT hit slot 1 is empty"],
+        |ctx| {
+            triangle_sbt(ctx, |b, l| {
+                b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()).hit_at(1 << 20, &l.hit, ())
+            })
+        },
+        |e| matches!(e, Error::SbtHole { region: raykit::SbtRegion::Hit, index: 1 }),
+    )
+}
+
+// --- SPIR-V validated before the driver sees it ---
+
+#[test]
+fn id_bound_of_two_to_the_twenty_two() -> anyhow::Result<()> {
+    case(
+        "id_bound_of_two_to_the_twenty_two",
+        &["ID bound 4194304 is out of range 1..=4194303"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            w[3] = 1 << 22;
+            refused(Module::new(ctx, &bytes(&w)), "ID bound 2^22")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn id_bound_at_the_limit_is_accepted() -> anyhow::Result<()> {
+    with_context("id_bound_at_the_limit_is_accepted", |ctx| {
+        let mut w = words(RAYGEN_MAIN);
+        w[3] = raykit::module::MAX_ID_BOUND;
+        Module::new(ctx, &bytes(&w))?;
+        still_usable(ctx)
+    })
+}
+
+/// `raygen_main.rgen.spv` with the first `OpTypeVector`'s component count made 5,
+/// which is well formed but invalid (vectors have 2, 3 or 4 components).
+fn five_component_vector() -> Vec<u8> {
+    let mut w = words(RAYGEN_MAIN);
+    let mut at = 5;
+    while at < w.len() {
+        let count = (w[at] >> 16) as usize;
+        if w[at] & 0xffff == 23 {
+            // OpTypeVector %result %component count
+            w[at + 3] = 5;
+            break;
+        }
+        at += count.max(1);
+    }
+    bytes(&w)
+}
+
+#[test]
+fn type_level_corruption_carries_the_validators_message() -> anyhow::Result<()> {
+    if !raykit::validate::spirv::validator_available() {
+        anyhow::bail!("no SPIR-V validator: install spirv-tools (spirv-val)");
+    }
+    case(
+        "type_level_corruption_carries_the_validators_message",
+        &["not a SPIR-V module", "spirv-val", "Illegal number of components (5)"],
+        |ctx| refused(Module::new(ctx, &five_component_vector()), "a 5-component vector"),
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+const PAYLOAD_SPEC_ARRAY: &[u8] = include_bytes!("../data/payload_spec_array.rgen.spv");
+
+/// Links `payload_spec_array.rgen` (its payload array sized by spec constant 3)
+/// with constant 3 set to `length`.
+fn spec_array_pipeline(ctx: &Context, length: u32) -> anyhow::Result<Error> {
+    let module = Module::new(ctx, PAYLOAD_SPEC_ARRAY)?;
+    let raygen = ProgramGroup::raygen(&module, "main")?;
+    let constants = raykit::Specialization::new().set(3, length);
+    refused(
+        Pipeline::<Params>::with_specialization(ctx, &[&raygen], LinkOptions::default(), &constants),
+        "an array sized by a specialization constant",
+    )
+}
+
+#[test]
+fn spec_constant_sizing_an_array_to_zero() -> anyhow::Result<()> {
+    in_child("spec_constant_sizing_an_array_to_zero", || {
+        case(
+            "spec_constant_sizing_an_array_to_zero",
+            &["spirv-val", "OpTypeArray"],
+            |ctx| spec_array_pipeline(ctx, 0),
+            |e| matches!(e, Error::InvalidSpirv { .. }),
+        )
+    })
+}
+
+#[test]
+fn spec_constant_sizing_an_array_to_two_to_the_thirty_one() -> anyhow::Result<()> {
+    in_child("spec_constant_sizing_an_array_to_two_to_the_thirty_one", || {
+        case(
+            "spec_constant_sizing_an_array_to_two_to_the_thirty_one",
+            &["sizes array type", "2147483648 elements", "`Buffer<T>`"],
+            |ctx| spec_array_pipeline(ctx, 1 << 31),
+            |e| matches!(e, Error::InvalidSpirv { .. }),
+        )
+    })
+}
+
+// --- Trace depth ---
+
+#[test]
+fn tracing_raygen_with_max_trace_depth_zero() -> anyhow::Result<()> {
+    in_child("tracing_raygen_with_max_trace_depth_zero", || {
+        case(
+            "tracing_raygen_with_max_trace_depth_zero",
+            &["`__raygen__rg` needs a trace depth of at least 1", "max_trace_depth 0", "LinkOptions::max_trace_depth"],
+            |ctx| {
+                let p = triangle::Programs::rust(ctx)?;
+                refused(
+                    Pipeline::<Params>::new(ctx, &[&p.raygen, &p.miss, &p.hit], LinkOptions { max_trace_depth: 0 }),
+                    "a tracing raygen with depth 0",
+                )
+            },
+            |e| matches!(e, Error::TraceDepthExceeded { needed: 1, max_trace_depth: 0, .. }),
+        )
+    })
+}
+
+/// The stack test's programs: a closest-hit that traces again (recursion).
+fn recursive_pipeline(ctx: &Context, max_trace_depth: u32) -> raykit::Result<Pipeline<stack_test_device::Params>> {
+    let module = Module::from_device_crate(ctx, "stack-test-device")?;
+    let raygen = ProgramGroup::raygen(&module, stack_test_device::RG)?;
+    let miss = ProgramGroup::miss(&module, stack_test_device::MS)?;
+    let hit = ProgramGroup::hit_group(&module).closest_hit(stack_test_device::LAYER_HIT).build()?;
+    Pipeline::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth })
+}
+
+#[test]
+fn recursive_closest_hit_with_max_trace_depth_one() -> anyhow::Result<()> {
+    in_child("recursive_closest_hit_with_max_trace_depth_one", || {
+        case(
+            "recursive_closest_hit_with_max_trace_depth_one",
+            &["needs a trace depth of at least 2", "recurses", "max_trace_depth 1"],
+            |ctx| refused(recursive_pipeline(ctx, 1), "a recursive closest-hit with depth 1"),
+            |e| matches!(e, Error::TraceDepthExceeded { needed: 2, max_trace_depth: 1, .. }),
+        )
+    })
+}
+
+#[test]
+fn recursive_closest_hit_with_a_declared_depth_links() -> anyhow::Result<()> {
+    with_context("recursive_closest_hit_with_a_declared_depth_links", |ctx| {
+        recursive_pipeline(ctx, 2)?;
+        still_usable(ctx)
+    })
 }

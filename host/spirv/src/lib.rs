@@ -7,6 +7,8 @@
 //!   `MatrixStride` decorations) and ray-payload and hit-attribute sizes, and the
 //!   check of a params block against the layout `#[derive(LaunchParams)]`
 //!   recorded on the host;
+//! * [`trace`]: the `OpTraceRayKHR` calls each entry point reaches, with their
+//!   constant SBT operands;
 //! * [`generate`]: small modules raykit builds itself, such as an empty raygen.
 //!
 //! The runtime (`raykit`) uses it when it loads modules and links pipelines; build
@@ -15,9 +17,11 @@
 
 pub mod generate;
 pub mod layout;
+pub mod trace;
 
 pub use generate::empty_raygen;
 pub use layout::{
     built_spirv_path, check, check_file, parse, reflect_interface_sizes, reflect_params, BlockMember, BlockType,
     InterfaceSizes, LayoutError, ParamsBlock, ParamsDelivery,
 };
+pub use trace::{reflect_traces, EntryTraces, TraceCall};

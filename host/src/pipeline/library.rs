@@ -151,6 +151,7 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
         let layout = PipelineLayout::new::<P>(inner)?;
         let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
+        crate::validate::check_programs(groups, options.max_trace_depth, &shaders.spec_values())?;
         let specialization = shaders.specialization();
         let stages = shaders.stages(&specialization);
         let interface_create = interface_info(interface);

@@ -9,6 +9,7 @@
 
 pub mod region;
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::sync::Arc;
 
@@ -82,22 +83,43 @@ fn align_up(x: u64, a: u64) -> u64 {
 pub struct SbtBuilder<'p, P: raykit_device::LaunchParams> {
     pipeline: &'p Pipeline<P>,
     raygen: Option<PackedRecord>,
-    miss: Vec<Option<PackedRecord>>,
-    hit: Vec<Option<PackedRecord>>,
+    miss: BTreeMap<usize, PackedRecord>,
+    hit: BTreeMap<usize, PackedRecord>,
     callable: Vec<PackedRecord>,
     error: Option<Error>,
 }
 
-/// Puts `record` at `index` of `region`, growing it; a taken slot is an error.
-fn place(slots: &mut Vec<Option<PackedRecord>>, index: usize, record: PackedRecord, region: SbtRegion) -> Result<()> {
-    if slots.len() <= index {
-        slots.resize_with(index + 1, || None);
+/// The error for an index past what `region` may hold (see [`crate::validate::max_records`]).
+fn out_of_range(region: SbtRegion, index: String) -> Error {
+    let bits = match region {
+        SbtRegion::Hit => 24,
+        SbtRegion::Raygen => 0,
+        SbtRegion::Miss | SbtRegion::Callable => 16,
+    };
+    Error::SbtIndexOutOfRange { region, index, limit: crate::validate::max_records(region), bits }
+}
+
+/// Puts `record` at `index` of `region`; a taken slot or an index past the
+/// region's limit is an error.
+fn place(
+    slots: &mut BTreeMap<usize, PackedRecord>,
+    index: usize,
+    record: PackedRecord,
+    region: SbtRegion,
+) -> Result<()> {
+    if index >= crate::validate::max_records(region) {
+        return Err(out_of_range(region, index.to_string()));
     }
-    if slots[index].is_some() {
+    if slots.contains_key(&index) {
         return Err(Error::SbtSlotTaken { region, index });
     }
-    slots[index] = Some(record);
+    slots.insert(index, record);
     Ok(())
+}
+
+/// The number of slots of `slots` up to its last filled one.
+fn slot_count(slots: &BTreeMap<usize, PackedRecord>) -> usize {
+    slots.keys().next_back().map_or(0, |last| last + 1)
 }
 
 impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
@@ -127,7 +149,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
 
     /// Appends a miss record at the end of the miss region.
     pub fn miss<T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
-        let index = self.miss.len();
+        let index = slot_count(&self.miss);
         self.miss_at(index, group, data)
     }
 
@@ -149,7 +171,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
 
     /// Appends a hit record at the end of the hit region.
     pub fn hit<T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
-        let index = self.hit.len();
+        let index = slot_count(&self.hit);
         self.hit_at(index, group, data)
     }
 
@@ -166,15 +188,32 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     /// Places ray type `R`'s hit record for geometry slot `geometry` (an
     /// instance's SBT offset plus the geometry's index in its GAS) where
     /// `trace::<R>` looks for it: `geometry × R::SBT_STRIDE + R::SBT_OFFSET`.
-    pub fn hit_for<R: RayType, T: bytemuck::Pod>(self, geometry: usize, group: &ProgramGroup, data: T) -> Self {
-        self.hit_at(geometry * R::SBT_STRIDE as usize + R::SBT_OFFSET as usize, group, data)
+    pub fn hit_for<R: RayType, T: bytemuck::Pod>(mut self, geometry: usize, group: &ProgramGroup, data: T) -> Self {
+        match geometry.checked_mul(R::SBT_STRIDE as usize).and_then(|i| i.checked_add(R::SBT_OFFSET as usize)) {
+            Some(index) => self.hit_at(index, group, data),
+            None => {
+                if self.error.is_none() {
+                    let index = format!(
+                        "{geometry} × {} + {} (geometry × SBT_STRIDE + SBT_OFFSET)",
+                        R::SBT_STRIDE,
+                        R::SBT_OFFSET
+                    );
+                    self.error = Some(out_of_range(SbtRegion::Hit, index));
+                }
+                self
+            }
+        }
     }
 
     /// Appends a callable record; the n-th call is callable index n (the
     /// `sbt_index` of `ctx.call(sbt_index, data)` on the device).
     pub fn callable<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
         if let Some(r) = self.pack(group, &data, SbtRegion::Callable) {
-            self.callable.push(r);
+            if self.callable.len() >= crate::validate::max_records(SbtRegion::Callable) {
+                self.error = Some(out_of_range(SbtRegion::Callable, self.callable.len().to_string()));
+            } else {
+                self.callable.push(r);
+            }
         }
         self
     }
@@ -197,12 +236,21 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         }
         let raygen = self.raygen.ok_or(Error::SbtMissing { region: SbtRegion::Raygen })?;
         // A hole would hand the device an empty record: refuse it.
-        let filled = |slots: Vec<Option<PackedRecord>>, region: SbtRegion| -> Result<Vec<PackedRecord>> {
-            slots.into_iter().enumerate().map(|(index, r)| r.ok_or(Error::SbtHole { region, index })).collect()
+        let filled = |slots: BTreeMap<usize, PackedRecord>, region: SbtRegion| -> Result<Vec<PackedRecord>> {
+            let mut records = Vec::with_capacity(slots.len());
+            for (expected, (index, record)) in slots.into_iter().enumerate() {
+                if index != expected {
+                    return Err(Error::SbtHole { region, index: expected });
+                }
+                records.push(record);
+            }
+            Ok(records)
         };
         let miss = filled(self.miss, SbtRegion::Miss)?;
         let hit = filled(self.hit, SbtRegion::Hit)?;
         let pipeline = &self.pipeline.inner;
+        let has = |kind: GroupKind| pipeline.groups.iter().any(|g| g.kind == kind);
+        pipeline.reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
         let limits = pipeline.ctx.limits;
         let max_data = |records: &[PackedRecord]| records.iter().map(|r| r.data.len()).max().unwrap_or(0);
         let check = |layout: RegionLayout, data: usize| -> Result<RegionLayout> {
@@ -235,7 +283,12 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         )?;
         let total = cl.offset + cl.size;
 
-        let mut bytes = vec![0u8; total as usize];
+        let mut bytes = Vec::new();
+        usize::try_from(total)
+            .ok()
+            .and_then(|n| bytes.try_reserve_exact(n).ok())
+            .ok_or(Error::SbtTooLarge { bytes: total })?;
+        bytes.resize(total as usize, 0u8);
         let handle_size = limits.shader_group_handle_size as usize;
         for (layout, records) in [(rg, raygen_records), (ms, &miss[..]), (ht, &hit[..]), (cl, &callable[..])] {
             for (i, record) in records.iter().enumerate() {
@@ -304,7 +357,14 @@ pub struct Sbt {
 impl Sbt {
     /// Starts an SBT for `pipeline`.
     pub fn builder<P: raykit_device::LaunchParams>(pipeline: &Pipeline<P>) -> SbtBuilder<'_, P> {
-        SbtBuilder { pipeline, raygen: None, miss: Vec::new(), hit: Vec::new(), callable: Vec::new(), error: None }
+        SbtBuilder {
+            pipeline,
+            raygen: None,
+            miss: BTreeMap::new(),
+            hit: BTreeMap::new(),
+            callable: Vec::new(),
+            error: None,
+        }
     }
 
     /// Overwrites the data of record `index` of `region` (the group stays),
