@@ -370,6 +370,21 @@ pub enum Error {
         why: &'static str,
     },
 
+    /// A program declares a descriptor binding raykit's pipeline layout does not have.
+    #[error("`{program}` declares {found} at set {set}, binding {binding}, {reason}. raykit's pipeline layout binds its buffer table (storage buffers) at set 0, binding 0 and, for params over the push-constant budget, the params uniform buffer at set 1, binding 0: reach buffers through `Buffer<T>` handles and the scene through a `Traversable` (a u64 turned into an acceleration structure) in the params")]
+    DescriptorBinding {
+        /// The program.
+        program: String,
+        /// Its `DescriptorSet`.
+        set: u32,
+        /// Its `Binding`.
+        binding: u32,
+        /// What the program declares there.
+        found: String,
+        /// Why raykit cannot bind it.
+        reason: String,
+    },
+
     /// The SBT's host copy could not be allocated.
     #[error("the SBT needs {bytes} bytes, which cannot be allocated; use fewer or smaller records")]
     SbtTooLarge {

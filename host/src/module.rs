@@ -38,6 +38,8 @@ pub struct EntryPointInfo {
     pub interface: InterfaceSizes,
     /// The rays it traces (through its call graph), with their constant SBT operands.
     pub traces: raykit_spirv::EntryTraces,
+    /// The descriptor bindings it declares.
+    pub bindings: Vec<raykit_spirv::DescriptorBinding>,
 }
 
 /// A SPIR-V module on the device, with its entry points.
@@ -282,6 +284,7 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
     let mut params = raykit_spirv::reflect_params(&module)?;
     let mut interfaces = raykit_spirv::reflect_interface_sizes(&module)?;
     let mut traces = raykit_spirv::reflect_traces(&module);
+    let mut bindings = raykit_spirv::reflect_bindings(&module);
     let mut entries = Vec::new();
     for inst in &module.entry_points {
         let (Some(rspirv::dr::Operand::ExecutionModel(model)), Some(rspirv::dr::Operand::LiteralString(name))) =
@@ -302,6 +305,7 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
             params: params.remove(name).unwrap_or_default(),
             interface: interfaces.remove(name).unwrap_or_default(),
             traces: traces.remove(name).unwrap_or_default(),
+            bindings: bindings.remove(name).unwrap_or_default(),
         });
     }
     Ok(entries)

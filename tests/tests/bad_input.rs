@@ -1321,3 +1321,48 @@ fn recursive_closest_hit_with_a_declared_depth_links() -> anyhow::Result<()> {
         still_usable(ctx)
     })
 }
+
+// --- Descriptor bindings against raykit's pipeline layout ---
+
+/// Links the GLSL raygen `spirv` alone, for params `Params` (push constants).
+fn link_raygen(ctx: &Context, spirv: &[u8]) -> anyhow::Result<Error> {
+    let module = Module::new(ctx, spirv)?;
+    let raygen = ProgramGroup::raygen(&module, "main")?;
+    refused(Pipeline::<Params>::new(ctx, &[&raygen], LinkOptions::default()), "the raygen")
+}
+
+#[test]
+fn descriptor_at_a_set_raykit_does_not_bind() -> anyhow::Result<()> {
+    in_child("descriptor_at_a_set_raykit_does_not_bind", || {
+        case(
+            "descriptor_at_a_set_raykit_does_not_bind",
+            &["`main` declares a storage buffer `image` at set 2, binding 0", "has no set 2", "`Buffer<T>` handles"],
+            |ctx| link_raygen(ctx, include_bytes!("../data/storage_at_set_2.rgen.spv")),
+            |e| matches!(e, Error::DescriptorBinding { set: 2, binding: 0, .. }),
+        )
+    })
+}
+
+#[test]
+fn tlas_declared_where_the_buffer_table_is() -> anyhow::Result<()> {
+    in_child("tlas_declared_where_the_buffer_table_is", || {
+        case(
+            "tlas_declared_where_the_buffer_table_is",
+            &["an acceleration structure `scene` at set 0, binding 0", "buffer table", "`Traversable`"],
+            |ctx| link_raygen(ctx, PAYLOAD_SPEC_ARRAY),
+            |e| matches!(e, Error::DescriptorBinding { set: 0, binding: 0, .. }),
+        )
+    })
+}
+
+#[test]
+fn image_beside_the_buffer_table() -> anyhow::Result<()> {
+    in_child("image_beside_the_buffer_table", || {
+        case(
+            "image_beside_the_buffer_table",
+            &["an image or sampler `target` at set 0, binding 1", "set 0 has only binding 0"],
+            |ctx| link_raygen(ctx, include_bytes!("../data/image_at_set_0_binding_1.rgen.spv")),
+            |e| matches!(e, Error::DescriptorBinding { set: 0, binding: 1, .. }),
+        )
+    })
+}

@@ -190,7 +190,12 @@ impl<P: LaunchParams> Pipeline<P> {
         check_linkable(groups.iter().copied())?;
         let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
         let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
-        crate::validate::check_programs(groups, options.max_trace_depth, &shaders.spec_values())?;
+        crate::validate::check_programs(
+            groups,
+            options.max_trace_depth,
+            &shaders.spec_values(),
+            params_delivery::<P>(),
+        )?;
         let specialization = shaders.specialization();
         let stages = shaders.stages(&specialization);
         let create_info = vk::RayTracingPipelineCreateInfoKHR::default().stages(&stages).groups(&shaders.group_infos);

@@ -14,6 +14,7 @@
 pub mod spirv;
 
 use raykit_device::ProgramKind;
+use raykit_spirv::{DescriptorBinding, DescriptorKind, ParamsDelivery};
 
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
@@ -130,16 +131,66 @@ impl TraceReach {
     }
 }
 
+/// Refuses a descriptor binding that raykit's pipeline layout does not have:
+/// the buffer table (storage buffers) at set 0, binding 0, and the params uniform
+/// buffer at set 1, binding 0 when `delivery` says the params go there.
+fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDelivery) -> Result<()> {
+    let (table_set, table_binding) = (raykit_abi::BUFFER_TABLE_SET, raykit_abi::BUFFER_TABLE_BINDING);
+    let reason = match (binding.set, binding.binding) {
+        (s, b) if (s, b) == (table_set, table_binding) => {
+            if binding.kind == DescriptorKind::StorageBuffer {
+                return Ok(());
+            }
+            "where raykit binds its buffer table (storage buffers)".to_owned()
+        }
+        (s, b) if s == raykit_abi::PARAMS_SET && b == raykit_abi::PARAMS_BINDING => match delivery {
+            ParamsDelivery::UniformBuffer { .. } if binding.kind == DescriptorKind::UniformBuffer => return Ok(()),
+            ParamsDelivery::UniformBuffer { .. } => "where raykit binds the params uniform buffer".to_owned(),
+            ParamsDelivery::PushConstants => {
+                "but this pipeline's params travel as push constants, so set 1 is not bound".to_owned()
+            }
+        },
+        (s, _) if s == table_set || s == raykit_abi::PARAMS_SET => format!("but set {s} has only binding 0"),
+        (s, _) => format!("but raykit's pipeline layout has no set {s}"),
+    };
+    Err(Error::DescriptorBinding {
+        program: program.to_owned(),
+        set: binding.set,
+        binding: binding.binding,
+        found: match &binding.name {
+            Some(name) => format!("{} `{name}`", binding.kind),
+            None => binding.kind.to_string(),
+        },
+        reason,
+    })
+}
+
 /// What linking checks of the programs of `groups` before the driver sees them:
-/// their trace depth against `max_trace_depth`, and each module's SPIR-V with the
-/// specialization constants `spec_values` frozen in, validated.
-pub(crate) fn check_programs(groups: &[&ProgramGroup], max_trace_depth: u32, spec_values: &[(u32, u32)]) -> Result<()> {
+/// their trace depth against `max_trace_depth`, each module's SPIR-V with the
+/// specialization constants `spec_values` frozen in, validated, and every
+/// descriptor binding a program declares against raykit's pipeline layout for
+/// params delivered as `delivery`.
+pub(crate) fn check_programs(
+    groups: &[&ProgramGroup],
+    max_trace_depth: u32,
+    spec_values: &[(u32, u32)],
+    delivery: ParamsDelivery,
+) -> Result<()> {
     TraceReach::of(groups.iter().copied()).check_depth(max_trace_depth)?;
     let mut seen = std::collections::HashSet::new();
     for group in groups {
         for program in group.programs() {
             if seen.insert(std::sync::Arc::as_ptr(&program.module)) {
                 spirv::validate(&spirv::freeze_spec_constants(&program.module.words, spec_values)?)?;
+            }
+        }
+    }
+    for group in groups {
+        for program in group.programs() {
+            if let Some(info) = program.entry_info() {
+                for binding in &info.bindings {
+                    check_binding(&info.name, binding, delivery)?;
+                }
             }
         }
     }
