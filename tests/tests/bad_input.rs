@@ -1366,3 +1366,44 @@ fn image_beside_the_buffer_table() -> anyhow::Result<()> {
         )
     })
 }
+
+// --- Params: what the bytes mean ---
+
+/// The triangle's params as a host that declared `size` as `IVec2` would describe
+/// them: same offsets and sizes, another kind of number.
+#[repr(transparent)]
+#[derive(Copy, Clone, bytemuck::Pod, bytemuck::Zeroable)]
+struct SizeAsSigned(Params);
+
+const SIZE_AS_SIGNED_FIELDS: [raykit::device::FieldLayout; 8] = {
+    let f = <Params as raykit::LaunchParams>::LAYOUT.fields;
+    let mut out = [f[0], f[1], f[2], f[3], f[4], f[5], f[6], f[7]];
+    out[1].type_name = "IVec2";
+    out[1].shape =
+        raykit::device::Shape::Numeric(raykit::device::Scalar { kind: raykit::device::ScalarKind::Signed, bits: 32 });
+    out
+};
+
+impl raykit::LaunchParams for SizeAsSigned {
+    const LAYOUT: raykit::device::ParamsLayout = raykit::device::ParamsLayout {
+        name: "SizeAsSigned",
+        size: <Params as raykit::LaunchParams>::LAYOUT.size,
+        fields: &SIZE_AS_SIGNED_FIELDS,
+    };
+}
+
+#[test]
+fn params_field_of_the_same_size_but_another_kind() -> anyhow::Result<()> {
+    case(
+        "params_field_of_the_same_size_but_another_kind",
+        &["`size`", "type IVec2", "vector of 2 × u32", "holds i32"],
+        |ctx| {
+            let p = triangle::Programs::rust(ctx)?;
+            refused(
+                Pipeline::<SizeAsSigned>::new(ctx, &[&p.raygen, &p.miss, &p.hit], LinkOptions::default()),
+                "params whose size field is signed on the host",
+            )
+        },
+        |e| matches!(e, Error::ParamsLayout(l) if matches!(&**l, LayoutError::Mismatch { field, .. } if field == "size")),
+    )
+}
