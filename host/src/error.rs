@@ -121,6 +121,20 @@ pub enum Error {
         source: std::io::Error,
     },
 
+    /// The SPIR-V of a device crate was not found where `cargo xtask build-shaders` writes it.
+    #[error("no SPIR-V for device crate `{crate_name}`; looked at: {}. {}", .tried.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "), match .spirv_dir {
+        Some(dir) => format!("RAYKIT_SPIRV_DIR is set to {}: point it at the folder that holds the `.spv` files, or unset it; build them with `cargo xtask build-shaders`", dir.display()),
+        None => "Build them with `cargo xtask build-shaders` (it writes target/spirv/), or set RAYKIT_SPIRV_DIR to the folder that holds them".to_owned(),
+    })]
+    SpirvNotFound {
+        /// The device crate.
+        crate_name: String,
+        /// Every path looked at.
+        tried: Vec<std::path::PathBuf>,
+        /// `RAYKIT_SPIRV_DIR`, when set.
+        spirv_dir: Option<std::path::PathBuf>,
+    },
+
     /// Validation was asked for but the Khronos validation layer is not installed.
     #[error("validation requested but VK_LAYER_KHRONOS_validation is not installed (Debian: `apt-get install vulkan-validationlayers`)")]
     ValidationLayerMissing,
@@ -383,6 +397,15 @@ pub enum Error {
         found: String,
         /// Why raykit cannot bind it.
         reason: String,
+    },
+
+    /// A buffer is larger than one storage-buffer descriptor can cover.
+    #[error("a buffer of {bytes} bytes is over this device's maxStorageBufferRange of {limit} bytes, the most a device program can reach through one buffer handle; split the data into several buffers (for example one per image tile or row block) and pass their handles, or an array of handles, in the params")]
+    BufferTooLarge {
+        /// The buffer's size.
+        bytes: u64,
+        /// `maxStorageBufferRange`.
+        limit: u32,
     },
 
     /// The SBT's host copy could not be allocated.

@@ -141,6 +141,7 @@ impl<T: Element> DeviceBuffer<T> {
             element_size,
             reason: "the size overflows 64 bits",
         })?;
+        crate::validate::check_storage_buffer(size, ctx.inner.limits.max_storage_buffer_range)?;
         let raw = RawBuffer::new(&ctx.inner, "DeviceBuffer", size, vk::BufferUsageFlags::STORAGE_BUFFER, location, 16)?;
         let slot = ctx.inner.buffer_table.insert(&ctx.inner.device, raw.buffer)?;
         Ok(DeviceBuffer { raw, slot, len, _element: PhantomData })

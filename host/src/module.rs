@@ -345,8 +345,17 @@ impl Module {
 
     /// Loads the SPIR-V that `cargo xtask build-shaders` built for the device crate
     /// `crate_name` (e.g. `"triangle-device"`), found by [`spirv_path`].
+    /// When there is none, the error lists every path looked at.
     pub fn from_device_crate(ctx: &Context, crate_name: &str) -> Result<Module> {
-        Module::from_file(ctx, spirv_path(crate_name))
+        let tried = spirv_candidates(crate_name);
+        match tried.iter().find(|p| p.is_file()) {
+            Some(path) => Module::from_file(ctx, path),
+            None => Err(Error::SpirvNotFound {
+                crate_name: crate_name.to_owned(),
+                tried,
+                spirv_dir: std::env::var_os("RAYKIT_SPIRV_DIR").map(PathBuf::from),
+            }),
+        }
     }
 
     /// Loads a module from a `.spv` file.
@@ -399,6 +408,20 @@ pub fn spirv_path(crate_name: &str) -> PathBuf {
         }
     }
     PathBuf::from("target").join("spirv").join(file)
+}
+
+/// Every path [`spirv_path`] may answer for `crate_name`, in its order of preference.
+pub fn spirv_candidates(crate_name: &str) -> Vec<PathBuf> {
+    let file = format!("{}.spv", crate_name.replace('-', "_"));
+    if let Some(dir) = std::env::var_os("RAYKIT_SPIRV_DIR") {
+        return vec![PathBuf::from(dir).join(file)];
+    }
+    let mut paths = Vec::new();
+    if let Ok(exe) = std::env::current_exe() {
+        paths.extend(exe.ancestors().skip(1).map(|dir| dir.join("spirv").join(&file)));
+    }
+    paths.push(PathBuf::from("target").join("spirv").join(file));
+    paths
 }
 
 impl Drop for ModuleInner {

@@ -368,6 +368,97 @@ fn spirv_file_that_does_not_exist() -> anyhow::Result<()> {
     )
 }
 
+#[test]
+fn device_crate_whose_spirv_is_not_found() -> anyhow::Result<()> {
+    // The suite sets RAYKIT_SPIRV_DIR, so that is the one path looked at.
+    let dir = std::env::var("RAYKIT_SPIRV_DIR").unwrap_or_default();
+    case(
+        "device_crate_whose_spirv_is_not_found",
+        &["no SPIR-V for device crate `no-such-device`", "no_such_device.spv", "RAYKIT_SPIRV_DIR", &dir],
+        |ctx| refused(Module::from_device_crate(ctx, "no-such-device"), "a device crate never built"),
+        |e| matches!(e, Error::SpirvNotFound { tried, .. } if !tried.is_empty()),
+    )
+}
+
+#[test]
+fn buffer_one_element_over_max_storage_buffer_range() -> anyhow::Result<()> {
+    case(
+        "buffer_one_element_over_max_storage_buffer_range",
+        &["maxStorageBufferRange", "split the data"],
+        |ctx| {
+            let limit = ctx.limits().max_storage_buffer_range;
+            let e = refused(ctx.buffer::<u32>(limit as usize / 4 + 1), "a buffer past maxStorageBufferRange")?;
+            // The largest allowed one is fine (and is freed at once).
+            drop(ctx.buffer::<u32>(limit as usize / 4)?);
+            Ok(e)
+        },
+        |e| matches!(e, Error::BufferTooLarge { .. }),
+    )
+}
+
+#[test]
+fn explicit_stack_size_of_zero() -> anyhow::Result<()> {
+    case(
+        "explicit_stack_size_of_zero",
+        &["StackSize::Explicit(0)", "StackSize::Refined"],
+        |ctx| {
+            let l = linked(ctx)?;
+            refused(l.pipeline.set_stack_size(&raykit::stack::StackSize::Explicit(0)), "a zero stack")
+        },
+        |e| matches!(e, Error::StackSize { .. }),
+    )
+}
+
+#[test]
+fn explicit_stack_size_below_a_programs_own_need() -> anyhow::Result<()> {
+    case(
+        "explicit_stack_size_below_a_programs_own_need",
+        &["is below", "the largest stack one of the pipeline's programs needs"],
+        |ctx| {
+            let s = recursive_pipeline(ctx, 2)?;
+            let sizes = s.stack_sizes();
+            let largest = [sizes.css_rg, sizes.css_ms, sizes.css_ch].into_iter().max().unwrap_or(0);
+            anyhow::ensure!(largest > 1, "the driver reports stacks of {largest} bytes: nothing to undercut");
+            refused(s.set_stack_size(&raykit::stack::StackSize::Explicit(largest as u32 - 1)), "a too small stack")
+        },
+        |e| matches!(e, Error::StackSize { .. }),
+    )
+}
+
+#[test]
+fn pipeline_cache_path_that_is_a_fifo() -> anyhow::Result<()> {
+    in_child("pipeline_cache_path_that_is_a_fifo", || {
+        let dir = std::env::temp_dir().join(format!("raykit-fifo-cache-{}", std::process::id()));
+        std::fs::create_dir_all(&dir)?;
+        let options =
+            || ContextOptions { pipeline_cache: raykit::PipelineCacheLocation::Dir(dir.clone()), ..Default::default() };
+        // Learn the cache file's name, then put a FIFO there.
+        let mut file = None;
+        raykit_tests::with_context_options("pipeline_cache_path_that_is_a_fifo (probe)", options(), |ctx| {
+            file = ctx.pipeline_cache_info().path;
+            Ok(())
+        })?;
+        let file = file.ok_or_else(|| anyhow::anyhow!("the disk cache is off"))?;
+        let _ = std::fs::remove_file(&file);
+        let made = std::process::Command::new("mkfifo").arg(&file).status()?;
+        anyhow::ensure!(made.success(), "mkfifo {} failed", file.display());
+        let result = raykit_tests::with_context_options("pipeline_cache_path_that_is_a_fifo", options(), |ctx| {
+            let raykit::CacheLoad::Rejected { reason } = ctx.pipeline_cache_info().load else {
+                anyhow::bail!("the FIFO was not refused: {:?}", ctx.pipeline_cache_info().load);
+            };
+            anyhow::ensure!(
+                reason.contains("is not a regular file") && reason.contains("RAYKIT_PIPELINE_CACHE"),
+                "{reason}"
+            );
+            let err = refused(ctx.save_pipeline_cache(), "saving over a FIFO")?;
+            anyhow::ensure!(matches!(err, Error::PipelineCacheIo { .. }), "{err:?}");
+            still_usable(ctx)
+        });
+        let _ = std::fs::remove_dir_all(&dir);
+        result
+    })
+}
+
 // ---------------------------------------------------------------- launch params
 
 #[test]
@@ -981,13 +1072,13 @@ fn buffer_write_longer_than_the_buffer() -> anyhow::Result<()> {
 
 #[test]
 fn buffer_larger_than_device_memory() -> anyhow::Result<()> {
-    // 4 TiB: refused by the allocator with a typed error, not by a crash or a
-    // validation message.
+    // 4 TiB: over any device's maxStorageBufferRange (a u32), so refused before
+    // the allocator is asked.
     case(
         "buffer_larger_than_device_memory",
-        &["allocating DeviceBuffer: Out of memory", "make smaller ones"],
+        &["a buffer of 4398046511104 bytes", "maxStorageBufferRange", "split the data"],
         |ctx| refused(ctx.buffer::<u32>(1 << 40), "a 4 TiB buffer"),
-        |e| matches!(e, Error::Allocation { what: "DeviceBuffer", .. }),
+        |e| matches!(e, Error::BufferTooLarge { bytes: 4_398_046_511_104, .. }),
     )
 }
 
@@ -1406,4 +1497,120 @@ fn params_field_of_the_same_size_but_another_kind() -> anyhow::Result<()> {
         },
         |e| matches!(e, Error::ParamsLayout(l) if matches!(&**l, LayoutError::Mismatch { field, .. } if field == "size")),
     )
+}
+
+// --- Ray types the programs trace, read from the SPIR-V ---
+
+/// The shadows pipeline of the program model: raygen traces `ShadowedRadiance`
+/// (miss 0, hit offset 0), its closest-hit traces `Shadow` (miss 1, hit offset 1).
+struct Shadows {
+    raygen: ProgramGroup,
+    miss: ProgramGroup,
+    shadow_miss: ProgramGroup,
+    shade: ProgramGroup,
+    shadow_hit: ProgramGroup,
+    pipeline: Pipeline<program_model_device::Params>,
+}
+
+fn shadows(ctx: &Context) -> anyhow::Result<Shadows> {
+    let module = Module::from_device_crate(ctx, "program-model-device")?;
+    let raygen = ProgramGroup::raygen(&module, program_model_device::RG_SHADOWS)?;
+    let miss = ProgramGroup::miss(&module, program_model_device::MS_SHADOWS)?;
+    let shadow_miss = ProgramGroup::miss(&module, program_model_device::MS_SHADOW)?;
+    let shade = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SHADE_SHADOWED).build()?;
+    let shadow_hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SHADOW_HIT).build()?;
+    let pipeline =
+        Pipeline::new(ctx, &[&raygen, &miss, &shadow_miss, &shade, &shadow_hit], LinkOptions { max_trace_depth: 2 })?;
+    Ok(Shadows { raygen, miss, shadow_miss, shade, shadow_hit, pipeline })
+}
+
+#[test]
+fn sbt_without_the_miss_record_of_a_traced_ray_type() -> anyhow::Result<()> {
+    in_child("sbt_without_the_miss_record_of_a_traced_ray_type", || {
+        case(
+            "sbt_without_the_miss_record_of_a_traced_ray_type",
+            &["1 miss record(s)", "`__closesthit__shade_shadowed`", "miss_at(1, ..)"],
+            |ctx| {
+                let s = shadows(ctx)?;
+                let sbt = Sbt::builder(&s.pipeline)
+                    .raygen(&s.raygen, ())
+                    .miss_for::<program_model_device::ShadowedRadiance, _>(&s.miss, ())
+                    .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shade, ())
+                    .hit_for::<program_model_device::Shadow, _>(0, &s.shadow_hit, ());
+                refused(sbt.build(), "an SBT without the shadow miss record")
+            },
+            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Miss, needed: 2, have: 1, .. }),
+        )
+    })
+}
+
+#[test]
+fn sbt_without_the_hit_record_of_a_traced_ray_type() -> anyhow::Result<()> {
+    in_child("sbt_without_the_hit_record_of_a_traced_ray_type", || {
+        case(
+            "sbt_without_the_hit_record_of_a_traced_ray_type",
+            &["1 hit record(s)", "`__closesthit__shade_shadowed`", "hit_at(1, ..)"],
+            |ctx| {
+                let s = shadows(ctx)?;
+                let sbt = Sbt::builder(&s.pipeline)
+                    .raygen(&s.raygen, ())
+                    .miss_for::<program_model_device::ShadowedRadiance, _>(&s.miss, ())
+                    .miss_for::<program_model_device::Shadow, _>(&s.shadow_miss, ())
+                    .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shade, ());
+                refused(sbt.build(), "an SBT without the shadow hit record")
+            },
+            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Hit, needed: 2, have: 1, .. }),
+        )
+    })
+}
+
+#[test]
+fn hit_for_a_geometry_past_twenty_four_bits() -> anyhow::Result<()> {
+    case(
+        "hit_for_a_geometry_past_twenty_four_bits",
+        &["SBT hit index 16777216 is out of range"],
+        |ctx| {
+            triangle_sbt(ctx, |b, l| {
+                b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_for::<triangle_device::Radiance, _>(
+                    1 << 24,
+                    &l.hit,
+                    (),
+                )
+            })
+        },
+        |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, .. }),
+    )
+}
+
+#[test]
+fn recursive_closest_hit_in_a_library_with_max_trace_depth_one() -> anyhow::Result<()> {
+    in_child("recursive_closest_hit_in_a_library_with_max_trace_depth_one", || {
+        case(
+            "recursive_closest_hit_in_a_library_with_max_trace_depth_one",
+            &["`__closesthit__layer_hit` needs a trace depth of at least 2", "max_trace_depth 1"],
+            |ctx| {
+                anyhow::ensure!(ctx.supports_pipeline_libraries(), "this device has no pipeline libraries");
+                let module = Module::from_device_crate(ctx, "stack-test-device")?;
+                let hit = ProgramGroup::hit_group(&module).closest_hit(stack_test_device::LAYER_HIT).build()?;
+                let options = raykit::LibraryOptions { max_trace_depth: 1, interface: None };
+                refused(raykit::PipelineLibrary::<stack_test_device::Params>::new(ctx, &[&hit], options), "the library")
+            },
+            |e| matches!(e, Error::TraceDepthExceeded { needed: 2, .. }),
+        )
+    })
+}
+
+#[test]
+fn complete_sbt_of_two_ray_types_builds_and_renders() -> anyhow::Result<()> {
+    with_context("complete_sbt_of_two_ray_types_builds_and_renders", |ctx| {
+        let s = shadows(ctx)?;
+        Sbt::builder(&s.pipeline)
+            .raygen(&s.raygen, ())
+            .miss_for::<program_model_device::ShadowedRadiance, _>(&s.miss, ())
+            .miss_for::<program_model_device::Shadow, _>(&s.shadow_miss, ())
+            .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shade, ())
+            .hit_for::<program_model_device::Shadow, _>(0, &s.shadow_hit, ())
+            .build()?;
+        still_usable(ctx)
+    })
 }

@@ -351,7 +351,10 @@ impl<P: LaunchParams> Pipeline<P> {
                 check_depth(graph.max_trace_depth())?;
                 graph.estimate()?
             }
-            StackSize::Explicit(bytes) => u64::from(*bytes),
+            StackSize::Explicit(bytes) => {
+                crate::validate::check_explicit_stack(*bytes, &self.stack_sizes())?;
+                u64::from(*bytes)
+            }
         };
         stack_bytes(bytes)
     }

@@ -196,3 +196,31 @@ pub(crate) fn check_programs(
     }
     Ok(())
 }
+
+/// Refuses an explicit stack size smaller than the largest stack one program of
+/// the pipeline needs by itself (`sizes`, from the driver), or zero.
+pub(crate) fn check_explicit_stack(bytes: u32, sizes: &crate::stack::StackSizes) -> Result<()> {
+    let largest = [sizes.css_rg, sizes.css_ms, sizes.css_ch, sizes.css_ah, sizes.css_is, sizes.css_cc, sizes.dss_dc]
+        .into_iter()
+        .max()
+        .unwrap_or(0);
+    if bytes == 0 || u64::from(bytes) < largest {
+        return Err(Error::StackSize {
+            reason: format!(
+                "StackSize::Explicit({bytes}) is below {}, the largest stack one of the pipeline's programs needs by itself (Pipeline::stack_sizes); use StackSize::Refined or StackSize::CallGraph, or give at least that many bytes",
+                largest.max(1)
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Refuses a buffer of `bytes` over the device's `maxStorageBufferRange`
+/// (`limit`): device programs reach every buffer through a storage-buffer
+/// descriptor, which cannot cover more.
+pub(crate) fn check_storage_buffer(bytes: u64, limit: u32) -> Result<()> {
+    if bytes > u64::from(limit) {
+        return Err(Error::BufferTooLarge { bytes, limit });
+    }
+    Ok(())
+}
