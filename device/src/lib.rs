@@ -71,7 +71,7 @@ pub mod ray;
 pub mod stage;
 
 pub use bytemuck;
-pub use entry::{EntryPoint, ProgramKind, ProgramPrefix};
+pub use entry::{EntryPoint, ProgramKind, ProgramPrefix, RayTypeInfo};
 pub use handles::{Buffer, Element, Traversable};
 pub use params::{
     uses_push_constants, DeviceField, FieldLayout, LaunchParams, ParamsLayout, Scalar, ScalarKind, Shape,

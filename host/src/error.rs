@@ -182,10 +182,6 @@ pub enum Error {
         available: Vec<(String, Option<ProgramKind>)>,
     },
 
-    /// A hit group was built with no program at all.
-    #[error("a hit group needs at least one of closest-hit, any-hit or intersection")]
-    EmptyHitGroup,
-
     /// Objects of different contexts were combined: a pipeline's program groups,
     /// or the GASes an IAS instances.
     #[error("objects of different Contexts were combined (the program groups of one pipeline, or the GASes of an IAS); make them all with the same Context")]
@@ -406,6 +402,21 @@ pub enum Error {
         bytes: u64,
         /// `maxStorageBufferRange`.
         limit: u32,
+    },
+
+    /// A group was placed for a ray type other than the one its programs were declared for.
+    #[error("`{program}` was declared for ray type `{declared}` (`#[{kind}(ray = {declared})]`), but its group is placed with {region}_for::<{asked}>; place it with {region}_for::<{declared}>, or declare the program for `{asked}`")]
+    SbtRayTypeMismatch {
+        /// The region.
+        region: SbtRegion,
+        /// The program.
+        program: String,
+        /// Its kind's attribute name (`miss`, `closest_hit`, `any_hit`).
+        kind: &'static str,
+        /// The ray type it was declared for.
+        declared: &'static str,
+        /// The ray type it was placed for.
+        asked: &'static str,
     },
 
     /// The SBT's host copy could not be allocated.

@@ -11,9 +11,11 @@
 //!   The waits have no timeout: on a GPU the driver's watchdog turns a program
 //!   that never ends into a lost device; on lavapipe such a launch hangs.
 //!
-//! A hit group "for a ray type that does not exist" is caught by what it leaves
-//! behind (an SBT with a hole); raykit does not know which ray types the programs
-//! trace, so a ray type placed right after the last one is accepted.
+//! raykit reads the ray types the programs trace from their SPIR-V (the constant
+//! SBT offsets and miss indices of `OpTraceRayKHR`) and the ray type each miss and
+//! hit program was declared for (`#[miss(ray = R)]`): an SBT missing a record a
+//! trace selects, or a group placed for another ray type, is refused. Crash cases
+//! (inputs that once crashed the driver or raykit) run in a child process.
 
 use raykit::glam::{Affine3A, Vec3};
 use raykit::{
@@ -169,13 +171,26 @@ fn glsl_main_used_as_another_stage() -> anyhow::Result<()> {
 }
 
 #[test]
-fn hit_group_without_programs() -> anyhow::Result<()> {
-    case(
-        "hit_group_without_programs",
-        &["at least one of closest-hit, any-hit or intersection"],
-        |ctx| refused(ProgramGroup::hit_group(&triangle_module(ctx)?).build(), "an empty hit group"),
-        |e| matches!(e, Error::EmptyHitGroup),
-    )
+fn hit_group_without_programs_is_allowed() -> anyhow::Result<()> {
+    // Vulkan and OptiX allow it: a ray type that needs no hit program gets one.
+    with_context("hit_group_without_programs_is_allowed", |ctx| {
+        let s = shadows(ctx)?;
+        let module = Module::from_device_crate(ctx, "program-model-device")?;
+        let empty = ProgramGroup::hit_group(&module).build()?;
+        let pipeline = Pipeline::<program_model_device::Params>::new(
+            ctx,
+            &[&s.raygen, &s.miss, &s.shadow_miss, &s.shade, &empty],
+            LinkOptions { max_trace_depth: 2 },
+        )?;
+        Sbt::builder(&pipeline)
+            .raygen(&s.raygen, ())
+            .miss_for::<program_model_device::ShadowedRadiance, _>(&s.miss, ())
+            .miss_for::<program_model_device::Shadow, _>(&s.shadow_miss, ())
+            .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shade, ())
+            .hit_for::<program_model_device::Shadow, _>(0, &empty, ())
+            .build()?;
+        still_usable(ctx)
+    })
 }
 
 // ---------------------------------------------------------------- SPIR-V intake
@@ -691,7 +706,7 @@ fn hit_record_for_a_ray_type_the_sbt_does_not_have() -> anyhow::Result<()> {
             let l = linked(ctx)?;
             let builder =
                 Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR });
-            refused(builder.hit(&l.hit, ()).hit_for::<Ghost, _>(0, &l.hit, ()).build(), "a ghost ray type's hit record")
+            refused(builder.hit(&l.hit, ()).hit_at(2, &l.hit, ()).build(), "a ghost ray type's hit record")
         },
         |e| matches!(e, Error::SbtHole { region: raykit::SbtRegion::Hit, index: 1 }),
     )
@@ -1212,8 +1227,10 @@ fn hit_for_a_huge_geometry_index() -> anyhow::Result<()> {
             "hit_for_a_huge_geometry_index",
             &["geometry × SBT_STRIDE + SBT_OFFSET", "out of range"],
             |ctx| {
+                // An empty hit group: it fits any ray type.
+                let empty = ProgramGroup::hit_group(&triangle_module(ctx)?).build()?;
                 triangle_sbt(ctx, |b, l| {
-                    b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_for::<Ghost, _>(usize::MAX / 2, &l.hit, ())
+                    b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_for::<Ghost, _>(usize::MAX / 2, &empty, ())
                 })
             },
             |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, .. }),
@@ -1613,4 +1630,44 @@ fn complete_sbt_of_two_ray_types_builds_and_renders() -> anyhow::Result<()> {
             .build()?;
         still_usable(ctx)
     })
+}
+
+// --- Groups know their ray type ---
+
+#[test]
+fn miss_group_placed_for_another_ray_type() -> anyhow::Result<()> {
+    case(
+        "miss_group_placed_for_another_ray_type",
+        &[
+            "`__miss__ms_shadows` was declared for ray type `ShadowedRadiance`",
+            "miss_for::<Shadow>",
+            "place it with miss_for::<ShadowedRadiance>",
+        ],
+        |ctx| {
+            let s = shadows(ctx)?;
+            let sbt = Sbt::builder(&s.pipeline)
+                .raygen(&s.raygen, ())
+                .miss_for::<program_model_device::Shadow, _>(&s.miss, ());
+            refused(sbt.build(), "the radiance miss placed for the shadow ray")
+        },
+        |e| {
+            matches!(e, Error::SbtRayTypeMismatch { region: raykit::SbtRegion::Miss, declared: "ShadowedRadiance", .. })
+        },
+    )
+}
+
+#[test]
+fn hit_group_placed_for_another_ray_type() -> anyhow::Result<()> {
+    case(
+        "hit_group_placed_for_another_ray_type",
+        &["`__closesthit__shadow_hit` was declared for ray type `Shadow`", "hit_for::<ShadowedRadiance>"],
+        |ctx| {
+            let s = shadows(ctx)?;
+            let sbt = Sbt::builder(&s.pipeline)
+                .raygen(&s.raygen, ())
+                .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shadow_hit, ());
+            refused(sbt.build(), "the shadow hit group placed for the radiance ray")
+        },
+        |e| matches!(e, Error::SbtRayTypeMismatch { region: raykit::SbtRegion::Hit, declared: "Shadow", .. }),
+    )
 }

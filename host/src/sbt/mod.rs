@@ -165,8 +165,37 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
 
     /// Places ray type `R`'s miss record where `trace::<R>` looks for it
     /// (`R::MISS_INDEX`).
-    pub fn miss_for<R: RayType, T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
+    /// A group whose program was declared for another ray type
+    /// (`#[miss(ray = Other)]`) is refused.
+    pub fn miss_for<R: RayType, T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+        self.check_ray::<R>(group, SbtRegion::Miss);
         self.miss_at(R::MISS_INDEX as usize, group, data)
+    }
+
+    /// Records an error when a program of `group` was declared for a ray type that
+    /// places its records elsewhere than `R`.
+    fn check_ray<R: RayType>(&mut self, group: &ProgramGroup, region: SbtRegion) {
+        if self.error.is_some() {
+            return;
+        }
+        for program in group.programs() {
+            let Some(ray) = program.ray else { continue };
+            if !ray.places_like::<R>() {
+                let kind = match program.kind {
+                    raykit_device::ProgramKind::Miss => "miss",
+                    raykit_device::ProgramKind::AnyHit => "any_hit",
+                    _ => "closest_hit",
+                };
+                self.error = Some(Error::SbtRayTypeMismatch {
+                    region,
+                    program: program.name.to_string_lossy().into_owned(),
+                    kind,
+                    declared: ray.name,
+                    asked: std::any::type_name::<R>().rsplit("::").next().unwrap_or("R"),
+                });
+                return;
+            }
+        }
     }
 
     /// Appends a hit record at the end of the hit region.
@@ -188,7 +217,10 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     /// Places ray type `R`'s hit record for geometry slot `geometry` (an
     /// instance's SBT offset plus the geometry's index in its GAS) where
     /// `trace::<R>` looks for it: `geometry × R::SBT_STRIDE + R::SBT_OFFSET`.
+    /// A group whose programs were declared for another ray type
+    /// (`#[closest_hit(ray = Other)]`) is refused.
     pub fn hit_for<R: RayType, T: bytemuck::Pod>(mut self, geometry: usize, group: &ProgramGroup, data: T) -> Self {
+        self.check_ray::<R>(group, SbtRegion::Hit);
         match geometry.checked_mul(R::SBT_STRIDE as usize).and_then(|i| i.checked_add(R::SBT_OFFSET as usize)) {
             Some(index) => self.hit_at(index, group, data),
             None => {
