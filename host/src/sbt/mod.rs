@@ -78,6 +78,22 @@ fn align_up(x: u64, a: u64) -> u64 {
     }
 }
 
+/// The SBT offset ([`Instance::sbt_offset`](crate::Instance::sbt_offset)) of an
+/// instance whose first geometry takes geometry slot `first_slot` (see
+/// [`SbtBuilder::hit_for`]), for a scene whose ray types have `R::SBT_STRIDE`:
+/// `first_slot × R::SBT_STRIDE`, the number of hit records before it. `None` when
+/// it does not fit the instance's 24 bits.
+pub fn instance_sbt_offset<R: RayType>(first_slot: u32) -> Option<u32> {
+    first_slot.checked_mul(R::SBT_STRIDE).filter(|offset| *offset < 1 << 24)
+}
+
+/// The hit record a trace of ray type `R` selects for geometry `geometry` (its
+/// index in its GAS) of an instance with SBT offset `instance_offset`: Vulkan's
+/// `instance_offset + geometry × R::SBT_STRIDE + R::SBT_OFFSET`.
+pub fn hit_record_index<R: RayType>(instance_offset: u32, geometry: u32) -> u64 {
+    u64::from(instance_offset) + u64::from(geometry) * u64::from(R::SBT_STRIDE) + u64::from(R::SBT_OFFSET)
+}
+
 /// Builds an [`Sbt`] for one pipeline.
 #[must_use]
 pub struct SbtBuilder<'p, P: raykit_device::LaunchParams> {
@@ -214,9 +230,13 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         self
     }
 
-    /// Places ray type `R`'s hit record for geometry slot `geometry` (an
-    /// instance's SBT offset plus the geometry's index in its GAS) where
+    /// Places ray type `R`'s hit record for geometry slot `geometry` where
     /// `trace::<R>` looks for it: `geometry × R::SBT_STRIDE + R::SBT_OFFSET`.
+    /// A geometry slot is a geometry's place among all geometries of the scene
+    /// that have records: an instance whose geometries take slots `k, k + 1, …`
+    /// has the SBT offset [`instance_sbt_offset::<R>(k)`](instance_sbt_offset)
+    /// (`k × R::SBT_STRIDE`, counted in records, as Vulkan adds it), and its
+    /// geometry `g` takes slot `k + g`.
     /// A group whose programs were declared for another ray type
     /// (`#[closest_hit(ray = Other)]`) is refused.
     pub fn hit_for<R: RayType, T: bytemuck::Pod>(mut self, geometry: usize, group: &ProgramGroup, data: T) -> Self {
@@ -491,6 +511,34 @@ mod tests {
         // 32-byte handle + 12-byte Vec3 → 44 → 64 with 32-byte handle alignment.
         assert_eq!(region_layout(&l, 32, 2, 12), RegionLayout { offset: 64, stride: 64, size: 128 });
         assert_eq!(region_layout(&l, 192, 0, 100).size, 0);
+    }
+
+    struct Radiance;
+    impl RayType for Radiance {
+        type Payload = u32;
+        const SBT_STRIDE: u32 = 2;
+    }
+    struct Shadow;
+    impl RayType for Shadow {
+        type Payload = u32;
+        const SBT_OFFSET: u32 = 1;
+        const SBT_STRIDE: u32 = 2;
+        const MISS_INDEX: u32 = 1;
+    }
+
+    /// `instance_sbt_offset` and `hit_for` agree with Vulkan's formula: the record a
+    /// trace selects is the one `hit_for` placed.
+    #[test]
+    fn instance_offsets_and_hit_for_agree_with_the_trace_formula() {
+        // An instance whose two geometries take slots 3 and 4.
+        let offset = instance_sbt_offset::<Radiance>(3).unwrap_or(u32::MAX);
+        assert_eq!(offset, 6);
+        for g in 0..2u32 {
+            let slot = 3 + g as usize;
+            assert_eq!(hit_record_index::<Radiance>(offset, g), (slot * 2) as u64);
+            assert_eq!(hit_record_index::<Shadow>(offset, g), (slot * 2 + 1) as u64);
+        }
+        assert_eq!(instance_sbt_offset::<Radiance>(1 << 23), None);
     }
 
     #[test]
