@@ -15,8 +15,7 @@ use raykit::spirv::{check, ParamsDelivery};
 fuzz_target!(|data: &[u8]| {
     match raykit::module::reflect_entry_points(data) {
         Ok(entries) => {
-            let words: Vec<u32> =
-                data.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+            let words: Vec<u32> = data.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
             // Spec constant 3 takes the input's last word: 0, 2^31 and everything between.
             let value = words.last().copied().unwrap_or(0);
             match raykit::validate::spirv::freeze_spec_constants(&words, &[(3, value), (0, 1)]) {
