@@ -13,4 +13,34 @@ pub struct EntryPoint {
     pub name: &'static str,
     /// The program kind, matching the name's prefix.
     pub kind: ProgramKind,
+    /// The ray type a miss, closest-hit or any-hit program was declared for
+    /// (`#[miss(ray = R)]`), so the host can place its group where `trace::<R>`
+    /// looks; `None` for other programs and when no ray type was named.
+    pub ray: Option<RayTypeInfo>,
+}
+
+/// What the SBT needs to know of a ray type: its name and where `trace::<R>`
+/// looks for its records.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub struct RayTypeInfo {
+    /// The type's name, as written in the program's attribute.
+    pub name: &'static str,
+    /// [`RayType::SBT_OFFSET`](crate::RayType::SBT_OFFSET).
+    pub sbt_offset: u32,
+    /// [`RayType::SBT_STRIDE`](crate::RayType::SBT_STRIDE).
+    pub sbt_stride: u32,
+    /// [`RayType::MISS_INDEX`](crate::RayType::MISS_INDEX).
+    pub miss_index: u32,
+}
+
+impl RayTypeInfo {
+    /// The SBT placement of ray type `R`, named `name`.
+    pub const fn of<R: crate::RayType>(name: &'static str) -> RayTypeInfo {
+        RayTypeInfo { name, sbt_offset: R::SBT_OFFSET, sbt_stride: R::SBT_STRIDE, miss_index: R::MISS_INDEX }
+    }
+
+    /// Whether `R` selects the same records (its SBT offset, stride and miss index agree).
+    pub const fn places_like<R: crate::RayType>(&self) -> bool {
+        self.sbt_offset == R::SBT_OFFSET && self.sbt_stride == R::SBT_STRIDE && self.miss_index == R::MISS_INDEX
+    }
 }

@@ -71,11 +71,11 @@ pub mod ray;
 pub mod stage;
 
 pub use bytemuck;
-pub use entry::{EntryPoint, ProgramKind, ProgramPrefix};
+pub use entry::{EntryPoint, ProgramKind, ProgramPrefix, RayTypeInfo};
 pub use handles::{Buffer, Element, Traversable};
 pub use params::{
-    uses_push_constants, DeviceField, FieldLayout, LaunchParams, ParamsLayout, Shape, PARAMS_BINDING, PARAMS_SET,
-    PUSH_CONSTANT_BUDGET,
+    uses_push_constants, DeviceField, FieldLayout, LaunchParams, ParamsLayout, Scalar, ScalarKind, Shape,
+    PARAMS_BINDING, PARAMS_SET, PUSH_CONSTANT_BUDGET,
 };
 pub use ray::{Ray, RayFlags, RayType};
 pub use raykit_abi as abi;

@@ -21,7 +21,8 @@
 //! host always agree; `#[params]` hides the choice from the program.
 
 pub use raykit_abi::{
-    uses_push_constants, FieldLayout, ParamsLayout, Shape, PARAMS_BINDING, PARAMS_SET, PUSH_CONSTANT_BUDGET,
+    uses_push_constants, FieldLayout, ParamsLayout, Scalar, ScalarKind, Shape, PARAMS_BINDING, PARAMS_SET,
+    PUSH_CONSTANT_BUDGET,
 };
 
 /// A struct that can be a pipeline's launch params. Derive it with
@@ -54,29 +55,20 @@ pub trait DeviceField: Copy + bytemuck::Pod {
     const SHAPE: Shape;
 }
 
-macro_rules! plain_fields {
-    ($($ty:ty),* $(,)?) => { $(impl DeviceField for $ty { const SHAPE: Shape = Shape::Plain; })* };
+macro_rules! numeric_fields {
+    ($kind:ident $bits:literal: $($ty:ty),* $(,)?) => {
+        $(impl DeviceField for $ty {
+            const SHAPE: Shape = Shape::Numeric(raykit_abi::Scalar { kind: raykit_abi::ScalarKind::$kind, bits: $bits });
+        })*
+    };
 }
 
 use spirv_std::glam;
-plain_fields!(
-    u32,
-    i32,
-    f32,
-    u64,
-    i64,
-    glam::Vec2,
-    glam::Vec3,
-    glam::Vec3A,
-    glam::Vec4,
-    glam::Quat,
-    glam::UVec2,
-    glam::UVec3,
-    glam::UVec4,
-    glam::IVec2,
-    glam::IVec3,
-    glam::IVec4,
-);
+numeric_fields!(Unsigned 32: u32, glam::UVec2, glam::UVec3, glam::UVec4);
+numeric_fields!(Signed 32: i32, glam::IVec2, glam::IVec3, glam::IVec4);
+numeric_fields!(Float 32: f32, glam::Vec2, glam::Vec3, glam::Vec3A, glam::Vec4, glam::Quat);
+numeric_fields!(Unsigned 64: u64);
+numeric_fields!(Signed 64: i64);
 
 impl DeviceField for crate::Traversable {
     const SHAPE: Shape = Shape::Traversable;

@@ -217,16 +217,20 @@ impl DiskCache {
         let mut initial: Vec<u8> = Vec::new();
         let mut saved_checksum = None;
         if let Some(path) = &path {
-            load = match std::fs::read(path) {
-                Err(e) if e.kind() == std::io::ErrorKind::NotFound => CacheLoad::Missing,
-                Err(e) => CacheLoad::Rejected { reason: format!("reading {}: {e}", path.display()) },
-                Ok(file) => match decode(&key, &file) {
-                    Ok(data) => {
-                        initial = data.to_vec();
-                        saved_checksum = Some(checksum(data));
-                        CacheLoad::Loaded { bytes: data.len() }
-                    }
-                    Err(reason) => CacheLoad::Rejected { reason },
+            load = match not_a_regular_file(path) {
+                // Reading a FIFO would block until a writer comes, forever.
+                Some(reason) => CacheLoad::Rejected { reason },
+                None => match std::fs::read(path) {
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => CacheLoad::Missing,
+                    Err(e) => CacheLoad::Rejected { reason: format!("reading {}: {e}", path.display()) },
+                    Ok(file) => match decode(&key, &file) {
+                        Ok(data) => {
+                            initial = data.to_vec();
+                            saved_checksum = Some(checksum(data));
+                            CacheLoad::Loaded { bytes: data.len() }
+                        }
+                        Err(reason) => CacheLoad::Rejected { reason },
+                    },
                 },
             };
         }
@@ -269,6 +273,9 @@ impl DiskCache {
     /// Writes the cache to its file if its data changed since it was loaded or saved.
     pub(crate) fn save(&self, device: &ash::Device) -> Result<Option<PathBuf>> {
         let Some(path) = &self.path else { return Ok(None) };
+        if let Some(reason) = not_a_regular_file(path) {
+            return Err(Error::PipelineCacheIo { path: path.clone(), source: std::io::Error::other(reason) });
+        }
         let data = self.data(device)?;
         if data.is_empty() {
             return Ok(None);
@@ -291,6 +298,20 @@ impl DiskCache {
             unsafe { device.destroy_pipeline_cache(self.handle, None) };
         }
     }
+}
+
+/// Why `path` cannot be the cache file: it exists and is not a regular file (a
+/// FIFO, a device, a directory). `None` when it is one, or does not exist.
+fn not_a_regular_file(path: &Path) -> Option<String> {
+    let meta = std::fs::metadata(path).ok()?;
+    if meta.is_file() {
+        return None;
+    }
+    Some(format!(
+        "{} is not a regular file ({:?}); the pipeline cache (ContextOptions::pipeline_cache, or RAYKIT_PIPELINE_CACHE) must name a directory whose cache file can be a regular file: remove it or choose another directory",
+        path.display(),
+        meta.file_type()
+    ))
 }
 
 /// Writes `bytes` to a temporary file next to `path`, then renames it over `path`,

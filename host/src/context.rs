@@ -97,6 +97,8 @@ pub struct DeviceLimits {
     pub max_push_constants_size: u32,
     /// `maxUniformBufferRange`.
     pub max_uniform_buffer_range: u32,
+    /// `maxStorageBufferRange`: the most bytes one buffer in the buffer table may have.
+    pub max_storage_buffer_range: u32,
     /// `minUniformBufferOffsetAlignment`.
     pub min_uniform_buffer_offset_alignment: u64,
     /// `minAccelerationStructureScratchOffsetAlignment`.

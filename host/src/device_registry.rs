@@ -477,6 +477,7 @@ fn query_properties(instance: &ash::Instance, physical: vk::PhysicalDevice) -> D
         max_ray_hit_attribute_size: rt.max_ray_hit_attribute_size,
         max_push_constants_size: limits.max_push_constants_size,
         max_uniform_buffer_range: limits.max_uniform_buffer_range,
+        max_storage_buffer_range: limits.max_storage_buffer_range,
         min_uniform_buffer_offset_alignment: limits.min_uniform_buffer_offset_alignment,
         min_scratch_alignment: accel.min_acceleration_structure_scratch_offset_alignment,
         max_geometry_count: accel.max_geometry_count,

@@ -121,6 +121,20 @@ pub enum Error {
         source: std::io::Error,
     },
 
+    /// The SPIR-V of a device crate was not found where `cargo xtask build-shaders` writes it.
+    #[error("no SPIR-V for device crate `{crate_name}`; looked at: {}. {}", .tried.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "), match .spirv_dir {
+        Some(dir) => format!("RAYKIT_SPIRV_DIR is set to {}: point it at the folder that holds the `.spv` files, or unset it; build them with `cargo xtask build-shaders`", dir.display()),
+        None => "Build them with `cargo xtask build-shaders` (it writes target/spirv/), or set RAYKIT_SPIRV_DIR to the folder that holds them".to_owned(),
+    })]
+    SpirvNotFound {
+        /// The device crate.
+        crate_name: String,
+        /// Every path looked at.
+        tried: Vec<std::path::PathBuf>,
+        /// `RAYKIT_SPIRV_DIR`, when set.
+        spirv_dir: Option<std::path::PathBuf>,
+    },
+
     /// Validation was asked for but the Khronos validation layer is not installed.
     #[error("validation requested but VK_LAYER_KHRONOS_validation is not installed (Debian: `apt-get install vulkan-validationlayers`)")]
     ValidationLayerMissing,
@@ -167,10 +181,6 @@ pub enum Error {
         /// The entry points the module has, with their kinds.
         available: Vec<(String, Option<ProgramKind>)>,
     },
-
-    /// A hit group was built with no program at all.
-    #[error("a hit group needs at least one of closest-hit, any-hit or intersection")]
-    EmptyHitGroup,
 
     /// Objects of different contexts were combined: a pipeline's program groups,
     /// or the GASes an IAS instances.
@@ -342,6 +352,91 @@ pub enum Error {
         region: SbtRegion,
         /// The empty slot.
         index: usize,
+    },
+
+    /// An SBT index is past what a trace can select, or its arithmetic overflows.
+    #[error("SBT {region} index {index} is out of range: a {region} region holds at most {limit} records (Vulkan reads {bits} bits of it); use a smaller index")]
+    SbtIndexOutOfRange {
+        /// The region.
+        region: SbtRegion,
+        /// The index, or how it was computed when that overflowed.
+        index: String,
+        /// The most records the region may hold.
+        limit: usize,
+        /// How many bits of the index Vulkan reads.
+        bits: u32,
+    },
+
+    /// The SBT lacks a record that a trace of its pipeline selects.
+    #[error("the SBT has {have} {region} record(s), but `{program}` traces rays that select {region} record {}; add it with Sbt::builder(..).{region}_at({}, ..) (or the ray type's `{region}_for`)", .needed - 1, .needed - 1)]
+    SbtIncomplete {
+        /// The region.
+        region: SbtRegion,
+        /// How many records it needs.
+        needed: usize,
+        /// How many it has.
+        have: usize,
+        /// The program whose trace selects the missing record.
+        program: String,
+    },
+
+    /// A pipeline's programs trace deeper than its `max_trace_depth`.
+    #[error("`{program}` needs a trace depth of at least {needed} ({why}), but the pipeline is linked with max_trace_depth {max_trace_depth}; raise LinkOptions::max_trace_depth to the deepest recursion the programs reach")]
+    TraceDepthExceeded {
+        /// The program that traces.
+        program: String,
+        /// The least depth it needs.
+        needed: u32,
+        /// The depth asked for.
+        max_trace_depth: u32,
+        /// Why it needs it.
+        why: &'static str,
+    },
+
+    /// A program declares a descriptor binding raykit's pipeline layout does not have.
+    #[error("`{program}` declares {found} at set {set}, binding {binding}, {reason}. raykit's pipeline layout binds its buffer table (storage buffers) at set 0, binding 0 and, for params over the push-constant budget, the params uniform buffer at set 1, binding 0: reach buffers through `Buffer<T>` handles and the scene through a `Traversable` (a u64 turned into an acceleration structure) in the params")]
+    DescriptorBinding {
+        /// The program.
+        program: String,
+        /// Its `DescriptorSet`.
+        set: u32,
+        /// Its `Binding`.
+        binding: u32,
+        /// What the program declares there.
+        found: String,
+        /// Why raykit cannot bind it.
+        reason: String,
+    },
+
+    /// A buffer is larger than one storage-buffer descriptor can cover.
+    #[error("a buffer of {bytes} bytes is over this device's maxStorageBufferRange of {limit} bytes, the most a device program can reach through one buffer handle; split the data into several buffers (for example one per image tile or row block) and pass their handles, or an array of handles, in the params")]
+    BufferTooLarge {
+        /// The buffer's size.
+        bytes: u64,
+        /// `maxStorageBufferRange`.
+        limit: u32,
+    },
+
+    /// A group was placed for a ray type other than the one its programs were declared for.
+    #[error("`{program}` was declared for ray type `{declared}` (`#[{kind}(ray = {declared})]`), but its group is placed with {region}_for::<{asked}>; place it with {region}_for::<{declared}>, or declare the program for `{asked}`")]
+    SbtRayTypeMismatch {
+        /// The region.
+        region: SbtRegion,
+        /// The program.
+        program: String,
+        /// Its kind's attribute name (`miss`, `closest_hit`, `any_hit`).
+        kind: &'static str,
+        /// The ray type it was declared for.
+        declared: &'static str,
+        /// The ray type it was placed for.
+        asked: &'static str,
+    },
+
+    /// The SBT's host copy could not be allocated.
+    #[error("the SBT needs {bytes} bytes, which cannot be allocated; use fewer or smaller records")]
+    SbtTooLarge {
+        /// Its size.
+        bytes: u64,
     },
 
     /// A record's data is too large for the device.

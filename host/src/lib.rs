@@ -19,6 +19,7 @@ pub mod program_group;
 pub mod sbt;
 pub mod stack;
 pub mod timeline;
+pub mod validate;
 pub mod wgsl;
 
 pub use accel::{

@@ -143,6 +143,7 @@ impl<T: Element> DeviceBuffer<T> {
             element_size,
             reason: "the size overflows 64 bits",
         })?;
+        crate::validate::check_storage_buffer(size, ctx.inner.limits.max_storage_buffer_range)?;
         let raw = RawBuffer::new(
             &ctx.inner,
             "DeviceBuffer",

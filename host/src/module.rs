@@ -36,6 +36,10 @@ pub struct EntryPointInfo {
     /// The bytes of ray payload and hit attributes it declares, which a
     /// [`crate::PipelineLibrary`]'s interface must cover.
     pub interface: InterfaceSizes,
+    /// The rays it traces (through its call graph), with their constant SBT operands.
+    pub traces: raykit_spirv::EntryTraces,
+    /// The descriptor bindings it declares.
+    pub bindings: Vec<raykit_spirv::DescriptorBinding>,
 }
 
 /// A SPIR-V module on the device, with its entry points.
@@ -48,6 +52,8 @@ pub(crate) struct ModuleInner {
     pub(crate) ctx: Arc<ContextInner>,
     pub(crate) shader: vk::ShaderModule,
     pub(crate) entry_points: Vec<EntryPointInfo>,
+    /// Its SPIR-V, validated again with each pipeline's specialization constants.
+    pub(crate) words: Vec<u32>,
     /// Messages reported while it was created.
     pub(crate) log: Vec<crate::log::ValidationMessage>,
 }
@@ -61,6 +67,9 @@ fn kind_of(model: ExecutionModel) -> Option<ProgramKind> {
 fn opcode(first_word: u32) -> Option<Op> {
     Op::from_u32(first_word & 0xffff)
 }
+
+/// The largest ID bound Vulkan drivers accept (SPIR-V's universal limit, as SPIRV-Tools checks it).
+pub const MAX_ID_BOUND: u32 = (1 << 22) - 1;
 
 /// Turns bytes into SPIR-V words, checking size and magic number.
 pub(crate) fn words_of(bytes: &[u8]) -> Result<Vec<u32>> {
@@ -94,8 +103,8 @@ fn check_structure(words: &[u32]) -> Result<()> {
         return invalid(format!("unknown SPIR-V version word {version:#010x}"));
     }
     let bound = words[3];
-    if bound == 0 || bound > 1 << 22 {
-        return invalid(format!("ID bound {bound} is out of range"));
+    if bound == 0 || bound > MAX_ID_BOUND {
+        return invalid(format!("ID bound {bound} is out of range 1..={MAX_ID_BOUND} (SPIR-V's universal limit)"));
     }
     let mut functions = std::collections::HashSet::new();
     let mut entry_functions = Vec::new();
@@ -274,6 +283,8 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
     let module = parse(&words)?;
     let mut params = raykit_spirv::reflect_params(&module)?;
     let mut interfaces = raykit_spirv::reflect_interface_sizes(&module)?;
+    let mut traces = raykit_spirv::reflect_traces(&module);
+    let mut bindings = raykit_spirv::reflect_bindings(&module);
     let mut entries = Vec::new();
     for inst in &module.entry_points {
         let (Some(rspirv::dr::Operand::ExecutionModel(model)), Some(rspirv::dr::Operand::LiteralString(name))) =
@@ -293,6 +304,8 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
             execution_model: format!("{model:?}"),
             params: params.remove(name).unwrap_or_default(),
             interface: interfaces.remove(name).unwrap_or_default(),
+            traces: traces.remove(name).unwrap_or_default(),
+            bindings: bindings.remove(name).unwrap_or_default(),
         });
     }
     Ok(entries)
@@ -313,6 +326,7 @@ impl Module {
             });
         }
         let words = words_of(spirv)?;
+        crate::validate::spirv::validate(&words)?;
         if !ctx.inner.non_semantic_info && declares_extension(&words, "SPV_KHR_non_semantic_info") {
             return Err(Error::SpirvExtensionUnsupported {
                 spirv_extension: "SPV_KHR_non_semantic_info".to_owned(),
@@ -327,13 +341,22 @@ impl Module {
         });
         let shader = shader.map_err(Error::vk("vkCreateShaderModule"))?;
         ctx.inner.set_name(shader, &format!("raykit module {name}"));
-        Ok(Module { inner: Arc::new(ModuleInner { ctx: ctx.inner.clone(), shader, entry_points, log }) })
+        Ok(Module { inner: Arc::new(ModuleInner { ctx: ctx.inner.clone(), shader, entry_points, words, log }) })
     }
 
     /// Loads the SPIR-V that `cargo xtask build-shaders` built for the device crate
     /// `crate_name` (e.g. `"triangle-device"`), found by [`spirv_path`].
+    /// When there is none, the error lists every path looked at.
     pub fn from_device_crate(ctx: &Context, crate_name: &str) -> Result<Module> {
-        Module::from_file(ctx, spirv_path(crate_name))
+        let tried = spirv_candidates(crate_name);
+        match tried.iter().find(|p| p.is_file()) {
+            Some(path) => Module::from_file(ctx, path),
+            None => Err(Error::SpirvNotFound {
+                crate_name: crate_name.to_owned(),
+                tried,
+                spirv_dir: std::env::var_os("RAYKIT_SPIRV_DIR").map(PathBuf::from),
+            }),
+        }
     }
 
     /// Loads SPIR-V embedded in the executable at compile time (see
@@ -422,6 +445,20 @@ pub fn spirv_path(crate_name: &str) -> PathBuf {
         }
     }
     PathBuf::from("target").join("spirv").join(file)
+}
+
+/// Every path [`spirv_path`] may answer for `crate_name`, in its order of preference.
+pub fn spirv_candidates(crate_name: &str) -> Vec<PathBuf> {
+    let file = format!("{}.spv", crate_name.replace('-', "_"));
+    if let Some(dir) = std::env::var_os("RAYKIT_SPIRV_DIR") {
+        return vec![PathBuf::from(dir).join(file)];
+    }
+    let mut paths = Vec::new();
+    if let Ok(exe) = std::env::current_exe() {
+        paths.extend(exe.ancestors().skip(1).map(|dir| dir.join("spirv").join(&file)));
+    }
+    paths.push(PathBuf::from("target").join("spirv").join(file));
+    paths
 }
 
 impl Drop for ModuleInner {

@@ -11,9 +11,11 @@
 //!   timeout: on a GPU the driver's watchdog turns a program that never ends into a
 //!   lost device; on lavapipe such a launch hangs.
 //!
-//! A hit group "for a ray type that does not exist" is caught by what it leaves
-//! behind (an SBT with a hole); raykit does not know which ray types the programs
-//! trace, so a ray type placed right after the last one is accepted.
+//! raykit reads the ray types the programs trace from their SPIR-V (the constant
+//! SBT offsets and miss indices of `OpTraceRayKHR`) and the ray type each miss and
+//! hit program was declared for (`#[miss(ray = R)]`): an SBT missing a record a
+//! trace selects, or a group placed for another ray type, is refused. Crash cases
+//! (inputs that once crashed the driver or raykit) run in a child process.
 
 use raykit::glam::{Affine3A, Vec3};
 use raykit::{
@@ -169,13 +171,26 @@ fn glsl_main_used_as_another_stage() -> anyhow::Result<()> {
 }
 
 #[test]
-fn hit_group_without_programs() -> anyhow::Result<()> {
-    case(
-        "hit_group_without_programs",
-        &["at least one of closest-hit, any-hit or intersection"],
-        |ctx| refused(ProgramGroup::hit_group(&triangle_module(ctx)?).build(), "an empty hit group"),
-        |e| matches!(e, Error::EmptyHitGroup),
-    )
+fn hit_group_without_programs_is_allowed() -> anyhow::Result<()> {
+    // Vulkan and OptiX allow it: a ray type that needs no hit program gets one.
+    with_context("hit_group_without_programs_is_allowed", |ctx| {
+        let s = shadows(ctx)?;
+        let module = Module::from_device_crate(ctx, "program-model-device")?;
+        let empty = ProgramGroup::hit_group(&module).build()?;
+        let pipeline = Pipeline::<program_model_device::Params>::new(
+            ctx,
+            &[&s.raygen, &s.miss, &s.shadow_miss, &s.shade, &empty],
+            LinkOptions { max_trace_depth: 2 },
+        )?;
+        Sbt::builder(&pipeline)
+            .raygen(&s.raygen, ())
+            .miss_for::<program_model_device::ShadowedRadiance, _>(&s.miss, ())
+            .miss_for::<program_model_device::Shadow, _>(&s.shadow_miss, ())
+            .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shade, ())
+            .hit_for::<program_model_device::Shadow, _>(0, &empty, ())
+            .build()?;
+        still_usable(ctx)
+    })
 }
 
 // ---------------------------------------------------------------- SPIR-V intake
@@ -366,6 +381,97 @@ fn spirv_file_that_does_not_exist() -> anyhow::Result<()> {
         |ctx| refused(Module::from_file(ctx, "no/such/file.spv"), "a missing file"),
         |e| matches!(e, Error::SpirvFile { .. }),
     )
+}
+
+#[test]
+fn device_crate_whose_spirv_is_not_found() -> anyhow::Result<()> {
+    // The suite sets RAYKIT_SPIRV_DIR, so that is the one path looked at.
+    let dir = std::env::var("RAYKIT_SPIRV_DIR").unwrap_or_default();
+    case(
+        "device_crate_whose_spirv_is_not_found",
+        &["no SPIR-V for device crate `no-such-device`", "no_such_device.spv", "RAYKIT_SPIRV_DIR", &dir],
+        |ctx| refused(Module::from_device_crate(ctx, "no-such-device"), "a device crate never built"),
+        |e| matches!(e, Error::SpirvNotFound { tried, .. } if !tried.is_empty()),
+    )
+}
+
+#[test]
+fn buffer_one_element_over_max_storage_buffer_range() -> anyhow::Result<()> {
+    case(
+        "buffer_one_element_over_max_storage_buffer_range",
+        &["maxStorageBufferRange", "split the data"],
+        |ctx| {
+            let limit = ctx.limits().max_storage_buffer_range;
+            let e = refused(ctx.buffer::<u32>(limit as usize / 4 + 1), "a buffer past maxStorageBufferRange")?;
+            // The largest allowed one is fine (and is freed at once).
+            drop(ctx.buffer::<u32>(limit as usize / 4)?);
+            Ok(e)
+        },
+        |e| matches!(e, Error::BufferTooLarge { .. }),
+    )
+}
+
+#[test]
+fn explicit_stack_size_of_zero() -> anyhow::Result<()> {
+    case(
+        "explicit_stack_size_of_zero",
+        &["StackSize::Explicit(0)", "StackSize::Refined"],
+        |ctx| {
+            let l = linked(ctx)?;
+            refused(l.pipeline.set_stack_size(&raykit::stack::StackSize::Explicit(0)), "a zero stack")
+        },
+        |e| matches!(e, Error::StackSize { .. }),
+    )
+}
+
+#[test]
+fn explicit_stack_size_below_a_programs_own_need() -> anyhow::Result<()> {
+    case(
+        "explicit_stack_size_below_a_programs_own_need",
+        &["is below", "the largest stack one of the pipeline's programs needs"],
+        |ctx| {
+            let s = recursive_pipeline(ctx, 2)?;
+            let sizes = s.stack_sizes();
+            let largest = [sizes.css_rg, sizes.css_ms, sizes.css_ch].into_iter().max().unwrap_or(0);
+            anyhow::ensure!(largest > 1, "the driver reports stacks of {largest} bytes: nothing to undercut");
+            refused(s.set_stack_size(&raykit::stack::StackSize::Explicit(largest as u32 - 1)), "a too small stack")
+        },
+        |e| matches!(e, Error::StackSize { .. }),
+    )
+}
+
+#[test]
+fn pipeline_cache_path_that_is_a_fifo() -> anyhow::Result<()> {
+    in_child("pipeline_cache_path_that_is_a_fifo", || {
+        let dir = std::env::temp_dir().join(format!("raykit-fifo-cache-{}", std::process::id()));
+        std::fs::create_dir_all(&dir)?;
+        let options =
+            || ContextOptions { pipeline_cache: raykit::PipelineCacheLocation::Dir(dir.clone()), ..Default::default() };
+        // Learn the cache file's name, then put a FIFO there.
+        let mut file = None;
+        raykit_tests::with_context_options("pipeline_cache_path_that_is_a_fifo (probe)", options(), |ctx| {
+            file = ctx.pipeline_cache_info().path;
+            Ok(())
+        })?;
+        let file = file.ok_or_else(|| anyhow::anyhow!("the disk cache is off"))?;
+        let _ = std::fs::remove_file(&file);
+        let made = std::process::Command::new("mkfifo").arg(&file).status()?;
+        anyhow::ensure!(made.success(), "mkfifo {} failed", file.display());
+        let result = raykit_tests::with_context_options("pipeline_cache_path_that_is_a_fifo", options(), |ctx| {
+            let raykit::CacheLoad::Rejected { reason } = ctx.pipeline_cache_info().load else {
+                anyhow::bail!("the FIFO was not refused: {:?}", ctx.pipeline_cache_info().load);
+            };
+            anyhow::ensure!(
+                reason.contains("is not a regular file") && reason.contains("RAYKIT_PIPELINE_CACHE"),
+                "{reason}"
+            );
+            let err = refused(ctx.save_pipeline_cache(), "saving over a FIFO")?;
+            anyhow::ensure!(matches!(err, Error::PipelineCacheIo { .. }), "{err:?}");
+            still_usable(ctx)
+        });
+        let _ = std::fs::remove_dir_all(&dir);
+        result
+    })
 }
 
 // ---------------------------------------------------------------- launch params
@@ -570,7 +676,9 @@ fn sbt_record_data_too_large() -> anyhow::Result<()> {
             anyhow::ensure!(ctx.limits().max_shader_group_stride < 65536, "this device allows 64 KiB records");
             let l = linked(ctx)?;
             let huge: HugeRecord = bytemuck::Zeroable::zeroed();
-            refused(Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).hit(&l.hit, huge).build(), "a 64 KiB record")
+            let bg = MissData { bg_color: BG_COLOR };
+            let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, bg);
+            refused(builder.hit(&l.hit, huge).build(), "a 64 KiB record")
         },
         |e| matches!(e, Error::SbtRecordTooLarge { size: 65536, .. }),
     )
@@ -598,7 +706,7 @@ fn hit_record_for_a_ray_type_the_sbt_does_not_have() -> anyhow::Result<()> {
             let l = linked(ctx)?;
             let builder =
                 Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR });
-            refused(builder.hit(&l.hit, ()).hit_for::<Ghost, _>(0, &l.hit, ()).build(), "a ghost ray type's hit record")
+            refused(builder.hit(&l.hit, ()).hit_at(2, &l.hit, ()).build(), "a ghost ray type's hit record")
         },
         |e| matches!(e, Error::SbtHole { region: raykit::SbtRegion::Hit, index: 1 }),
     )
@@ -979,13 +1087,13 @@ fn buffer_write_longer_than_the_buffer() -> anyhow::Result<()> {
 
 #[test]
 fn buffer_larger_than_device_memory() -> anyhow::Result<()> {
-    // 4 TiB: refused by the allocator with a typed error, not by a crash or a
-    // validation message.
+    // 4 TiB: over any device's maxStorageBufferRange (a u32), so refused before
+    // the allocator is asked.
     case(
         "buffer_larger_than_device_memory",
-        &["allocating DeviceBuffer: Out of memory", "make smaller ones"],
+        &["a buffer of 4398046511104 bytes", "maxStorageBufferRange", "split the data"],
         |ctx| refused(ctx.buffer::<u32>(1 << 40), "a 4 TiB buffer"),
-        |e| matches!(e, Error::Allocation { what: "DeviceBuffer", .. }),
+        |e| matches!(e, Error::BufferTooLarge { bytes: 4_398_046_511_104, .. }),
     )
 }
 
@@ -1015,5 +1123,551 @@ fn more_live_buffers_than_the_buffer_table_holds() -> anyhow::Result<()> {
             Ok(err)
         },
         |e| matches!(e, Error::BufferTableFull { .. }),
+    )
+}
+
+// ---------------------------------------------------------------------------
+// Inputs that used to crash the driver or raykit itself. Each runs in a child
+// process (this test binary again, with only that test, selected by
+// `RAYKIT_BAD_INPUT_CHILD`), so a regression fails the test instead of killing
+// the whole test binary; a child that hangs is killed after `CHILD_TIMEOUT`.
+
+/// Names the test a child process runs.
+const CHILD_VAR: &str = "RAYKIT_BAD_INPUT_CHILD";
+const CHILD_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(300);
+
+/// Runs `body` in a child process: test `name` of this binary, alone.
+fn in_child(name: &str, body: impl FnOnce() -> anyhow::Result<()>) -> anyhow::Result<()> {
+    if std::env::var(CHILD_VAR).is_ok_and(|c| c == name) {
+        return body();
+    }
+    use std::io::Read;
+    let mut child = std::process::Command::new(std::env::current_exe()?)
+        .args([name, "--exact", "--test-threads=1", "--nocapture"])
+        .env(CHILD_VAR, name)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()?;
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait()? {
+            break status;
+        }
+        if start.elapsed() > CHILD_TIMEOUT {
+            child.kill()?;
+            child.wait()?;
+            anyhow::bail!("{name}: the child process hung for {CHILD_TIMEOUT:?} and was killed");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let (mut out, mut err) = (String::new(), String::new());
+    child.stdout.take().map(|mut o| o.read_to_string(&mut out));
+    child.stderr.take().map(|mut e| e.read_to_string(&mut err));
+    anyhow::ensure!(status.success(), "{name}: the child process failed ({status}):\n{out}\n{err}");
+    anyhow::ensure!(out.contains("1 passed"), "{name}: the child process ran no test:\n{out}\n{err}");
+    Ok(())
+}
+
+/// An SBT of the triangle's pipeline with `edit` applied to a builder that has
+/// the raygen record.
+fn triangle_sbt(
+    ctx: &Context,
+    edit: impl for<'a> FnOnce(raykit::SbtBuilder<'a, Params>, &'a Linked) -> raykit::SbtBuilder<'a, Params>,
+) -> anyhow::Result<Error> {
+    let l = linked(ctx)?;
+    let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ());
+    let result = edit(builder, &l).build();
+    refused(result, "the SBT")
+}
+
+#[test]
+fn sbt_without_a_miss_record_for_a_pipeline_that_traces() -> anyhow::Result<()> {
+    in_child("sbt_without_a_miss_record_for_a_pipeline_that_traces", || {
+        case(
+            "sbt_without_a_miss_record_for_a_pipeline_that_traces",
+            &["0 miss record(s)", "`__raygen__rg`", "miss_at(0, ..)"],
+            |ctx| triangle_sbt(ctx, |b, l| b.hit(&l.hit, ())),
+            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Miss, needed: 1, have: 0, .. }),
+        )
+    })
+}
+
+#[test]
+fn sbt_without_a_hit_record_for_a_pipeline_with_hit_groups() -> anyhow::Result<()> {
+    in_child("sbt_without_a_hit_record_for_a_pipeline_with_hit_groups", || {
+        case(
+            "sbt_without_a_hit_record_for_a_pipeline_with_hit_groups",
+            &["0 hit record(s)", "hit_at(0, ..)"],
+            |ctx| triangle_sbt(ctx, |b, l| b.miss(&l.miss, MissData { bg_color: BG_COLOR })),
+            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Hit, needed: 1, have: 0, .. }),
+        )
+    })
+}
+
+#[test]
+fn hit_at_usize_max() -> anyhow::Result<()> {
+    in_child("hit_at_usize_max", || {
+        case(
+            "hit_at_usize_max",
+            &[&format!("SBT hit index {} is out of range", usize::MAX), "at most 16777216", "24 bits"],
+            |ctx| {
+                triangle_sbt(ctx, |b, l| {
+                    b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_at(usize::MAX, &l.hit, ())
+                })
+            },
+            |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, limit: 16_777_216, .. }),
+        )
+    })
+}
+
+#[test]
+fn hit_for_a_huge_geometry_index() -> anyhow::Result<()> {
+    in_child("hit_for_a_huge_geometry_index", || {
+        case(
+            "hit_for_a_huge_geometry_index",
+            &["geometry × SBT_STRIDE + SBT_OFFSET", "out of range"],
+            |ctx| {
+                // An empty hit group: it fits any ray type.
+                let empty = ProgramGroup::hit_group(&triangle_module(ctx)?).build()?;
+                triangle_sbt(ctx, |b, l| {
+                    b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_for::<Ghost, _>(usize::MAX / 2, &empty, ())
+                })
+            },
+            |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, .. }),
+        )
+    })
+}
+
+#[test]
+fn miss_at_two_to_the_forty() -> anyhow::Result<()> {
+    in_child("miss_at_two_to_the_forty", || {
+        case(
+            "miss_at_two_to_the_forty",
+            &["SBT miss index 1099511627776 is out of range", "at most 65536", "16 bits"],
+            |ctx| {
+                triangle_sbt(ctx, |b, l| b.miss_at(1 << 40, &l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()))
+            },
+            |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Miss, limit: 65536, .. }),
+        )
+    })
+}
+
+#[test]
+fn miss_index_just_past_sixteen_bits() -> anyhow::Result<()> {
+    case(
+        "miss_index_just_past_sixteen_bits",
+        &["SBT miss index 65536 is out of range"],
+        |ctx| triangle_sbt(ctx, |b, l| b.miss_at(65536, &l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ())),
+        |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Miss, .. }),
+    )
+}
+
+#[test]
+fn hit_index_just_past_twenty_four_bits() -> anyhow::Result<()> {
+    case(
+        "hit_index_just_past_twenty_four_bits",
+        &["SBT hit index 16777216 is out of range"],
+        |ctx| triangle_sbt(ctx, |b, l| b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_at(1 << 24, &l.hit, ())),
+        |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, .. }),
+    )
+}
+
+#[test]
+fn sbt_hit_records_a_million_slots_apart() -> anyhow::Result<()> {
+    // Within the limit but with a hole: refused before anything is allocated.
+    case(
+        "sbt_hit_records_a_million_slots_apart",
+        &["SBT hit slot 1 is empty"],
+        |ctx| {
+            triangle_sbt(ctx, |b, l| {
+                b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()).hit_at(1 << 20, &l.hit, ())
+            })
+        },
+        |e| matches!(e, Error::SbtHole { region: raykit::SbtRegion::Hit, index: 1 }),
+    )
+}
+
+// --- SPIR-V validated before the driver sees it ---
+
+#[test]
+fn id_bound_of_two_to_the_twenty_two() -> anyhow::Result<()> {
+    case(
+        "id_bound_of_two_to_the_twenty_two",
+        &["ID bound 4194304 is out of range 1..=4194303"],
+        |ctx| {
+            let mut w = words(RAYGEN_MAIN);
+            w[3] = 1 << 22;
+            refused(Module::new(ctx, &bytes(&w)), "ID bound 2^22")
+        },
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+#[test]
+fn id_bound_at_the_limit_is_accepted() -> anyhow::Result<()> {
+    with_context("id_bound_at_the_limit_is_accepted", |ctx| {
+        let mut w = words(RAYGEN_MAIN);
+        w[3] = raykit::module::MAX_ID_BOUND;
+        Module::new(ctx, &bytes(&w))?;
+        still_usable(ctx)
+    })
+}
+
+/// `raygen_main.rgen.spv` with the first `OpTypeVector`'s component count made 5,
+/// which is well formed but invalid (vectors have 2, 3 or 4 components).
+fn five_component_vector() -> Vec<u8> {
+    let mut w = words(RAYGEN_MAIN);
+    let mut at = 5;
+    while at < w.len() {
+        let count = (w[at] >> 16) as usize;
+        if w[at] & 0xffff == 23 {
+            // OpTypeVector %result %component count
+            w[at + 3] = 5;
+            break;
+        }
+        at += count.max(1);
+    }
+    bytes(&w)
+}
+
+#[test]
+fn type_level_corruption_carries_the_validators_message() -> anyhow::Result<()> {
+    if !raykit::validate::spirv::validator_available() {
+        anyhow::bail!("no SPIR-V validator: install spirv-tools (spirv-val)");
+    }
+    case(
+        "type_level_corruption_carries_the_validators_message",
+        &["not a SPIR-V module", "spirv-val", "Illegal number of components (5)"],
+        |ctx| refused(Module::new(ctx, &five_component_vector()), "a 5-component vector"),
+        |e| matches!(e, Error::InvalidSpirv { .. }),
+    )
+}
+
+const PAYLOAD_SPEC_ARRAY: &[u8] = include_bytes!("../data/payload_spec_array.rgen.spv");
+
+/// Links `payload_spec_array.rgen` (its payload array sized by spec constant 3)
+/// with constant 3 set to `length`.
+fn spec_array_pipeline(ctx: &Context, length: u32) -> anyhow::Result<Error> {
+    let module = Module::new(ctx, PAYLOAD_SPEC_ARRAY)?;
+    let raygen = ProgramGroup::raygen(&module, "main")?;
+    let constants = raykit::Specialization::new().set(3, length);
+    refused(
+        Pipeline::<Params>::with_specialization(ctx, &[&raygen], LinkOptions::default(), &constants),
+        "an array sized by a specialization constant",
+    )
+}
+
+#[test]
+fn spec_constant_sizing_an_array_to_zero() -> anyhow::Result<()> {
+    in_child("spec_constant_sizing_an_array_to_zero", || {
+        case(
+            "spec_constant_sizing_an_array_to_zero",
+            &["spirv-val", "OpTypeArray"],
+            |ctx| spec_array_pipeline(ctx, 0),
+            |e| matches!(e, Error::InvalidSpirv { .. }),
+        )
+    })
+}
+
+#[test]
+fn spec_constant_sizing_an_array_to_two_to_the_thirty_one() -> anyhow::Result<()> {
+    in_child("spec_constant_sizing_an_array_to_two_to_the_thirty_one", || {
+        case(
+            "spec_constant_sizing_an_array_to_two_to_the_thirty_one",
+            &["sizes array type", "2147483648 elements", "`Buffer<T>`"],
+            |ctx| spec_array_pipeline(ctx, 1 << 31),
+            |e| matches!(e, Error::InvalidSpirv { .. }),
+        )
+    })
+}
+
+// --- Trace depth ---
+
+#[test]
+fn tracing_raygen_with_max_trace_depth_zero() -> anyhow::Result<()> {
+    in_child("tracing_raygen_with_max_trace_depth_zero", || {
+        case(
+            "tracing_raygen_with_max_trace_depth_zero",
+            &["`__raygen__rg` needs a trace depth of at least 1", "max_trace_depth 0", "LinkOptions::max_trace_depth"],
+            |ctx| {
+                let p = triangle::Programs::rust(ctx)?;
+                refused(
+                    Pipeline::<Params>::new(ctx, &[&p.raygen, &p.miss, &p.hit], LinkOptions { max_trace_depth: 0 }),
+                    "a tracing raygen with depth 0",
+                )
+            },
+            |e| matches!(e, Error::TraceDepthExceeded { needed: 1, max_trace_depth: 0, .. }),
+        )
+    })
+}
+
+/// The stack test's programs: a closest-hit that traces again (recursion).
+fn recursive_pipeline(ctx: &Context, max_trace_depth: u32) -> raykit::Result<Pipeline<stack_test_device::Params>> {
+    let module = Module::from_device_crate(ctx, "stack-test-device")?;
+    let raygen = ProgramGroup::raygen(&module, stack_test_device::RG)?;
+    let miss = ProgramGroup::miss(&module, stack_test_device::MS)?;
+    let hit = ProgramGroup::hit_group(&module).closest_hit(stack_test_device::LAYER_HIT).build()?;
+    Pipeline::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth })
+}
+
+#[test]
+fn recursive_closest_hit_with_max_trace_depth_one() -> anyhow::Result<()> {
+    in_child("recursive_closest_hit_with_max_trace_depth_one", || {
+        case(
+            "recursive_closest_hit_with_max_trace_depth_one",
+            &["needs a trace depth of at least 2", "recurses", "max_trace_depth 1"],
+            |ctx| refused(recursive_pipeline(ctx, 1), "a recursive closest-hit with depth 1"),
+            |e| matches!(e, Error::TraceDepthExceeded { needed: 2, max_trace_depth: 1, .. }),
+        )
+    })
+}
+
+#[test]
+fn recursive_closest_hit_with_a_declared_depth_links() -> anyhow::Result<()> {
+    with_context("recursive_closest_hit_with_a_declared_depth_links", |ctx| {
+        recursive_pipeline(ctx, 2)?;
+        still_usable(ctx)
+    })
+}
+
+// --- Descriptor bindings against raykit's pipeline layout ---
+
+/// Links the GLSL raygen `spirv` alone, for params `Params` (push constants).
+fn link_raygen(ctx: &Context, spirv: &[u8]) -> anyhow::Result<Error> {
+    let module = Module::new(ctx, spirv)?;
+    let raygen = ProgramGroup::raygen(&module, "main")?;
+    refused(Pipeline::<Params>::new(ctx, &[&raygen], LinkOptions::default()), "the raygen")
+}
+
+#[test]
+fn descriptor_at_a_set_raykit_does_not_bind() -> anyhow::Result<()> {
+    in_child("descriptor_at_a_set_raykit_does_not_bind", || {
+        case(
+            "descriptor_at_a_set_raykit_does_not_bind",
+            &["`main` declares a storage buffer `image` at set 2, binding 0", "has no set 2", "`Buffer<T>` handles"],
+            |ctx| link_raygen(ctx, include_bytes!("../data/storage_at_set_2.rgen.spv")),
+            |e| matches!(e, Error::DescriptorBinding { set: 2, binding: 0, .. }),
+        )
+    })
+}
+
+#[test]
+fn tlas_declared_where_the_buffer_table_is() -> anyhow::Result<()> {
+    in_child("tlas_declared_where_the_buffer_table_is", || {
+        case(
+            "tlas_declared_where_the_buffer_table_is",
+            &["an acceleration structure `scene` at set 0, binding 0", "buffer table", "`Traversable`"],
+            |ctx| link_raygen(ctx, PAYLOAD_SPEC_ARRAY),
+            |e| matches!(e, Error::DescriptorBinding { set: 0, binding: 0, .. }),
+        )
+    })
+}
+
+#[test]
+fn image_beside_the_buffer_table() -> anyhow::Result<()> {
+    in_child("image_beside_the_buffer_table", || {
+        case(
+            "image_beside_the_buffer_table",
+            &["an image or sampler `target` at set 0, binding 1", "set 0 has only binding 0"],
+            |ctx| link_raygen(ctx, include_bytes!("../data/image_at_set_0_binding_1.rgen.spv")),
+            |e| matches!(e, Error::DescriptorBinding { set: 0, binding: 1, .. }),
+        )
+    })
+}
+
+// --- Params: what the bytes mean ---
+
+/// The triangle's params as a host that declared `size` as `IVec2` would describe
+/// them: same offsets and sizes, another kind of number.
+#[repr(transparent)]
+#[derive(Copy, Clone, bytemuck::Pod, bytemuck::Zeroable)]
+struct SizeAsSigned(Params);
+
+const SIZE_AS_SIGNED_FIELDS: [raykit::device::FieldLayout; 8] = {
+    let f = <Params as raykit::LaunchParams>::LAYOUT.fields;
+    let mut out = [f[0], f[1], f[2], f[3], f[4], f[5], f[6], f[7]];
+    out[1].type_name = "IVec2";
+    out[1].shape =
+        raykit::device::Shape::Numeric(raykit::device::Scalar { kind: raykit::device::ScalarKind::Signed, bits: 32 });
+    out
+};
+
+impl raykit::LaunchParams for SizeAsSigned {
+    const LAYOUT: raykit::device::ParamsLayout = raykit::device::ParamsLayout {
+        name: "SizeAsSigned",
+        size: <Params as raykit::LaunchParams>::LAYOUT.size,
+        fields: &SIZE_AS_SIGNED_FIELDS,
+    };
+}
+
+#[test]
+fn params_field_of_the_same_size_but_another_kind() -> anyhow::Result<()> {
+    case(
+        "params_field_of_the_same_size_but_another_kind",
+        &["`size`", "type IVec2", "vector of 2 × u32", "holds i32"],
+        |ctx| {
+            let p = triangle::Programs::rust(ctx)?;
+            refused(
+                Pipeline::<SizeAsSigned>::new(ctx, &[&p.raygen, &p.miss, &p.hit], LinkOptions::default()),
+                "params whose size field is signed on the host",
+            )
+        },
+        |e| matches!(e, Error::ParamsLayout(l) if matches!(&**l, LayoutError::Mismatch { field, .. } if field == "size")),
+    )
+}
+
+// --- Ray types the programs trace, read from the SPIR-V ---
+
+/// The shadows pipeline of the program model: raygen traces `ShadowedRadiance`
+/// (miss 0, hit offset 0), its closest-hit traces `Shadow` (miss 1, hit offset 1).
+struct Shadows {
+    raygen: ProgramGroup,
+    miss: ProgramGroup,
+    shadow_miss: ProgramGroup,
+    shade: ProgramGroup,
+    shadow_hit: ProgramGroup,
+    pipeline: Pipeline<program_model_device::Params>,
+}
+
+fn shadows(ctx: &Context) -> anyhow::Result<Shadows> {
+    let module = Module::from_device_crate(ctx, "program-model-device")?;
+    let raygen = ProgramGroup::raygen(&module, program_model_device::RG_SHADOWS)?;
+    let miss = ProgramGroup::miss(&module, program_model_device::MS_SHADOWS)?;
+    let shadow_miss = ProgramGroup::miss(&module, program_model_device::MS_SHADOW)?;
+    let shade = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SHADE_SHADOWED).build()?;
+    let shadow_hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::SHADOW_HIT).build()?;
+    let pipeline =
+        Pipeline::new(ctx, &[&raygen, &miss, &shadow_miss, &shade, &shadow_hit], LinkOptions { max_trace_depth: 2 })?;
+    Ok(Shadows { raygen, miss, shadow_miss, shade, shadow_hit, pipeline })
+}
+
+#[test]
+fn sbt_without_the_miss_record_of_a_traced_ray_type() -> anyhow::Result<()> {
+    in_child("sbt_without_the_miss_record_of_a_traced_ray_type", || {
+        case(
+            "sbt_without_the_miss_record_of_a_traced_ray_type",
+            &["1 miss record(s)", "`__closesthit__shade_shadowed`", "miss_at(1, ..)"],
+            |ctx| {
+                let s = shadows(ctx)?;
+                let sbt = Sbt::builder(&s.pipeline)
+                    .raygen(&s.raygen, ())
+                    .miss_for::<program_model_device::ShadowedRadiance, _>(&s.miss, ())
+                    .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shade, ())
+                    .hit_for::<program_model_device::Shadow, _>(0, &s.shadow_hit, ());
+                refused(sbt.build(), "an SBT without the shadow miss record")
+            },
+            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Miss, needed: 2, have: 1, .. }),
+        )
+    })
+}
+
+#[test]
+fn sbt_without_the_hit_record_of_a_traced_ray_type() -> anyhow::Result<()> {
+    in_child("sbt_without_the_hit_record_of_a_traced_ray_type", || {
+        case(
+            "sbt_without_the_hit_record_of_a_traced_ray_type",
+            &["1 hit record(s)", "`__closesthit__shade_shadowed`", "hit_at(1, ..)"],
+            |ctx| {
+                let s = shadows(ctx)?;
+                let sbt = Sbt::builder(&s.pipeline)
+                    .raygen(&s.raygen, ())
+                    .miss_for::<program_model_device::ShadowedRadiance, _>(&s.miss, ())
+                    .miss_for::<program_model_device::Shadow, _>(&s.shadow_miss, ())
+                    .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shade, ());
+                refused(sbt.build(), "an SBT without the shadow hit record")
+            },
+            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Hit, needed: 2, have: 1, .. }),
+        )
+    })
+}
+
+#[test]
+fn hit_for_a_geometry_past_twenty_four_bits() -> anyhow::Result<()> {
+    case(
+        "hit_for_a_geometry_past_twenty_four_bits",
+        &["SBT hit index 16777216 is out of range"],
+        |ctx| {
+            triangle_sbt(ctx, |b, l| {
+                b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_for::<triangle_device::Radiance, _>(
+                    1 << 24,
+                    &l.hit,
+                    (),
+                )
+            })
+        },
+        |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, .. }),
+    )
+}
+
+#[test]
+fn recursive_closest_hit_in_a_library_with_max_trace_depth_one() -> anyhow::Result<()> {
+    in_child("recursive_closest_hit_in_a_library_with_max_trace_depth_one", || {
+        case(
+            "recursive_closest_hit_in_a_library_with_max_trace_depth_one",
+            &["`__closesthit__layer_hit` needs a trace depth of at least 2", "max_trace_depth 1"],
+            |ctx| {
+                anyhow::ensure!(ctx.supports_pipeline_libraries(), "this device has no pipeline libraries");
+                let module = Module::from_device_crate(ctx, "stack-test-device")?;
+                let hit = ProgramGroup::hit_group(&module).closest_hit(stack_test_device::LAYER_HIT).build()?;
+                let options = raykit::LibraryOptions { max_trace_depth: 1, interface: None };
+                refused(raykit::PipelineLibrary::<stack_test_device::Params>::new(ctx, &[&hit], options), "the library")
+            },
+            |e| matches!(e, Error::TraceDepthExceeded { needed: 2, .. }),
+        )
+    })
+}
+
+#[test]
+fn complete_sbt_of_two_ray_types_builds_and_renders() -> anyhow::Result<()> {
+    with_context("complete_sbt_of_two_ray_types_builds_and_renders", |ctx| {
+        let s = shadows(ctx)?;
+        Sbt::builder(&s.pipeline)
+            .raygen(&s.raygen, ())
+            .miss_for::<program_model_device::ShadowedRadiance, _>(&s.miss, ())
+            .miss_for::<program_model_device::Shadow, _>(&s.shadow_miss, ())
+            .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shade, ())
+            .hit_for::<program_model_device::Shadow, _>(0, &s.shadow_hit, ())
+            .build()?;
+        still_usable(ctx)
+    })
+}
+
+// --- Groups know their ray type ---
+
+#[test]
+fn miss_group_placed_for_another_ray_type() -> anyhow::Result<()> {
+    case(
+        "miss_group_placed_for_another_ray_type",
+        &[
+            "`__miss__ms_shadows` was declared for ray type `ShadowedRadiance`",
+            "miss_for::<Shadow>",
+            "place it with miss_for::<ShadowedRadiance>",
+        ],
+        |ctx| {
+            let s = shadows(ctx)?;
+            let sbt = Sbt::builder(&s.pipeline)
+                .raygen(&s.raygen, ())
+                .miss_for::<program_model_device::Shadow, _>(&s.miss, ());
+            refused(sbt.build(), "the radiance miss placed for the shadow ray")
+        },
+        |e| {
+            matches!(e, Error::SbtRayTypeMismatch { region: raykit::SbtRegion::Miss, declared: "ShadowedRadiance", .. })
+        },
+    )
+}
+
+#[test]
+fn hit_group_placed_for_another_ray_type() -> anyhow::Result<()> {
+    case(
+        "hit_group_placed_for_another_ray_type",
+        &["`__closesthit__shadow_hit` was declared for ray type `Shadow`", "hit_for::<ShadowedRadiance>"],
+        |ctx| {
+            let s = shadows(ctx)?;
+            let sbt = Sbt::builder(&s.pipeline)
+                .raygen(&s.raygen, ())
+                .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shadow_hit, ());
+            refused(sbt.build(), "the shadow hit group placed for the radiance ray")
+        },
+        |e| matches!(e, Error::SbtRayTypeMismatch { region: raykit::SbtRegion::Hit, declared: "Shadow", .. }),
     )
 }

@@ -51,7 +51,7 @@ fn wrong_program_kinds_are_errors_that_name_the_entry_points() -> anyhow::Result
         let err = ProgramGroup::raygen(&module, "__raygen__nope").err();
         assert!(matches!(&err, Some(Error::EntryPointNotFound { name, .. }) if name == "__raygen__nope"), "{err:?}");
 
-        assert!(matches!(ProgramGroup::hit_group(&module).build(), Err(Error::EmptyHitGroup)));
+        assert!(ProgramGroup::hit_group(&module).build().is_ok(), "an empty hit group is allowed");
 
         // The context is still usable after the errors.
         let pixels = triangle::render(ctx, 16, 16)?;

@@ -16,7 +16,7 @@
 pub mod params;
 pub mod program;
 
-pub use params::{uses_push_constants, FieldLayout, ParamsLayout, Shape, PUSH_CONSTANT_BUDGET};
+pub use params::{uses_push_constants, FieldLayout, ParamsLayout, Scalar, ScalarKind, Shape, PUSH_CONSTANT_BUDGET};
 pub use program::{ExecutionModel, GroupRole, ProgramKind, ProgramPrefix};
 
 /// Descriptor set of the bindless storage-buffer table every program sees.

@@ -23,8 +23,10 @@ pub struct FieldLayout {
 /// The shape of a params field, as far as its layout is concerned.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Shape {
-    /// A scalar or a vector: only offset and size matter.
+    /// A scalar or a vector whose offset and size are all that matter.
     Plain,
+    /// A number or a vector of numbers: what its components mean is compared too.
+    Numeric(Scalar),
     /// A `Buffer<T>` handle (a `u32`): the host checks it names a live buffer of
     /// the launching context at every launch.
     Buffer,
@@ -49,6 +51,37 @@ pub enum Shape {
     },
     /// A nested struct, itself deriving `LaunchParams`.
     Struct(&'static ParamsLayout),
+}
+
+/// What the bytes of a number mean: its kind and width.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Scalar {
+    /// Unsigned, signed or floating point.
+    pub kind: ScalarKind,
+    /// Width in bits.
+    pub bits: u32,
+}
+
+/// The kind of a number.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum ScalarKind {
+    /// An unsigned integer.
+    Unsigned,
+    /// A signed integer.
+    Signed,
+    /// A floating-point number.
+    Float,
+}
+
+impl core::fmt::Display for Scalar {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let prefix = match self.kind {
+            ScalarKind::Unsigned => 'u',
+            ScalarKind::Signed => 'i',
+            ScalarKind::Float => 'f',
+        };
+        write!(f, "{prefix}{}", self.bits)
+    }
 }
 
 /// The layout of a launch-params struct.

@@ -78,6 +78,30 @@ fn try_derive(input: TokenStream) -> syn::Result<TokenStream> {
     };
     let mut errors: Option<syn::Error> = None;
     let mut entries = Vec::new();
+    let mut padding_checks = Vec::new();
+    let named: Vec<(&syn::Ident, &syn::Type)> =
+        fields.named.iter().filter_map(|f| f.ident.as_ref().map(|i| (i, &f.ty))).collect();
+    // Padding named by field, before bytemuck's `Pod` says only "padding".
+    for (k, (ident, ty)) in named.iter().enumerate() {
+        let end = quote!(::core::mem::offset_of!(#name, #ident) + ::core::mem::size_of::<#ty>());
+        let (next_start, message) = match named.get(k + 1) {
+            Some((next, _)) => (
+                quote!(::core::mem::offset_of!(#name, #next)),
+                format!(
+                    "`{name}` has padding after field `{ident}` (before `{next}`): launch params are `Pod` and may have none; add an explicit padding field after `{ident}` (e.g. `_pad: u32`) or reorder the fields"
+                ),
+            ),
+            None => (
+                quote!(::core::mem::size_of::<#name>()),
+                format!(
+                    "`{name}` has padding after its last field `{ident}`: launch params are `Pod` and may have none; add an explicit padding field at the end (e.g. `_pad: u32`)"
+                ),
+            ),
+        };
+        padding_checks.push(quote_spanned! {ident.span()=>
+            const _: () = ::core::assert!(#end == #next_start, #message);
+        });
+    }
     for field in &fields.named {
         let Some(ident) = &field.ident else { continue };
         if let Some(reason) = refuse(&field.ty) {
@@ -109,6 +133,7 @@ fn try_derive(input: TokenStream) -> syn::Result<TokenStream> {
     }
     let struct_name = name.to_string();
     Ok(quote! {
+        #(#padding_checks)*
         impl ::raykit_device::LaunchParams for #name {
             const LAYOUT: ::raykit_device::ParamsLayout = ::raykit_device::ParamsLayout {
                 name: #struct_name,

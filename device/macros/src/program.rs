@@ -600,6 +600,13 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
     };
 
     let doc = format!("The entry point `{entry_name}` (a {} program), for the host.", stage.context_type());
+    let ray_info = match &args.ray {
+        Some(ray) => {
+            let name = quote!(#ray).to_string().replace(' ', "");
+            quote!(::core::option::Option::Some(::raykit_device::RayTypeInfo::of::<#ray>(#name)))
+        }
+        None => quote!(::core::option::Option::None),
+    };
     let (table_set, table_binding) =
         (unsuffixed(raykit_abi::BUFFER_TABLE_SET), unsuffixed(raykit_abi::BUFFER_TABLE_BINDING));
     let exception_slot_id = unsuffixed(raykit_abi::EXCEPTION_SLOT_SPEC_ID);
@@ -610,6 +617,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
         pub const #entry_const: ::raykit_device::EntryPoint = ::raykit_device::EntryPoint {
             name: #entry_name,
             kind: #kind,
+            ray: #ray_info,
         };
 
         #(#checks)*

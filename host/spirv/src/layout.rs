@@ -31,7 +31,7 @@ use std::collections::HashMap;
 use rspirv::dr::{Instruction, Operand};
 use rspirv::spirv::{Decoration, Op, StorageClass};
 
-use raykit_abi::{ParamsLayout, Shape, PARAMS_BINDING, PARAMS_SET, PUSH_CONSTANT_BUDGET};
+use raykit_abi::{ParamsLayout, Scalar, ScalarKind, Shape, PARAMS_BINDING, PARAMS_SET, PUSH_CONSTANT_BUDGET};
 
 /// Why a params block and a host layout cannot be used together.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -137,8 +137,15 @@ pub struct BlockMember {
 /// The type of a block member.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum BlockType {
-    /// Scalar, vector, pointer or anything else without inner layout.
+    /// Pointer, boolean or anything else without inner layout or known number kind.
     Plain(String),
+    /// A number, or a vector of `components` numbers.
+    Numeric {
+        /// What each component is.
+        scalar: Scalar,
+        /// 1 for a scalar.
+        components: u32,
+    },
     /// A matrix with its `MatrixStride`.
     Matrix {
         /// Columns.
@@ -285,14 +292,24 @@ impl<'m> Index<'m> {
         let plain = |size: u32| Ok((BlockType::Plain(format!("{:?}", inst.class.opcode)), size));
         match inst.class.opcode {
             Op::TypeInt | Op::TypeFloat => {
-                plain(literal(inst, 0).ok_or_else(|| bad("OpTypeInt/Float without width"))? / 8)
+                let bits = literal(inst, 0).ok_or_else(|| bad("OpTypeInt/Float without width"))?;
+                let kind = match (inst.class.opcode, literal(inst, 1)) {
+                    (Op::TypeFloat, _) => ScalarKind::Float,
+                    (_, Some(0)) => ScalarKind::Unsigned,
+                    _ => ScalarKind::Signed,
+                };
+                Ok((BlockType::Numeric { scalar: Scalar { kind, bits }, components: 1 }, bits / 8))
             }
             Op::TypeBool => plain(4),
             Op::TypeVector => {
                 let component = id_operand(inst, 0).ok_or_else(|| bad("OpTypeVector without component"))?;
                 let count = literal(inst, 1).ok_or_else(|| bad("OpTypeVector without count"))?;
-                let (_, size) = self.describe(component, depth + 1)?;
-                Ok((BlockType::Plain(format!("vector of {count}")), size.saturating_mul(count)))
+                let (component, size) = self.describe(component, depth + 1)?;
+                let ty = match component {
+                    BlockType::Numeric { scalar, .. } => BlockType::Numeric { scalar, components: count },
+                    _ => BlockType::Plain(format!("vector of {count}")),
+                };
+                Ok((ty, size.saturating_mul(count)))
             }
             Op::TypePointer => plain(8),
             Op::TypeMatrix => {
@@ -621,7 +638,16 @@ fn describe_host(offset: u32, size: u32) -> String {
     format!("offset {offset}, size {size}")
 }
 
-/// Compares the host layout with the block members; `Err` on the first difference.
+/// How a message names SPIR-V member `index` (with its `OpMemberName` when the module has one).
+fn member_label(member: &BlockMember, index: usize) -> String {
+    match &member.name {
+        Some(name) => format!("SPIR-V member {index} `{name}`"),
+        None => format!("SPIR-V member {index}"),
+    }
+}
+
+/// Compares the host layout with the block members, pairing each host field with
+/// the member at its offset; `Err` on the first difference.
 fn compare(
     host: &ParamsLayout,
     members: &[BlockMember],
@@ -629,24 +655,36 @@ fn compare(
     depth: usize,
 ) -> std::result::Result<(), Mismatch> {
     let at = |name: &str| if path.is_empty() { name.to_owned() } else { format!("{path}.{name}") };
-    for (i, field) in host.fields.iter().enumerate() {
-        let Some(member) = members.get(i) else {
-            return Err(Mismatch {
-                field: at(field.name),
-                host: describe_host(field.offset, field.size),
-                device: format!("absent: the SPIR-V block has only {} members", members.len()),
-                depth,
-            });
+    for field in host.fields {
+        let host_text = format!("{}, type {}", describe_host(field.offset, field.size), field.type_name);
+        let Some((index, member)) = members.iter().enumerate().find(|(_, m)| m.offset == field.offset) else {
+            let covering = members
+                .iter()
+                .enumerate()
+                .find(|(_, m)| m.offset < field.offset && field.offset < m.offset.saturating_add(m.size.max(1)));
+            let same_name = members.iter().enumerate().find(|(_, m)| m.name.as_deref() == Some(field.name));
+            let device = match (same_name, covering) {
+                (Some((i, m)), _) => format!("{}: offset {}, size {}", member_label(m, i), m.offset, m.size),
+                (None, Some((i, m))) => format!(
+                    "no member starts at offset {}: {} (offset {}, size {}) covers it",
+                    field.offset,
+                    member_label(m, i),
+                    m.offset,
+                    m.size
+                ),
+                (None, None) => {
+                    let offsets: Vec<u32> = members.iter().map(|m| m.offset).collect();
+                    format!("absent: no member at offset {} (the block's members start at {offsets:?})", field.offset)
+                }
+            };
+            return Err(Mismatch { field: at(field.name), host: host_text, device, depth });
         };
         let mismatch = |device: String| Mismatch {
             field: at(field.name),
-            host: format!("{}, type {}", describe_host(field.offset, field.size), field.type_name),
-            device,
+            host: host_text.clone(),
+            device: format!("{}: {device}", member_label(member, index)),
             depth,
         };
-        if member.offset != field.offset {
-            return Err(mismatch(format!("offset {}, size {}", member.offset, member.size)));
-        }
         match (&field.shape, &member.ty) {
             (Shape::Struct(inner), BlockType::Struct(inner_members)) => {
                 compare(inner, inner_members, &at(field.name), depth + 1)?;
@@ -676,7 +714,27 @@ fn compare(
                     )));
                 }
             }
-            (Shape::Plain | Shape::Buffer | Shape::Traversable, _) => {
+            (Shape::Numeric(host_scalar), BlockType::Numeric { scalar, components }) => {
+                // A 64-bit integer as two 32-bit words (WGSL has no 64-bit integers).
+                let split_u64 = host_scalar.bits == 64
+                    && host_scalar.kind != ScalarKind::Float
+                    && scalar.kind != ScalarKind::Float
+                    && scalar.bits == 32
+                    && *components == 2;
+                if (host_scalar != scalar && !split_u64) || member.size > field.size {
+                    let what = if *components == 1 {
+                        scalar.to_string()
+                    } else {
+                        format!("vector of {components} × {scalar}")
+                    };
+                    return Err(mismatch(format!(
+                        "offset {}, size {}, a {what} (the host field holds {host_scalar} components)",
+                        member.offset, member.size
+                    )));
+                }
+            }
+            // Handles are structs on some targets: only where they are and their size matter.
+            (Shape::Plain | Shape::Numeric(_) | Shape::Buffer | Shape::Traversable, _) => {
                 if member.size > field.size {
                     return Err(mismatch(format!("offset {}, size {}", member.offset, member.size)));
                 }
@@ -684,12 +742,18 @@ fn compare(
             (_, other) => return Err(mismatch(format!("offset {}, a {}", member.offset, kind_name(other)))),
         }
     }
-    if members.len() > host.fields.len() {
-        let extra = &members[host.fields.len()];
+    if let Some((index, extra)) =
+        members.iter().enumerate().find(|(_, m)| !host.fields.iter().any(|f| f.offset == m.offset))
+    {
         return Err(Mismatch {
             field: at(extra.name.as_deref().unwrap_or("(unnamed)")),
-            host: format!("absent: `{}` has only {} fields", host.name, host.fields.len()),
-            device: format!("member {} at offset {}, size {}", host.fields.len(), extra.offset, extra.size),
+            host: format!(
+                "absent: `{}` has only {} fields, none at offset {}",
+                host.name,
+                host.fields.len(),
+                extra.offset
+            ),
+            device: format!("{} at offset {}, size {}", member_label(extra, index), extra.offset, extra.size),
             depth,
         });
     }
@@ -698,7 +762,7 @@ fn compare(
 
 fn kind_name(ty: &BlockType) -> &'static str {
     match ty {
-        BlockType::Plain(_) => "scalar or vector",
+        BlockType::Plain(_) | BlockType::Numeric { .. } => "scalar or vector",
         BlockType::Matrix { .. } => "matrix",
         BlockType::Array { .. } => "array",
         BlockType::Struct(_) => "struct",
@@ -838,6 +902,59 @@ mod tests {
             "{err}"
         );
         assert!(err.contains("Vec4") && err.contains("alignment"), "{err}");
+    }
+
+    fn number(offset: u32, name: &str, kind: ScalarKind) -> BlockMember {
+        BlockMember {
+            name: Some(name.to_owned()),
+            offset,
+            size: 4,
+            ty: BlockType::Numeric { scalar: Scalar { kind, bits: 32 }, components: 1 },
+        }
+    }
+
+    const SAMPLES: ParamsLayout = ParamsLayout {
+        name: "Settings",
+        size: 8,
+        fields: &[
+            FieldLayout {
+                name: "samples",
+                type_name: "u32",
+                offset: 0,
+                size: 4,
+                shape: Shape::Numeric(Scalar { kind: ScalarKind::Unsigned, bits: 32 }),
+            },
+            FieldLayout {
+                name: "exposure",
+                type_name: "f32",
+                offset: 4,
+                size: 4,
+                shape: Shape::Numeric(Scalar { kind: ScalarKind::Float, bits: 32 }),
+            },
+        ],
+    };
+
+    #[test]
+    fn swapped_fields_of_one_size_are_told_apart_by_their_kind() {
+        let device = block(vec![number(0, "exposure", ScalarKind::Float), number(4, "samples", ScalarKind::Unsigned)]);
+        let err = check(&SAMPLES, "__raygen__rg", &[device], ParamsDelivery::PushConstants).unwrap_err().to_string();
+        assert!(err.contains("`samples`") && err.contains("SPIR-V member 0 `exposure`"), "{err}");
+        assert!(err.contains("a f32") && err.contains("holds u32"), "{err}");
+        let same = block(vec![number(0, "samples", ScalarKind::Unsigned), number(4, "exposure", ScalarKind::Float)]);
+        assert!(check(&SAMPLES, "e", &[same], ParamsDelivery::PushConstants).is_ok());
+    }
+
+    #[test]
+    fn fields_are_paired_by_offset_not_position() {
+        // The SPIR-V lists its members out of order: still the same layout.
+        let reordered =
+            block(vec![number(4, "exposure", ScalarKind::Float), number(0, "samples", ScalarKind::Unsigned)]);
+        assert!(check(&SAMPLES, "e", &[reordered], ParamsDelivery::PushConstants).is_ok());
+        // A member moved to offset 2: the host field at 0 is named with what the
+        // SPIR-V has around it.
+        let moved = block(vec![number(2, "samples", ScalarKind::Unsigned), number(4, "exposure", ScalarKind::Float)]);
+        let err = check(&SAMPLES, "e", &[moved], ParamsDelivery::PushConstants).unwrap_err().to_string();
+        assert!(err.contains("`samples`") && err.contains("SPIR-V member 0 `samples`: offset 2"), "{err}");
     }
 
     #[test]

@@ -98,7 +98,11 @@ impl Instance {
         self
     }
 
-    /// Offset of this instance's first hit record in the SBT (24 bits).
+    /// Offset of this instance's first hit record in the SBT (24 bits), counted in
+    /// records: a trace of ray type `R` selects record
+    /// `offset + geometry × R::SBT_STRIDE + R::SBT_OFFSET`. With several ray types,
+    /// compute it with [`instance_sbt_offset`](crate::sbt::instance_sbt_offset) from the
+    /// geometry slot [`SbtBuilder::hit_for`](crate::SbtBuilder::hit_for) places its records at.
     pub fn sbt_offset(mut self, offset: u32) -> Self {
         self.sbt_offset = offset;
         self

@@ -527,6 +527,7 @@ mod tests {
             max_ray_hit_attribute_size: 32,
             max_push_constants_size: 128,
             max_uniform_buffer_range: 65536,
+            max_storage_buffer_range: 1 << 27,
             min_uniform_buffer_offset_alignment: 256,
             min_scratch_alignment: 128,
             max_geometry_count: 2,

@@ -30,7 +30,7 @@ use raykit_spirv::InterfaceSizes;
 
 use super::exceptions::ExceptionBuffer;
 use super::handle::PipelineHandle;
-use super::layout::PipelineLayout;
+use super::layout::{params_delivery, PipelineLayout};
 use super::shader_groups::{check_groups, ShaderGroups, Specialization};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
@@ -151,6 +151,12 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
         let layout = PipelineLayout::new::<P>(inner)?;
         let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
+        crate::validate::check_programs(
+            groups,
+            options.max_trace_depth,
+            &shaders.spec_values(),
+            params_delivery::<P>(),
+        )?;
         let specialization = shaders.specialization();
         let stages = shaders.stages(&specialization);
         let interface_create = interface_info(interface);

@@ -91,6 +91,8 @@ pub(crate) struct PipelineInner {
     pub(crate) handles: Vec<u8>,
     /// `maxPipelineRayRecursionDepth`.
     pub(crate) max_trace_depth: u32,
+    /// The SBT records its programs' traces select.
+    pub(crate) reach: crate::validate::TraceReach,
     /// The stack size every launch sets (`vkCmdSetRayTracingPipelineStackSizeKHR`).
     pub(crate) stack_size: AtomicU32,
     /// Where programs record user exceptions: one buffer per set of programs
@@ -145,7 +147,9 @@ impl PipelineInner {
         let groups: Vec<LinkedGroup> =
             parts.groups.iter().map(|g| LinkedGroup::read(ctx, pipeline.handle, g)).collect();
         let default = stack::vulkan_default(&stack_sizes(&groups), max_trace_depth);
+        let reach = crate::validate::TraceReach::of(parts.groups.iter().map(|g| g.group));
         Ok(PipelineInner {
+            reach,
             pipeline,
             params_uniform,
             layout,
@@ -189,6 +193,12 @@ impl<P: LaunchParams> Pipeline<P> {
         check_linkable(groups.iter().copied())?;
         let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
         let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
+        crate::validate::check_programs(
+            groups,
+            options.max_trace_depth,
+            &shaders.spec_values(),
+            params_delivery::<P>(),
+        )?;
         let specialization = shaders.specialization();
         let stages = shaders.stages(&specialization);
         let create_info = vk::RayTracingPipelineCreateInfoKHR::default().stages(&stages).groups(&shaders.group_infos);
@@ -344,7 +354,10 @@ impl<P: LaunchParams> Pipeline<P> {
                 check_depth(graph.max_trace_depth())?;
                 graph.estimate()?
             }
-            StackSize::Explicit(bytes) => u64::from(*bytes),
+            StackSize::Explicit(bytes) => {
+                crate::validate::check_explicit_stack(*bytes, &self.stack_sizes())?;
+                u64::from(*bytes)
+            }
         };
         stack_bytes(bytes)
     }

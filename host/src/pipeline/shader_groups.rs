@@ -116,6 +116,18 @@ impl ShaderGroups {
         ShaderGroups { programs, group_infos, spec_data, spec_entries }
     }
 
+    /// The values of the specialization constants every stage gets, by constant ID.
+    pub(crate) fn spec_values(&self) -> Vec<(u32, u32)> {
+        self.spec_entries
+            .iter()
+            .filter_map(|e| {
+                let at = e.offset as usize;
+                let bytes = self.spec_data.get(at..at + 4)?;
+                Some((e.constant_id, u32::from_ne_bytes([bytes[0], bytes[1], bytes[2], bytes[3]])))
+            })
+            .collect()
+    }
+
     /// The specialization every stage gets; it borrows `self`.
     pub(crate) fn specialization(&self) -> vk::SpecializationInfo<'_> {
         vk::SpecializationInfo::default().map_entries(&self.spec_entries).data(&self.spec_data)

@@ -31,6 +31,10 @@ pub trait EntryName {
     fn claimed_kind(&self) -> Option<ProgramKind> {
         None
     }
+    /// The ray type the program was declared for, if known.
+    fn ray(&self) -> Option<raykit_device::RayTypeInfo> {
+        None
+    }
 }
 
 impl EntryName for EntryPoint {
@@ -39,6 +43,9 @@ impl EntryName for EntryPoint {
     }
     fn claimed_kind(&self) -> Option<ProgramKind> {
         Some(self.kind)
+    }
+    fn ray(&self) -> Option<raykit_device::RayTypeInfo> {
+        self.ray
     }
 }
 impl EntryName for &str {
@@ -58,6 +65,8 @@ pub(crate) struct Program {
     pub(crate) module: Arc<ModuleInner>,
     pub(crate) name: CString,
     pub(crate) kind: ProgramKind,
+    /// The ray type it was declared for (from its [`EntryPoint`] constant).
+    pub(crate) ray: Option<raykit_device::RayTypeInfo>,
 }
 
 impl Program {
@@ -104,7 +113,7 @@ impl Program {
         }
         let name = CString::new(name)
             .map_err(|_| Error::EntryPointNotFound { name: name.to_owned(), available: module.entry_list() })?;
-        Ok(Program { module: module.inner.clone(), name, kind: expected })
+        Ok(Program { module: module.inner.clone(), name, kind: expected, ray: entry.ray() })
     }
 }
 
@@ -181,7 +190,10 @@ impl ProgramGroup {
         Ok(Self::from_programs(module, GroupPrograms::Exception(program)))
     }
 
-    /// Starts a hit group whose programs come from `module`.
+    /// Starts a hit group whose programs come from `module`. A hit group may have
+    /// no program at all (as in Vulkan and OptiX): a ray type that only asks
+    /// whether something was hit (a shadow ray that misses to report "visible")
+    /// needs no closest-hit program, and its hits then run nothing.
     pub fn hit_group(module: &Module) -> HitGroupBuilder<'_> {
         HitGroupBuilder { module, closest_hit: None, any_hit: None, intersection: None, error: None }
     }
@@ -275,9 +287,6 @@ impl HitGroupBuilder<'_> {
     pub fn build(self) -> Result<ProgramGroup> {
         if let Some(e) = self.error {
             return Err(e);
-        }
-        if self.closest_hit.is_none() && self.any_hit.is_none() && self.intersection.is_none() {
-            return Err(Error::EmptyHitGroup);
         }
         Ok(ProgramGroup::from_programs(
             self.module,

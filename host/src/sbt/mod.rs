@@ -9,6 +9,7 @@
 
 pub mod region;
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::sync::Arc;
 
@@ -92,27 +93,64 @@ fn align_up(x: u64, a: u64) -> u64 {
     }
 }
 
+/// The SBT offset ([`Instance::sbt_offset`](crate::Instance::sbt_offset)) of an
+/// instance whose first geometry takes geometry slot `first_slot` (see
+/// [`SbtBuilder::hit_for`]), for a scene whose ray types have `R::SBT_STRIDE`:
+/// `first_slot × R::SBT_STRIDE`, the number of hit records before it. `None` when
+/// it does not fit the instance's 24 bits.
+pub fn instance_sbt_offset<R: RayType>(first_slot: u32) -> Option<u32> {
+    first_slot.checked_mul(R::SBT_STRIDE).filter(|offset| *offset < 1 << 24)
+}
+
+/// The hit record a trace of ray type `R` selects for geometry `geometry` (its
+/// index in its GAS) of an instance with SBT offset `instance_offset`: Vulkan's
+/// `instance_offset + geometry × R::SBT_STRIDE + R::SBT_OFFSET`.
+pub fn hit_record_index<R: RayType>(instance_offset: u32, geometry: u32) -> u64 {
+    u64::from(instance_offset) + u64::from(geometry) * u64::from(R::SBT_STRIDE) + u64::from(R::SBT_OFFSET)
+}
+
 /// Builds an [`Sbt`] for one pipeline.
 #[must_use]
 pub struct SbtBuilder<'p, P: raykit_device::LaunchParams> {
     pipeline: &'p Pipeline<P>,
     raygen: Option<PackedRecord>,
-    miss: Vec<Option<PackedRecord>>,
-    hit: Vec<Option<PackedRecord>>,
+    miss: BTreeMap<usize, PackedRecord>,
+    hit: BTreeMap<usize, PackedRecord>,
     callable: Vec<PackedRecord>,
     error: Option<Error>,
 }
 
-/// Puts `record` at `index` of `region`, growing it; a taken slot is an error.
-fn place(slots: &mut Vec<Option<PackedRecord>>, index: usize, record: PackedRecord, region: SbtRegion) -> Result<()> {
-    if slots.len() <= index {
-        slots.resize_with(index + 1, || None);
+/// The error for an index past what `region` may hold (see [`crate::validate::max_records`]).
+fn out_of_range(region: SbtRegion, index: String) -> Error {
+    let bits = match region {
+        SbtRegion::Hit => 24,
+        SbtRegion::Raygen => 0,
+        SbtRegion::Miss | SbtRegion::Callable => 16,
+    };
+    Error::SbtIndexOutOfRange { region, index, limit: crate::validate::max_records(region), bits }
+}
+
+/// Puts `record` at `index` of `region`; a taken slot or an index past the
+/// region's limit is an error.
+fn place(
+    slots: &mut BTreeMap<usize, PackedRecord>,
+    index: usize,
+    record: PackedRecord,
+    region: SbtRegion,
+) -> Result<()> {
+    if index >= crate::validate::max_records(region) {
+        return Err(out_of_range(region, index.to_string()));
     }
-    if slots[index].is_some() {
+    if slots.contains_key(&index) {
         return Err(Error::SbtSlotTaken { region, index });
     }
-    slots[index] = Some(record);
+    slots.insert(index, record);
     Ok(())
+}
+
+/// The number of slots of `slots` up to its last filled one.
+fn slot_count(slots: &BTreeMap<usize, PackedRecord>) -> usize {
+    slots.keys().next_back().map_or(0, |last| last + 1)
 }
 
 impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
@@ -142,7 +180,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
 
     /// Appends a miss record at the end of the miss region.
     pub fn miss<T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
-        let index = self.miss.len();
+        let index = slot_count(&self.miss);
         self.miss_at(index, group, data)
     }
 
@@ -158,13 +196,42 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
 
     /// Places ray type `R`'s miss record where `trace::<R>` looks for it
     /// (`R::MISS_INDEX`).
-    pub fn miss_for<R: RayType, T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
+    /// A group whose program was declared for another ray type
+    /// (`#[miss(ray = Other)]`) is refused.
+    pub fn miss_for<R: RayType, T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+        self.check_ray::<R>(group, SbtRegion::Miss);
         self.miss_at(R::MISS_INDEX as usize, group, data)
+    }
+
+    /// Records an error when a program of `group` was declared for a ray type that
+    /// places its records elsewhere than `R`.
+    fn check_ray<R: RayType>(&mut self, group: &ProgramGroup, region: SbtRegion) {
+        if self.error.is_some() {
+            return;
+        }
+        for program in group.programs() {
+            let Some(ray) = program.ray else { continue };
+            if !ray.places_like::<R>() {
+                let kind = match program.kind {
+                    raykit_device::ProgramKind::Miss => "miss",
+                    raykit_device::ProgramKind::AnyHit => "any_hit",
+                    _ => "closest_hit",
+                };
+                self.error = Some(Error::SbtRayTypeMismatch {
+                    region,
+                    program: program.name.to_string_lossy().into_owned(),
+                    kind,
+                    declared: ray.name,
+                    asked: std::any::type_name::<R>().rsplit("::").next().unwrap_or("R"),
+                });
+                return;
+            }
+        }
     }
 
     /// Appends a hit record at the end of the hit region.
     pub fn hit<T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
-        let index = self.hit.len();
+        let index = slot_count(&self.hit);
         self.hit_at(index, group, data)
     }
 
@@ -178,18 +245,42 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         self
     }
 
-    /// Places ray type `R`'s hit record for geometry slot `geometry` (an
-    /// instance's SBT offset plus the geometry's index in its GAS) where
+    /// Places ray type `R`'s hit record for geometry slot `geometry` where
     /// `trace::<R>` looks for it: `geometry × R::SBT_STRIDE + R::SBT_OFFSET`.
-    pub fn hit_for<R: RayType, T: bytemuck::Pod>(self, geometry: usize, group: &ProgramGroup, data: T) -> Self {
-        self.hit_at(geometry * R::SBT_STRIDE as usize + R::SBT_OFFSET as usize, group, data)
+    /// A geometry slot is a geometry's place among all geometries of the scene
+    /// that have records: an instance whose geometries take slots `k, k + 1, …`
+    /// has the SBT offset [`instance_sbt_offset::<R>(k)`](instance_sbt_offset)
+    /// (`k × R::SBT_STRIDE`, counted in records, as Vulkan adds it), and its
+    /// geometry `g` takes slot `k + g`.
+    /// A group whose programs were declared for another ray type
+    /// (`#[closest_hit(ray = Other)]`) is refused.
+    pub fn hit_for<R: RayType, T: bytemuck::Pod>(mut self, geometry: usize, group: &ProgramGroup, data: T) -> Self {
+        self.check_ray::<R>(group, SbtRegion::Hit);
+        match geometry.checked_mul(R::SBT_STRIDE as usize).and_then(|i| i.checked_add(R::SBT_OFFSET as usize)) {
+            Some(index) => self.hit_at(index, group, data),
+            None => {
+                if self.error.is_none() {
+                    let index = format!(
+                        "{geometry} × {} + {} (geometry × SBT_STRIDE + SBT_OFFSET)",
+                        R::SBT_STRIDE,
+                        R::SBT_OFFSET
+                    );
+                    self.error = Some(out_of_range(SbtRegion::Hit, index));
+                }
+                self
+            }
+        }
     }
 
     /// Appends a callable record; the n-th call is callable index n (the
     /// `sbt_index` of `ctx.call(sbt_index, data)` on the device).
     pub fn callable<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
         if let Some(r) = self.pack(group, &data, SbtRegion::Callable) {
-            self.callable.push(r);
+            if self.callable.len() >= crate::validate::max_records(SbtRegion::Callable) {
+                self.error = Some(out_of_range(SbtRegion::Callable, self.callable.len().to_string()));
+            } else {
+                self.callable.push(r);
+            }
         }
         self
     }
@@ -212,12 +303,21 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         }
         let raygen = self.raygen.ok_or(Error::SbtMissing { region: SbtRegion::Raygen })?;
         // A hole would hand the device an empty record: refuse it.
-        let filled = |slots: Vec<Option<PackedRecord>>, region: SbtRegion| -> Result<Vec<PackedRecord>> {
-            slots.into_iter().enumerate().map(|(index, r)| r.ok_or(Error::SbtHole { region, index })).collect()
+        let filled = |slots: BTreeMap<usize, PackedRecord>, region: SbtRegion| -> Result<Vec<PackedRecord>> {
+            let mut records = Vec::with_capacity(slots.len());
+            for (expected, (index, record)) in slots.into_iter().enumerate() {
+                if index != expected {
+                    return Err(Error::SbtHole { region, index: expected });
+                }
+                records.push(record);
+            }
+            Ok(records)
         };
         let miss = filled(self.miss, SbtRegion::Miss)?;
         let hit = filled(self.hit, SbtRegion::Hit)?;
         let pipeline = &self.pipeline.inner;
+        let has = |kind: GroupKind| pipeline.groups.iter().any(|g| g.kind == kind);
+        pipeline.reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
         let limits = pipeline.ctx.limits;
         let max_data = |records: &[PackedRecord]| records.iter().map(|r| r.data.len()).max().unwrap_or(0);
         let check = |layout: RegionLayout, data: usize| -> Result<RegionLayout> {
@@ -250,7 +350,12 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         )?;
         let total = cl.offset + cl.size;
 
-        let mut bytes = vec![0u8; total as usize];
+        let mut bytes = Vec::new();
+        usize::try_from(total)
+            .ok()
+            .and_then(|n| bytes.try_reserve_exact(n).ok())
+            .ok_or(Error::SbtTooLarge { bytes: total })?;
+        bytes.resize(total as usize, 0u8);
         let handle_size = limits.shader_group_handle_size as usize;
         for (layout, records) in [(rg, raygen_records), (ms, &miss[..]), (ht, &hit[..]), (cl, &callable[..])] {
             for (i, record) in records.iter().enumerate() {
@@ -323,7 +428,14 @@ pub struct Sbt {
 impl Sbt {
     /// Starts an SBT for `pipeline`.
     pub fn builder<P: raykit_device::LaunchParams>(pipeline: &Pipeline<P>) -> SbtBuilder<'_, P> {
-        SbtBuilder { pipeline, raygen: None, miss: Vec::new(), hit: Vec::new(), callable: Vec::new(), error: None }
+        SbtBuilder {
+            pipeline,
+            raygen: None,
+            miss: BTreeMap::new(),
+            hit: BTreeMap::new(),
+            callable: Vec::new(),
+            error: None,
+        }
     }
 
     /// Overwrites the data of record `index` of `region` (the group stays),
@@ -442,6 +554,7 @@ mod tests {
             max_ray_hit_attribute_size: 32,
             max_push_constants_size: 128,
             max_uniform_buffer_range: 65536,
+            max_storage_buffer_range: 1 << 27,
             min_uniform_buffer_offset_alignment: 256,
             min_scratch_alignment: 128,
             max_geometry_count: 1 << 24,
@@ -457,6 +570,34 @@ mod tests {
         // 32-byte handle + 12-byte Vec3 → 44 → 64 with 32-byte handle alignment.
         assert_eq!(region_layout(&l, 32, 2, 12), RegionLayout { offset: 64, stride: 64, size: 128 });
         assert_eq!(region_layout(&l, 192, 0, 100).size, 0);
+    }
+
+    struct Radiance;
+    impl RayType for Radiance {
+        type Payload = u32;
+        const SBT_STRIDE: u32 = 2;
+    }
+    struct Shadow;
+    impl RayType for Shadow {
+        type Payload = u32;
+        const SBT_OFFSET: u32 = 1;
+        const SBT_STRIDE: u32 = 2;
+        const MISS_INDEX: u32 = 1;
+    }
+
+    /// `instance_sbt_offset` and `hit_for` agree with Vulkan's formula: the record a
+    /// trace selects is the one `hit_for` placed.
+    #[test]
+    fn instance_offsets_and_hit_for_agree_with_the_trace_formula() {
+        // An instance whose two geometries take slots 3 and 4.
+        let offset = instance_sbt_offset::<Radiance>(3).unwrap_or(u32::MAX);
+        assert_eq!(offset, 6);
+        for g in 0..2u32 {
+            let slot = 3 + g as usize;
+            assert_eq!(hit_record_index::<Radiance>(offset, g), (slot * 2) as u64);
+            assert_eq!(hit_record_index::<Shadow>(offset, g), (slot * 2 + 1) as u64);
+        }
+        assert_eq!(instance_sbt_offset::<Radiance>(1 << 23), None);
     }
 
     #[test]

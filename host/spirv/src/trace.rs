@@ -1,0 +1,99 @@
+//! Where the programs of a module trace rays: the `OpTraceRayKHR` instructions each
+//! entry point reaches through its call graph, with the SBT operands that are
+//! constants. The host uses them to check that an SBT has the miss and hit records a
+//! trace can select, and that a pipeline's `max_trace_depth` covers its programs.
+
+use std::collections::{HashMap, HashSet};
+
+use rspirv::dr::{Module, Operand};
+use rspirv::spirv::Op;
+
+/// One `OpTraceRayKHR` an entry point can reach. Operands that are not
+/// constants in the module (computed at run time) are `None`.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct TraceCall {
+    /// The SBT record offset (`sbtRecordOffset`, Vulkan uses its low 4 bits).
+    pub sbt_offset: Option<u32>,
+    /// The SBT record stride (`sbtRecordStride`, low 4 bits).
+    pub sbt_stride: Option<u32>,
+    /// The miss index (`missIndex`, low 16 bits).
+    pub miss_index: Option<u32>,
+}
+
+/// What one entry point traces.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct EntryTraces {
+    /// The traces its function and every function it calls contain.
+    pub calls: Vec<TraceCall>,
+    /// Whether it calls callables (`OpExecuteCallableKHR`), whose traces count
+    /// towards its depth.
+    pub executes_callables: bool,
+}
+
+impl EntryTraces {
+    /// Whether it traces at all.
+    pub fn traces(&self) -> bool {
+        !self.calls.is_empty()
+    }
+}
+
+/// The traces of every entry point of `module`, by entry-point name.
+pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
+    let constants: HashMap<u32, u32> = module
+        .types_global_values
+        .iter()
+        .filter(|i| i.class.opcode == Op::Constant)
+        .filter_map(|i| match (i.result_id, i.operands.first()) {
+            (Some(id), Some(Operand::LiteralBit32(v))) => Some((id, *v)),
+            _ => None,
+        })
+        .collect();
+    let id_at = |ops: &[Operand], i: usize| match ops.get(i) {
+        Some(Operand::IdRef(id)) => Some(*id),
+        _ => None,
+    };
+    // Per function: its direct traces, callees and callable use.
+    let mut own: HashMap<u32, (Vec<TraceCall>, Vec<u32>, bool)> = HashMap::new();
+    for function in &module.functions {
+        let Some(id) = function.def_id() else { continue };
+        let entry = own.entry(id).or_default();
+        for inst in function.all_inst_iter() {
+            match inst.class.opcode {
+                Op::TraceRayKHR => {
+                    let constant = |i| id_at(&inst.operands, i).and_then(|id| constants.get(&id).copied());
+                    entry.0.push(TraceCall {
+                        sbt_offset: constant(3),
+                        sbt_stride: constant(4),
+                        miss_index: constant(5),
+                    });
+                }
+                Op::FunctionCall => entry.1.extend(id_at(&inst.operands, 0)),
+                Op::ExecuteCallableKHR | Op::ExecuteCallableNV => entry.2 = true,
+                _ => {}
+            }
+        }
+    }
+    let mut out = HashMap::new();
+    for entry in &module.entry_points {
+        let (Some(Operand::IdRef(function)), Some(Operand::LiteralString(name))) =
+            (entry.operands.get(1), entry.operands.get(2))
+        else {
+            continue;
+        };
+        let mut traces = EntryTraces::default();
+        let mut seen = HashSet::new();
+        let mut todo = vec![*function];
+        while let Some(f) = todo.pop() {
+            if !seen.insert(f) {
+                continue;
+            }
+            if let Some((calls, callees, callables)) = own.get(&f) {
+                traces.calls.extend_from_slice(calls);
+                traces.executes_callables |= *callables;
+                todo.extend_from_slice(callees);
+            }
+        }
+        out.insert(name.clone(), traces);
+    }
+    out
+}

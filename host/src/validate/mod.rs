@@ -1,0 +1,226 @@
+//! Checks that keep what raykit accepts valid for the driver: SPIR-V validation
+//! before `vkCreateShaderModule` (see [`spirv`]), the trace depth a pipeline's
+//! programs can reach, and the SBT records their traces can select.
+//!
+//! **Trace depth.** raykit reads every program's `OpTraceRayKHR` calls through its
+//! call graph. A pipeline whose raygen (or a callable) traces needs
+//! `max_trace_depth ≥ 1`; one whose miss or closest-hit programs trace can recurse,
+//! and needs `max_trace_depth ≥ 2`. How deep such recursion goes depends on run-time
+//! values the SPIR-V cannot bound: a `max_trace_depth` of 2 or more declares that
+//! the programs never trace deeper, and that promise is the application's (OptiX
+//! makes the same one). Vulkan leaves tracing past `maxPipelineRayRecursionDepth`
+//! undefined.
+
+pub mod spirv;
+
+use raykit_device::ProgramKind;
+use raykit_spirv::{DescriptorBinding, DescriptorKind, ParamsDelivery};
+
+use crate::error::{Error, Result};
+use crate::program_group::ProgramGroup;
+use crate::sbt::SbtRegion;
+
+/// Vulkan uses the low 16 bits of a trace's `missIndex`: the miss region holds at
+/// most this many records a trace can select.
+pub const MAX_MISS_RECORDS: usize = 1 << 16;
+/// Vulkan uses 24 bits of an instance's SBT offset: raykit's hit region holds at
+/// most this many records.
+pub const MAX_HIT_RECORDS: usize = 1 << 24;
+/// Callables are placed one after another; at most this many.
+pub const MAX_CALLABLE_RECORDS: usize = 1 << 16;
+
+/// The most records `region` may hold.
+pub(crate) const fn max_records(region: SbtRegion) -> usize {
+    match region {
+        SbtRegion::Raygen => 1,
+        SbtRegion::Miss => MAX_MISS_RECORDS,
+        SbtRegion::Hit => MAX_HIT_RECORDS,
+        SbtRegion::Callable => MAX_CALLABLE_RECORDS,
+    }
+}
+
+/// What a pipeline's programs can reach when they trace, read from their SPIR-V.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct TraceReach {
+    /// The highest constant miss index a trace uses, and the program using it.
+    pub(crate) miss_index: Option<(u32, String)>,
+    /// The highest constant SBT offset a trace uses, and the program using it.
+    pub(crate) sbt_offset: Option<(u32, String)>,
+    /// A raygen (or callable) program that traces: depth 1 at least.
+    pub(crate) first_level: Option<String>,
+    /// A miss or closest-hit program that traces: recursion, depth 2 at least.
+    pub(crate) recursive: Option<String>,
+}
+
+impl TraceReach {
+    /// Reads what the programs of `groups` trace.
+    pub(crate) fn of<'g>(groups: impl IntoIterator<Item = &'g ProgramGroup>) -> TraceReach {
+        let mut reach = TraceReach::default();
+        let higher = |slot: &mut Option<(u32, String)>, value: Option<u32>, name: &str| {
+            if let Some(v) = value {
+                if slot.as_ref().is_none_or(|(old, _)| v > *old) {
+                    *slot = Some((v, name.to_owned()));
+                }
+            }
+        };
+        for group in groups {
+            for program in group.programs() {
+                let Some(info) = program.entry_info() else { continue };
+                if !info.traces.traces() {
+                    continue;
+                }
+                for call in &info.traces.calls {
+                    // Vulkan reads the low 16 bits of the miss index and 4 of the offset.
+                    higher(&mut reach.miss_index, call.miss_index.map(|m| m & 0xffff), &info.name);
+                    higher(&mut reach.sbt_offset, call.sbt_offset.map(|o| o & 0xf), &info.name);
+                }
+                match program.kind {
+                    ProgramKind::Raygen | ProgramKind::Callable => {
+                        reach.first_level.get_or_insert_with(|| info.name.clone());
+                    }
+                    ProgramKind::Miss | ProgramKind::ClosestHit => {
+                        reach.recursive.get_or_insert_with(|| info.name.clone());
+                    }
+                    // The SPIR-V environment forbids tracing in the other stages.
+                    _ => {}
+                }
+            }
+        }
+        reach
+    }
+
+    /// Refuses a `max_trace_depth` below what the programs need (see the module docs).
+    pub(crate) fn check_depth(&self, max_trace_depth: u32) -> Result<()> {
+        let refuse = |program: &String, needed: u32, why: &'static str| {
+            Err(Error::TraceDepthExceeded { program: program.clone(), needed, max_trace_depth, why })
+        };
+        if let Some(program) = &self.recursive {
+            if max_trace_depth < 2 {
+                return refuse(program, 2, "a miss or closest-hit program that traces recurses");
+            }
+        }
+        if let Some(program) = &self.first_level {
+            if max_trace_depth < 1 {
+                return refuse(program, 1, "it traces rays");
+            }
+        }
+        Ok(())
+    }
+
+    /// Refuses an SBT whose `miss` and `hit` record counts leave a record that a
+    /// trace of the pipeline selects out of range. `has_miss`/`has_hit`: whether the
+    /// pipeline has groups of that kind.
+    pub(crate) fn check_sbt(&self, has_miss: bool, miss: usize, has_hit: bool, hit: usize) -> Result<()> {
+        let tracer = self.first_level.as_ref().or(self.recursive.as_ref());
+        let Some(tracer) = tracer else { return Ok(()) };
+        for (region, has, count, reach) in
+            [(SbtRegion::Miss, has_miss, miss, &self.miss_index), (SbtRegion::Hit, has_hit, hit, &self.sbt_offset)]
+        {
+            if !has {
+                continue;
+            }
+            let (needed, program) = match reach {
+                Some((index, program)) => (*index as usize + 1, program),
+                None => (1, tracer),
+            };
+            if count < needed {
+                return Err(Error::SbtIncomplete { region, needed, have: count, program: program.clone() });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Refuses a descriptor binding that raykit's pipeline layout does not have:
+/// the buffer table (storage buffers) at set 0, binding 0, and the params uniform
+/// buffer at set 1, binding 0 when `delivery` says the params go there.
+fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDelivery) -> Result<()> {
+    let (table_set, table_binding) = (raykit_abi::BUFFER_TABLE_SET, raykit_abi::BUFFER_TABLE_BINDING);
+    let reason = match (binding.set, binding.binding) {
+        (s, b) if (s, b) == (table_set, table_binding) => {
+            if binding.kind == DescriptorKind::StorageBuffer {
+                return Ok(());
+            }
+            "where raykit binds its buffer table (storage buffers)".to_owned()
+        }
+        (s, b) if s == raykit_abi::PARAMS_SET && b == raykit_abi::PARAMS_BINDING => match delivery {
+            ParamsDelivery::UniformBuffer { .. } if binding.kind == DescriptorKind::UniformBuffer => return Ok(()),
+            ParamsDelivery::UniformBuffer { .. } => "where raykit binds the params uniform buffer".to_owned(),
+            ParamsDelivery::PushConstants => {
+                "but this pipeline's params travel as push constants, so set 1 is not bound".to_owned()
+            }
+        },
+        (s, _) if s == table_set || s == raykit_abi::PARAMS_SET => format!("but set {s} has only binding 0"),
+        (s, _) => format!("but raykit's pipeline layout has no set {s}"),
+    };
+    Err(Error::DescriptorBinding {
+        program: program.to_owned(),
+        set: binding.set,
+        binding: binding.binding,
+        found: match &binding.name {
+            Some(name) => format!("{} `{name}`", binding.kind),
+            None => binding.kind.to_string(),
+        },
+        reason,
+    })
+}
+
+/// What linking checks of the programs of `groups` before the driver sees them:
+/// their trace depth against `max_trace_depth`, each module's SPIR-V with the
+/// specialization constants `spec_values` frozen in, validated, and every
+/// descriptor binding a program declares against raykit's pipeline layout for
+/// params delivered as `delivery`.
+pub(crate) fn check_programs(
+    groups: &[&ProgramGroup],
+    max_trace_depth: u32,
+    spec_values: &[(u32, u32)],
+    delivery: ParamsDelivery,
+) -> Result<()> {
+    TraceReach::of(groups.iter().copied()).check_depth(max_trace_depth)?;
+    let mut seen = std::collections::HashSet::new();
+    for group in groups {
+        for program in group.programs() {
+            if seen.insert(std::sync::Arc::as_ptr(&program.module)) {
+                spirv::validate(&spirv::freeze_spec_constants(&program.module.words, spec_values)?)?;
+            }
+        }
+    }
+    for group in groups {
+        for program in group.programs() {
+            if let Some(info) = program.entry_info() {
+                for binding in &info.bindings {
+                    check_binding(&info.name, binding, delivery)?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an explicit stack size smaller than the largest stack one program of
+/// the pipeline needs by itself (`sizes`, from the driver), or zero.
+pub(crate) fn check_explicit_stack(bytes: u32, sizes: &crate::stack::StackSizes) -> Result<()> {
+    let largest = [sizes.css_rg, sizes.css_ms, sizes.css_ch, sizes.css_ah, sizes.css_is, sizes.css_cc, sizes.dss_dc]
+        .into_iter()
+        .max()
+        .unwrap_or(0);
+    if bytes == 0 || u64::from(bytes) < largest {
+        return Err(Error::StackSize {
+            reason: format!(
+                "StackSize::Explicit({bytes}) is below {}, the largest stack one of the pipeline's programs needs by itself (Pipeline::stack_sizes); use StackSize::Refined or StackSize::CallGraph, or give at least that many bytes",
+                largest.max(1)
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Refuses a buffer of `bytes` over the device's `maxStorageBufferRange`
+/// (`limit`): device programs reach every buffer through a storage-buffer
+/// descriptor, which cannot cover more.
+pub(crate) fn check_storage_buffer(bytes: u64, limit: u32) -> Result<()> {
+    if bytes > u64::from(limit) {
+        return Err(Error::BufferTooLarge { bytes, limit });
+    }
+    Ok(())
+}
