@@ -86,9 +86,22 @@ fn dropping_everything_a_launch_in_flight_uses_keeps_new_objects_untouched_and_t
         let image = ctx.buffer::<u32>(pixels)?;
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
 
-        let launch = pipeline.launch_async(&sbt, &params(&image, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
-        // A copy of the image into host memory the readback owns, ordered after the launch.
+        // On a fast GPU one launch ends before the drops below: queue the same launch
+        // until one is still running when submitted, then a few more, so the drops
+        // surely happen while the device uses the objects.
+        let launch_params = params(&image, &spheres, &scene);
+        let mut launches = vec![pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?];
+        while launches.last().map(|l| l.is_done()).transpose()?.unwrap_or(false) && launches.len() < 256 {
+            launches.push(pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?);
+        }
+        if launches.len() > 1 {
+            for _ in 0..16 {
+                launches.push(pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?);
+            }
+        }
+        // A copy of the image into host memory the readback owns, ordered after the launches.
         let readback = image.read_async()?;
+        let launch = launches.pop().ok_or_else(|| anyhow::anyhow!("no launch"))?;
         assert!(!launch.is_done()?, "the launch finished before the drops: make it larger");
         let gas_size = gas.size();
         drop((image, spheres, scene, gas, sbt, pipeline));
@@ -102,6 +115,9 @@ fn dropping_everything_a_launch_in_flight_uses_keeps_new_objects_untouched_and_t
         let fresh_gas = Gas::builder().triangles(Triangles::new(&other)).submit(ctx)?;
 
         launch.wait()?;
+        for earlier in launches {
+            earlier.wait()?;
+        }
         let picture = readback.wait()?;
         let want = reference(0.5);
         assert_eq!(mismatches(&picture, &want), 0, "the launch's picture differs from the CPU reference");

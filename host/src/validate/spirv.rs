@@ -17,10 +17,12 @@
 //! installed, [`validator_available`] is false and modules are not validated
 //! (raykit's own structural checks still run).
 
+use std::collections::BTreeSet;
 use std::collections::{HashMap, HashSet};
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
 use rspirv::spirv::{Decoration, Op};
+use sha2::{Digest, Sha256};
 use spirv_tools::val::{Validator, ValidatorOptions};
 
 use crate::error::{Error, Result};
@@ -47,10 +49,35 @@ pub fn validator_available() -> bool {
 /// Validates `words` for Vulkan 1.2 with scalar block layout; the validator's
 /// message becomes [`Error::InvalidSpirv`]. Does nothing where no validator is
 /// installed (see [`validator_available`]).
+///
+/// A module that passed once is remembered (by its SHA-256) for the life of the
+/// process, so pipelines made again from the same modules, and modules shared by
+/// several pipelines, are validated once.
 pub fn validate(words: &[u32]) -> Result<()> {
     if !validator_available() {
         return Ok(());
     }
+    let digest: [u8; 32] = Sha256::digest(bytemuck::cast_slice::<u32, u8>(words)).into();
+    let passed = || PASSED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if passed().contains(&digest) {
+        return Ok(());
+    }
+    run_validator(words)?;
+    let mut passed = passed();
+    if passed.len() >= MAX_REMEMBERED {
+        passed.clear();
+    }
+    passed.insert(digest);
+    Ok(())
+}
+
+/// Modules that passed validation in this process, by SHA-256 of their words.
+static PASSED: Mutex<BTreeSet<[u8; 32]>> = Mutex::new(BTreeSet::new());
+
+/// How many validated modules [`PASSED`] remembers before it starts over.
+const MAX_REMEMBERED: usize = 4096;
+
+fn run_validator(words: &[u32]) -> Result<()> {
     let validator = spirv_tools::val::create(Some(spirv_tools::TargetEnv::Vulkan_1_2));
     let options = ValidatorOptions { scalar_block_layout: true, ..ValidatorOptions::default() };
     validator.validate(words, Some(options)).map_err(|e| Error::InvalidSpirv {
