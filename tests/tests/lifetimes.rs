@@ -73,6 +73,10 @@ fn mismatches(got: &[u32], want: &[u32]) -> usize {
     got.iter().zip(want).filter(|(a, b)| a != b).count() + got.len().abs_diff(want.len())
 }
 
+/// Launches queued back to back where a test needs one still running: one 1080p
+/// launch of a quad takes under a millisecond on a fast GPU.
+const QUEUED_LAUNCHES: usize = 32;
+
 #[test]
 fn dropping_everything_a_launch_in_flight_uses_keeps_new_objects_untouched_and_the_picture_right() -> anyhow::Result<()>
 {
@@ -87,17 +91,12 @@ fn dropping_everything_a_launch_in_flight_uses_keeps_new_objects_untouched_and_t
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
 
         // On a fast GPU one launch ends before the drops below: queue the same launch
-        // until one is still running when submitted, then a few more, so the drops
-        // surely happen while the device uses the objects.
+        // a number of times, so the drops surely happen while the device still uses
+        // the objects (on lavapipe the first is still running anyway).
         let launch_params = params(&image, &spheres, &scene);
-        let mut launches = vec![pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?];
-        while launches.last().map(|l| l.is_done()).transpose()?.unwrap_or(false) && launches.len() < 256 {
+        let mut launches = Vec::new();
+        for _ in 0..QUEUED_LAUNCHES {
             launches.push(pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?);
-        }
-        if launches.len() > 1 {
-            for _ in 0..16 {
-                launches.push(pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?);
-            }
         }
         // A copy of the image into host memory the readback owns, ordered after the launches.
         let readback = image.read_async()?;
@@ -380,6 +379,12 @@ fn sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt() -> anyhow::Res
         let first = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
         let second = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
 
+        // Work queued ahead, so the launch below is still running at the update on a fast GPU.
+        let busy_image = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
+        let mut busy = Vec::new();
+        for _ in 0..QUEUED_LAUNCHES - 1 {
+            busy.push(pipeline.launch_async(&sbt, &params(&busy_image, &spheres, &scene), [WIDTH, HEIGHT, 1])?);
+        }
         let launch = pipeline.launch_async(&sbt, &params(&first, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
         assert!(!launch.is_done()?, "the launch finished before the update: make it larger");
         // Data of another type than the record was built with is refused, even if it fits.
@@ -393,6 +398,9 @@ fn sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt() -> anyhow::Res
         sbt.update(raykit::SbtRegion::Hit, 0, ColorRecord { color: green })?;
         pipeline.launch(&sbt, &params(&second, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
         launch.wait()?;
+        for queued in busy {
+            queued.wait()?;
+        }
         let centre = ((HEIGHT / 2) * WIDTH + WIDTH / 2) as usize;
         assert_eq!(first.read()?[centre], pack(red), "the launch in flight saw the update");
         assert_eq!(second.read()?[centre], pack(green), "the launch after the update did not see it");
