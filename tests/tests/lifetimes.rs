@@ -100,7 +100,19 @@ fn dropping_everything_a_launch_in_flight_uses_keeps_new_objects_untouched_and_t
         }
         // A copy of the image into host memory the readback owns, ordered after the launches.
         let readback = image.read_async()?;
-        let launch = launches.pop().ok_or_else(|| anyhow::anyhow!("no launch"))?;
+        let mut launch = launches.pop().ok_or_else(|| anyhow::anyhow!("no launch"))?;
+        // The readback's allocation can outlast the queued launches on a fast GPU: top
+        // the queue up until a launch is still running, then queue some more behind it.
+        if launch.is_done()? {
+            while launch.is_done()? && launches.len() < 4096 {
+                launches.push(launch);
+                launch = pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?;
+            }
+            for _ in 0..QUEUED_LAUNCHES {
+                launches.push(launch);
+                launch = pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?;
+            }
+        }
         assert!(!launch.is_done()?, "the launch finished before the drops: make it larger");
         let gas_size = gas.size();
         drop((image, spheres, scene, gas, sbt, pipeline));
