@@ -69,6 +69,17 @@ pub(crate) fn handle_value(slot: u32, generation: u32) -> u32 {
     slot | (generation << SLOT_BITS)
 }
 
+/// Which free slot a new entry of the table takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum SlotReuse {
+    /// The slot free the longest, so stale user handles stay refused longest.
+    Oldest,
+    /// The slot freed last: for raykit's own buffers whose slot is built into
+    /// pipelines (the user-exception buffer's slot is a specialization constant), so a
+    /// pipeline made again gets the same constants and hits the compile cache.
+    Newest,
+}
+
 impl BufferTable {
     pub(crate) fn new(device: &ash::Device) -> Result<Self> {
         let capacity = SLOTS;
@@ -155,9 +166,19 @@ impl BufferTable {
     /// Takes a free slot and points it at `buffer`; returns the slot and the
     /// handle value (slot and generation) of the buffer.
     pub(crate) fn insert(&self, device: &ash::Device, buffer: vk::Buffer) -> Result<(u32, u32)> {
+        self.insert_with(device, buffer, SlotReuse::Oldest)
+    }
+
+    /// [`BufferTable::insert`], choosing the slot by `reuse`.
+    pub(crate) fn insert_with(&self, device: &ash::Device, buffer: vk::Buffer, reuse: SlotReuse) -> Result<(u32, u32)> {
         let mut free = self.free.lock().unwrap_or_else(|p| p.into_inner());
+        // Freed slots go to the front, so the back holds the slot free the longest.
+        let taken = match reuse {
+            SlotReuse::Oldest => free.pop(),
+            SlotReuse::Newest => (!free.is_empty()).then(|| free.remove(0)),
+        };
         // Slot 0 is the null handle: one less than the table for buffers.
-        let slot = free.pop().ok_or(Error::BufferTableFull { capacity: self.capacity - 1 })?;
+        let slot = taken.ok_or(Error::BufferTableFull { capacity: self.capacity - 1 })?;
         self.write(device, slot, buffer);
         let generation = next_generation();
         if let Some(l) = self.live.get(slot as usize) {

@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use crate::buffer_table::SlotReuse;
 use crate::context::ContextInner;
 use crate::error::{Result, UserException};
 use crate::memory::RawBuffer;
@@ -35,7 +36,9 @@ impl ExceptionBuffer {
             gpu_allocator::MemoryLocation::GpuOnly,
             16,
         )?;
-        let (slot, _) = ctx.buffer_table.insert(&ctx.device, buffer.buffer)?;
+        // The slot is a specialization constant of the pipeline: reuse the last one
+        // freed, so a pipeline made again is the same pipeline to the compile cache.
+        let (slot, _) = ctx.buffer_table.insert_with(&ctx.device, buffer.buffer, SlotReuse::Newest)?;
         Ok(ExceptionBuffer { ctx: ctx.clone(), buffer, slot })
     }
 
