@@ -18,9 +18,8 @@ pub const SHADER_RECORD_BINDING: u32 = 0;
 /// `@group(3) @binding(1)`: the hit attributes.
 pub const HIT_ATTRIBUTES_BINDING: u32 = 1;
 
-/// The descriptor set and binding of the params uniform buffer (raykit's
-/// `PARAMS_SET`, `PARAMS_BINDING`).
-const PARAMS_SET_BINDING: (u32, u32) = (1, 0);
+/// The descriptor set and binding of the params uniform buffer.
+const PARAMS_SET_BINDING: (u32, u32) = (raykit_abi::PARAMS_SET, raykit_abi::PARAMS_BINDING);
 
 type Fix<T> = Result<T, String>;
 
