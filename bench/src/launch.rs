@@ -180,6 +180,61 @@ pub fn launches(ctx: &Context, scene: &PrimaryScene, size: (u32, u32), reps: usi
     Ok(rows)
 }
 
+/// `launch-loop`: `n` 1×1 launches through raykit in a row, then `n` through the
+/// hand-written ash launcher, each loop in a function of its own, for counting
+/// instructions per launch with callgrind
+/// (`valgrind --tool=callgrind --toggle-collect='*raykit_loop*'` and `'*ash_loop*'`);
+/// also timed (wall clock per launch, the loops alternating over `reps` rounds).
+pub fn launch_loop(ctx: &Context, scene: &PrimaryScene, n: usize, reps: usize) -> anyhow::Result<Vec<Row>> {
+    let p = crate::trace::primary_pipeline(ctx, crate::trace::Language::Rust)?;
+    let ash = AshLauncher::new(ctx)?;
+    let params = bytemuck::bytes_of(&scene.params);
+    anyhow::ensure!(p.pipeline.raw_push_constant_size() as usize == params.len(), "the params are not push constants");
+    // Warm-up.
+    raykit_loop(&p, scene, 1)?;
+    ash_loop(ctx, &ash, &p, params, 1)?;
+    let mut pairs = Vec::with_capacity(reps);
+    for rep in 0..reps.max(1) {
+        let time_raykit = || -> anyhow::Result<f64> {
+            let t = Instant::now();
+            raykit_loop(&p, scene, n)?;
+            Ok(t.elapsed().as_secs_f64() / n as f64)
+        };
+        let time_ash = || -> anyhow::Result<f64> {
+            let t = Instant::now();
+            ash_loop(ctx, &ash, &p, params, n)?;
+            Ok(t.elapsed().as_secs_f64() / n as f64)
+        };
+        let pair = if rep % 2 == 0 {
+            let r = time_raykit()?;
+            (r, time_ash()?)
+        } else {
+            let a = time_ash()?;
+            (time_raykit()?, a)
+        };
+        pairs.push(pair);
+    }
+    Ok(vec![summarise(format!("{n} launches 1x1 in a row, per launch (primary rays, wall clock)"), &pairs)])
+}
+
+/// `n` blocking 1×1 launches through raykit.
+#[inline(never)]
+fn raykit_loop(p: &PrimaryPipeline, scene: &PrimaryScene, n: usize) -> anyhow::Result<()> {
+    for _ in 0..n {
+        p.pipeline.launch(&p.sbt, &scene.params, [1, 1, 1])?;
+    }
+    Ok(())
+}
+
+/// `n` blocking 1×1 launches through the hand-written ash launcher.
+#[inline(never)]
+fn ash_loop(ctx: &Context, ash: &AshLauncher<'_>, p: &PrimaryPipeline, params: &[u8], n: usize) -> anyhow::Result<()> {
+    for _ in 0..n {
+        ash.launch(ctx, p, params, [1, 1, 1])?;
+    }
+    Ok(())
+}
+
 /// The physical device raykit runs on (matched by name), for memory types.
 fn memory_properties(ctx: &Context) -> anyhow::Result<vk::PhysicalDeviceMemoryProperties> {
     let instance = ctx.raw_instance();

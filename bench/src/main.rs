@@ -11,7 +11,10 @@
 //! cache off, cold and warm. See `bench/README.md`.
 //!
 //! `soak` — 10,000 launches (`--soak-launches N`) with SBT updates, GAS refits and
-//! IAS updates, host and device memory sampled.
+//! IAS updates, host and device memory sampled. `launch-loop` — `--launches N`
+//! (default 1000) 1×1 launches in a row through raykit, then through hand-written
+//! ash, per launch; each loop is one function (`raykit_loop`, `ash_loop`) for
+//! callgrind's `--toggle-collect`.
 //!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
@@ -20,8 +23,8 @@
 //! * `--sizes 10000,100000,1000000` — triangle counts of `accel`.
 //! * `--reps N` — repetitions per size (default: 15, 9, 5 by size).
 //! * `--device NAME` — use the first ray-tracing device whose name contains NAME.
-//! * `--triangles N`, `--primary-size WxH`, `--path-size N`, `--spp N` — sizes of
-//!   the tracing suites (defaults 1000000, 1920x1080, 512, 1).
+//! * `--triangles N`, `--primary-size WxH`, `--path-size N`, `--spp N`, `--launches N` — sizes of
+//!   the tracing suites (defaults 1000000, 1920x1080, 512, 1, 1000).
 //!
 //! The binary needs only the Vulkan loader (and the SPIR-V files for suites that
 //! trace): build it here with `cargo build --release -p raykit-bench` and copy
@@ -43,7 +46,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 8] = ["accel", "stack", "pipeline", "primary", "path", "launch", "shaders", "soak"];
+const SUITES: [&str; 9] = ["accel", "stack", "pipeline", "primary", "path", "launch", "launch-loop", "shaders", "soak"];
 
 struct Args {
     suites: Vec<String>,

@@ -10,11 +10,11 @@ use crate::trace::Options;
 
 /// Defaults of the options these suites add.
 pub fn default_options() -> Options {
-    Options { reps: 5, triangles: 1_000_000, primary_size: (1920, 1080), path_size: 512, spp: 1 }
+    Options { reps: 5, triangles: 1_000_000, primary_size: (1920, 1080), path_size: 512, spp: 1, launches: 1000 }
 }
 
 /// Parses one option of these suites (`--triangles`, `--primary-size WxH`,
-/// `--path-size N`, `--spp N`); returns false when `name` is not one.
+/// `--path-size N`, `--spp N`, `--launches N`); returns false when `name` is not one.
 pub fn parse_option(
     opts: &mut Options,
     name: &str,
@@ -29,6 +29,7 @@ pub fn parse_option(
         }
         "--path-size" => opts.path_size = value()?.parse().context("--path-size takes a number")?,
         "--spp" => opts.spp = value()?.parse().context("--spp takes a number")?,
+        "--launches" => opts.launches = value()?.parse().context("--launches takes a number")?,
         _ => return Ok(false),
     }
     Ok(true)
@@ -51,6 +52,11 @@ pub fn run(suite: &str, ctx: &Context, opts: &Options, out: &Path) -> anyhow::Re
             let scene = crate::trace::primary_scene(ctx, opts.triangles, opts.primary_size)?;
             let mut rows = crate::launch::launches(ctx, &scene, opts.primary_size, opts.reps)?;
             rows.extend(crate::launch::creation(ctx, opts.reps * 4)?);
+            (crate::launch::markdown(&rows), crate::launch::json(&rows))
+        }
+        "launch-loop" => {
+            let scene = crate::trace::primary_scene(ctx, opts.triangles, opts.primary_size)?;
+            let rows = crate::launch::launch_loop(ctx, &scene, opts.launches, opts.reps)?;
             (crate::launch::markdown(&rows), crate::launch::json(&rows))
         }
         "shaders" => crate::shaders::markdown(&crate::shaders::sizes()?, out),

@@ -38,6 +38,8 @@ pub struct Options {
     pub path_size: u32,
     /// Paths per pixel of the path-tracer suite.
     pub spp: u32,
+    /// Launches per loop of the `launch-loop` suite.
+    pub launches: usize,
 }
 
 /// One variant's results.

@@ -54,18 +54,29 @@ impl Traversable {
 
 /// A typed handle to a storage buffer of `T`s in the bindless buffer table.
 ///
-/// Every launch checks the handles in its params on the host: a handle of a
-/// dropped buffer, or of another context, is refused before the device sees it.
-/// Handles the host cannot see (in SBT records or in buffers) reach the device
-/// as they are, and the device does not check elements either. What a read then
-/// gives is defined (Vulkan's `robustBufferAccess2` and `nullDescriptor`, which
-/// raykit enables):
-/// * the null handle (slot 0, a zeroed `Buffer`), a never-written slot or the slot
-///   of a dropped buffer: reads give zero, writes are discarded;
+/// Every launch checks on the host the handles in its params, and those in SBT
+/// records whose type derives [`SbtRecordData`](macro@crate::SbtRecordData): a
+/// handle of a dropped buffer, or of another context, is refused before the device
+/// sees it. Handles the host cannot see (in records of plain `bytemuck::Pod`
+/// types, or stored in buffers) reach the device as they are, and the device does
+/// not bounds-check elements (`load` and `store` compile to a plain access). What
+/// an access then does is defined by Vulkan's `robustBufferAccess2` and
+/// `nullDescriptor`, which raykit requires and enables on every device:
+/// * the null handle (slot 0, a zeroed `Buffer`), a slot never given to a buffer,
+///   or the slot of a dropped buffer once the work pending at its drop has
+///   finished: reads give zero, writes are discarded;
+/// * the slot of a dropped buffer while work submitted before the drop is still
+///   pending: the old buffer, which stays alive until that work has finished;
+/// * a stale handle whose slot was given to a new buffer: the new buffer (the
+///   device sees only the slot bits, not the generation the host checks);
 /// * a handle past the table: programs use its low bits
 ///   (`index % raykit_abi::BUFFER_TABLE_SLOTS`), which name one of the above or a
 ///   live buffer;
 /// * an element past the buffer's end: reads give zero, writes are discarded.
+///
+/// Element 0 and every other element of a live buffer read what the host last
+/// wrote there (`raykit::DeviceBuffer::zeroed` buffers start as zeros) or what a
+/// program stored.
 #[repr(C)]
 pub struct Buffer<T> {
     index: u32,

@@ -68,6 +68,7 @@ pub mod handles;
 pub mod math;
 pub mod params;
 pub mod ray;
+pub mod record;
 pub mod stage;
 
 pub use bytemuck;
@@ -81,7 +82,9 @@ pub use ray::{Ray, RayFlags, RayType};
 pub use raykit_abi as abi;
 pub use raykit_macros::{
     any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, LaunchParams,
+    SbtRecordData,
 };
+pub use record::SbtRecordData;
 pub use spirv_std;
 pub use spirv_std::glam;
 pub use spirv_std::matrix::Matrix4x3;

@@ -10,7 +10,9 @@
 //!
 //! Slot 0 is the null handle (a zeroed `Buffer<T>`): it is never given to a
 //! buffer and holds a null descriptor (`VK_EXT_robustness2`'s `nullDescriptor`),
-//! as does every slot whose buffer was dropped and whose pending work finished:
+//! as does every slot not yet given to a buffer (the table starts with null
+//! descriptors in every slot) and every slot whose buffer was dropped and whose
+//! pending work finished:
 //! device reads through them give zero and writes are discarded. The table has
 //! exactly [`raykit_abi::BUFFER_TABLE_SLOTS`] slots and device programs mask
 //! handles to that range, so no handle value reaches outside the table.
@@ -130,7 +132,21 @@ impl BufferTable {
         let free = (1..capacity).rev().collect();
         let live = (0..capacity).map(|_| AtomicU32::new(0)).collect();
         let table = BufferTable { layout, pool, set, capacity, free: Mutex::new(free), live };
-        table.write(device, 0, vk::Buffer::null());
+        // Every slot starts as a null descriptor, slot 0 and never-used slots alike: a
+        // partially bound array's unwritten descriptors are undefined to access, null
+        // ones read zero (`nullDescriptor`), which is what `Buffer<T>` promises.
+        let nulls = vec![
+            vk::DescriptorBufferInfo { buffer: vk::Buffer::null(), offset: 0, range: vk::WHOLE_SIZE };
+            capacity as usize
+        ];
+        let write = vk::WriteDescriptorSet::default()
+            .dst_set(table.set)
+            .dst_binding(raykit_abi::BUFFER_TABLE_BINDING)
+            .dst_array_element(0)
+            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+            .buffer_info(&nulls);
+        // SAFETY: the set is new and owned here; `nullDescriptor` is enabled.
+        unsafe { device.update_descriptor_sets(&[write], &[]) };
         Ok(table)
     }
 

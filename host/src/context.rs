@@ -154,6 +154,9 @@ pub(crate) struct ContextInner {
     pub(crate) lavapipe: bool,
     /// The compile cache every pipeline creation of this context goes through.
     pub(crate) pipeline_cache: DiskCache,
+    /// The test hook that holds submissions on the device (see [`crate::gate`]).
+    #[cfg(feature = "fault-injection")]
+    pub(crate) gate: crate::gate::Gate,
 }
 
 /// Hands out context ids.
@@ -218,6 +221,8 @@ impl Context {
             lavapipe: shared.lavapipe,
             pipeline_cache,
             shared,
+            #[cfg(feature = "fault-injection")]
+            gate: Default::default(),
         };
         inner.set_name(command_pool, "command pool");
         inner.set_name(inner.buffer_table.set, "buffer table");
@@ -420,6 +425,33 @@ impl ContextInner {
         self.shared.check(during)
     }
 
+    /// The semaphore and value a submission made now waits for: the submission
+    /// gate's when it is closed (test builds, see [`crate::gate`]), else none.
+    #[cfg(feature = "fault-injection")]
+    fn gate_wait(&self) -> Option<(vk::Semaphore, u64)> {
+        self.gate.wait()
+    }
+
+    /// As above: without the test hook, never.
+    #[cfg(not(feature = "fault-injection"))]
+    #[inline(always)]
+    fn gate_wait(&self) -> Option<(vk::Semaphore, u64)> {
+        None
+    }
+
+    /// Opens a closed submission gate (test builds, see [`crate::gate`]) before a
+    /// host wait, which could otherwise wait for held work forever.
+    #[cfg(feature = "fault-injection")]
+    pub(crate) fn open_gate_before_waiting(&self) {
+        // Fails only on a lost device, which the wait then reports.
+        let _ = self.open_gate();
+    }
+
+    /// As above: without the test hook, nothing to open.
+    #[cfg(not(feature = "fault-injection"))]
+    #[inline(always)]
+    pub(crate) fn open_gate_before_waiting(&self) {}
+
     pub(crate) fn allocator(&self) -> MutexGuard<'_, gpu_allocator::vulkan::Allocator> {
         // A panic while holding the lock cannot leave the allocator half-updated in a
         // way that matters more than losing the allocation; keep going.
@@ -499,9 +531,20 @@ impl ContextInner {
             let cmds = [cmd];
             let signal = [self.timeline.semaphore];
             let values = [epoch];
-            let mut timeline_info = vk::TimelineSemaphoreSubmitInfo::default().signal_semaphore_values(&values);
+            // Test builds only: a closed submission gate holds the work on the device.
+            let gate = self.gate_wait();
+            let (wait, wait_values) = match &gate {
+                Some((semaphore, value)) => (std::slice::from_ref(semaphore), std::slice::from_ref(value)),
+                None => (&[][..], &[][..]),
+            };
+            let wait_stages = [vk::PipelineStageFlags::ALL_COMMANDS];
+            let mut timeline_info = vk::TimelineSemaphoreSubmitInfo::default()
+                .signal_semaphore_values(&values)
+                .wait_semaphore_values(wait_values);
             let submit = [vk::SubmitInfo::default()
                 .command_buffers(&cmds)
+                .wait_semaphores(wait)
+                .wait_dst_stage_mask(&wait_stages[..wait.len()])
                 .signal_semaphores(&signal)
                 .push_next(&mut timeline_info)];
             // One queue for every context on the device, behind one lock.
@@ -563,6 +606,7 @@ impl Submission {
 
     /// Waits for the fence. A lost device reports `VK_ERROR_DEVICE_LOST` at once.
     fn wait_fence(&self) -> Result<()> {
+        self.ctx.open_gate_before_waiting();
         // SAFETY: the fence belongs to this device and was submitted.
         let waited = unsafe { self.ctx.device.wait_for_fences(&[self.fence], true, u64::MAX) };
         waited.map_err(self.ctx.shared.error("vkWaitForFences", self.during))
@@ -606,6 +650,8 @@ impl Drop for ContextInner {
             // this context's timeline rather than for the whole device. A lost device
             // ends the wait with an error; the objects may be destroyed then.
             let _ = self.wait_for_pending_work();
+            #[cfg(feature = "fault-injection")]
+            self.gate.destroy(&self.device);
             self.destroy_all_retired();
             self.timeline.destroy(&self.device);
             // Errors cannot be returned from drop; `Context::save_pipeline_cache`

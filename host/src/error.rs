@@ -41,6 +41,22 @@ fn list_devices(devices: &[DeviceReport]) -> String {
     devices.iter().map(|d| format!("\n  - {d}")).collect()
 }
 
+/// Why raykit needs `VK_EXT_robustness2`, and the fix, when a device lacks it.
+fn robustness_hint(devices: &[DeviceReport]) -> &'static str {
+    let lacks = devices
+        .iter()
+        .flat_map(|d| &d.missing)
+        .any(|m| m.contains("VK_EXT_robustness2") || m.contains("robustBufferAccess2") || m.contains("nullDescriptor"));
+    if lacks {
+        "\nVK_EXT_robustness2 with robustBufferAccess2 and nullDescriptor is required: device programs index buffers \
+         without bounds checks, and rely on it for a read through a null, dropped or never-written handle, or past a \
+         buffer's end, to give zero (and such a write to be discarded). Update the GPU driver to one that has it \
+         (NVIDIA's, Mesa ≥ 25)."
+    } else {
+        ""
+    }
+}
+
 fn list_entry_points(entries: &[(String, Option<ProgramKind>)]) -> String {
     if entries.is_empty() {
         return "none".to_owned();
@@ -79,7 +95,7 @@ pub enum Error {
     LoaderMissing(String),
 
     /// No physical device supports Vulkan ray-tracing pipelines.
-    #[error("no Vulkan device with ray-tracing pipelines; devices seen:{}\nOn a machine without a GPU, install Mesa ≥ 25 lavapipe (Debian bookworm: `mesa-vulkan-drivers` from bookworm-backports) — `cargo xtask test` does this when run as root", list_devices(.devices))]
+    #[error("no Vulkan device with ray-tracing pipelines and the features raykit needs; devices seen:{}{}\nOn a machine without a GPU, install Mesa ≥ 25 lavapipe (Debian bookworm: `mesa-vulkan-drivers` from bookworm-backports) — `cargo xtask test` does this when run as root", list_devices(.devices), robustness_hint(.devices))]
     NoRayTracingDevice {
         /// Each device seen, with what it lacks.
         devices: Vec<DeviceReport>,
@@ -247,11 +263,15 @@ pub enum Error {
     )]
     SbtOfAnotherPipeline,
 
-    /// A handle in the launch params does not name a live object of the launching
+    /// A handle in the launch params, or in the data of an SBT record whose type
+    /// derives `SbtRecordData`, does not name a live object of the launching
     /// context: a dropped or foreign buffer, a dropped or foreign IAS, or an IAS
     /// whose GASes changed since it was built.
-    #[error("launch params field `{field}`: {problem}; {fix}")]
+    #[error("{}: {problem}; {fix}", handle_place(.record, .field))]
     InvalidHandle {
+        /// The SBT record holding the handle (its region and index there), or
+        /// `None` for a field of the launch params.
+        record: Option<(SbtRegion, usize)>,
         /// The field, as a path (`scene`, `inner.buffers[2]`).
         field: String,
         /// What is wrong with it.
@@ -682,5 +702,34 @@ impl Error {
             vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during: call },
             result => Error::Vulkan { call, result },
         }
+    }
+}
+
+/// Where an invalid handle sits, for [`Error::InvalidHandle`]'s message.
+fn handle_place(record: &Option<(crate::SbtRegion, usize)>, field: &str) -> String {
+    match record {
+        None => format!("launch params field `{field}`"),
+        Some((region, index)) => format!("field `{field}` of {region} record {index} of the SBT"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_device_without_robustness2_is_reported_with_the_reason_and_the_fix() {
+        let report = |missing: &[&str]| DeviceReport {
+            name: "Some GPU".to_owned(),
+            device_type: "DISCRETE_GPU".to_owned(),
+            api_version: "1.3.0".to_owned(),
+            missing: missing.iter().map(|m| m.to_string()).collect(),
+        };
+        let text = Error::NoRayTracingDevice { devices: vec![report(&["extension VK_EXT_robustness2"])] }.to_string();
+        assert!(text.contains("Some GPU (DISCRETE_GPU, Vulkan 1.3.0): lacks extension VK_EXT_robustness2"), "{text}");
+        assert!(text.contains("without bounds checks") && text.contains("Update the GPU driver"), "{text}");
+        let text =
+            Error::NoRayTracingDevice { devices: vec![report(&["extension VK_KHR_ray_tracing_pipeline"])] }.to_string();
+        assert!(!text.contains("robustness2"), "{text}");
     }
 }

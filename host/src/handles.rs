@@ -16,19 +16,25 @@
 //!   or the address of a live [`crate::Ias`] of this context, built (or updated)
 //!   after the last refit of every GAS it instances.
 //!
-//! What raykit cannot see it does not check: handles stored inside SBT records or
-//! inside buffers reach the device unchecked; see [`raykit_device::Buffer`] for what
-//! the device reads through a bad one.
+//! The same checks run on the handle fields of SBT records whose data type derives
+//! [`SbtRecordData`](macro@raykit_device::SbtRecordData) (recorded by the
+//! [`crate::Sbt`] builder and [`crate::Sbt::update`]); the error then names the
+//! region, the record's index and the field.
+//!
+//! What raykit cannot see it does not check: handles inside records of plain
+//! `bytemuck::Pod` types and inside buffers reach the device unchecked; see
+//! [`raykit_device::Buffer`] for what the device reads through a bad one.
 
 use std::collections::HashMap;
 use std::sync::atomic::AtomicU64;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 
-use raykit_device::{ParamsLayout, Shape};
+use raykit_device::{FieldLayout, ParamsLayout, Shape};
 
 use crate::context::ContextInner;
 use crate::error::{Error, Result};
+use crate::sbt::SbtRegion;
 
 /// What a handle field holds.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -48,12 +54,19 @@ pub(crate) struct HandleField {
 /// Every handle field of `layout`, nested structs and arrays included, in order.
 pub(crate) fn handle_fields(layout: &ParamsLayout) -> Vec<HandleField> {
     let mut out = Vec::new();
-    collect(layout, 0, "", &mut out);
+    collect(layout.fields, 0, "", &mut out);
     out
 }
 
-fn collect(layout: &ParamsLayout, base: u32, prefix: &str, out: &mut Vec<HandleField>) {
-    for field in layout.fields {
+/// Every handle field of SBT record data `T` (none for plain `Pod` data).
+pub(crate) fn record_handle_fields<T: raykit_device::SbtRecordData>() -> Vec<HandleField> {
+    let mut out = Vec::new();
+    collect(T::FIELDS, 0, "", &mut out);
+    out
+}
+
+fn collect(fields: &[FieldLayout], base: u32, prefix: &str, out: &mut Vec<HandleField>) {
+    for field in fields {
         let name = if prefix.is_empty() { field.name.to_owned() } else { format!("{prefix}.{}", field.name) };
         collect_shape(&field.shape, base + field.offset, name, out);
     }
@@ -63,7 +76,7 @@ fn collect_shape(shape: &Shape, offset: u32, name: String, out: &mut Vec<HandleF
     match shape {
         Shape::Buffer => out.push(HandleField { offset, kind: HandleKind::Buffer, name }),
         Shape::Traversable => out.push(HandleField { offset, kind: HandleKind::Traversable, name }),
-        Shape::Struct(inner) => collect(inner, offset, &name, out),
+        Shape::Struct(inner) => collect(inner.fields, offset, &name, out),
         Shape::Array { stride, len, element } => {
             for i in 0..*len {
                 collect_shape(element, offset + i * stride, format!("{name}[{i}]"), out);
@@ -99,11 +112,27 @@ impl LiveTraversables {
 }
 
 impl ContextInner {
-    /// Checks the handles of `params` (laid out as `fields` says).
-    pub(crate) fn check_handles(&self, fields: &[HandleField], params: &[u8]) -> Result<()> {
+    /// Checks the handles of `params` (laid out as `fields` says); `record` is the
+    /// SBT record the bytes are the data of, `None` for launch params.
+    pub(crate) fn check_handles(
+        &self,
+        fields: &[HandleField],
+        params: &[u8],
+        record: Option<(SbtRegion, usize)>,
+    ) -> Result<()> {
         if fields.is_empty() {
             return Ok(());
         }
+        let (buffer_fix, tlas_fix) = match record {
+            None => (
+                "put the handle() of a DeviceBuffer of this Context, alive until the launch is submitted, in the params",
+                "put the handle() of a live Ias of this Context in the params",
+            ),
+            Some(_) => (
+                "put the handle() of a DeviceBuffer of this Context, alive until the launch is submitted, in the record (Sbt::update)",
+                "put the handle() of a live Ias of this Context in the record (Sbt::update)",
+            ),
+        };
         let read = |offset: u32, n: usize| params.get(offset as usize..offset as usize + n);
         let mut tlas = None;
         for field in fields {
@@ -113,11 +142,12 @@ impl ContextInner {
                     let handle = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
                     if !self.buffer_table.is_live(handle) {
                         return Err(Error::InvalidHandle {
+                            record,
                             field: field.name.clone(),
                             problem: format!(
                                 "buffer handle {handle:#x} names no live DeviceBuffer of this Context (its buffer was dropped, its slot reused, or it belongs to another Context)"
                             ),
-                            fix: "put the handle() of a DeviceBuffer of this Context, alive until the launch is submitted, in the params",
+                            fix: buffer_fix,
                         });
                     }
                 }
@@ -132,16 +162,18 @@ impl ContextInner {
                     let map = tlas.get_or_insert_with(|| self.traversables.lock());
                     let Some(over) = map.get(&address) else {
                         return Err(Error::InvalidHandle {
+                            record,
                             field: field.name.clone(),
                             problem: format!(
                                 "traversable {address:#x} is no live IAS of this Context (it was dropped, rebuilt, or belongs to another Context)"
                             ),
-                            fix: "put the handle() of a live Ias of this Context in the params",
+                            fix: tlas_fix,
                         });
                     };
                     let stale = over.iter().position(|(now, built)| now.load(Ordering::Acquire) != *built);
                     if let Some(instance) = stale {
                         return Err(Error::InvalidHandle {
+                            record,
                             field: field.name.clone(),
                             problem: format!(
                                 "the GAS of instance {instance} was refitted since this IAS was built"
@@ -159,7 +191,6 @@ impl ContextInner {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raykit_device::FieldLayout;
 
     #[test]
     fn handle_fields_are_found_in_nested_structs_and_arrays() {

@@ -10,6 +10,8 @@ pub mod cache;
 pub mod context;
 mod device_registry;
 pub mod error;
+#[cfg(feature = "fault-injection")]
+pub mod gate;
 pub mod handles;
 pub mod log;
 pub mod memory;
@@ -29,6 +31,9 @@ pub use accel::{
 pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Context, ContextOptions, DeviceLimits, MemoryUsage};
 pub use error::{DeviceReport, Error, Result, UserException};
+#[cfg(feature = "fault-injection")]
+#[doc(hidden)]
+pub use gate::SubmissionGate;
 pub use log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
 pub use memory::{DeviceBuffer, PendingRead};
 pub use module::{spirv_path, EmbeddedSpirv, EntryPointInfo, Module};
@@ -46,7 +51,7 @@ pub use ash;
 pub use bytemuck;
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
-pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, Traversable};
+pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, SbtRecordData, Traversable};
 /// raykit's SPIR-V reflection and params layout check, for build tooling and tests.
 pub use raykit_spirv as spirv;
 

@@ -108,6 +108,7 @@ impl ContextInner {
         if epoch == 0 {
             return Ok(());
         }
+        self.open_gate_before_waiting();
         let semaphores = [self.timeline.semaphore];
         let values = [epoch];
         let info = vk::SemaphoreWaitInfo::default().semaphores(&semaphores).values(&values);

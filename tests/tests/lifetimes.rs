@@ -73,62 +73,40 @@ fn mismatches(got: &[u32], want: &[u32]) -> usize {
     got.iter().zip(want).filter(|(a, b)| a != b).count() + got.len().abs_diff(want.len())
 }
 
-/// Launches queued back to back where a test needs one still running: one 1080p
-/// launch of a quad takes under a millisecond on a fast GPU.
-const QUEUED_LAUNCHES: usize = 32;
-
 #[test]
 fn dropping_everything_a_launch_in_flight_uses_keeps_new_objects_untouched_and_the_picture_right() -> anyhow::Result<()>
 {
     with_context("dropping_everything_a_launch_in_flight_uses", |ctx| {
         let baseline = ctx.memory_usage();
         let pixels = (WIDTH * HEIGHT) as usize;
-        let vertices = scene_vertices(0.5, 200_000);
+        let vertices = scene_vertices(0.5, 20_000);
         let (pipeline, sbt) = radiance_pipeline(ctx)?;
         let gas = Gas::triangles(ctx, &vertices, None)?;
         let scene = Ias::single(ctx, &gas)?;
         let image = ctx.buffer::<u32>(pixels)?;
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
 
-        // On a fast GPU one launch ends before the drops below: queue the same launch
-        // a number of times, so the drops surely happen while the device still uses
-        // the objects (on lavapipe the first is still running anyway).
-        let launch_params = params(&image, &spheres, &scene);
-        let mut launches = Vec::new();
-        for _ in 0..QUEUED_LAUNCHES {
-            launches.push(pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?);
-        }
-        // A copy of the image into host memory the readback owns, ordered after the launches.
+        // The gate holds the launch (and everything after it) on the device until
+        // it opens, so the drops below surely happen while the work is pending.
+        let gate = ctx.close_submission_gate()?;
+        let launch = pipeline.launch_async(&sbt, &params(&image, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
+        // A copy of the image into host memory the readback owns, ordered after the launch.
         let readback = image.read_async()?;
-        let mut launch = launches.pop().ok_or_else(|| anyhow::anyhow!("no launch"))?;
-        // The readback's allocation can outlast the queued launches on a fast GPU: top
-        // the queue up until a launch is still running, then queue some more behind it.
-        if launch.is_done()? {
-            while launch.is_done()? && launches.len() < 4096 {
-                launches.push(launch);
-                launch = pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?;
-            }
-            for _ in 0..QUEUED_LAUNCHES {
-                launches.push(launch);
-                launch = pipeline.launch_async(&sbt, &launch_params, [WIDTH, HEIGHT, 1])?;
-            }
-        }
-        assert!(!launch.is_done()?, "the launch finished before the drops: make it larger");
         let gas_size = gas.size();
         drop((image, spheres, scene, gas, sbt, pipeline));
-        assert!(ctx.pending_retirements() > 0, "nothing was queued on the timeline while the launch runs");
+        assert!(ctx.pending_retirements() > 0, "nothing was queued on the timeline while the launch is pending");
 
-        // New objects of the same sizes, with other data, while the launch runs.
+        // New objects of the same sizes, with other data, while the launch is pending.
         let pattern = vec![0xA5A5_A5A5u32; pixels];
         let fresh_image = ctx.buffer_from::<u32>(&pattern)?;
         let fresh_spheres = ctx.buffer_from::<Vec4>(&[Vec4::splat(7.0)])?;
-        let other = scene_vertices(0.25, 200_000);
+        let other = scene_vertices(0.25, 20_000);
         let fresh_gas = Gas::builder().triangles(Triangles::new(&other)).submit(ctx)?;
+        assert!(!gate.is_open(), "a drop or an allocation waited for the device");
+        assert!(!launch.is_done()? && !readback.is_done()?, "the gate let the launch run");
 
+        gate.open()?;
         launch.wait()?;
-        for earlier in launches {
-            earlier.wait()?;
-        }
         let picture = readback.wait()?;
         let want = reference(0.5);
         assert_eq!(mismatches(&picture, &want), 0, "the launch's picture differs from the CPU reference");
@@ -162,7 +140,7 @@ fn a_refit_and_a_build_while_a_launch_traces_the_gas_wait_for_it() -> anyhow::Re
     with_context("a_refit_and_a_build_while_a_launch_traces_the_gas_wait_for_it", |ctx| {
         let baseline = ctx.memory_usage();
         let pixels = (WIDTH * HEIGHT) as usize;
-        let vertices = scene_vertices(0.5, 200_000);
+        let vertices = scene_vertices(0.5, 20_000);
         let options = BuildOptions::default().allow_update(true);
         let (pipeline, sbt) = radiance_pipeline(ctx)?;
         let mut gas = Gas::builder().triangles(Triangles::new(&vertices)).options(options).build(ctx)?;
@@ -170,13 +148,17 @@ fn a_refit_and_a_build_while_a_launch_traces_the_gas_wait_for_it() -> anyhow::Re
         let image = ctx.buffer::<u32>(pixels)?;
         let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
 
+        let gate = ctx.close_submission_gate()?;
         let launch = pipeline.launch_async(&sbt, &params(&image, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
-        assert!(!launch.is_done()?, "the launch finished before the refit: make it larger");
-        // A refit of the traced GAS, and a new build, while the launch runs: both
-        // start on the device only after the launch has finished with the GAS.
-        let smaller = scene_vertices(0.25, 200_000);
-        gas.update(&[Triangles::new(&smaller).into()])?;
+        // A build while the launch is pending, itself pending behind the gate.
         let pending = Gas::builder().triangles(Triangles::new(&vertices)).submit(ctx)?;
+        assert!(!launch.is_done()? && !pending.is_ready()?, "the gate let the work run");
+        // A refit of the traced GAS while the launch is pending: it starts on the
+        // device only after the launch has finished with the GAS. (The refit blocks
+        // until it is done, which opens the gate.)
+        let smaller = scene_vertices(0.25, 20_000);
+        gas.update(&[Triangles::new(&smaller).into()])?;
+        assert!(gate.is_open());
         launch.wait()?;
         assert_eq!(mismatches(&image.read()?, &reference(0.5)), 0, "the refit changed the GAS under the launch");
 
@@ -192,6 +174,58 @@ fn a_refit_and_a_build_while_a_launch_traces_the_gas_wait_for_it() -> anyhow::Re
 
         drop((image, spheres, scene, other, built, gas, sbt, pipeline));
         ctx.wait_idle()?;
+        let end = ctx.memory_usage();
+        assert_eq!((end.allocations, end.allocated_bytes), (baseline.allocations, baseline.allocated_bytes));
+        Ok(())
+    })
+}
+
+#[test]
+fn a_build_in_flight_survives_dropping_its_traced_predecessor_and_a_closed_gate_never_deadlocks() -> anyhow::Result<()>
+{
+    with_context("a_build_in_flight_survives_dropping_its_traced_predecessor", |ctx| {
+        let baseline = ctx.memory_usage();
+        let (pipeline, sbt) = radiance_pipeline(ctx)?;
+        let old = Gas::triangles(ctx, &scene_vertices(0.5, 20_000), None)?;
+        let old_scene = Ias::single(ctx, &old)?;
+        let image = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
+        let spheres = ctx.buffer_from::<Vec4>(&[Vec4::ZERO])?;
+
+        let gate = ctx.close_submission_gate()?;
+        let launch = pipeline.launch_async(&sbt, &params(&image, &spheres, &old_scene), [WIDTH, HEIGHT, 1])?;
+        // A build and a refit-capable build of the same size while the launch is
+        // pending; the structures the launch traces are dropped meanwhile.
+        let build = Gas::builder()
+            .triangles(Triangles::new(&scene_vertices(0.25, 20_000)))
+            .options(BuildOptions::default().allow_update(true))
+            .submit(ctx)?;
+        drop((old_scene, old));
+        assert!(!gate.is_open() && !build.is_ready()? && !launch.is_done()?, "the gate let the work run");
+        // A host wait opens the gate rather than waiting forever.
+        launch.wait()?;
+        assert!(gate.is_open(), "the launch's wait did not open the gate");
+        assert_eq!(mismatches(&image.read()?, &reference(0.5)), 0, "the launch's picture is wrong");
+        let mut built = build.wait()?;
+
+        // A refit pending behind a closed gate, while the IAS over the GAS is
+        // dropped: the refit's own wait opens the gate.
+        let gate = ctx.close_submission_gate()?;
+        let scene = Ias::single(ctx, &built)?;
+        assert!(gate.is_open(), "a blocking build waits, and opens the gate");
+        let gate = ctx.close_submission_gate()?;
+        let launch = pipeline.launch_async(&sbt, &params(&image, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
+        drop(scene);
+        built.update(&[Triangles::new(&scene_vertices(0.5, 20_000)).into()])?;
+        assert!(gate.is_open());
+        launch.wait()?;
+        assert_eq!(mismatches(&image.read()?, &reference(0.25)), 0, "the launch saw the refit made after it");
+        let scene = Ias::single(ctx, &built)?;
+        pipeline.launch(&sbt, &params(&image, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
+        assert_eq!(mismatches(&image.read()?, &reference(0.5)), 0, "the refit renders wrong");
+
+        drop((scene, built, image, spheres, sbt, pipeline));
+        ctx.wait_idle()?;
+        assert_eq!(ctx.pending_retirements(), 0);
         let end = ctx.memory_usage();
         assert_eq!((end.allocations, end.allocated_bytes), (baseline.allocations, baseline.allocated_bytes));
         Ok(())
@@ -234,7 +268,7 @@ impl Quad {
 /// Asserts `result` is `Error::InvalidHandle` for `field`, mentioning `says`.
 fn assert_invalid(result: raykit::Result<()>, field: &str, says: &str) {
     match result {
-        Err(raykit::Error::InvalidHandle { field: f, problem, fix }) => {
+        Err(raykit::Error::InvalidHandle { record: None, field: f, problem, fix }) => {
             assert_eq!(f, field);
             let text = format!("{problem}; {fix}");
             assert!(text.contains(says), "the error should say {says:?}: {text}");
@@ -385,20 +419,16 @@ fn sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt() -> anyhow::Res
             .miss_for::<Radiance, _>(&miss, ())
             .hit_for::<Radiance, _>(0, &hit, ColorRecord { color: red })
             .build()?;
-        let gas = Gas::triangles(ctx, &scene_vertices(0.5, 200_000), None)?;
+        let gas = Gas::triangles(ctx, &scene_vertices(0.5, 20_000), None)?;
         let scene = Ias::single(ctx, &gas)?;
         let spheres = ctx.buffer::<Vec4>(1)?;
         let first = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
         let second = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
 
-        // Work queued ahead, so the launch below is still running at the update on a fast GPU.
-        let busy_image = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
-        let mut busy = Vec::new();
-        for _ in 0..QUEUED_LAUNCHES - 1 {
-            busy.push(pipeline.launch_async(&sbt, &params(&busy_image, &spheres, &scene), [WIDTH, HEIGHT, 1])?);
-        }
+        // The gate holds the launch on the device, so it is surely pending at the update.
+        let gate = ctx.close_submission_gate()?;
         let launch = pipeline.launch_async(&sbt, &params(&first, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
-        assert!(!launch.is_done()?, "the launch finished before the update: make it larger");
+        assert!(!launch.is_done()?, "the gate let the launch run");
         // Data of another type than the record was built with is refused, even if it fits.
         match sbt.update(raykit::SbtRegion::Hit, 0, 7u32) {
             Err(raykit::Error::SbtUpdate { reason, .. }) => {
@@ -406,16 +436,75 @@ fn sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt() -> anyhow::Res
             }
             other => panic!("a u32 into a ColorRecord record was not refused: {other:?}"),
         }
-        // An update while the launch runs goes into a copy the next launch uses.
+        // An update while the launch is pending goes into a copy the next launch uses.
         sbt.update(raykit::SbtRegion::Hit, 0, ColorRecord { color: green })?;
-        pipeline.launch(&sbt, &params(&second, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
+        let next = pipeline.launch_async(&sbt, &params(&second, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
+        assert!(!gate.is_open(), "the update waited for the device");
+        gate.open()?;
         launch.wait()?;
-        for queued in busy {
-            queued.wait()?;
-        }
+        next.wait()?;
         let centre = ((HEIGHT / 2) * WIDTH + WIDTH / 2) as usize;
         assert_eq!(first.read()?[centre], pack(red), "the launch in flight saw the update");
         assert_eq!(second.read()?[centre], pack(green), "the launch after the update did not see it");
+        Ok(())
+    })
+}
+
+#[test]
+fn a_record_holding_a_dropped_buffer_handle_is_refused_at_launch_naming_the_record_and_field() -> anyhow::Result<()> {
+    use program_model_device::PaletteRecord;
+    with_context("a_record_holding_a_dropped_buffer_handle_is_refused_at_launch", |ctx| {
+        let (red, green, blue) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 1.0));
+        let module = Module::from_device_crate(ctx, "program-model-device")?;
+        let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
+        let miss = ProgramGroup::miss(&module, program_model_device::MS)?;
+        let hit = ProgramGroup::hit_group(&module).closest_hit(program_model_device::PALETTE_COLOR).build()?;
+        let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions::default())?;
+        let palette = ctx.buffer_from::<Vec4>(&[red.extend(0.0), green.extend(0.0)])?;
+        let mut sbt = Sbt::builder(&pipeline)
+            .raygen(&raygen, ())
+            .miss_for::<Radiance, _>(&miss, ())
+            .hit_for::<Radiance, _>(0, &hit, PaletteRecord { palette: palette.handle(), index: 1 })
+            .build()?;
+        let gas = Gas::triangles(ctx, &scene_vertices(0.5, 0), None)?;
+        let scene = Ias::single(ctx, &gas)?;
+        let image = ctx.buffer::<u32>(16 * 16)?;
+        let spheres = ctx.buffer::<Vec4>(1)?;
+        let params =
+            Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
+        let (centre, corner) = (8 * 16 + 8, 0);
+
+        // A live handle in the record: the closest-hit program reads the colour through it.
+        pipeline.launch(&sbt, &params, [16, 16, 1])?;
+        let picture = image.read()?;
+        assert_eq!([picture[centre], picture[corner]], [pack(green), pack(BACKGROUND)]);
+
+        // The record's buffer dropped: the launch is refused, naming the record and the field.
+        drop(palette);
+        match pipeline.launch(&sbt, &params, [16, 16, 1]) {
+            Err(e @ raykit::Error::InvalidHandle { record: Some((raykit::SbtRegion::Hit, 0)), .. }) => {
+                let text = e.to_string();
+                let raykit::Error::InvalidHandle { field, problem, .. } = e else { unreachable!() };
+                assert_eq!(field, "palette");
+                assert!(problem.contains("dropped"), "{problem}");
+                assert!(text.contains("field `palette` of hit record 0"), "{text}");
+                assert!(text.contains("Sbt::update"), "the error should say how to fix it: {text}");
+            }
+            other => panic!("a record naming a dropped buffer was not refused: {other:?}"),
+        }
+        // Once the slot is free (and maybe reused) it is still refused.
+        ctx.wait_idle()?;
+        let reused = ctx.buffer_from::<Vec4>(&[blue.extend(0.0), blue.extend(0.0)])?;
+        assert!(matches!(
+            pipeline.launch(&sbt, &params, [16, 16, 1]),
+            Err(raykit::Error::InvalidHandle { record: Some((raykit::SbtRegion::Hit, 0)), .. })
+        ));
+        assert_eq!(image.read()?, picture, "a refused launch wrote the image");
+
+        // Updated to a live buffer's handle, the record renders again.
+        sbt.update(raykit::SbtRegion::Hit, 0, PaletteRecord { palette: reused.handle(), index: 0 })?;
+        pipeline.launch(&sbt, &params, [16, 16, 1])?;
+        assert_eq!(image.read()?[centre], pack(blue));
         Ok(())
     })
 }

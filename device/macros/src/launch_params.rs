@@ -1,5 +1,6 @@
 //! `#[derive(LaunchParams)]`: records a params struct's layout and refuses
-//! fields that cannot cross to the device.
+//! fields that cannot cross to the device. `#[derive(SbtRecordData)]` records an
+//! SBT record data struct's layout the same way.
 
 use proc_macro2::TokenStream;
 use quote::{quote, quote_spanned};
@@ -10,6 +11,46 @@ pub fn derive(input: TokenStream) -> TokenStream {
     match try_derive(input) {
         Ok(t) => t,
         Err(e) => e.to_compile_error(),
+    }
+}
+
+/// `#[derive(SbtRecordData)]`.
+pub fn derive_record(input: TokenStream) -> TokenStream {
+    match try_derive_record(input) {
+        Ok(t) => t,
+        Err(e) => e.to_compile_error(),
+    }
+}
+
+/// What a derive is for, in its messages.
+#[derive(Copy, Clone)]
+enum Kind {
+    Params,
+    Record,
+}
+
+impl Kind {
+    fn what(self) -> &'static str {
+        match self {
+            Kind::Params => "launch params",
+            Kind::Record => "SBT record data",
+        }
+    }
+
+    /// "need" or "needs", after [`Kind::what`].
+    fn need(self) -> &'static str {
+        match self {
+            Kind::Params => "need",
+            Kind::Record => "needs",
+        }
+    }
+
+    /// Why the struct may have no padding.
+    fn no_padding(self) -> &'static str {
+        match self {
+            Kind::Params => "launch params are `Pod` and may have none",
+            Kind::Record => "SBT record data may have none (its bytes cross to the device as they are)",
+        }
     }
 }
 
@@ -58,23 +99,29 @@ fn refuse(ty: &Type) -> Option<String> {
     }
 }
 
-fn try_derive(input: TokenStream) -> syn::Result<TokenStream> {
-    let input: DeriveInput = syn::parse2(input)?;
+/// The layout of a struct: its padding checks and its `FieldLayout` entries.
+struct Layout {
+    padding_checks: Vec<TokenStream>,
+    entries: Vec<TokenStream>,
+}
+
+fn layout(input: &DeriveInput, kind: Kind) -> syn::Result<Layout> {
+    let (what, need, no_padding) = (kind.what(), kind.need(), kind.no_padding());
     let name = &input.ident;
     if !input.generics.params.is_empty() {
-        return Err(syn::Error::new(input.generics.span(), "launch params cannot be generic"));
+        return Err(syn::Error::new(input.generics.span(), format!("{what} cannot be generic")));
     }
     let Data::Struct(data) = &input.data else {
-        return Err(syn::Error::new(input.span(), "launch params must be a struct"));
+        return Err(syn::Error::new(input.span(), format!("{what} must be a struct")));
     };
-    if !has_repr_c(&input) {
+    if !has_repr_c(input) {
         return Err(syn::Error::new(
             name.span(),
-            "launch params need `#[repr(C)]`, so host and device lay the fields out by the same rules",
+            format!("{what} {need} `#[repr(C)]`, so host and device lay the fields out by the same rules"),
         ));
     }
     let Fields::Named(fields) = &data.fields else {
-        return Err(syn::Error::new(data.fields.span(), "launch params need named fields"));
+        return Err(syn::Error::new(data.fields.span(), format!("{what} {need} named fields")));
     };
     let mut errors: Option<syn::Error> = None;
     let mut entries = Vec::new();
@@ -88,13 +135,13 @@ fn try_derive(input: TokenStream) -> syn::Result<TokenStream> {
             Some((next, _)) => (
                 quote!(::core::mem::offset_of!(#name, #next)),
                 format!(
-                    "`{name}` has padding after field `{ident}` (before `{next}`): launch params are `Pod` and may have none; add an explicit padding field after `{ident}` (e.g. `_pad: u32`) or reorder the fields"
+                    "`{name}` has padding after field `{ident}` (before `{next}`): {no_padding}; add an explicit padding field after `{ident}` (e.g. `_pad: u32`) or reorder the fields"
                 ),
             ),
             None => (
                 quote!(::core::mem::size_of::<#name>()),
                 format!(
-                    "`{name}` has padding after its last field `{ident}`: launch params are `Pod` and may have none; add an explicit padding field at the end (e.g. `_pad: u32`)"
+                    "`{name}` has padding after its last field `{ident}`: {no_padding}; add an explicit padding field at the end (e.g. `_pad: u32`)"
                 ),
             ),
         };
@@ -131,6 +178,13 @@ fn try_derive(input: TokenStream) -> syn::Result<TokenStream> {
     if let Some(e) = errors {
         return Err(e);
     }
+    Ok(Layout { padding_checks, entries })
+}
+
+fn try_derive(input: TokenStream) -> syn::Result<TokenStream> {
+    let input: DeriveInput = syn::parse2(input)?;
+    let Layout { padding_checks, entries } = layout(&input, Kind::Params)?;
+    let name = &input.ident;
     let struct_name = name.to_string();
     Ok(quote! {
         #(#padding_checks)*
@@ -144,6 +198,22 @@ fn try_derive(input: TokenStream) -> syn::Result<TokenStream> {
         impl ::raykit_device::DeviceField for #name {
             const SHAPE: ::raykit_device::Shape =
                 ::raykit_device::Shape::Struct(&<#name as ::raykit_device::LaunchParams>::LAYOUT);
+        }
+    })
+}
+
+fn try_derive_record(input: TokenStream) -> syn::Result<TokenStream> {
+    let input: DeriveInput = syn::parse2(input)?;
+    let Layout { padding_checks, entries } = layout(&input, Kind::Record)?;
+    let name = &input.ident;
+    Ok(quote! {
+        #(#padding_checks)*
+        // SAFETY: `#[repr(C)]` (checked by the derive), without padding (the
+        // assertions above) and made of `DeviceField`s, which are `Pod` (each
+        // entry below names its field's `DeviceField::SHAPE`): every byte of a
+        // value is initialised.
+        unsafe impl ::raykit_device::SbtRecordData for #name {
+            const FIELDS: &'static [::raykit_device::FieldLayout] = &[#(#entries),*];
         }
     })
 }

@@ -91,3 +91,13 @@ pub fn exception(attr: TokenStream, item: TokenStream) -> TokenStream {
 pub fn derive_launch_params(item: TokenStream) -> TokenStream {
     root::resolve(launch_params::derive(item.into())).into()
 }
+
+/// Records the layout of an SBT record data struct (`#[repr(C)]`, `Copy`, every
+/// field a device type, no padding) and makes it `raykit_device::SbtRecordData`:
+/// every launch then checks the `Buffer<T>` and `Traversable` fields of records of
+/// this type against the context's live objects. Derive it *instead of*
+/// `bytemuck::Pod` (every `Pod` type is record data already, unchecked).
+#[proc_macro_derive(SbtRecordData)]
+pub fn derive_sbt_record_data(item: TokenStream) -> TokenStream {
+    root::resolve(launch_params::derive_record(item.into())).into()
+}

@@ -18,11 +18,17 @@
 //!   with `vkCmdUpdateBuffer` into the pipeline's uniform buffer;
 //! * the pipeline's user-exception counters are zeroed with `vkCmdFillBuffer` at the
 //!   start of its command buffer and copied into the launch's own readback buffer
-//!   at its end;
-//! * every launch begins with a full memory barrier, so on raykit's one queue a
-//!   launch's device work starts only after that of earlier submissions — the
-//!   uniform buffer and the exception counters are rewritten only once the launch
-//!   before has finished with them.
+//!   at its end — for the programs that can throw only: a module that never uses
+//!   the exception buffer's slot (found in its SPIR-V) costs a launch nothing;
+//! * every launch begins with a memory barrier from all earlier commands, so on
+//!   raykit's one queue a launch's device work starts only after that of earlier
+//!   submissions — the uniform buffer and the exception counters are rewritten
+//!   only once the launch before has finished with them.
+//!
+//! A launch of push-constant params whose programs cannot throw records two
+//! barriers (before and after the trace) around binding, stack size, push
+//! constants and the trace; a params uniform or exception buffers to zero add
+//! their transfers and a barrier after them, and exception copies a last barrier.
 //!
 //! So no lock is held between submission and completion, and any thread may launch
 //! while launches of the same pipeline are in flight. A [`Launch`] holds `Arc`s of
@@ -188,19 +194,36 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             Some((u.set, buffer.buffer, padded))
         });
         let stack_size = self.stack_size();
-        let pooled = inner.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
-        let readback = match pooled {
-            Some(buffer) => buffer,
-            None => RawBuffer::new(
-                ctx,
-                "user exception readback",
-                ExceptionBuffer::SIZE * inner.exceptions.len() as u64,
-                vk::BufferUsageFlags::TRANSFER_DST,
-                gpu_allocator::MemoryLocation::GpuToCpu,
-                16,
-            )?,
+        // Only the exception buffers of programs that can throw are zeroed, copied
+        // and read back (see `exceptions::may_throw`).
+        let throwing = &inner.throwing;
+        let readback = if throwing.is_empty() {
+            None
+        } else {
+            let pooled = inner.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
+            Some(match pooled {
+                Some(buffer) => buffer,
+                None => RawBuffer::new(
+                    ctx,
+                    "user exception readback",
+                    ExceptionBuffer::SIZE * throwing.len() as u64,
+                    vk::BufferUsageFlags::TRANSFER_DST,
+                    gpu_allocator::MemoryLocation::GpuToCpu,
+                    16,
+                )?,
+            })
         };
-        let check = || ctx.check_handles(&inner.handle_fields, params_bytes);
+        // Whether the launch writes anything with transfers before tracing.
+        let transfers = !throwing.is_empty() || uniform.is_some();
+        // The handles of the params, and those in SBT records whose type derives
+        // `SbtRecordData` (see `crate::handles`).
+        let check = || {
+            ctx.check_handles(&inner.handle_fields, params_bytes, None)?;
+            for record in &sbt.checked {
+                ctx.check_handles(&record.fields, &record.data, Some((record.region, record.index)))?;
+            }
+            Ok(())
+        };
         let submission = ctx.submit_checked("a launch", check, |cmd| {
             // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
             // SBT buffers are alive until the work is done (the returned `Launch`
@@ -208,34 +231,45 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             // timeline); `cmd` is recording.
             unsafe {
                 // Earlier submissions (launches of this pipeline among them) finish
-                // with the uniform buffer and the exception counters before this
-                // launch rewrites them.
+                // with what this launch writes (its images, the uniform buffer, the
+                // exception counters) before it writes them, and their writes are
+                // visible to it.
+                let (first_stages, first_access) = if transfers {
+                    (
+                        vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                        vk::AccessFlags::TRANSFER_WRITE | SHADER_ACCESS,
+                    )
+                } else {
+                    (vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR, SHADER_ACCESS)
+                };
                 full_barrier(
                     device,
                     cmd,
                     vk::PipelineStageFlags::ALL_COMMANDS,
                     vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::MEMORY_READ,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::TRANSFER_WRITE,
+                    first_stages,
+                    first_access,
                 );
-                for exceptions in &inner.exceptions {
-                    // The counter is the first word.
-                    device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
-                    // Then where the exception program sits in the callable region.
-                    let handler = sbt.exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
-                    device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 4, 4, handler);
+                if transfers {
+                    for exceptions in throwing {
+                        // The counter is the first word.
+                        device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
+                        // Then where the exception program sits in the callable region.
+                        let handler = sbt.exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
+                        device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 4, 4, handler);
+                    }
+                    if let Some((_, buffer, bytes)) = &uniform {
+                        device.cmd_update_buffer(cmd, *buffer, 0, bytes);
+                    }
+                    full_barrier(
+                        device,
+                        cmd,
+                        vk::PipelineStageFlags::TRANSFER,
+                        vk::AccessFlags::TRANSFER_WRITE,
+                        vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                        SHADER_ACCESS,
+                    );
                 }
-                if let Some((_, buffer, bytes)) = &uniform {
-                    device.cmd_update_buffer(cmd, *buffer, 0, bytes);
-                }
-                full_barrier(
-                    device,
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::TRANSFER_WRITE,
-                    vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
-                    vk::AccessFlags::UNIFORM_READ | vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
-                );
                 device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, inner.pipeline.handle);
                 // The pipeline's stack size is dynamic state (see `crate::stack`).
                 ctx.rt.cmd_set_ray_tracing_pipeline_stack_size(cmd, stack_size);
@@ -270,35 +304,51 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 }
                 // The programs' writes: visible to the host once the fence signals,
                 // and the exception records to the copy below.
+                let (last_stages, last_access) = match &readback {
+                    Some(_) => (
+                        vk::PipelineStageFlags::HOST | vk::PipelineStageFlags::TRANSFER,
+                        vk::AccessFlags::HOST_READ | vk::AccessFlags::TRANSFER_READ,
+                    ),
+                    None => (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+                };
                 full_barrier(
                     device,
                     cmd,
                     vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
                     vk::AccessFlags::SHADER_WRITE,
-                    vk::PipelineStageFlags::HOST | vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::HOST_READ | vk::AccessFlags::TRANSFER_READ,
+                    last_stages,
+                    last_access,
                 );
-                for (i, exceptions) in inner.exceptions.iter().enumerate() {
-                    let region = vk::BufferCopy {
-                        src_offset: 0,
-                        dst_offset: i as u64 * ExceptionBuffer::SIZE,
-                        size: ExceptionBuffer::SIZE,
-                    };
-                    device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]);
+                if let Some(readback) = &readback {
+                    for (i, exceptions) in throwing.iter().enumerate() {
+                        let region = vk::BufferCopy {
+                            src_offset: 0,
+                            dst_offset: i as u64 * ExceptionBuffer::SIZE,
+                            size: ExceptionBuffer::SIZE,
+                        };
+                        device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]);
+                    }
+                    full_barrier(
+                        device,
+                        cmd,
+                        vk::PipelineStageFlags::TRANSFER,
+                        vk::AccessFlags::TRANSFER_WRITE,
+                        vk::PipelineStageFlags::HOST,
+                        vk::AccessFlags::HOST_READ,
+                    );
                 }
-                full_barrier(
-                    device,
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::TRANSFER_WRITE,
-                    vk::PipelineStageFlags::HOST,
-                    vk::AccessFlags::HOST_READ,
-                );
             }
         })?;
-        Ok(Launch { submission, readback: Some(readback), pipeline: inner.clone(), _sbt: sbt.buffer.clone() })
+        Ok(Launch { submission, readback, pipeline: inner.clone(), _sbt: sbt.buffer.clone() })
     }
 }
+
+/// What the programs of a launch access: uniform params, buffers (read and written).
+const SHADER_ACCESS: vk::AccessFlags = vk::AccessFlags::from_raw(
+    vk::AccessFlags::UNIFORM_READ.as_raw()
+        | vk::AccessFlags::SHADER_READ.as_raw()
+        | vk::AccessFlags::SHADER_WRITE.as_raw(),
+);
 
 /// A global memory barrier.
 ///

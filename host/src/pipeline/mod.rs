@@ -99,6 +99,9 @@ pub(crate) struct PipelineInner {
     /// compiled together (the pipeline itself, or each linked library). Launches
     /// zero and copy them on the device (see [`launch`]).
     pub(crate) exceptions: Vec<Arc<ExceptionBuffer>>,
+    /// Those of `exceptions` whose programs can throw: the ones launches zero,
+    /// copy and read back.
+    pub(crate) throwing: Vec<Arc<ExceptionBuffer>>,
     /// Finished launches' exception readback buffers, reused by later launches
     /// (an allocation per launch is slow on some drivers).
     pub(crate) readbacks: Mutex<Vec<RawBuffer>>,
@@ -159,11 +162,17 @@ impl PipelineInner {
             handles,
             max_trace_depth,
             stack_size: AtomicU32::new(stack_bytes(default)?),
+            throwing: parts.exceptions.iter().filter(|e| e.may_throw).cloned().collect(),
             exceptions: parts.exceptions,
             readbacks: Mutex::new(Vec::new()),
             handle_fields: crate::handles::handle_fields(&P::LAYOUT),
         })
     }
+}
+
+/// Whether a program of `groups` can throw a user exception (see [`exceptions::may_throw`]).
+fn groups_may_throw(groups: &[&ProgramGroup]) -> bool {
+    groups.iter().any(|g| g.programs().iter().any(|p| exceptions::may_throw(&p.module.words)))
 }
 
 /// The maxima of `groups`' stack sizes by program kind.
@@ -191,7 +200,7 @@ impl<P: LaunchParams> Pipeline<P> {
         let inner = &ctx.inner;
         check_groups::<P>(inner, groups, options.max_trace_depth)?;
         check_linkable(groups.iter().copied())?;
-        let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
+        let exceptions = Arc::new(ExceptionBuffer::new(inner, groups_may_throw(groups))?);
         let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
         crate::validate::check_programs(
             groups,

@@ -1,11 +1,21 @@
 //! The shader binding table: typed records, OptiX's `SbtRecord<T>`.
 //!
 //! Each record is a program group's handle (`shaderGroupHandleSize` bytes, read
-//! from the pipeline) followed by the group's data `T: Pod`, which the device
-//! program reads with `#[record] data: &T`. Strides and region offsets follow the
+//! from the pipeline) followed by the group's data `T` (any `bytemuck::Pod` type,
+//! or a type that derives [`SbtRecordData`](macro@raykit_device::SbtRecordData)),
+//! which the device program reads with `#[record] data: &T`. Strides and region offsets follow the
 //! device's `shaderGroupHandleAlignment` and `shaderGroupBaseAlignment`; a region's
 //! stride fits its largest record. See
 //! [the SBT chapter of the Vulkan spec](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#shader-binding-table).
+//!
+//! # Handles in records
+//! The `Buffer<T>` and `Traversable` fields of records whose data type derives
+//! `SbtRecordData` are recorded by the builder and by [`Sbt::update`], and every
+//! launch checks them against the context's live objects as it checks the launch
+//! params' (see [`crate::handles`]): a dropped, foreign or stale handle is
+//! [`Error::InvalidHandle`] naming the region, the record's index and the field.
+//! Handles in records of plain `Pod` types, and handles stored inside buffers,
+//! reach the device unchecked.
 
 pub mod region;
 
@@ -18,22 +28,23 @@ use gpu_allocator::MemoryLocation;
 
 use crate::context::DeviceLimits;
 use crate::error::{Error, Result};
+use crate::handles::HandleField;
 use crate::memory::RawBuffer;
 use crate::pipeline::{Pipeline, PipelineInner};
 use crate::program_group::{GroupKind, ProgramGroup};
-use raykit_device::RayType;
+use raykit_device::{RayType, SbtRecordData};
 pub use region::SbtRegion;
 
 /// One SBT record before packing: a group and its data.
 #[derive(Debug)]
-pub struct SbtRecord<'g, T: bytemuck::Pod> {
+pub struct SbtRecord<'g, T: SbtRecordData> {
     /// The program group whose handle heads the record.
     pub group: &'g ProgramGroup,
     /// The record's data.
     pub data: T,
 }
 
-impl<'g, T: bytemuck::Pod> SbtRecord<'g, T> {
+impl<'g, T: SbtRecordData> SbtRecord<'g, T> {
     /// A record of `group` carrying `data`.
     pub fn new(group: &'g ProgramGroup, data: T) -> Self {
         SbtRecord { group, data }
@@ -47,6 +58,18 @@ struct PackedRecord {
     data: Vec<u8>,
     /// The data's type, which [`Sbt::update`] must be given again.
     data_type: DataType,
+    /// The handle fields of the data, which launches check.
+    handles: Vec<HandleField>,
+}
+
+/// A record whose data holds handles: where it is, where its handles are, and a
+/// host copy of its data (the SBT buffer may be slow for the host to read).
+#[derive(Debug)]
+pub(crate) struct CheckedRecord {
+    pub(crate) region: SbtRegion,
+    pub(crate) index: usize,
+    pub(crate) fields: Vec<HandleField>,
+    pub(crate) data: Vec<u8>,
 }
 
 /// The type of a record's data: its id and its name for errors.
@@ -154,7 +177,7 @@ fn slot_count(slots: &BTreeMap<usize, PackedRecord>) -> usize {
 }
 
 impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
-    fn pack<T: bytemuck::Pod>(&mut self, group: &ProgramGroup, data: &T, region: SbtRegion) -> Option<PackedRecord> {
+    fn pack<T: SbtRecordData>(&mut self, group: &ProgramGroup, data: &T, region: SbtRegion) -> Option<PackedRecord> {
         if self.error.is_some() {
             return None;
         }
@@ -167,11 +190,16 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             self.error = Some(Error::GroupNotInPipeline { kind: group.kind() });
             return None;
         };
-        Some(PackedRecord { group_index, data: bytemuck::bytes_of(data).to_vec(), data_type: DataType::of::<T>() })
+        Some(PackedRecord {
+            group_index,
+            data: data.record_bytes().to_vec(),
+            data_type: DataType::of::<T>(),
+            handles: crate::handles::record_handle_fields::<T>(),
+        })
     }
 
     /// The raygen record (exactly one; a second replaces the first).
-    pub fn raygen<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+    pub fn raygen<T: SbtRecordData>(mut self, group: &ProgramGroup, data: T) -> Self {
         if let Some(r) = self.pack(group, &data, SbtRegion::Raygen) {
             self.raygen = Some(r);
         }
@@ -179,13 +207,13 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     }
 
     /// Appends a miss record at the end of the miss region.
-    pub fn miss<T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
+    pub fn miss<T: SbtRecordData>(self, group: &ProgramGroup, data: T) -> Self {
         let index = slot_count(&self.miss);
         self.miss_at(index, group, data)
     }
 
     /// Places a miss record at miss index `index`.
-    pub fn miss_at<T: bytemuck::Pod>(mut self, index: usize, group: &ProgramGroup, data: T) -> Self {
+    pub fn miss_at<T: SbtRecordData>(mut self, index: usize, group: &ProgramGroup, data: T) -> Self {
         if let Some(r) = self.pack(group, &data, SbtRegion::Miss) {
             if let Err(e) = place(&mut self.miss, index, r, SbtRegion::Miss) {
                 self.error = Some(e);
@@ -198,7 +226,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     /// (`R::MISS_INDEX`).
     /// A group whose program was declared for another ray type
     /// (`#[miss(ray = Other)]`) is refused.
-    pub fn miss_for<R: RayType, T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+    pub fn miss_for<R: RayType, T: SbtRecordData>(mut self, group: &ProgramGroup, data: T) -> Self {
         self.check_ray::<R>(group, SbtRegion::Miss);
         self.miss_at(R::MISS_INDEX as usize, group, data)
     }
@@ -230,13 +258,13 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     }
 
     /// Appends a hit record at the end of the hit region.
-    pub fn hit<T: bytemuck::Pod>(self, group: &ProgramGroup, data: T) -> Self {
+    pub fn hit<T: SbtRecordData>(self, group: &ProgramGroup, data: T) -> Self {
         let index = slot_count(&self.hit);
         self.hit_at(index, group, data)
     }
 
     /// Places a hit record at index `index` of the hit region.
-    pub fn hit_at<T: bytemuck::Pod>(mut self, index: usize, group: &ProgramGroup, data: T) -> Self {
+    pub fn hit_at<T: SbtRecordData>(mut self, index: usize, group: &ProgramGroup, data: T) -> Self {
         if let Some(r) = self.pack(group, &data, SbtRegion::Hit) {
             if let Err(e) = place(&mut self.hit, index, r, SbtRegion::Hit) {
                 self.error = Some(e);
@@ -254,7 +282,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     /// geometry `g` takes slot `k + g`.
     /// A group whose programs were declared for another ray type
     /// (`#[closest_hit(ray = Other)]`) is refused.
-    pub fn hit_for<R: RayType, T: bytemuck::Pod>(mut self, geometry: usize, group: &ProgramGroup, data: T) -> Self {
+    pub fn hit_for<R: RayType, T: SbtRecordData>(mut self, geometry: usize, group: &ProgramGroup, data: T) -> Self {
         self.check_ray::<R>(group, SbtRegion::Hit);
         match geometry.checked_mul(R::SBT_STRIDE as usize).and_then(|i| i.checked_add(R::SBT_OFFSET as usize)) {
             Some(index) => self.hit_at(index, group, data),
@@ -274,7 +302,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
 
     /// Appends a callable record; the n-th call is callable index n (the
     /// `sbt_index` of `ctx.call(sbt_index, data)` on the device).
-    pub fn callable<T: bytemuck::Pod>(mut self, group: &ProgramGroup, data: T) -> Self {
+    pub fn callable<T: SbtRecordData>(mut self, group: &ProgramGroup, data: T) -> Self {
         if let Some(r) = self.pack(group, &data, SbtRegion::Callable) {
             if self.callable.len() >= crate::validate::max_records(SbtRegion::Callable) {
                 self.error = Some(out_of_range(SbtRegion::Callable, self.callable.len().to_string()));
@@ -286,7 +314,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     }
 
     /// Appends an [`SbtRecord`] to the region its group's kind belongs to.
-    pub fn record<T: bytemuck::Pod>(self, record: SbtRecord<'_, T>) -> Self {
+    pub fn record<T: SbtRecordData>(self, record: SbtRecord<'_, T>) -> Self {
         match record.group.kind() {
             GroupKind::Raygen => self.raygen(record.group, record.data),
             GroupKind::Miss => self.miss(record.group, record.data),
@@ -339,7 +367,12 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         let mut callable = self.callable;
         let exception_index = match pipeline.groups.iter().position(|g| g.kind == GroupKind::Exception) {
             Some(group_index) => {
-                callable.push(PackedRecord { group_index, data: Vec::new(), data_type: DataType::of::<()>() });
+                callable.push(PackedRecord {
+                    group_index,
+                    data: Vec::new(),
+                    data_type: DataType::of::<()>(),
+                    handles: Vec::new(),
+                });
                 Some(callable.len() as u32 - 1)
             }
             None => None,
@@ -374,6 +407,17 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             limits.shader_group_base_alignment as u64,
         )?;
         buffer.write_bytes(&bytes)?;
+        let mut checked = Vec::new();
+        for (region, records) in SbtRegion::ALL.into_iter().zip([raygen_records, &miss[..], &hit[..], &callable[..]]) {
+            for (index, record) in records.iter().enumerate().filter(|(_, r)| !r.handles.is_empty()) {
+                checked.push(CheckedRecord {
+                    region,
+                    index,
+                    fields: record.handles.clone(),
+                    data: record.data.clone(),
+                });
+            }
+        }
         let region = |l: RegionLayout| vk::StridedDeviceAddressRegionKHR {
             device_address: if l.size == 0 { 0 } else { buffer.address + l.offset },
             stride: l.stride,
@@ -390,6 +434,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             data_types: [raygen_records, &miss[..], &hit[..], &callable[..]]
                 .map(|records| records.iter().map(|r| r.data_type).collect()),
             exception_index,
+            checked,
             buffer: Arc::new(buffer),
         })
     }
@@ -421,6 +466,8 @@ pub struct Sbt {
     data_types: [Vec<DataType>; 4],
     /// The exception program's index in the callable region, if the pipeline has one.
     pub(crate) exception_index: Option<u32>,
+    /// The records whose data holds handles, which launches check.
+    pub(crate) checked: Vec<CheckedRecord>,
     /// Shared with launches in flight ([`crate::Launch`]), which keep it alive.
     pub(crate) buffer: Arc<RawBuffer>,
 }
@@ -444,7 +491,9 @@ impl Sbt {
     /// with. Launches already submitted keep the records they were given: while
     /// one is in flight, the update goes into a copy of the SBT that later launches
     /// use (the old one is freed once those launches finish, see [`crate::timeline`]).
-    pub fn update<T: bytemuck::Pod>(&mut self, region: SbtRegion, index: usize, data: T) -> Result<()> {
+    /// The handles in data of a type that derives `SbtRecordData` are checked by
+    /// every launch from now on (see the [module docs](self)).
+    pub fn update<T: SbtRecordData>(&mut self, region: SbtRegion, index: usize, data: T) -> Result<()> {
         let r = region.index();
         if index >= self.counts[r] {
             return Err(Error::SbtUpdate {
@@ -466,7 +515,7 @@ impl Sbt {
         let layout = self.layouts[r];
         let handle = self.pipeline.ctx.limits.shader_group_handle_size as u64;
         let room = layout.stride - handle;
-        let bytes = bytemuck::bytes_of(&data);
+        let bytes = data.record_bytes();
         if bytes.len() as u64 > room {
             return Err(Error::SbtUpdate {
                 region,
@@ -488,6 +537,11 @@ impl Sbt {
             .mapped_mut()
             .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
         mapped[at..at + bytes.len()].copy_from_slice(bytes);
+        // The same type as at the build: the same handle fields, with new values.
+        if let Some(checked) = self.checked.iter_mut().find(|c| c.region == region && c.index == index) {
+            checked.data.clear();
+            checked.data.extend_from_slice(bytes);
+        }
         Ok(())
     }
 

@@ -15,7 +15,7 @@ use raykit_device::math::sqrt;
 use raykit_device::{
     any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, AnyHit,
     Buffer, ClosestHit, ContinuationCallable, DirectCallable, Exception, Intersection, LaunchParams, Miss, Ray,
-    RayFlags, RayType, Raygen, Traversable,
+    RayFlags, RayType, Raygen, SbtRecordData, Traversable,
 };
 
 /// Launch params of every scene here.
@@ -279,6 +279,22 @@ pub struct ColorRecord {
 #[closest_hit(ray = Radiance)]
 fn record_color(_ctx: &mut ClosestHit, #[record] record: &ColorRecord, #[payload] color: &mut Vec3) {
     *color = record.color;
+}
+
+/// A hit record's data naming a buffer of colours (xyz; w unused) and the one to
+/// shade with. It derives `SbtRecordData`, so every launch checks the handle.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Zeroable, SbtRecordData)]
+pub struct PaletteRecord {
+    /// The colours.
+    pub palette: Buffer<Vec4>,
+    /// Which colour.
+    pub index: u32,
+}
+
+#[closest_hit(ray = Radiance)]
+fn palette_color(ctx: &mut ClosestHit, #[record] record: &PaletteRecord, #[payload] color: &mut Vec3) {
+    *color = ctx.load(record.palette, record.index).truncate();
 }
 
 // ------------------------------------------------------------- exceptions ---
