@@ -229,9 +229,12 @@ impl<T: Element> DeviceBuffer<T> {
             let before = vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
                 .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
-            let after = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ);
+            // Also orders the copy before every later command (a launch that
+            // writes the buffer next starts with no barrier of its own; see
+            // `crate::pipeline::launch`).
+            let after = vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(
+                vk::AccessFlags::HOST_READ | vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
+            );
             // SAFETY: both buffers are alive while the copy is pending (`staging` is
             // owned by the returned `PendingRead`, the source's drop waits for this
             // epoch); `cmd` is recording; the sizes match.
@@ -250,7 +253,7 @@ impl<T: Element> DeviceBuffer<T> {
                 device.cmd_pipeline_barrier(
                     cmd,
                     vk::PipelineStageFlags::TRANSFER,
-                    vk::PipelineStageFlags::HOST,
+                    vk::PipelineStageFlags::HOST | vk::PipelineStageFlags::ALL_COMMANDS,
                     vk::DependencyFlags::empty(),
                     &[after],
                     &[],

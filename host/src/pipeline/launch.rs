@@ -20,15 +20,22 @@
 //!   start of its command buffer and copied into the launch's own readback buffer
 //!   at its end — for the programs that can throw only: a module that never uses
 //!   the exception buffer's slot (found in its SPIR-V) costs a launch nothing;
-//! * every launch begins with a memory barrier from all earlier commands, so on
-//!   raykit's one queue a launch's device work starts only after that of earlier
-//!   submissions — the uniform buffer and the exception counters are rewritten
-//!   only once the launch before has finished with them.
+//! * every raykit submission ends with a memory barrier that orders it before the
+//!   later work that may touch what it used: a launch's and a buffer readback's
+//!   cover every later command, a build's, refit's or compaction's every later
+//!   build and trace (and builds, refits and compactions begin with a barrier from
+//!   all earlier commands). So on raykit's one queue a launch's programs start only
+//!   after earlier submissions are done with what they touch, and see their
+//!   writes. A launch that first writes with transfers (a params uniform, exception
+//!   counters) also begins with a barrier from all earlier commands — the uniform
+//!   buffer and the exception counters are rewritten only once the launch before
+//!   has finished with them.
 //!
-//! A launch of push-constant params whose programs cannot throw records two
-//! barriers (before and after the trace) around binding, stack size, push
-//! constants and the trace; a params uniform or exception buffers to zero add
-//! their transfers and a barrier after them, and exception copies a last barrier.
+//! A launch of push-constant params whose programs cannot throw records what a
+//! hand-written one does: binding, stack size, push constants, the trace and one
+//! barrier after it. A params uniform or exception buffers to zero add their
+//! transfers and a barrier on each side of them, and exception copies a last
+//! barrier.
 //!
 //! So no lock is held between submission and completion, and any thread may launch
 //! while launches of the same pipeline are in flight. A [`Launch`] holds `Arc`s of
@@ -230,26 +237,22 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             // holds them, and their drops wait for this submission's epoch on the
             // timeline); `cmd` is recording.
             unsafe {
-                // Earlier submissions (launches of this pipeline among them) finish
-                // with what this launch writes (its images, the uniform buffer, the
-                // exception counters) before it writes them, and their writes are
-                // visible to it.
-                let (first_stages, first_access) = if transfers {
-                    (
+                // Every submission before this one ends with a barrier that orders its
+                // work before all later commands (a launch's is the one after its
+                // trace), so a launch that writes only from its programs needs none
+                // here. One that first writes with transfers (the params uniform, the
+                // exception counters) or resets timestamp queries waits here for
+                // earlier work.
+                if transfers || timestamps.is_some() {
+                    full_barrier(
+                        device,
+                        cmd,
+                        vk::PipelineStageFlags::ALL_COMMANDS,
+                        vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::MEMORY_READ,
                         vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
                         vk::AccessFlags::TRANSFER_WRITE | SHADER_ACCESS,
-                    )
-                } else {
-                    (vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR, SHADER_ACCESS)
-                };
-                full_barrier(
-                    device,
-                    cmd,
-                    vk::PipelineStageFlags::ALL_COMMANDS,
-                    vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::MEMORY_READ,
-                    first_stages,
-                    first_access,
-                );
+                    );
+                }
                 if transfers {
                     for exceptions in throwing {
                         // The counter is the first word.
@@ -303,21 +306,16 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                     device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
                 }
                 // The programs' writes: visible to the host once the fence signals,
-                // and the exception records to the copy below.
-                let (last_stages, last_access) = match &readback {
-                    Some(_) => (
-                        vk::PipelineStageFlags::HOST | vk::PipelineStageFlags::TRANSFER,
-                        vk::AccessFlags::HOST_READ | vk::AccessFlags::TRANSFER_READ,
-                    ),
-                    None => (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-                };
+                // to the exception copies below, and to everything submitted later,
+                // which also starts only once the programs are done with what they
+                // read (see above).
                 full_barrier(
                     device,
                     cmd,
                     vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
                     vk::AccessFlags::SHADER_WRITE,
-                    last_stages,
-                    last_access,
+                    vk::PipelineStageFlags::ALL_COMMANDS | vk::PipelineStageFlags::HOST,
+                    vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::HOST_READ,
                 );
                 if let Some(readback) = &readback {
                     for (i, exceptions) in throwing.iter().enumerate() {
