@@ -2,6 +2,10 @@
 //! only once that work has finished (the GPU timeline), so pending launches,
 //! builds and refits never touch freed or recycled memory, and a launch's result
 //! can still be read after everything it used was dropped.
+//!
+//! The in-flight cases hold their work on the device with the submission gate of
+//! the `fault-injection` feature (`Context::close_submission_gate`), so the work is
+//! surely pending at the drops, updates and refits however fast the GPU is.
 
 use program_model_device::{pack, Params, Radiance, BACKGROUND, SPEC_COLORS};
 use raykit::glam::{UVec2, Vec3, Vec4};
