@@ -22,8 +22,8 @@
 //! Shared by the contexts of a device: the `VkDevice`, its one queue (behind one
 //! mutex that every context takes to submit, as `vkQueueSubmit` requires), its
 //! limits, and whether it was lost. Each context's own: its options (validation log,
-//! log callback, compile cache), its command pool and recycled command buffers and
-//! fences (a pool is externally synchronised: one per context keeps threads of
+//! log callback, compile cache), its command pool and recycled command buffers
+//! (a pool is externally synchronised: one per context keeps threads of
 //! different contexts from waiting on each other), its memory allocator
 //! (gpu-allocator, so [`Context::memory_usage`] counts what this context holds), and
 //! its bindless buffer table (descriptor set layout, pool and set: a context's
@@ -130,10 +130,10 @@ pub(crate) struct ContextInner {
     /// This context's command pool: a pool is externally synchronised, so each
     /// context has its own.
     command_pool: Mutex<vk::CommandPool>,
-    /// Finished command buffers and their (reset) fences, reused by later
-    /// submissions: allocating both for every launch costs more than the launch
-    /// on some drivers. Guarded with the pool's lock held too.
-    recycled: Mutex<Vec<(vk::CommandBuffer, vk::Fence)>>,
+    /// Finished command buffers, reused by later submissions: allocating one for
+    /// every launch costs more than the launch on some drivers. Guarded with the
+    /// pool's lock held too.
+    recycled: Mutex<Vec<vk::CommandBuffer>>,
     pub(crate) allocator: ManuallyDrop<Mutex<gpu_allocator::vulkan::Allocator>>,
     pub(crate) buffer_table: ManuallyDrop<BufferTable>,
     /// Epochs of submissions and the objects waiting for them (see [`crate::timeline`]).
@@ -460,12 +460,12 @@ impl ContextInner {
 }
 
 /// Work submitted to the queue and not yet waited for: a recorded command buffer
-/// and the fence it signals. Dropping it waits for the work first, so buffers
-/// the work uses may be freed after it.
+/// and the epoch it signals on the context's timeline semaphore (no fence: the
+/// semaphore is what is waited on). Dropping it waits for the work first, so
+/// buffers the work uses may be freed after it.
 pub(crate) struct Submission {
     ctx: Arc<ContextInner>,
     cmd: vk::CommandBuffer,
-    fence: vk::Fence,
     during: &'static str,
     waited: bool,
     /// The submission's epoch on the context's timeline.
@@ -498,8 +498,8 @@ impl ContextInner {
         let device = &self.device;
         let pool = self.command_pool.lock().unwrap_or_else(|p| p.into_inner());
         let reused = self.recycled.lock().unwrap_or_else(|p| p.into_inner()).pop();
-        let (cmd, mut fence) = match reused {
-            Some(pair) => pair,
+        let cmd = match reused {
+            Some(cmd) => cmd,
             None => {
                 let alloc_info = vk::CommandBufferAllocateInfo::default()
                     .command_pool(*pool)
@@ -509,7 +509,7 @@ impl ContextInner {
                 let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }
                     .map_err(Error::vk("vkAllocateCommandBuffers"))?[0];
                 self.set_name(cmd, "command buffer");
-                (cmd, vk::Fence::null())
+                cmd
             }
         };
         let epoch = timeline.last_submitted + 1;
@@ -522,12 +522,6 @@ impl ContextInner {
             record(cmd);
             // SAFETY: as above.
             unsafe { device.end_command_buffer(cmd) }.map_err(Error::vk("vkEndCommandBuffer"))?;
-            if fence == vk::Fence::null() {
-                // SAFETY: valid device.
-                fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
-                    .map_err(Error::vk("vkCreateFence"))?;
-                self.set_name(fence, "fence");
-            }
             let cmds = [cmd];
             let signal = [self.timeline.semaphore];
             let values = [epoch];
@@ -555,20 +549,15 @@ impl ContextInner {
                 Err(vk::Result::ERROR_DEVICE_LOST)
             } else {
                 // SAFETY: the queue is externally synchronised by its mutex; the command
-                // buffer is fully recorded; the fence is unsignalled (new or reset); the
+                // buffer is fully recorded; the
                 // epoch is above every value signalled before (under the timeline lock).
-                unsafe { device.queue_submit(*queue, &submit, fence) }
+                unsafe { device.queue_submit(*queue, &submit, vk::Fence::null()) }
             };
             submitted.map_err(self.shared.error("vkQueueSubmit", during))
         })();
         if let Err(e) = result {
-            // SAFETY: nothing was submitted: the command buffer and fence are idle.
-            unsafe {
-                if fence != vk::Fence::null() {
-                    device.destroy_fence(fence, None);
-                }
-                device.free_command_buffers(*pool, &[cmd]);
-            }
+            // SAFETY: nothing was submitted: the command buffer is idle.
+            unsafe { device.free_command_buffers(*pool, &[cmd]) };
             return Err(e);
         }
         drop(pool);
@@ -576,7 +565,7 @@ impl ContextInner {
         // Retire on every submission what finished meanwhile.
         self.collect_locked(&mut timeline);
         drop(timeline);
-        Ok(Submission { ctx: self.clone(), cmd, fence, during, waited: false, epoch })
+        Ok(Submission { ctx: self.clone(), cmd, during, waited: false, epoch })
     }
 }
 
@@ -587,9 +576,10 @@ impl Submission {
             return Ok(true);
         }
         self.ctx.check_device(self.during)?;
-        // SAFETY: the fence belongs to this device and is alive.
-        unsafe { self.ctx.device.get_fence_status(self.fence) }
-            .map_err(self.ctx.shared.error("vkGetFenceStatus", self.during))
+        // SAFETY: the semaphore is a live timeline semaphore of this device.
+        let reached = unsafe { self.ctx.device.get_semaphore_counter_value(self.ctx.timeline.semaphore) }
+            .map_err(self.ctx.shared.error("vkGetSemaphoreCounterValue", self.during))?;
+        Ok(reached >= self.epoch)
     }
 
     /// Blocks until the work has finished.
@@ -599,44 +589,44 @@ impl Submission {
         }
         // Once the device is lost, the work's results are lost with it.
         self.ctx.check_device(self.during)?;
-        self.wait_fence()?;
+        self.wait_epoch()?;
         self.waited = true;
         Ok(())
     }
 
-    /// Waits for the fence. A lost device reports `VK_ERROR_DEVICE_LOST` at once.
-    fn wait_fence(&self) -> Result<()> {
+    /// Waits for the submission's epoch. A lost device reports
+    /// `VK_ERROR_DEVICE_LOST` in finite time.
+    fn wait_epoch(&self) -> Result<()> {
         self.ctx.open_gate_before_waiting();
-        // SAFETY: the fence belongs to this device and was submitted.
-        let waited = unsafe { self.ctx.device.wait_for_fences(&[self.fence], true, u64::MAX) };
-        waited.map_err(self.ctx.shared.error("vkWaitForFences", self.during))
+        let semaphores = [self.ctx.timeline.semaphore];
+        let values = [self.epoch];
+        let info = vk::SemaphoreWaitInfo::default().semaphores(&semaphores).values(&values);
+        // SAFETY: a live timeline semaphore of this device; the epoch was submitted,
+        // so the wait ends.
+        let waited = unsafe { self.ctx.device.wait_semaphores(&info, u64::MAX) };
+        waited.map_err(self.ctx.shared.error("vkWaitSemaphores", self.during))
     }
 }
 
 impl Drop for Submission {
     fn drop(&mut self) {
-        // Waits on the fence even when the device was marked lost: another context's
+        // Waits for the epoch even when the device was marked lost: another context's
         // call may have seen the loss while this work still runs (or the loss was
         // injected). A failed wait means a lost device; destroying the objects is
         // still allowed then.
-        let waited = self.waited || self.wait_fence().is_ok();
+        let waited = self.waited || self.wait_epoch().is_ok();
         let pool = self.ctx.command_pool.lock().unwrap_or_else(|p| p.into_inner());
         let device = &self.ctx.device;
-        // Keep a few finished pairs for the next submissions.
+        // Keep a few finished command buffers for the next submissions.
         const KEEP: usize = 8;
         let mut recycled = self.ctx.recycled.lock().unwrap_or_else(|p| p.into_inner());
-        let reuse = waited && !self.ctx.shared.is_lost() && recycled.len() < KEEP;
-        // SAFETY: the work has finished (waited above), so the fence is signalled
-        // and the command buffer idle.
-        if reuse && unsafe { device.reset_fences(&[self.fence]) }.is_ok() {
-            recycled.push((self.cmd, self.fence));
+        if waited && !self.ctx.shared.is_lost() && recycled.len() < KEEP {
+            recycled.push(self.cmd);
             return;
         }
-        // SAFETY: as above; the pool is locked.
-        unsafe {
-            device.destroy_fence(self.fence, None);
-            device.free_command_buffers(*pool, &[self.cmd]);
-        }
+        // SAFETY: the work has finished (waited above), so the command buffer is
+        // idle; the pool is locked.
+        unsafe { device.free_command_buffers(*pool, &[self.cmd]) };
     }
 }
 impl Drop for ContextInner {
@@ -660,10 +650,7 @@ impl Drop for ContextInner {
             self.pipeline_cache.destroy(&self.device);
             ManuallyDrop::take(&mut self.buffer_table).destroy(&self.device);
             ManuallyDrop::drop(&mut self.allocator);
-            // Recycled fences; their command buffers go with the pool.
-            for (_, fence) in self.recycled.get_mut().unwrap_or_else(|p| p.into_inner()).drain(..) {
-                self.device.destroy_fence(fence, None);
-            }
+            // Recycled command buffers go with the pool.
             let pool = self.command_pool.get_mut().unwrap_or_else(|p| p.into_inner());
             self.device.destroy_command_pool(*pool, None);
             // The log stays routed until the device (if this was its last context)

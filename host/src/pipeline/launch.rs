@@ -9,7 +9,7 @@
 //!
 //! [`Pipeline::launch_async`] submits the work and returns a [`Launch`] at once,
 //! like OptiX's launch on a CUDA stream: the work runs in the background, and the
-//! handle (a fence) is polled with [`Launch::is_done`] or waited on with
+//! handle (its epoch on the GPU timeline) is polled with [`Launch::is_done`] or waited on with
 //! [`Launch::wait`]. [`Pipeline::launch`] is the simple path: submit, then wait.
 //!
 //! # Several launches in flight
@@ -305,7 +305,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 if let Some(pool) = timestamps {
                     device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
                 }
-                // The programs' writes: visible to the host once the fence signals,
+                // The programs' writes: visible to the host once the epoch is signalled,
                 // to the exception copies below, and to everything submitted later,
                 // which also starts only once the programs are done with what they
                 // read (see above).
