@@ -9,23 +9,30 @@ use crate::buffer_table::SlotReuse;
 use crate::context::ContextInner;
 use crate::error::{Result, UserException};
 use crate::memory::RawBuffer;
+use crate::program_group::ProgramGroup;
 
 /// A user-exception buffer: a device buffer in the bindless table, one per set of
 /// programs compiled together. Every launch zeroes its counter and copies it into
 /// the launch's own readback buffer, on the device, so launches in flight never
-/// share host-visible state (see [`crate::pipeline::launch`]).
+/// share host-visible state (see [`crate::pipeline::launch`]); launches skip that
+/// for programs that cannot throw.
 pub(crate) struct ExceptionBuffer {
     ctx: Arc<ContextInner>,
     pub(crate) buffer: RawBuffer,
     /// Its slot in the bindless table, given to the programs as a specialization constant.
     pub(crate) slot: u32,
+    /// Whether any program compiled with it can throw (its module declares the
+    /// slot's specialization constant): launches zero and read only such buffers.
+    pub(crate) recorded: bool,
 }
 
 impl ExceptionBuffer {
     /// Bytes of one exception buffer.
     pub(crate) const SIZE: u64 = raykit_device::exception::EXCEPTION_BUFFER_WORDS as u64 * 4;
 
-    pub(crate) fn new(ctx: &Arc<ContextInner>) -> Result<ExceptionBuffer> {
+    /// The exception buffer of `groups`, compiled together.
+    pub(crate) fn new(ctx: &Arc<ContextInner>, groups: &[&ProgramGroup]) -> Result<ExceptionBuffer> {
+        let recorded = groups.iter().any(|g| g.programs().iter().any(|p| p.module.records_exceptions));
         let buffer = RawBuffer::new(
             ctx,
             "user exception buffer",
@@ -39,7 +46,7 @@ impl ExceptionBuffer {
         // The slot is a specialization constant of the pipeline: reuse the last one
         // freed, so a pipeline made again is the same pipeline to the compile cache.
         let (slot, _) = ctx.buffer_table.insert_with(&ctx.device, buffer.buffer, SlotReuse::Newest)?;
-        Ok(ExceptionBuffer { ctx: ctx.clone(), buffer, slot })
+        Ok(ExceptionBuffer { ctx: ctx.clone(), buffer, slot, recorded })
     }
 
     /// The exceptions in a copy of an exception buffer: `(total thrown, records)`.

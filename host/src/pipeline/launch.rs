@@ -18,9 +18,12 @@
 //!   with `vkCmdUpdateBuffer` into the pipeline's uniform buffer;
 //! * the pipeline's user-exception counters are zeroed with `vkCmdFillBuffer` at the
 //!   start of its command buffer and copied into the launch's own readback buffer
-//!   at its end;
-//! * every launch begins with a full memory barrier, so on raykit's one queue a
-//!   launch's device work starts only after that of earlier submissions — the
+//!   at its end (only for programs that can throw: a module without the exception
+//!   slot's specialization constant never writes them, and a pipeline of such
+//!   modules launches with just the bind, push constants, trace and two barriers);
+//! * every launch's trace waits on a memory barrier for the work of earlier
+//!   submissions, and its uniform and exception writes on another, so on raykit's
+//!   one queue a launch's device work starts only after that of earlier submissions — the
 //!   uniform buffer and the exception counters are rewritten only once the launch
 //!   before has finished with them.
 //!
@@ -188,18 +191,26 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             Some((u.set, buffer.buffer, padded))
         });
         let stack_size = self.stack_size();
-        let pooled = inner.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
-        let readback = match pooled {
-            Some(buffer) => buffer,
-            None => RawBuffer::new(
-                ctx,
-                "user exception readback",
-                ExceptionBuffer::SIZE * inner.exceptions.len() as u64,
-                vk::BufferUsageFlags::TRANSFER_DST,
-                gpu_allocator::MemoryLocation::GpuToCpu,
-                16,
-            )?,
+        // Only buffers that programs can write need zeroing and reading back.
+        let recorded: Vec<&ExceptionBuffer> = inner.exceptions.iter().map(|e| &**e).filter(|e| e.recorded).collect();
+        let readback = if recorded.is_empty() {
+            None
+        } else {
+            let pooled = inner.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
+            Some(match pooled {
+                Some(buffer) => buffer,
+                None => RawBuffer::new(
+                    ctx,
+                    "user exception readback",
+                    ExceptionBuffer::SIZE * recorded.len() as u64,
+                    vk::BufferUsageFlags::TRANSFER_DST,
+                    gpu_allocator::MemoryLocation::GpuToCpu,
+                    16,
+                )?,
+            })
         };
+        // Commands before the trace that rewrite what earlier launches read.
+        let prologue = !recorded.is_empty() || uniform.is_some();
         let check = || ctx.check_handles(&inner.handle_fields, params_bytes);
         let submission = ctx.submit_checked("a launch", check, |cmd| {
             // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
@@ -207,32 +218,36 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             // holds them, and their drops wait for this submission's epoch on the
             // timeline); `cmd` is recording.
             unsafe {
-                // Earlier submissions (launches of this pipeline among them) finish
-                // with the uniform buffer and the exception counters before this
-                // launch rewrites them.
+                if prologue {
+                    // Earlier submissions (launches of this pipeline among them) finish
+                    // with the uniform buffer and the exception counters before this
+                    // launch rewrites them.
+                    full_barrier(
+                        device,
+                        cmd,
+                        vk::PipelineStageFlags::ALL_COMMANDS,
+                        vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::MEMORY_READ,
+                        vk::PipelineStageFlags::TRANSFER,
+                        vk::AccessFlags::TRANSFER_WRITE,
+                    );
+                    for exceptions in &recorded {
+                        // The counter is the first word.
+                        device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
+                        // Then where the exception program sits in the callable region.
+                        let handler = sbt.exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
+                        device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 4, 4, handler);
+                    }
+                    if let Some((_, buffer, bytes)) = &uniform {
+                        device.cmd_update_buffer(cmd, *buffer, 0, bytes);
+                    }
+                }
+                // The trace starts after earlier submissions' work (the same image
+                // written by the launch before, uploads) and this launch's own.
                 full_barrier(
                     device,
                     cmd,
                     vk::PipelineStageFlags::ALL_COMMANDS,
-                    vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::MEMORY_READ,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::TRANSFER_WRITE,
-                );
-                for exceptions in &inner.exceptions {
-                    // The counter is the first word.
-                    device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
-                    // Then where the exception program sits in the callable region.
-                    let handler = sbt.exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
-                    device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 4, 4, handler);
-                }
-                if let Some((_, buffer, bytes)) = &uniform {
-                    device.cmd_update_buffer(cmd, *buffer, 0, bytes);
-                }
-                full_barrier(
-                    device,
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::AccessFlags::MEMORY_WRITE,
                     vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
                     vk::AccessFlags::UNIFORM_READ | vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
                 );
@@ -278,25 +293,27 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                     vk::PipelineStageFlags::HOST | vk::PipelineStageFlags::TRANSFER,
                     vk::AccessFlags::HOST_READ | vk::AccessFlags::TRANSFER_READ,
                 );
-                for (i, exceptions) in inner.exceptions.iter().enumerate() {
-                    let region = vk::BufferCopy {
-                        src_offset: 0,
-                        dst_offset: i as u64 * ExceptionBuffer::SIZE,
-                        size: ExceptionBuffer::SIZE,
-                    };
-                    device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]);
+                if let Some(readback) = &readback {
+                    for (i, exceptions) in recorded.iter().enumerate() {
+                        let region = vk::BufferCopy {
+                            src_offset: 0,
+                            dst_offset: i as u64 * ExceptionBuffer::SIZE,
+                            size: ExceptionBuffer::SIZE,
+                        };
+                        device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]);
+                    }
+                    full_barrier(
+                        device,
+                        cmd,
+                        vk::PipelineStageFlags::TRANSFER,
+                        vk::AccessFlags::TRANSFER_WRITE,
+                        vk::PipelineStageFlags::HOST,
+                        vk::AccessFlags::HOST_READ,
+                    );
                 }
-                full_barrier(
-                    device,
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::TRANSFER_WRITE,
-                    vk::PipelineStageFlags::HOST,
-                    vk::AccessFlags::HOST_READ,
-                );
             }
         })?;
-        Ok(Launch { submission, readback: Some(readback), pipeline: inner.clone(), _sbt: sbt.buffer.clone() })
+        Ok(Launch { submission, readback, pipeline: inner.clone(), _sbt: sbt.buffer.clone() })
     }
 }
 

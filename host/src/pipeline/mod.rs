@@ -191,7 +191,7 @@ impl<P: LaunchParams> Pipeline<P> {
         let inner = &ctx.inner;
         check_groups::<P>(inner, groups, options.max_trace_depth)?;
         check_linkable(groups.iter().copied())?;
-        let exceptions = Arc::new(ExceptionBuffer::new(inner)?);
+        let exceptions = Arc::new(ExceptionBuffer::new(inner, groups)?);
         let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
         crate::validate::check_programs(
             groups,
