@@ -265,6 +265,7 @@ pub(crate) unsafe fn release(device: &Arc<SharedDevice>) {
     // created or destroyed meanwhile. A lost device may be destroyed too.
     unsafe {
         let _ = registered.device.device.device_wait_idle();
+        let _exclusive = crate::driver_lock::exclusive();
         registered.device.device.destroy_device(None);
     }
 }
@@ -303,11 +304,13 @@ fn create_device(
         .push_next(&mut features.accel)
         .push_next(&mut features.v12)
         .push_next(&mut features.robustness2);
-    // SAFETY: the physical device supports every extension and feature enabled
-    // (checked by `inspect_device`); the create info lives across the call; the
-    // registry's lock is held by the caller.
-    let device =
-        unsafe { vk_instance.create_device(physical, &device_info, None) }.map_err(Error::vk("vkCreateDevice"))?;
+    let device = {
+        let _exclusive = crate::driver_lock::exclusive();
+        // SAFETY: the physical device supports every extension and feature enabled
+        // (checked by `inspect_device`); the create info lives across the call; the
+        // registry's lock is held by the caller.
+        unsafe { vk_instance.create_device(physical, &device_info, None) }.map_err(Error::vk("vkCreateDevice"))?
+    };
     let DeviceProperties { limits, driver_id, launch_dimension_limits } = query_properties(vk_instance, physical);
     // SAFETY: `physical` belongs to the instance.
     let properties = unsafe { vk_instance.get_physical_device_properties(physical) };

@@ -9,6 +9,7 @@ mod buffer_table;
 pub mod cache;
 pub mod context;
 mod device_registry;
+mod driver_lock;
 pub mod error;
 #[cfg(feature = "fault-injection")]
 pub mod gate;

@@ -66,8 +66,9 @@ pub struct LoggedObject {
 
 /// A user's log callback (OptiX's `OptixLogCallback`): called with every message
 /// that reaches its context, on the thread of the Vulkan call that caused it. It
-/// may run while raykit creates or destroys a device, under the lock that guards
-/// that: it must not create or drop a [`crate::Context`] itself.
+/// may run while raykit creates or destroys a device or a pipeline, under the locks
+/// that guard those: it must not create or drop a [`crate::Context`] or a pipeline
+/// itself (nor an object holding the last reference to one).
 #[derive(Clone)]
 pub struct LogCallback(Arc<dyn Fn(&ValidationMessage) + Send + Sync>);
 

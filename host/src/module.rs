@@ -56,6 +56,11 @@ pub(crate) struct ModuleInner {
     pub(crate) words: Vec<u32>,
     /// Messages reported while it was created.
     pub(crate) log: Vec<crate::log::ValidationMessage>,
+    /// Whether it declares the user-exception buffer's specialization constant: only
+    /// then can its programs throw (rust-gpu leaves the constant out of modules
+    /// that never call `throw_exception`), and only then do launches collect
+    /// exceptions for it.
+    pub(crate) records_exceptions: bool,
 }
 
 /// The program kind of a ray-tracing execution model; `None` for other stages.
@@ -175,6 +180,24 @@ fn declares_extension(words: &[u32], name: &str) -> bool {
             if bytes.split(|&b| b == 0).next() == Some(name.as_bytes()) {
                 return true;
             }
+        }
+        at += word_count.max(1);
+    }
+    false
+}
+
+/// Whether a structurally checked module decorates a specialization constant with
+/// `OpDecorate %id SpecId spec_id`.
+fn declares_spec_id(words: &[u32], spec_id: u32) -> bool {
+    const SPEC_ID: u32 = 1; // spv::Decoration::SpecId
+    let mut at = 5;
+    while let Some(&first) = words.get(at) {
+        let word_count = (first >> 16) as usize;
+        if opcode(first) == Some(Op::Decorate)
+            && word_count == 4
+            && words.get(at + 2..at + 4) == Some(&[SPEC_ID, spec_id])
+        {
+            return true;
         }
         at += word_count.max(1);
     }
@@ -341,7 +364,9 @@ impl Module {
         });
         let shader = shader.map_err(Error::vk("vkCreateShaderModule"))?;
         ctx.inner.set_name(shader, &format!("raykit module {name}"));
-        Ok(Module { inner: Arc::new(ModuleInner { ctx: ctx.inner.clone(), shader, entry_points, words, log }) })
+        let records_exceptions = declares_spec_id(&words, raykit_abi::EXCEPTION_SLOT_SPEC_ID);
+        let inner = ModuleInner { ctx: ctx.inner.clone(), shader, entry_points, words, log, records_exceptions };
+        Ok(Module { inner: Arc::new(inner) })
     }
 
     /// Loads the SPIR-V that `cargo xtask build-shaders` built for the device crate
@@ -473,6 +498,19 @@ mod tests {
     use super::*;
 
     const OP_ENTRY_POINT: u32 = Op::EntryPoint as u32;
+
+    #[test]
+    fn only_a_spec_id_decoration_of_the_exception_slot_marks_a_module_that_can_throw() {
+        let header = [0x0723_0203, 0x0001_0500, 0, 10, 0];
+        let decorate = |decoration: u32, value: u32| [(4 << 16) | Op::Decorate as u32, 3, decoration, value];
+        let with = |words: [u32; 4]| [header.as_slice(), &words].concat();
+        let slot = raykit_abi::EXCEPTION_SLOT_SPEC_ID;
+        assert!(declares_spec_id(&with(decorate(1, slot)), slot));
+        // Another constant ID, another decoration with the same number (Location), or none at all.
+        assert!(!declares_spec_id(&with(decorate(1, 7)), slot));
+        assert!(!declares_spec_id(&with(decorate(30, slot)), slot));
+        assert!(!declares_spec_id(&header, slot));
+    }
     const OP_FUNCTION: u32 = Op::Function as u32;
     const OP_FUNCTION_END: u32 = Op::FunctionEnd as u32;
     const OP_SPEC_CONSTANT_OP: u32 = Op::SpecConstantOp as u32;

@@ -203,7 +203,10 @@ impl ContextInner {
                 }
                 Retired::Slot(slot) => self.buffer_table.remove(device, slot),
                 Retired::Accel(accel) => self.accel.destroy_acceleration_structure(accel, None),
-                Retired::Pipeline(pipeline) => device.destroy_pipeline(pipeline, None),
+                Retired::Pipeline(pipeline) => {
+                    let _exclusive = crate::driver_lock::exclusive();
+                    device.destroy_pipeline(pipeline, None);
+                }
                 Retired::PipelineLayout(layout) => device.destroy_pipeline_layout(layout, None),
                 Retired::DescriptorSetLayout(layout) => device.destroy_descriptor_set_layout(layout, None),
                 Retired::DescriptorPool(pool) => device.destroy_descriptor_pool(pool, None),

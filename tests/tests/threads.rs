@@ -130,3 +130,59 @@ fn contexts_on_many_threads_share_one_device_and_keep_their_own_messages() -> an
     );
     Ok(())
 }
+
+/// Pipelines made, launched and dropped on many threads with no barrier between
+/// them, so creations on some threads overlap destructions on others (NVIDIA's
+/// driver deadlocks when it runs those two at once; raykit keeps them apart).
+#[test]
+fn pipelines_created_and_dropped_on_many_threads_at_once_all_render() -> anyhow::Result<()> {
+    const PIPELINES: usize = 12;
+    let name = "pipelines_created_and_dropped_on_many_threads_at_once_all_render";
+    let threads = thread_count()?;
+    anyhow::ensure!(threads >= 1, "RAYKIT_THREADS must be at least 1");
+    let Some(probe) = context_or_skip(name, test_options())? else { return Ok(()) };
+    drop(probe);
+    let started = std::time::Instant::now();
+    let results: Vec<anyhow::Result<Vec<String>>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                scope.spawn(move || -> anyhow::Result<Vec<String>> {
+                    let ctx = Context::new(test_options())?;
+                    let log = ctx.messages();
+                    let gas = Gas::triangles(&ctx, &VERTICES, None)?;
+                    let scene = Ias::single(&ctx, &gas)?;
+                    let image = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
+                    let params = triangle::params(WIDTH, HEIGHT, image.handle(), scene.handle());
+                    for p in 0..PIPELINES {
+                        let Programs { raygen, miss, hit } = Programs::rust(&ctx)?;
+                        let pipeline =
+                            Pipeline::<Params>::new(&ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
+                        let sbt = Sbt::builder(&pipeline)
+                            .raygen(&raygen, ())
+                            .miss(&miss, MissData { bg_color: BG_COLOR })
+                            .hit(&hit, ())
+                            .build()?;
+                        pipeline.launch(&sbt, &params, [WIDTH, HEIGHT, 1])?;
+                        check_triangle_picture(&image.read()?, WIDTH, HEIGHT)
+                            .map_err(|e| anyhow::anyhow!("thread {t}, pipeline {p}: {e}"))?;
+                        // Dropped here, while other threads are creating theirs.
+                        drop((sbt, pipeline, raygen, miss, hit));
+                    }
+                    drop((image, scene, gas, ctx));
+                    anyhow::ensure!(log.context_destroyed(), "thread {t}: the context was not destroyed");
+                    Ok(log.take().iter().map(|m| m.to_string()).collect())
+                })
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap_or_else(|_| Err(anyhow::anyhow!("a thread panicked")))).collect()
+    });
+    for (t, result) in results.into_iter().enumerate() {
+        let messages = result?;
+        anyhow::ensure!(messages.is_empty(), "thread {t}: {} message(s):\n{}", messages.len(), messages.join("\n"));
+    }
+    eprintln!(
+        "{name}: {threads} threads × {PIPELINES} pipelines made, launched and dropped in {:.2} s",
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

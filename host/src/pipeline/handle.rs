@@ -28,6 +28,7 @@ impl PipelineHandle {
     ) -> Result<PipelineHandle> {
         ctx.check_device("a pipeline creation")?;
         let (pipelines, log) = crate::log::capture(|| {
+            let _creating = crate::driver_lock::shared();
             // SAFETY: the callers' create infos are valid: every stage's module is
             // alive, libraries are live pipeline libraries of this device, and the
             // recursion depth was checked against the device limit.
@@ -48,6 +49,7 @@ impl PipelineHandle {
             }
             Err((p, e)) => {
                 for pipeline in p.into_iter().filter(|p| *p != vk::Pipeline::null()) {
+                    let _exclusive = crate::driver_lock::exclusive();
                     // SAFETY: never used.
                     unsafe { ctx.device.destroy_pipeline(pipeline, None) };
                 }

@@ -18,8 +18,9 @@
 //!   with `vkCmdUpdateBuffer` into the pipeline's uniform buffer;
 //! * the pipeline's user-exception counters are zeroed with `vkCmdFillBuffer` at the
 //!   start of its command buffer and copied into the launch's own readback buffer
-//!   at its end — for the programs that can throw only: a module that never uses
-//!   the exception buffer's slot (found in its SPIR-V) costs a launch nothing;
+//!   at its end — for the programs that can throw only: a module without the
+//!   exception slot's specialization constant (rust-gpu leaves it out of modules
+//!   that never call `throw_exception`) costs a launch nothing;
 //! * every raykit submission ends with a memory barrier that orders it before the
 //!   later work that may touch what it used: a launch's and a buffer readback's
 //!   cover every later command, a build's, refit's or compaction's every later
@@ -202,7 +203,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         });
         let stack_size = self.stack_size();
         // Only the exception buffers of programs that can throw are zeroed, copied
-        // and read back (see `exceptions::may_throw`).
+        // and read back (see `ModuleInner::records_exceptions`).
         let throwing = &inner.throwing;
         let readback = if throwing.is_empty() {
             None

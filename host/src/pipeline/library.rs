@@ -148,7 +148,7 @@ impl<P: LaunchParams> PipelineLibrary<P> {
                 limit: inner.limits.max_ray_hit_attribute_size,
             });
         }
-        let exceptions = Arc::new(ExceptionBuffer::new(inner, super::groups_may_throw(groups))?);
+        let exceptions = Arc::new(ExceptionBuffer::new(inner, groups)?);
         let layout = PipelineLayout::new::<P>(inner)?;
         let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
         crate::validate::check_programs(

@@ -162,17 +162,12 @@ impl PipelineInner {
             handles,
             max_trace_depth,
             stack_size: AtomicU32::new(stack_bytes(default)?),
-            throwing: parts.exceptions.iter().filter(|e| e.may_throw).cloned().collect(),
+            throwing: parts.exceptions.iter().filter(|e| e.recorded).cloned().collect(),
             exceptions: parts.exceptions,
             readbacks: Mutex::new(Vec::new()),
             handle_fields: crate::handles::handle_fields(&P::LAYOUT),
         })
     }
-}
-
-/// Whether a program of `groups` can throw a user exception (see [`exceptions::may_throw`]).
-fn groups_may_throw(groups: &[&ProgramGroup]) -> bool {
-    groups.iter().any(|g| g.programs().iter().any(|p| exceptions::may_throw(&p.module.words)))
 }
 
 /// The maxima of `groups`' stack sizes by program kind.
@@ -200,7 +195,7 @@ impl<P: LaunchParams> Pipeline<P> {
         let inner = &ctx.inner;
         check_groups::<P>(inner, groups, options.max_trace_depth)?;
         check_linkable(groups.iter().copied())?;
-        let exceptions = Arc::new(ExceptionBuffer::new(inner, groups_may_throw(groups))?);
+        let exceptions = Arc::new(ExceptionBuffer::new(inner, groups)?);
         let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
         crate::validate::check_programs(
             groups,
