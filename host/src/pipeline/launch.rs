@@ -94,7 +94,9 @@ impl Launch {
     }
 
     /// Blocks until the launch has finished; then the buffers it wrote hold the
-    /// results. Returns [`Error::UserExceptions`] if device programs threw any.
+    /// results. Returns [`Error::UserExceptions`] if device programs threw any, or
+    /// [`Error::RecursionTooDeep`] if traces past the pipeline's `max_trace_depth`
+    /// were refused on the device.
     pub fn wait(mut self) -> Result<()> {
         self.submission.wait()?;
         let Some(bytes) = self.readback.as_ref().and_then(|r| r.mapped()) else { return Ok(()) };
@@ -106,7 +108,7 @@ impl Launch {
             exceptions.extend(thrown);
         }
         if total > 0 {
-            return Err(Error::UserExceptions { total, exceptions });
+            return Err(super::exceptions::launch_error(total, exceptions, self.pipeline.max_trace_depth));
         }
         Ok(())
     }
@@ -200,7 +202,10 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 16,
             )?,
         };
-        let check = || ctx.check_handles(&inner.handle_fields, params_bytes);
+        let check = || {
+            ctx.check_handles(&inner.handle_fields, params_bytes)?;
+            crate::validate::scene::check_scene(ctx, &inner.handle_fields, params_bytes, sbt, &inner.reach)
+        };
         let submission = ctx.submit_checked("a launch", check, |cmd| {
             // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
             // SBT buffers are alive until the work is done (the returned `Launch`
