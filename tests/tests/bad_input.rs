@@ -823,7 +823,7 @@ fn instance_updated_past_the_hit_records() -> anyhow::Result<()> {
         |ctx| {
             let l = linked(ctx)?;
             let gas = Gas::triangles(ctx, &triangle::VERTICES, None)?;
-            let options = BuildOptions { allow_update: true, ..Default::default() };
+            let options = BuildOptions::default().allow_update(true);
             let mut ias = Ias::builder(&[Instance::new(&gas)]).options(options).build(ctx)?;
             let before = render_scene(ctx, &l, &ias, 2)??;
             anyhow::ensure!(before == triangle::render(ctx, 16, 16)?, "the scene within the SBT renders differently");
@@ -1050,7 +1050,7 @@ fn refit_with_a_changed_topology() -> anyhow::Result<()> {
             let mut fixed = Gas::triangles(ctx, &TRI, None)?;
             let err = refused(fixed.update(&[Triangles::new(&TRI).into()]), "a refit without allow_update")?;
             anyhow::ensure!(matches!(err, Error::UpdateRefused { .. }), "{err:?}");
-            let options = BuildOptions { allow_update: true, ..Default::default() };
+            let options = BuildOptions::default().allow_update(true);
             let mut gas = Gas::builder().triangles(Triangles::new(&TRI)).options(options).build(ctx)?;
             // Same topology, moved vertices: accepted.
             let moved = TRI.map(|v| v + Vec3::new(0.0, 0.0, 0.1));
