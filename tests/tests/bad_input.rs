@@ -810,7 +810,19 @@ fn instance_geometries_past_the_hit_records() -> anyhow::Result<()> {
             refused(render_scene(ctx, &l, &ias, 2)?, "a second geometry past the SBT")
         },
         |e| {
-            matches!(e, Error::SbtTooSmallForScene { instance: 1, sbt_offset: 1, geometries: 2, slot: 2, hit_records: 2, stride: 1, ray_offset: 0, .. })
+            matches!(
+                e,
+                Error::SbtTooSmallForScene {
+                    instance: 1,
+                    sbt_offset: 1,
+                    geometries: 2,
+                    slot: 2,
+                    hit_records: 2,
+                    stride: 1,
+                    ray_offset: 0,
+                    ..
+                }
+            )
         },
     )
 }
@@ -850,7 +862,10 @@ fn scene_whose_instances_fill_the_hit_records_exactly_renders() -> anyhow::Resul
         // The far copies are out of view: the optixTriangle picture, pixel for pixel.
         let reference = triangle::render(ctx, 16, 16)?;
         assert!(got == reference, "the scene renders differently from optixTriangle");
-        assert!(matches!(render_scene(ctx, &l, &ias, 3)?, Err(Error::SbtTooSmallForScene { slot: 3, instance: 1, .. })));
+        assert!(matches!(
+            render_scene(ctx, &l, &ias, 3)?,
+            Err(Error::SbtTooSmallForScene { slot: 3, instance: 1, .. })
+        ));
         Ok(())
     })
 }

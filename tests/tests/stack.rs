@@ -261,7 +261,10 @@ fn unbounded_recursion_past_max_trace_depth_is_refused_on_the_device() -> anyhow
                     assert_eq!(launch_indices.len(), refused);
                     assert!(user_exceptions.is_empty(), "{user_exceptions:?}");
                     for index in &launch_indices {
-                        assert!(deep.contains(index), "refusal at {index:?}, a pixel not {max_trace_depth} layers deep");
+                        assert!(
+                            deep.contains(index),
+                            "refusal at {index:?}, a pixel not {max_trace_depth} layers deep"
+                        );
                     }
                     let mut unique = launch_indices.clone();
                     unique.sort_unstable();
