@@ -12,13 +12,13 @@
 //! to go there for ray types that carry their depth
 //! (`raykit_device::RayType::CHECK_DEPTH`): such a pipeline is accepted with any
 //! depth of 2 or more, and a trace past it ends in
-//! [`Error::RecursionTooDeep`](crate::Error::RecursionTooDeep) from the launch.
+//! [`Error::RecursionTooDeep`] from the launch.
 //!
 //! **The SBT fits the scene.** Every launch checks that the instances of its
 //! scenes select no hit record past the SBT's end: for each `(sbtRecordStride,
 //! sbtRecordOffset)` pair the traces use, the furthest instance's SBT offset +
 //! (geometries − 1) × stride + offset must be below the hit record count
-//! ([`Error::SbtTooSmallForScene`](crate::Error::SbtTooSmallForScene)).
+//! ([`Error::SbtTooSmallForScene`]).
 
 pub(crate) mod scene;
 pub mod spirv;

@@ -185,7 +185,7 @@ fn layer_hit(
 }
 
 /// The same layered rays, with the trace depth kept by raykit
-/// ([`RayType::CHECK_DEPTH`]) in [`LayerPayload::depth`]: [`unbounded_hit`] traces
+/// ([`RayType::CHECK_DEPTH`]) in [`LayerPayload::depth`]: `unbounded_hit` traces
 /// on through every layer without looking at the depth, and the pipeline's
 /// `max_trace_depth` is what stops it.
 pub struct Unbounded;
@@ -251,7 +251,7 @@ pub fn layers_over(index: UVec2, size: UVec2) -> u32 {
     n
 }
 
-/// The CPU reference of pixel `index` for [`unbounded_hit`] in a pipeline linked
+/// The CPU reference of pixel `index` for `unbounded_hit` in a pipeline linked
 /// with `max_trace_depth`: the closest-hit at depth `max_trace_depth` has its
 /// trace refused and blends over the background.
 pub fn reference_unbounded(index: UVec2, size: UVec2, max_trace_depth: u32) -> Vec3 {
