@@ -870,6 +870,62 @@ fn scene_whose_instances_fill_the_hit_records_exactly_renders() -> anyhow::Resul
     })
 }
 
+// ---------------------------------------------------------------- recursion on the device
+
+#[test]
+fn recursion_past_max_trace_depth() -> anyhow::Result<()> {
+    // Two layers over the whole view: the closest-hit of the second, at depth 2,
+    // traces on regardless; the device refuses that trace at every pixel.
+    case(
+        "recursion_past_max_trace_depth",
+        &[
+            "16 trace(s) would have gone to depth 3, past the pipeline's max_trace_depth 2",
+            "were not made",
+            "raise LinkOptions::max_trace_depth",
+        ],
+        |ctx| {
+            use stack_test_device as stack;
+            let module = Module::from_device_crate(ctx, "stack-test-device")?;
+            let raygen = ProgramGroup::raygen(&module, stack::RG_UNBOUNDED)?;
+            let miss = ProgramGroup::miss(&module, stack::MS_UNBOUNDED)?;
+            let hit = ProgramGroup::hit_group(&module).closest_hit(stack::UNBOUNDED_HIT).build()?;
+            let pipeline =
+                Pipeline::<stack::Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 2 })?;
+            let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).hit(&hit, ()).build()?;
+            let vertices: Vec<Vec3> = [5.0, 4.0]
+                .iter()
+                .flat_map(|&z| {
+                    let (a, b, c, d) = (
+                        Vec3::new(-2.0, -2.0, z),
+                        Vec3::new(2.0, -2.0, z),
+                        Vec3::new(2.0, 2.0, z),
+                        Vec3::new(-2.0, 2.0, z),
+                    );
+                    [a, b, c, a, c, d]
+                })
+                .collect();
+            let gas = Gas::triangles(ctx, &vertices, None)?;
+            let ias = Ias::single(ctx, &gas)?;
+            let image = ctx.buffer::<u32>(16)?;
+            let params = stack::Params {
+                image: image.handle(),
+                _pad: 0,
+                size: raykit::glam::UVec2::splat(4),
+                scene: ias.handle(),
+            };
+            let err = refused(pipeline.launch(&sbt, &params, [4, 4, 1]), "a recursion past max_trace_depth")?;
+            if let Error::RecursionTooDeep { launch_indices, .. } = &err {
+                let mut got = launch_indices.clone();
+                got.sort_unstable();
+                let every: Vec<[u32; 3]> = (0..4).flat_map(|x| (0..4).map(move |y| [x, y, 0])).collect();
+                anyhow::ensure!(got == every, "refused at {got:?}, not at every pixel");
+            }
+            Ok(err)
+        },
+        |e| matches!(e, Error::RecursionTooDeep { max_trace_depth: 2, depth: 3, refused: 16, total: 16, .. }),
+    )
+}
+
 // ---------------------------------------------------------------- launches
 
 /// Launches the triangle pipeline over `dims` (nothing is traced when refused).

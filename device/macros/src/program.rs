@@ -553,15 +553,16 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 wrapper_params.push(quote! { #[spirv(#storage)] #name: &mut #ty });
                 call_args.push(quote!(#name));
                 if let Some(ray) = &args.ray {
+                    // The payload must be the ray type's: this function does not
+                    // compile otherwise, and it is how the entry point hands the
+                    // payload to `RayType::depth`.
+                    let as_ray = format_ident!("__raykit_payload_of_{}", entry_name);
                     checks.push(quote_spanned! {ty.span()=>
-                        const _: () = {
-                            #[allow(dead_code)]
-                            fn __raykit_payload_matches_ray_type(
-                                payload: &mut <#ray as ::raykit_device::RayType>::Payload,
-                            ) -> &mut #ty {
-                                payload
-                            }
-                        };
+                        #[doc(hidden)]
+                        #[allow(dead_code, non_snake_case)]
+                        fn #as_ray(payload: &#ty) -> &<#ray as ::raykit_device::RayType>::Payload {
+                            payload
+                        }
                     });
                 }
             }
@@ -592,13 +593,16 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
     let (depth_param, with_depth) = match stage {
         Stage::Miss | Stage::ClosestHit => {
             let depth = match (&args.ray, &incoming) {
-                (Some(ray), Some(payload)) => quote! {
-                    if <#ray as ::raykit_device::RayType>::CHECK_DEPTH {
-                        <#ray as ::raykit_device::RayType>::depth(#payload)
-                    } else {
-                        1
+                (Some(ray), Some(payload)) => {
+                    let as_ray = format_ident!("__raykit_payload_of_{}", entry_name);
+                    quote! {
+                        if <#ray as ::raykit_device::RayType>::CHECK_DEPTH {
+                            <#ray as ::raykit_device::RayType>::depth(#as_ray(#payload))
+                        } else {
+                            1
+                        }
                     }
-                },
+                }
                 _ => quote!(1),
             };
             let id = unsuffixed(raykit_abi::MAX_TRACE_DEPTH_SPEC_ID);
