@@ -30,6 +30,37 @@ pub trait RayType {
     const FLAGS: RayFlags = RayFlags::NONE;
     /// Instance mask tested against each instance's mask (low 8 bits).
     const CULL_MASK: u32 = 0xff;
+    /// Whether rays of this type carry their trace depth in their payload, so
+    /// that the miss and closest-hit programs declared for this ray type
+    /// (`#[closest_hit(ray = R)]`) know how deep they run and their own traces
+    /// stop at the pipeline's `max_trace_depth`: a trace that would go deeper is
+    /// not made, and throws [`TRACE_DEPTH_EXCEEDED`](crate::exception::TRACE_DEPTH_EXCEEDED)
+    /// instead (see [`crate::exception`](mod@crate::exception)). Opt-in, because
+    /// the depth is a word of the payload that every program of the ray type,
+    /// GLSL and WGSL twins included, must agree on: implement
+    /// [`RayType::depth`] and [`RayType::set_depth`] on that word.
+    ///
+    /// ```
+    /// # use raykit_device::RayType;
+    /// #[derive(Copy, Clone, Default)]
+    /// pub struct Payload { pub color: [f32; 3], pub depth: u32 }
+    /// pub struct Radiance;
+    /// impl RayType for Radiance {
+    ///     type Payload = Payload;
+    ///     const CHECK_DEPTH: bool = true;
+    ///     fn depth(payload: &Payload) -> u32 { payload.depth }
+    ///     fn set_depth(payload: &mut Payload, depth: u32) { payload.depth = depth }
+    /// }
+    /// ```
+    const CHECK_DEPTH: bool = false;
+    /// The trace depth `payload` carries (1 for a ray traced by raygen), when
+    /// [`RayType::CHECK_DEPTH`]; never called otherwise.
+    fn depth(_payload: &Self::Payload) -> u32 {
+        1
+    }
+    /// Writes the trace depth into `payload`: `trace::<R>` calls it just before
+    /// tracing, when [`RayType::CHECK_DEPTH`].
+    fn set_depth(_payload: &mut Self::Payload, _depth: u32) {}
 }
 
 /// A ray: origin, direction and the parametric interval `[t_min, t_max]`.

@@ -86,6 +86,12 @@ fn list_exceptions(exceptions: &[UserException]) -> String {
     shown.join(", ")
 }
 
+fn list_indices(indices: &[[u32; 3]]) -> String {
+    let shown: Vec<String> = indices.iter().take(8).map(|i| format!("{i:?}")).collect();
+    let more = if indices.len() > 8 { format!(" and {} more", indices.len() - 8) } else { String::new() };
+    format!("{}{more}", shown.join(", "))
+}
+
 /// Everything that can go wrong in raykit.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -411,6 +417,54 @@ pub enum Error {
         max_trace_depth: u32,
         /// Why it needs it.
         why: &'static str,
+    },
+
+    /// Miss or closest-hit programs of a ray type with `RayType::CHECK_DEPTH`
+    /// would have traced past the pipeline's `max_trace_depth` during a launch:
+    /// the device did not make those traces (each threw
+    /// `raykit_device::exception::TRACE_DEPTH_EXCEEDED` and went on without it).
+    /// The launch ran to its end.
+    #[error("{refused} trace(s) would have gone to depth {depth}, past the pipeline's max_trace_depth {max_trace_depth}, and were not made, at launch indices {}{} ({total} exception(s) thrown in all); raise LinkOptions::max_trace_depth to the depth the programs recurse to, or end the recursion in the program (ClosestHit::trace_depth / Miss::trace_depth give the depth)", list_indices(.launch_indices), if .user_exceptions.is_empty() { String::new() } else { format!(", and user exceptions {}", list_exceptions(.user_exceptions)) })]
+    RecursionTooDeep {
+        /// The pipeline's `max_trace_depth`.
+        max_trace_depth: u32,
+        /// The depth the refused traces would have reached (`max_trace_depth + 1`).
+        depth: u32,
+        /// How many refused traces were recorded.
+        refused: usize,
+        /// The launch index of each recorded refusal, in the order recorded.
+        launch_indices: Vec<[u32; 3]>,
+        /// The user exceptions recorded with them.
+        user_exceptions: Vec<UserException>,
+        /// How many exceptions were thrown in all (recorded or not: a launch
+        /// records the first `EXCEPTION_CAPACITY`).
+        total: u32,
+    },
+
+    /// A launch's scene can select a hit record past the end of the SBT's hit
+    /// region: an instance's SBT offset plus its geometries (at the stride of the
+    /// pipeline's traces) plus a ray type's offset reaches further than the
+    /// records built (see [`crate::Instance::sbt_offset`]).
+    #[error("instance {instance} of the IAS in params field `{field}` (SBT offset {sbt_offset}, {geometries} geometr{}) reaches hit record {slot} = {sbt_offset} + ({geometries} - 1) × stride {stride} + ray offset {ray_offset} (a trace in `{program}`), but the SBT has {hit_records} hit record(s); build the SBT with records up to index {slot} (SbtBuilder::hit_for::<R>(geometry slot, ..) for every ray type), or lower the instance's sbt_offset (raykit::sbt::instance_sbt_offset)", if *.geometries == 1 { "y" } else { "ies" })]
+    SbtTooSmallForScene {
+        /// The params field holding the IAS.
+        field: String,
+        /// The instance's index in the IAS.
+        instance: usize,
+        /// Its SBT offset (`Instance::sbt_offset`).
+        sbt_offset: u32,
+        /// Geometries of its GAS.
+        geometries: u32,
+        /// `sbtRecordStride` of the trace.
+        stride: u32,
+        /// `sbtRecordOffset` of the trace.
+        ray_offset: u32,
+        /// The hit record index reached.
+        slot: u64,
+        /// Hit records in the SBT.
+        hit_records: usize,
+        /// A program making such a trace.
+        program: String,
     },
 
     /// A program declares a descriptor binding raykit's pipeline layout does not have.

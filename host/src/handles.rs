@@ -51,6 +51,13 @@ pub(crate) struct HandleField {
     name: String,
 }
 
+impl HandleField {
+    /// Its offset and name, if it is a traversable.
+    pub(crate) fn traversable(&self) -> Option<(u32, &str)> {
+        (self.kind == HandleKind::Traversable).then_some((self.offset, self.name.as_str()))
+    }
+}
+
 /// Every handle field of `layout`, nested structs and arrays included, in order.
 pub(crate) fn handle_fields(layout: &ParamsLayout) -> Vec<HandleField> {
     let mut out = Vec::new();
@@ -93,6 +100,8 @@ pub(crate) type BuiltOver = Vec<(Arc<AtomicU64>, u64)>;
 #[derive(Default)]
 pub(crate) struct LiveTraversables {
     by_address: Mutex<HashMap<u64, BuiltOver>>,
+    /// The hit records each one's instances can select (see `crate::validate::scene`).
+    hit_reach: Mutex<HashMap<u64, Arc<crate::accel::HitReach>>>,
 }
 
 impl LiveTraversables {
@@ -108,6 +117,22 @@ impl LiveTraversables {
     /// Forgets the IAS at `address` (it was dropped).
     pub(crate) fn remove(&self, address: u64) {
         self.lock().remove(&address);
+        self.reach_lock().remove(&address);
+    }
+
+    fn reach_lock(&self) -> std::sync::MutexGuard<'_, HashMap<u64, Arc<crate::accel::HitReach>>> {
+        self.hit_reach.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Records (or re-records after an update) the hit records the IAS at
+    /// `address` can select.
+    pub(crate) fn insert_hit_reach(&self, address: u64, reach: Arc<crate::accel::HitReach>) {
+        self.reach_lock().insert(address, reach);
+    }
+
+    /// The hit records the live IAS at `address` can select.
+    pub(crate) fn hit_reach(&self, address: u64) -> Option<Arc<crate::accel::HitReach>> {
+        self.reach_lock().get(&address).cloned()
     }
 }
 

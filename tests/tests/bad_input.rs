@@ -748,6 +748,184 @@ fn launch_with_the_sbt_of_another_pipeline() -> anyhow::Result<()> {
     )
 }
 
+// ---------------------------------------------------------------- the SBT fits the scene
+
+/// The triangle's GAS with a second copy of the triangle out of view (x + 10):
+/// two geometries, so an instance spans two hit records.
+fn two_geometry_gas(ctx: &Context) -> anyhow::Result<Gas> {
+    let far = triangle::VERTICES.map(|v| v + Vec3::new(10.0, 0.0, 0.0));
+    Ok(Gas::builder().triangles(Triangles::new(&triangle::VERTICES)).triangles(Triangles::new(&far)).build(ctx)?)
+}
+
+/// Renders the triangle pipeline at 16 × 16 over `ias` with an SBT of
+/// `hit_records` hit records (all the triangle's hit group).
+fn render_scene(ctx: &Context, l: &Linked, ias: &Ias, hit_records: usize) -> anyhow::Result<raykit::Result<Vec<u32>>> {
+    let mut builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR });
+    for i in 0..hit_records {
+        builder = builder.hit_at(i, &l.hit, ());
+    }
+    let sbt = builder.build()?;
+    let image = ctx.buffer::<u32>(256)?;
+    let params = triangle::params(16, 16, image.handle(), ias.handle());
+    Ok(l.pipeline.launch(&sbt, &params, [16, 16, 1]).and_then(|()| image.read()))
+}
+
+#[test]
+fn instance_sbt_offset_past_the_hit_records() -> anyhow::Result<()> {
+    case(
+        "instance_sbt_offset_past_the_hit_records",
+        &[
+            "instance 0 of the IAS in params field `handle` (SBT offset 1, 1 geometry) reaches hit record 1",
+            "the SBT has 1 hit record(s)",
+            "records up to index 1",
+            "lower the instance's sbt_offset",
+        ],
+        |ctx| {
+            let l = linked(ctx)?;
+            let gas = Gas::triangles(ctx, &triangle::VERTICES, None)?;
+            let ias = Ias::new(ctx, &[Instance::new(&gas).sbt_offset(1)])?;
+            refused(render_scene(ctx, &l, &ias, 1)?, "an instance past the SBT")
+        },
+        |e| {
+            matches!(
+                e,
+                Error::SbtTooSmallForScene { instance: 0, sbt_offset: 1, geometries: 1, slot: 1, hit_records: 1, .. }
+            )
+        },
+    )
+}
+
+#[test]
+fn instance_geometries_past_the_hit_records() -> anyhow::Result<()> {
+    // Instance 1's first geometry takes record 1, the last one; its second
+    // geometry would read record 2.
+    case(
+        "instance_geometries_past_the_hit_records",
+        &["instance 1", "(SBT offset 1, 2 geometries) reaches hit record 2 = 1 + (2 - 1) × stride 1 + ray offset 0"],
+        |ctx| {
+            let l = linked(ctx)?;
+            let gas = two_geometry_gas(ctx)?;
+            let small = Gas::triangles(ctx, &triangle::VERTICES, None)?;
+            let ias = Ias::new(ctx, &[Instance::new(&small), Instance::new(&gas).sbt_offset(1)])?;
+            refused(render_scene(ctx, &l, &ias, 2)?, "a second geometry past the SBT")
+        },
+        |e| {
+            matches!(
+                e,
+                Error::SbtTooSmallForScene {
+                    instance: 1,
+                    sbt_offset: 1,
+                    geometries: 2,
+                    slot: 2,
+                    hit_records: 2,
+                    stride: 1,
+                    ray_offset: 0,
+                    ..
+                }
+            )
+        },
+    )
+}
+
+#[test]
+fn instance_updated_past_the_hit_records() -> anyhow::Result<()> {
+    case(
+        "instance_updated_past_the_hit_records",
+        &["reaches hit record 4", "the SBT has 2 hit record(s)"],
+        |ctx| {
+            let l = linked(ctx)?;
+            let gas = Gas::triangles(ctx, &triangle::VERTICES, None)?;
+            let options = BuildOptions::default().allow_update(true);
+            let mut ias = Ias::builder(&[Instance::new(&gas)]).options(options).build(ctx)?;
+            let before = render_scene(ctx, &l, &ias, 2)??;
+            anyhow::ensure!(before == triangle::render(ctx, 16, 16)?, "the scene within the SBT renders differently");
+            ias.update(&[Instance::new(&gas).sbt_offset(4)])?;
+            refused(render_scene(ctx, &l, &ias, 2)?, "an instance updated past the SBT")
+        },
+        |e| matches!(e, Error::SbtTooSmallForScene { instance: 0, slot: 4, hit_records: 2, .. }),
+    )
+}
+
+#[test]
+fn scene_whose_instances_fill_the_hit_records_exactly_renders() -> anyhow::Result<()> {
+    with_context("scene_whose_instances_fill_the_hit_records_exactly_renders", |ctx| {
+        let l = linked(ctx)?;
+        let gas = two_geometry_gas(ctx)?;
+        // The last instance's last geometry selects record 2 + (2 - 1) = 3, the
+        // SBT's last; the masked-out instance would select record 9 but is never hit.
+        let ias = Ias::new(
+            ctx,
+            &[Instance::new(&gas), Instance::new(&gas).sbt_offset(2), Instance::new(&gas).sbt_offset(8).mask(0)],
+        )?;
+        assert_eq!(ias.hit_records_for::<triangle_device::Radiance>(), 4);
+        let got = render_scene(ctx, &l, &ias, 4)??;
+        // The far copies are out of view: the optixTriangle picture, pixel for pixel.
+        let reference = triangle::render(ctx, 16, 16)?;
+        assert!(got == reference, "the scene renders differently from optixTriangle");
+        assert!(matches!(
+            render_scene(ctx, &l, &ias, 3)?,
+            Err(Error::SbtTooSmallForScene { slot: 3, instance: 1, .. })
+        ));
+        Ok(())
+    })
+}
+
+// ---------------------------------------------------------------- recursion on the device
+
+#[test]
+fn recursion_past_max_trace_depth() -> anyhow::Result<()> {
+    // Two layers over the whole view: the closest-hit of the second, at depth 2,
+    // traces on regardless; the device refuses that trace at every pixel.
+    case(
+        "recursion_past_max_trace_depth",
+        &[
+            "16 trace(s) would have gone to depth 3, past the pipeline's max_trace_depth 2",
+            "were not made",
+            "raise LinkOptions::max_trace_depth",
+        ],
+        |ctx| {
+            use stack_test_device as stack;
+            let module = Module::from_device_crate(ctx, "stack-test-device")?;
+            let raygen = ProgramGroup::raygen(&module, stack::RG_UNBOUNDED)?;
+            let miss = ProgramGroup::miss(&module, stack::MS_UNBOUNDED)?;
+            let hit = ProgramGroup::hit_group(&module).closest_hit(stack::UNBOUNDED_HIT).build()?;
+            let pipeline =
+                Pipeline::<stack::Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 2 })?;
+            let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).hit(&hit, ()).build()?;
+            let vertices: Vec<Vec3> = [5.0, 4.0]
+                .iter()
+                .flat_map(|&z| {
+                    let (a, b, c, d) = (
+                        Vec3::new(-2.0, -2.0, z),
+                        Vec3::new(2.0, -2.0, z),
+                        Vec3::new(2.0, 2.0, z),
+                        Vec3::new(-2.0, 2.0, z),
+                    );
+                    [a, b, c, a, c, d]
+                })
+                .collect();
+            let gas = Gas::triangles(ctx, &vertices, None)?;
+            let ias = Ias::single(ctx, &gas)?;
+            let image = ctx.buffer::<u32>(16)?;
+            let params = stack::Params {
+                image: image.handle(),
+                _pad: 0,
+                size: raykit::glam::UVec2::splat(4),
+                scene: ias.handle(),
+            };
+            let err = refused(pipeline.launch(&sbt, &params, [4, 4, 1]), "a recursion past max_trace_depth")?;
+            if let Error::RecursionTooDeep { launch_indices, .. } = &err {
+                let mut got = launch_indices.clone();
+                got.sort_unstable();
+                let every: Vec<[u32; 3]> = (0..4).flat_map(|x| (0..4).map(move |y| [x, y, 0])).collect();
+                anyhow::ensure!(got == every, "refused at {got:?}, not at every pixel");
+            }
+            Ok(err)
+        },
+        |e| matches!(e, Error::RecursionTooDeep { max_trace_depth: 2, depth: 3, refused: 16, total: 16, .. }),
+    )
+}
+
 // ---------------------------------------------------------------- launches
 
 /// Launches the triangle pipeline over `dims` (nothing is traced when refused).
@@ -943,7 +1121,7 @@ fn refit_with_a_changed_topology() -> anyhow::Result<()> {
             let mut fixed = Gas::triangles(ctx, &TRI, None)?;
             let err = refused(fixed.update(&[Triangles::new(&TRI).into()]), "a refit without allow_update")?;
             anyhow::ensure!(matches!(err, Error::UpdateRefused { .. }), "{err:?}");
-            let options = BuildOptions { allow_update: true, ..Default::default() };
+            let options = BuildOptions::default().allow_update(true);
             let mut gas = Gas::builder().triangles(Triangles::new(&TRI)).options(options).build(ctx)?;
             // Same topology, moved vertices: accepted.
             let moved = TRI.map(|v| v + Vec3::new(0.0, 0.0, 0.1));

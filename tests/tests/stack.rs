@@ -9,7 +9,9 @@ use raykit::{
     CallDepths, CallGraph, Context, Error, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, StackSize,
 };
 use raykit_tests::{channel_distance, with_context};
-use stack_test_device::{layer_square, layer_z, pack, reference, Params, LAYERS, MAX_DEPTH};
+use stack_test_device::{
+    layer_square, layer_z, layers_over, pack, reference, reference_unbounded, Params, LAYERS, MAX_DEPTH,
+};
 
 const SIZE: u32 = 96;
 
@@ -174,6 +176,107 @@ fn estimates_deeper_than_the_pipeline_are_refused() -> anyhow::Result<()> {
         let too_deep =
             Pipeline::<Params>::new(ctx, &[&s.raygen, &s.miss, &s.hit], LinkOptions { max_trace_depth: limit + 1 });
         assert!(matches!(too_deep, Err(Error::TraceDepthTooLarge { .. })));
+        Ok(())
+    })
+}
+
+/// The unbounded recursion of `unbounded_hit` linked with `max_trace_depth`:
+/// the launch's result and its picture.
+fn render_unbounded(ctx: &Context, max_trace_depth: u32) -> anyhow::Result<(raykit::Result<()>, Vec<u32>)> {
+    let module = Module::from_device_crate(ctx, "stack-test-device")?;
+    let raygen = ProgramGroup::raygen(&module, stack_test_device::RG_UNBOUNDED)?;
+    let miss = ProgramGroup::miss(&module, stack_test_device::MS_UNBOUNDED)?;
+    let hit = ProgramGroup::hit_group(&module).closest_hit(stack_test_device::UNBOUNDED_HIT).build()?;
+    // Accepted: the closest-hit recurses, and the depth is declared explicitly.
+    let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth })?;
+    let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).hit(&hit, ()).build()?;
+    let gas = layers_gas(ctx)?;
+    let ias = Ias::single(ctx, &gas)?;
+    let image = ctx.buffer::<u32>((SIZE * SIZE) as usize)?;
+    let params = Params { image: image.handle(), _pad: 0, size: UVec2::splat(SIZE), scene: ias.handle() };
+    let result = pipeline.launch(&sbt, &params, [SIZE, SIZE, 1]);
+    Ok((result, image.read()?))
+}
+
+/// Share of pixels within 2/255 of `reference_unbounded` at `max_trace_depth`.
+fn share_like_unbounded_reference(got: &[u32], max_trace_depth: u32) -> f64 {
+    let size = UVec2::splat(SIZE);
+    let close = (0..SIZE * SIZE)
+        .filter(|&i| {
+            let index = UVec2::new(i % SIZE, i / SIZE);
+            channel_distance(got[i as usize], pack(reference_unbounded(index, size, max_trace_depth))) <= 2
+        })
+        .count();
+    close as f64 / (SIZE * SIZE) as f64
+}
+
+#[test]
+fn unbounded_recursion_within_max_trace_depth_renders() -> anyhow::Result<()> {
+    with_context("unbounded_recursion_within_max_trace_depth_renders", |ctx| {
+        // Five layers: five closest-hits deep, the miss at depth 6.
+        let (result, got) = render_unbounded(ctx, LAYERS + 1)?;
+        result?;
+        let share = share_like_unbounded_reference(&got, LAYERS + 1);
+        assert!(share >= 0.995, "only {:.2}% of pixels within 2/255 of the reference", share * 100.0);
+        // Deep enough for every layer: the picture of the depth-checking program.
+        let size = UVec2::splat(SIZE);
+        let same = (0..SIZE * SIZE)
+            .filter(|&i| {
+                let index = UVec2::new(i % SIZE, i / SIZE);
+                channel_distance(got[i as usize], pack(reference(index, size))) <= 2
+            })
+            .count();
+        assert!(same as f64 >= 0.995 * f64::from(SIZE * SIZE), "{same} pixels like the bounded program's");
+        Ok(())
+    })
+}
+
+#[test]
+fn unbounded_recursion_past_max_trace_depth_is_refused_on_the_device() -> anyhow::Result<()> {
+    with_context("unbounded_recursion_past_max_trace_depth_is_refused_on_the_device", |ctx| {
+        let size = UVec2::splat(SIZE);
+        for max_trace_depth in [3, LAYERS] {
+            let (result, got) = render_unbounded(ctx, max_trace_depth)?;
+            // The closest-hit at depth max_trace_depth has its trace refused: one
+            // refusal per pixel whose ray goes through that many layers.
+            let deep: Vec<[u32; 3]> = (0..SIZE * SIZE)
+                .map(|i| UVec2::new(i % SIZE, i / SIZE))
+                .filter(|&index| layers_over(index, size) >= max_trace_depth)
+                .map(|index| [index.x, index.y, 0])
+                .collect();
+            assert!(deep.len() > 100, "only {} pixels go {max_trace_depth} layers deep", deep.len());
+            match result {
+                Err(Error::RecursionTooDeep {
+                    max_trace_depth: m,
+                    depth,
+                    refused,
+                    launch_indices,
+                    user_exceptions,
+                    total,
+                }) => {
+                    assert_eq!((m, depth), (max_trace_depth, max_trace_depth + 1));
+                    assert_eq!(total as usize, deep.len(), "one refusal per deep pixel");
+                    let capacity = raykit::device::exception::EXCEPTION_CAPACITY as usize;
+                    assert_eq!(refused, deep.len().min(capacity));
+                    assert_eq!(launch_indices.len(), refused);
+                    assert!(user_exceptions.is_empty(), "{user_exceptions:?}");
+                    for index in &launch_indices {
+                        assert!(
+                            deep.contains(index),
+                            "refusal at {index:?}, a pixel not {max_trace_depth} layers deep"
+                        );
+                    }
+                    let mut unique = launch_indices.clone();
+                    unique.sort_unstable();
+                    unique.dedup();
+                    assert_eq!(unique.len(), launch_indices.len(), "a pixel refused twice");
+                }
+                other => anyhow::bail!("max_trace_depth {max_trace_depth}: expected RecursionTooDeep, got {other:?}"),
+            }
+            // The launch ran to its end: the refused closest-hits shaded over the background.
+            let share = share_like_unbounded_reference(&got, max_trace_depth);
+            assert!(share >= 0.995, "only {:.2}% of pixels within 2/255 of the reference", share * 100.0);
+        }
         Ok(())
     })
 }

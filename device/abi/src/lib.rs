@@ -40,8 +40,14 @@ pub const PARAMS_BINDING: u32 = 0;
 /// declare it, and the host sets it when it links a pipeline.
 pub const EXCEPTION_SLOT_SPEC_ID: u32 = 0x7261_0000;
 
+/// The specialization-constant ID of the pipeline's `max_trace_depth`, which miss
+/// and closest-hit programs compare their trace depth with before tracing
+/// (see `raykit_device::RayType::CHECK_DEPTH`). Reserved: the host sets it when it
+/// links a pipeline; its default, `u32::MAX`, checks nothing.
+pub const MAX_TRACE_DEPTH_SPEC_ID: u32 = 0x7261_0001;
+
 /// The specialization-constant IDs raykit reserves for itself.
-pub const RESERVED_SPEC_IDS: [u32; 1] = [EXCEPTION_SLOT_SPEC_ID];
+pub const RESERVED_SPEC_IDS: [u32; 2] = [EXCEPTION_SLOT_SPEC_ID, MAX_TRACE_DEPTH_SPEC_ID];
 
 /// Whether `id` is a specialization-constant ID reserved by raykit.
 pub const fn is_reserved_spec_id(id: u32) -> bool {
@@ -63,6 +69,7 @@ mod tests {
     fn exception_slot_id_is_reserved() {
         assert_eq!(EXCEPTION_SLOT_SPEC_ID, 1_918_959_616);
         assert!(is_reserved_spec_id(EXCEPTION_SLOT_SPEC_ID));
+        assert!(is_reserved_spec_id(MAX_TRACE_DEPTH_SPEC_ID));
         assert!(!is_reserved_spec_id(0));
     }
 }

@@ -553,15 +553,16 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 wrapper_params.push(quote! { #[spirv(#storage)] #name: &mut #ty });
                 call_args.push(quote!(#name));
                 if let Some(ray) = &args.ray {
+                    // The payload must be the ray type's: this function does not
+                    // compile otherwise, and it is how the entry point hands the
+                    // payload to `RayType::depth`.
+                    let as_ray = format_ident!("__raykit_payload_of_{}", entry_name);
                     checks.push(quote_spanned! {ty.span()=>
-                        const _: () = {
-                            #[allow(dead_code)]
-                            fn __raykit_payload_matches_ray_type(
-                                payload: &mut <#ray as ::raykit_device::RayType>::Payload,
-                            ) -> &mut #ty {
-                                payload
-                            }
-                        };
+                        #[doc(hidden)]
+                        #[allow(dead_code, non_snake_case)]
+                        fn #as_ray(payload: &#ty) -> &<#ray as ::raykit_device::RayType>::Payload {
+                            payload
+                        }
                     });
                 }
             }
@@ -581,9 +582,40 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
             #[spirv(callable_data)] __raykit_exception_call: &mut ::raykit_device::exception::ExceptionDetails,
         },
     };
+    // Miss and closest-hit programs learn their trace depth from the incoming
+    // payload when their ray type carries it (`RayType::CHECK_DEPTH`), and the
+    // pipeline's `max_trace_depth` from a reserved specialization constant: their
+    // traces stop there.
+    let incoming = params.iter().find_map(|p| match p.role {
+        Role::Payload(_) => Some(p.name.clone()),
+        _ => None,
+    });
+    let (depth_param, with_depth) = match stage {
+        Stage::Miss | Stage::ClosestHit => {
+            let depth = match (&args.ray, &incoming) {
+                (Some(ray), Some(payload)) => {
+                    let as_ray = format_ident!("__raykit_payload_of_{}", entry_name);
+                    quote! {
+                        if <#ray as ::raykit_device::RayType>::CHECK_DEPTH {
+                            <#ray as ::raykit_device::RayType>::depth(#as_ray(#payload))
+                        } else {
+                            1
+                        }
+                    }
+                }
+                _ => quote!(1),
+            };
+            let id = unsuffixed(raykit_abi::MAX_TRACE_DEPTH_SPEC_ID);
+            (
+                quote! { #[spirv(spec_constant(id = #id, default = 4294967295))] __max_trace_depth: u32, },
+                quote! { .__with_trace_depth(#depth, __max_trace_depth) },
+            )
+        }
+        _ => (quote!(), quote!()),
+    };
     let body = quote! {
         #[allow(unused_mut)]
-        let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers #exception_args);
+        let mut __ctx = ::raykit_device::#ctx_ty::__new(#ctx_args, __buffers #exception_args) #with_depth;
         #fn_name(#(#call_args),*);
     };
     let call = match params_choice {
@@ -632,6 +664,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
             // The exception buffer's slot (`raykit_device::exception::EXCEPTION_SLOT_SPEC_ID`).
             #[spirv(spec_constant(id = #exception_slot_id, default = 0))] __exception_slot: u32,
             #exception_call_param
+            #depth_param
             #(#wrapper_params,)*
         ) {
             #call

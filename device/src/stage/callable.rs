@@ -53,6 +53,10 @@ impl ContinuationCallable<'_> {
     /// Traces `ray` of ray type `R` into `scene` (`optixTrace`); `payload` is a
     /// `#[trace_payload]` parameter.
     pub fn trace<R: RayType>(&mut self, scene: Traversable, ray: Ray, payload: &mut R::Payload) {
+        if R::CHECK_DEPTH {
+            // A callable traces at depth 1 (see `crate::exception`).
+            R::set_depth(payload, 1);
+        }
         super::trace::<R>(scene, ray, payload)
     }
 }

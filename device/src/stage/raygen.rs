@@ -38,6 +38,10 @@ impl<'a> Raygen<'a> {
     /// Traces `ray` of ray type `R` into `scene`; the miss or closest-hit program
     /// writes the result into `payload` (`optixTrace`).
     pub fn trace<R: RayType>(&mut self, scene: Traversable, ray: Ray, payload: &mut R::Payload) {
+        if R::CHECK_DEPTH {
+            // Raygen traces at depth 1 (see `crate::exception`).
+            R::set_depth(payload, 1);
+        }
         super::trace::<R>(scene, ray, payload)
     }
 

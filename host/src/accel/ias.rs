@@ -59,6 +59,8 @@ pub struct Instance {
     mask: u8,
     sbt_offset: u32,
     flags: InstanceFlags,
+    /// Geometries of its GAS: the hit records it spans per ray type.
+    geometries: u32,
 }
 
 impl Instance {
@@ -71,6 +73,7 @@ impl Instance {
             mask: 0xff,
             sbt_offset: 0,
             flags: InstanceFlags::NONE,
+            geometries: u32::try_from(gas.geometry_count()).unwrap_or(u32::MAX),
         }
     }
 
@@ -103,6 +106,11 @@ impl Instance {
     /// `offset + geometry × R::SBT_STRIDE + R::SBT_OFFSET`. With several ray types,
     /// compute it with [`instance_sbt_offset`](crate::sbt::instance_sbt_offset) from the
     /// geometry slot [`SbtBuilder::hit_for`](crate::SbtBuilder::hit_for) places its records at.
+    ///
+    /// Every launch checks that the records its scene can select exist: the
+    /// highest, `offset + (geometries − 1) × stride + ray offset` over the
+    /// instances and the pipeline's traces, must be below the SBT's hit record
+    /// count ([`Error::SbtTooSmallForScene`] otherwise; see [`Ias::hit_records_for`]).
     pub fn sbt_offset(mut self, offset: u32) -> Self {
         self.sbt_offset = offset;
         self
@@ -134,6 +142,7 @@ impl std::fmt::Debug for Instance {
             .field("mask", &self.mask)
             .field("sbt_offset", &self.sbt_offset)
             .field("flags", &self.flags)
+            .field("geometries", &self.geometries)
             .finish_non_exhaustive()
     }
 }
@@ -227,6 +236,7 @@ impl IasBuilder<'_> {
             gases: self.instances.iter().map(|i| i.accel.clone()).collect(),
             options: self.options,
             sizes,
+            reach: Arc::new(HitReach::of(self.instances)),
         };
         ias.register();
         Ok(PendingBuild::new(in_flight, ias, |_, _| {}))
@@ -240,6 +250,8 @@ pub struct Ias {
     gases: Vec<Arc<AccelStructure>>,
     options: BuildOptions,
     sizes: AccelSizes,
+    /// The hit records its instances can select, checked by every launch.
+    reach: Arc<HitReach>,
 }
 
 impl Ias {
@@ -292,6 +304,7 @@ impl Ias {
         };
         build::submit(&ctx, &[job], vec![buffer])?.wait()?;
         self.gases = instances.iter().map(|i| i.accel.clone()).collect();
+        self.reach = Arc::new(HitReach::of(instances));
         self.register();
         Ok(())
     }
@@ -305,6 +318,7 @@ impl Ias {
             .map(|g| (g.version.clone(), g.version.load(std::sync::atomic::Ordering::Acquire)))
             .collect();
         self.accel.ctx.traversables.insert(self.accel.address, over);
+        self.accel.ctx.traversables.insert_hit_reach(self.accel.address, self.reach.clone());
     }
 
     /// Rebuilds the IAS over `instances` with its options; the count may change.
@@ -320,6 +334,14 @@ impl Ias {
         // SAFETY: the address of this live, built IAS; launches check it is still
         // alive and up to date when they are submitted (see `crate::handles`).
         unsafe { Traversable::from_device_address(self.accel.address) }
+    }
+
+    /// How many hit records an SBT needs for traces of ray type `R` into this
+    /// IAS: one more than the highest record index
+    /// `sbt_offset + (geometries − 1) × R::SBT_STRIDE + R::SBT_OFFSET` over its
+    /// instances (those with a mask of 0, which no ray hits, left out).
+    pub fn hit_records_for<R: raykit_device::RayType>(&self) -> u64 {
+        self.reach.furthest(R::SBT_STRIDE, R::SBT_OFFSET).map_or(0, |(_, slot)| slot + 1)
     }
 
     /// Number of instances.
@@ -349,5 +371,75 @@ impl Drop for Ias {
 impl std::fmt::Debug for Ias {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Ias").field("instances", &self.gases.len()).field("size", &self.accel.size).finish()
+    }
+}
+
+/// What an IAS's instances can select in the SBT's hit region: Vulkan's hit
+/// record index is `instance SBT offset + geometry index × sbtRecordStride +
+/// sbtRecordOffset`, with the stride and offset of the trace (4 bits each).
+#[derive(Debug, Default)]
+pub(crate) struct HitReach {
+    /// Per instance: its SBT offset and geometry count.
+    instances: Vec<(u32, u32)>,
+    /// For each stride `s` in `0..16`: the instance (by index) with the largest
+    /// `sbt_offset + (geometries − 1) × s`, and that value.
+    by_stride: [Option<(usize, u64)>; 16],
+}
+
+impl HitReach {
+    /// The reach of `instances`. Instances with a mask of 0 are never hit and
+    /// select no record.
+    pub(crate) fn of(instances: &[Instance]) -> HitReach {
+        HitReach::from_parts(instances.iter().map(|i| (i.sbt_offset, i.geometries, i.mask)))
+    }
+
+    /// The reach of instances given as `(SBT offset, geometry count, mask)`.
+    fn from_parts(instances: impl Iterator<Item = (u32, u32, u8)>) -> HitReach {
+        let parts: Vec<(u32, u32, u8)> = instances.collect();
+        let mut by_stride = [None; 16];
+        for (stride, best) in by_stride.iter_mut().enumerate() {
+            for (i, &(offset, geometries, mask)) in parts.iter().enumerate() {
+                if mask == 0 {
+                    continue;
+                }
+                let last = u64::from(offset) + u64::from(geometries.saturating_sub(1)) * stride as u64;
+                if best.is_none_or(|(_, b)| last > b) {
+                    *best = Some((i, last));
+                }
+            }
+        }
+        HitReach { instances: parts.iter().map(|&(o, g, _)| (o, g)).collect(), by_stride }
+    }
+
+    /// The instance reaching the highest hit record for traces with `stride` and
+    /// `ray_offset` (their low 4 bits, as Vulkan reads them), and that record's index.
+    pub(crate) fn furthest(&self, stride: u32, ray_offset: u32) -> Option<(usize, u64)> {
+        let (instance, last) = self.by_stride[(stride & 0xf) as usize]?;
+        Some((instance, last + u64::from(ray_offset & 0xf)))
+    }
+
+    /// Instance `index`'s SBT offset and geometry count.
+    pub(crate) fn instance(&self, index: usize) -> (u32, u32) {
+        self.instances.get(index).copied().unwrap_or((0, 0))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::HitReach;
+
+    #[test]
+    fn the_furthest_instance_depends_on_the_stride_and_masked_out_ones_reach_nothing() {
+        // (offset, geometries, mask): a far offset with one geometry, a near one
+        // with many, and a masked-out one further than both.
+        let reach = HitReach::from_parts([(10, 1, 0xff), (2, 6, 0xff), (100, 1, 0)].into_iter());
+        // Stride 1: 10 against 2 + 5 = 7.
+        assert_eq!(reach.furthest(1, 0), Some((0, 10)));
+        // Stride 2 with ray offset 1: 10 + 1 against 2 + 10 + 1.
+        assert_eq!(reach.furthest(2, 1), Some((1, 13)));
+        // Vulkan reads 4 bits of each: stride 18 is stride 2, offset 17 is 1.
+        assert_eq!(reach.furthest(18, 17), Some((1, 13)));
+        assert_eq!(reach.instance(1), (2, 6));
+        assert_eq!(HitReach::from_parts([(5, 1, 0)].into_iter()).furthest(1, 0), None);
     }
 }

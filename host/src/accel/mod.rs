@@ -63,6 +63,7 @@ mod structure;
 
 pub use build::PendingBuild;
 pub use gas::{Compaction, Gas, GasBuilder};
+pub(crate) use ias::HitReach;
 pub use ias::{Ias, IasBuilder, Instance, InstanceFlags};
 pub use input::{Aabb, Aabbs, BuildInput, GeometryFlags, Indices, Triangles};
 pub use structure::{AccelSizes, BuildOptions, BuildPreference};

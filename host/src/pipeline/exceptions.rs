@@ -7,7 +7,7 @@ use ash::vk;
 
 use crate::buffer_table::SlotReuse;
 use crate::context::ContextInner;
-use crate::error::{Result, UserException};
+use crate::error::{Error, Result, UserException};
 use crate::memory::RawBuffer;
 use crate::program_group::ProgramGroup;
 
@@ -63,6 +63,27 @@ impl ExceptionBuffer {
             })
             .collect();
         (total, records)
+    }
+}
+
+/// The error of a launch whose programs threw `total` exceptions, `recorded` of
+/// them recorded, in a pipeline linked with `max_trace_depth`: the traces refused
+/// past the depth ([`Error::RecursionTooDeep`]) if any were recorded, otherwise
+/// the user exceptions ([`Error::UserExceptions`]).
+pub(crate) fn launch_error(total: u32, recorded: Vec<UserException>, max_trace_depth: u32) -> Error {
+    use raykit_device::exception::TRACE_DEPTH_EXCEEDED;
+    let (refused, user): (Vec<UserException>, Vec<UserException>) =
+        recorded.into_iter().partition(|e| e.code == TRACE_DEPTH_EXCEEDED);
+    if refused.is_empty() {
+        return Error::UserExceptions { total, exceptions: user };
+    }
+    Error::RecursionTooDeep {
+        max_trace_depth,
+        depth: max_trace_depth.saturating_add(1),
+        refused: refused.len(),
+        launch_indices: refused.iter().map(|e| e.launch_index).collect(),
+        user_exceptions: user,
+        total,
     }
 }
 

@@ -108,7 +108,9 @@ impl Launch {
     }
 
     /// Blocks until the launch has finished; then the buffers it wrote hold the
-    /// results. Returns [`Error::UserExceptions`] if device programs threw any.
+    /// results. Returns [`Error::UserExceptions`] if device programs threw any, or
+    /// [`Error::RecursionTooDeep`] if traces past the pipeline's `max_trace_depth`
+    /// were refused on the device.
     pub fn wait(mut self) -> Result<()> {
         self.submission.wait()?;
         let Some(bytes) = self.readback.as_ref().and_then(|r| r.mapped()) else { return Ok(()) };
@@ -120,7 +122,7 @@ impl Launch {
             exceptions.extend(thrown);
         }
         if total > 0 {
-            return Err(Error::UserExceptions { total, exceptions });
+            return Err(super::exceptions::launch_error(total, exceptions, self.pipeline.max_trace_depth));
         }
         Ok(())
     }
@@ -223,14 +225,14 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         };
         // Whether the launch writes anything with transfers before tracing.
         let transfers = !throwing.is_empty() || uniform.is_some();
-        // The handles of the params, and those in SBT records whose type derives
-        // `SbtRecordData` (see `crate::handles`).
+        // The handles of the params, those in SBT records whose type derives
+        // `SbtRecordData` (see `crate::handles`), and the scene's reach into the SBT.
         let check = || {
             ctx.check_handles(&inner.handle_fields, params_bytes, None)?;
             for record in &sbt.checked {
                 ctx.check_handles(&record.fields, &record.data, Some((record.region, record.index)))?;
             }
-            Ok(())
+            crate::validate::scene::check_scene(ctx, &inner.handle_fields, params_bytes, sbt, &inner.reach)
         };
         let submission = ctx.submit_checked("a launch", check, |cmd| {
             // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and

@@ -150,7 +150,7 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         }
         let exceptions = Arc::new(ExceptionBuffer::new(inner, groups)?);
         let layout = PipelineLayout::new::<P>(inner)?;
-        let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
+        let shaders = ShaderGroups::new(groups, exceptions.slot, options.max_trace_depth, constants);
         crate::validate::check_programs(
             groups,
             options.max_trace_depth,

@@ -196,7 +196,7 @@ impl<P: LaunchParams> Pipeline<P> {
         check_groups::<P>(inner, groups, options.max_trace_depth)?;
         check_linkable(groups.iter().copied())?;
         let exceptions = Arc::new(ExceptionBuffer::new(inner, groups)?);
-        let shaders = ShaderGroups::new(groups, exceptions.slot, constants);
+        let shaders = ShaderGroups::new(groups, exceptions.slot, options.max_trace_depth, constants);
         crate::validate::check_programs(
             groups,
             options.max_trace_depth,

@@ -49,8 +49,8 @@ impl Specialization {
 }
 
 /// The shader stages and groups of a set of program groups compiled together,
-/// with the specialization every stage gets: the exception buffer's slot and
-/// the user's constants.
+/// with the specialization every stage gets: the exception buffer's slot, the
+/// pipeline's `max_trace_depth` and the user's constants.
 pub(crate) struct ShaderGroups {
     programs: Vec<Program>,
     pub(crate) group_infos: Vec<vk::RayTracingShaderGroupCreateInfoKHR<'static>>,
@@ -59,7 +59,12 @@ pub(crate) struct ShaderGroups {
 }
 
 impl ShaderGroups {
-    pub(crate) fn new(groups: &[&ProgramGroup], exception_slot: u32, constants: &Specialization) -> ShaderGroups {
+    pub(crate) fn new(
+        groups: &[&ProgramGroup],
+        exception_slot: u32,
+        max_trace_depth: u32,
+        constants: &Specialization,
+    ) -> ShaderGroups {
         // One shader stage per program; groups refer to stages by index.
         let mut programs: Vec<Program> = Vec::new();
         let mut stage_index = |p: Option<&Program>| -> u32 {
@@ -99,9 +104,13 @@ impl ShaderGroups {
             };
             group_infos.push(info);
         }
-        // The user-exception buffer's slot, for every program as a specialization
-        // constant (modules without that constant ignore it).
-        let mut values = vec![(raykit_device::exception::EXCEPTION_SLOT_SPEC_ID, exception_slot)];
+        // The user-exception buffer's slot and the pipeline's max_trace_depth (which
+        // miss and closest-hit programs check their traces against), for every
+        // program as specialization constants (modules without them ignore them).
+        let mut values = vec![
+            (raykit_device::exception::EXCEPTION_SLOT_SPEC_ID, exception_slot),
+            (raykit_device::exception::MAX_TRACE_DEPTH_SPEC_ID, max_trace_depth),
+        ];
         values.extend(constants.values.iter().copied());
         let spec_data: Vec<u8> = values.iter().flat_map(|(_, v)| v.to_ne_bytes()).collect();
         let spec_entries: Vec<vk::SpecializationMapEntry> = values

@@ -580,6 +580,12 @@ impl Sbt {
     pub fn region_layouts(&self) -> [RegionLayout; 4] {
         self.layouts
     }
+
+    /// How many records `region` holds (for the callable region, the exception
+    /// program's record that raykit adds included).
+    pub fn record_count(&self, region: SbtRegion) -> usize {
+        self.counts[region.index()]
+    }
 }
 
 impl fmt::Debug for Sbt {

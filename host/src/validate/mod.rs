@@ -1,16 +1,26 @@
 //! Checks that keep what raykit accepts valid for the driver: SPIR-V validation
 //! before `vkCreateShaderModule` (see [`spirv`]), the trace depth a pipeline's
-//! programs can reach, and the SBT records their traces can select.
+//! programs can reach, and the SBT records their traces and scenes can select.
 //!
 //! **Trace depth.** raykit reads every program's `OpTraceRayKHR` calls through its
 //! call graph. A pipeline whose raygen (or a callable) traces needs
 //! `max_trace_depth ≥ 1`; one whose miss or closest-hit programs trace can recurse,
 //! and needs `max_trace_depth ≥ 2`. How deep such recursion goes depends on run-time
-//! values the SPIR-V cannot bound: a `max_trace_depth` of 2 or more declares that
-//! the programs never trace deeper, and that promise is the application's (OptiX
-//! makes the same one). Vulkan leaves tracing past `maxPipelineRayRecursionDepth`
-//! undefined.
+//! values the SPIR-V cannot bound: a `max_trace_depth` of 2 or more declares how
+//! deep the programs trace (OptiX asks the same). Vulkan leaves tracing past
+//! `maxPipelineRayRecursionDepth` undefined; raykit's device-side `trace` refuses
+//! to go there for ray types that carry their depth
+//! (`raykit_device::RayType::CHECK_DEPTH`): such a pipeline is accepted with any
+//! depth of 2 or more, and a trace past it ends in
+//! [`Error::RecursionTooDeep`] from the launch.
+//!
+//! **The SBT fits the scene.** Every launch checks that the instances of its
+//! scenes select no hit record past the SBT's end: for each `(sbtRecordStride,
+//! sbtRecordOffset)` pair the traces use, the furthest instance's SBT offset +
+//! (geometries − 1) × stride + offset must be below the hit record count
+//! ([`Error::SbtTooSmallForScene`]).
 
+pub(crate) mod scene;
 pub mod spirv;
 
 use raykit_device::ProgramKind;
@@ -50,6 +60,10 @@ pub(crate) struct TraceReach {
     pub(crate) first_level: Option<String>,
     /// A miss or closest-hit program that traces: recursion, depth 2 at least.
     pub(crate) recursive: Option<String>,
+    /// The `(sbtRecordStride, sbtRecordOffset)` pairs the traces use (low 4
+    /// bits), each with a program using it: what a launch's scene is checked
+    /// against (see [`scene`]).
+    pub(crate) hit_selectors: Vec<(u32, u32, String)>,
 }
 
 impl TraceReach {
@@ -63,7 +77,25 @@ impl TraceReach {
                 }
             }
         };
-        for group in groups {
+        let groups: Vec<&ProgramGroup> = groups.into_iter().collect();
+        // The SBT placement of the ray types the pipeline's miss and hit programs
+        // were declared for: what a trace whose stride or offset is computed at
+        // run time is assumed to use.
+        let mut declared: Vec<(u32, u32)> = Vec::new();
+        for program in groups.iter().flat_map(|g| g.programs()) {
+            if let Some(ray) = program.ray {
+                let pair = (ray.sbt_stride & 0xf, ray.sbt_offset & 0xf);
+                if !declared.contains(&pair) {
+                    declared.push(pair);
+                }
+            }
+        }
+        let select = |reach: &mut TraceReach, pair: (u32, u32), name: &str| {
+            if !reach.hit_selectors.iter().any(|(s, o, _)| (*s, *o) == pair) {
+                reach.hit_selectors.push((pair.0, pair.1, name.to_owned()));
+            }
+        };
+        for group in &groups {
             for program in group.programs() {
                 let Some(info) = program.entry_info() else { continue };
                 if !info.traces.traces() {
@@ -73,6 +105,14 @@ impl TraceReach {
                     // Vulkan reads the low 16 bits of the miss index and 4 of the offset.
                     higher(&mut reach.miss_index, call.miss_index.map(|m| m & 0xffff), &info.name);
                     higher(&mut reach.sbt_offset, call.sbt_offset.map(|o| o & 0xf), &info.name);
+                    match (call.sbt_stride, call.sbt_offset) {
+                        (Some(stride), Some(offset)) => select(&mut reach, (stride & 0xf, offset & 0xf), &info.name),
+                        _ => {
+                            for pair in &declared {
+                                select(&mut reach, *pair, &info.name);
+                            }
+                        }
+                    }
                 }
                 match program.kind {
                     ProgramKind::Raygen | ProgramKind::Callable => {

@@ -183,3 +183,93 @@ fn layer_hit(
     payload.color = blend(l, &w, below.color, below.layers);
     payload.layers = below.layers + 1;
 }
+
+/// The same layered rays, with the trace depth kept by raykit
+/// ([`RayType::CHECK_DEPTH`]) in [`LayerPayload::depth`]: `unbounded_hit` traces
+/// on through every layer without looking at the depth, and the pipeline's
+/// `max_trace_depth` is what stops it.
+pub struct Unbounded;
+impl RayType for Unbounded {
+    type Payload = LayerPayload;
+    const CHECK_DEPTH: bool = true;
+    fn depth(payload: &LayerPayload) -> u32 {
+        payload.depth
+    }
+    fn set_depth(payload: &mut LayerPayload, depth: u32) {
+        payload.depth = depth;
+    }
+}
+
+/// Raygen of [`Unbounded`] rays: as [`rg`], but the depth is left to raykit.
+#[raygen]
+fn rg_unbounded(ctx: &mut Raygen, #[params] p: &Params, #[payload] payload: &mut LayerPayload) {
+    let index = ctx.launch_index().truncate();
+    let (origin, dir) = ortho_ray(index, p.size);
+    payload.color = Vec3::ZERO;
+    payload.layers = 0;
+    ctx.trace_from::<Unbounded>(p.scene, origin, dir, payload);
+    let pixel = ctx.launch_linear_index();
+    ctx.store(p.image, pixel, pack(payload.color));
+}
+
+#[miss(ray = Unbounded)]
+fn ms_unbounded(_ctx: &mut Miss, #[payload] payload: &mut LayerPayload) {
+    payload.color = BACKGROUND;
+    payload.layers = 0;
+}
+
+/// A closest-hit whose recursion the SPIR-V cannot bound: it always traces on.
+/// Where raykit refuses the trace (past `max_trace_depth`), `below` keeps the
+/// background it was given, as [`reference_unbounded`] assumes.
+#[closest_hit(ray = Unbounded)]
+fn unbounded_hit(
+    ctx: &mut ClosestHit,
+    #[params] p: &Params,
+    #[payload] payload: &mut LayerPayload,
+    #[trace_payload] below: &mut LayerPayload,
+) {
+    let l = ctx.primitive_index() / 2;
+    let w = weights(l);
+    below.color = BACKGROUND;
+    below.layers = 0;
+    let hit = ctx.world_ray_origin() + ctx.hit_t() * ctx.world_ray_direction();
+    ctx.trace::<Unbounded>(p.scene, Ray::new(hit, ctx.world_ray_direction()).with_interval(0.01, 1e16), below);
+    payload.color = blend(l, &w, below.color, below.layers);
+    payload.layers = below.layers + 1;
+}
+
+/// How many layers the ray of pixel `index` passes through.
+pub fn layers_over(index: UVec2, size: UVec2) -> u32 {
+    let (origin, _) = ortho_ray(index, size);
+    let mut n = 0;
+    for l in 0..LAYERS {
+        let (cx, cy, h) = layer_square(l);
+        if (origin.x - cx).abs() <= h && (origin.y - cy).abs() <= h {
+            n += 1;
+        }
+    }
+    n
+}
+
+/// The CPU reference of pixel `index` for `unbounded_hit` in a pipeline linked
+/// with `max_trace_depth`: the closest-hit at depth `max_trace_depth` has its
+/// trace refused and blends over the background.
+pub fn reference_unbounded(index: UVec2, size: UVec2, max_trace_depth: u32) -> Vec3 {
+    let (origin, _) = ortho_ray(index, size);
+    let mut hit = [0u32; LAYERS as usize];
+    let mut count = 0usize;
+    for l in 0..LAYERS {
+        let (cx, cy, h) = layer_square(l);
+        if (origin.x - cx).abs() <= h && (origin.y - cy).abs() <= h && (count as u32) < max_trace_depth {
+            hit[count] = l;
+            count += 1;
+        }
+    }
+    let (mut color, mut layers) = (BACKGROUND, 0);
+    for i in (0..count).rev() {
+        let l = hit[i];
+        color = blend(l, &weights(l), color, layers);
+        layers += 1;
+    }
+    color
+}

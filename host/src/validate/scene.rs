@@ -1,0 +1,80 @@
+//! The SBT fits the scene: every launch checks that no instance of the scenes in
+//! its params can select a hit record past the end of the SBT's hit region.
+//!
+//! Vulkan selects the hit record
+//! `instanceShaderBindingTableRecordOffset + geometryIndex × sbtRecordStride + sbtRecordOffset`
+//! ("Hit Shaders" in the SBT chapter of the specification); past the region's
+//! end the device reads whatever lies there. For each [`Traversable`](raykit_device::Traversable)
+//! field of the params that names a live [`Ias`](crate::Ias), raykit takes the
+//! instance reaching furthest — its [`Instance::sbt_offset`](crate::Instance::sbt_offset)
+//! plus (the geometries of its GAS − 1) × the stride — plus the ray-type offset,
+//! for each `(stride, offset)` pair the pipeline's traces use, and refuses the
+//! launch with [`Error::SbtTooSmallForScene`] when that record index is not
+//! below the SBT's hit record count.
+//!
+//! What is assumed:
+//! * the strides and offsets are the constant operands of the pipeline's
+//!   `OpTraceRayKHR` calls, read from the SPIR-V (their low 4 bits, as Vulkan
+//!   reads them); a trace whose stride or offset is computed at run time is
+//!   assumed to use those of the ray types the pipeline's miss and hit programs
+//!   were declared for (`#[closest_hit(ray = R)]`), and goes unchecked when
+//!   there are none (programs in GLSL or WGSL with a computed offset);
+//! * an instance with a mask of 0 is never hit, and selects nothing;
+//! * every ray may hit every other instance: cull masks and flags are not
+//!   taken into account;
+//! * an SBT without hit records (a pipeline without hit groups) has nothing to
+//!   overrun: Vulkan then runs no hit programs.
+//!
+//! Scenes reached otherwise than through the params (a traversable stored in a
+//! buffer or an SBT record) are not seen, as for [`crate::handles`].
+
+use crate::context::ContextInner;
+use crate::error::{Error, Result};
+use crate::handles::HandleField;
+use crate::sbt::{Sbt, SbtRegion};
+use crate::validate::TraceReach;
+
+/// Refuses the launch of `params` (laid out as `fields` says) with `sbt` when an
+/// instance of one of its scenes can select a hit record past the SBT's end, for
+/// the traces `reach` describes.
+pub(crate) fn check_scene(
+    ctx: &ContextInner,
+    fields: &[HandleField],
+    params: &[u8],
+    sbt: &Sbt,
+    reach: &TraceReach,
+) -> Result<()> {
+    let hit_records = sbt.record_count(SbtRegion::Hit);
+    if hit_records == 0 || reach.hit_selectors.is_empty() {
+        return Ok(());
+    }
+    for (offset, name) in fields.iter().filter_map(HandleField::traversable) {
+        let Some(bytes) = params.get(offset as usize..offset as usize + 8) else { continue };
+        let mut word = [0u8; 8];
+        word.copy_from_slice(bytes);
+        let address = u64::from_le_bytes(word);
+        if address == 0 {
+            continue;
+        }
+        // Not a live IAS: `check_handles` refuses it.
+        let Some(scene) = ctx.traversables.hit_reach(address) else { continue };
+        for (stride, ray_offset, program) in &reach.hit_selectors {
+            let Some((instance, slot)) = scene.furthest(*stride, *ray_offset) else { continue };
+            if slot >= hit_records as u64 {
+                let (sbt_offset, geometries) = scene.instance(instance);
+                return Err(Error::SbtTooSmallForScene {
+                    field: name.to_owned(),
+                    instance,
+                    sbt_offset,
+                    geometries,
+                    stride: *stride,
+                    ray_offset: *ray_offset,
+                    slot,
+                    hit_records,
+                    program: program.clone(),
+                });
+            }
+        }
+    }
+    Ok(())
+}
