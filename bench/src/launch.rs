@@ -166,14 +166,7 @@ pub fn launches(ctx: &Context, scene: &PrimaryScene, size: (u32, u32), reps: usi
                 ash.launch(ctx, &p, params, dims)?;
                 Ok(t.elapsed().as_secs_f64())
             };
-            let pair = if rep % 2 == 0 {
-                let r = time_raykit()?;
-                (r, time_ash()?)
-            } else {
-                let a = time_ash()?;
-                (time_raykit()?, a)
-            };
-            pairs.push(pair);
+            pairs.push(pair(rep, time_raykit, time_ash)?);
         }
         rows.push(summarise(format!("launch {}x{} (primary rays, wall clock)", dims[0], dims[1]), &pairs));
     }
@@ -205,14 +198,7 @@ pub fn launch_loop(ctx: &Context, scene: &PrimaryScene, n: usize, reps: usize) -
             ash_loop(ctx, &ash, &p, params, n)?;
             Ok(t.elapsed().as_secs_f64() / n as f64)
         };
-        let pair = if rep % 2 == 0 {
-            let r = time_raykit()?;
-            (r, time_ash()?)
-        } else {
-            let a = time_ash()?;
-            (time_raykit()?, a)
-        };
-        pairs.push(pair);
+        pairs.push(pair(rep, time_raykit, time_ash)?);
     }
     Ok(vec![summarise(format!("{n} launches 1x1 in a row, per launch (primary rays, wall clock)"), &pairs)])
 }

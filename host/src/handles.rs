@@ -96,44 +96,46 @@ fn collect_shape(shape: &Shape, offset: u32, name: String, out: &mut Vec<HandleF
 /// The versions of the GASes an IAS was built over, with the value of each at the build.
 pub(crate) type BuiltOver = Vec<(Arc<AtomicU64>, u64)>;
 
+/// A live instance acceleration structure as launches check it.
+pub(crate) struct LiveIas {
+    /// The versions of the GASes it was built over (a refit since makes it stale).
+    pub(crate) over: BuiltOver,
+    /// The hit records its instances can select (see `crate::validate::scene`).
+    pub(crate) reach: Arc<crate::accel::HitReach>,
+}
+
 /// The live instance acceleration structures of a context, by device address.
 #[derive(Default)]
 pub(crate) struct LiveTraversables {
-    by_address: Mutex<HashMap<u64, BuiltOver>>,
-    /// The hit records each one's instances can select (see `crate::validate::scene`).
-    hit_reach: Mutex<HashMap<u64, Arc<crate::accel::HitReach>>>,
+    by_address: Mutex<HashMap<u64, LiveIas>>,
 }
 
 impl LiveTraversables {
-    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<u64, BuiltOver>> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<u64, LiveIas>> {
         self.by_address.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// Records (or re-records after an update) the IAS at `address`.
-    pub(crate) fn insert(&self, address: u64, over: BuiltOver) {
-        self.lock().insert(address, over);
+    pub(crate) fn insert(&self, address: u64, ias: LiveIas) {
+        self.lock().insert(address, ias);
     }
 
     /// Forgets the IAS at `address` (it was dropped).
     pub(crate) fn remove(&self, address: u64) {
         self.lock().remove(&address);
-        self.reach_lock().remove(&address);
-    }
-
-    fn reach_lock(&self) -> std::sync::MutexGuard<'_, HashMap<u64, Arc<crate::accel::HitReach>>> {
-        self.hit_reach.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
-    }
-
-    /// Records (or re-records after an update) the hit records the IAS at
-    /// `address` can select.
-    pub(crate) fn insert_hit_reach(&self, address: u64, reach: Arc<crate::accel::HitReach>) {
-        self.reach_lock().insert(address, reach);
     }
 
     /// The hit records the live IAS at `address` can select.
     pub(crate) fn hit_reach(&self, address: u64) -> Option<Arc<crate::accel::HitReach>> {
-        self.reach_lock().get(&address).cloned()
+        self.lock().get(&address).map(|ias| ias.reach.clone())
     }
+}
+
+/// The device address a `Traversable` field at `offset` of `bytes` holds (`None`
+/// when the bytes end before it).
+pub(crate) fn read_traversable(bytes: &[u8], offset: u32) -> Option<u64> {
+    let word = bytes.get(offset as usize..offset as usize + 8)?;
+    Some(u64::from_le_bytes(word.try_into().ok()?))
 }
 
 impl ContextInner {
@@ -177,15 +179,12 @@ impl ContextInner {
                     }
                 }
                 HandleKind::Traversable => {
-                    let Some(bytes) = read(field.offset, 8) else { continue };
-                    let mut word = [0u8; 8];
-                    word.copy_from_slice(bytes);
-                    let address = u64::from_le_bytes(word);
+                    let Some(address) = read_traversable(params, field.offset) else { continue };
                     if address == 0 {
                         continue;
                     }
                     let map = tlas.get_or_insert_with(|| self.traversables.lock());
-                    let Some(over) = map.get(&address) else {
+                    let Some(LiveIas { over, .. }) = map.get(&address) else {
                         return Err(Error::InvalidHandle {
                             record,
                             field: field.name.clone(),

@@ -3,7 +3,7 @@
 
 use spirv_std::glam::Vec2;
 
-use crate::{BufferTable, Ray, RayType, Traversable};
+use crate::BufferTable;
 
 use super::hit::{hit_accessors, hit_kind_accessors, HitBuiltins};
 
@@ -35,19 +35,7 @@ impl<'a> ClosestHit<'a> {
         ClosestHit { hit, barycentrics, buffers, exception_slot, exception_call, depth: 1, max_trace_depth: u32::MAX }
     }
 
-    #[doc(hidden)]
-    pub fn __with_trace_depth(mut self, depth: u32, max_trace_depth: u32) -> Self {
-        self.depth = depth;
-        self.max_trace_depth = max_trace_depth;
-        self
-    }
-
-    /// The trace depth of the ray this program shades: 1 for a ray raygen
-    /// traced, one more per level of recursion. Known when the program's ray type
-    /// has [`RayType::CHECK_DEPTH`]; 1 otherwise.
-    pub fn trace_depth(&self) -> u32 {
-        self.depth
-    }
+    super::recursive_trace!();
 
     /// Throws user exception `code` (OptiX's `optixThrowException`): the launch
     /// returns it to the host with this launch index, and the pipeline's
@@ -70,22 +58,6 @@ impl<'a> ClosestHit<'a> {
     /// `#[attributes]` (they read their attributes there).
     pub fn barycentrics(&self) -> Vec2 {
         self.barycentrics
-    }
-
-    /// Traces `ray` of ray type `R` into `scene` (`optixTrace`); `payload` is a
-    /// `#[trace_payload]` parameter of this program. A trace that would go past
-    /// the pipeline's `max_trace_depth` is not made: it throws
-    /// [`TRACE_DEPTH_EXCEEDED`](crate::exception::TRACE_DEPTH_EXCEEDED) and
-    /// leaves `payload` as it was (see [`RayType::CHECK_DEPTH`]).
-    pub fn trace<R: RayType>(&mut self, scene: Traversable, ray: Ray, payload: &mut R::Payload) {
-        if self.depth >= self.max_trace_depth {
-            self.throw_exception(crate::exception::TRACE_DEPTH_EXCEEDED);
-            return;
-        }
-        if R::CHECK_DEPTH {
-            R::set_depth(payload, self.depth + 1);
-        }
-        super::trace::<R>(scene, ray, payload)
     }
 
     /// Runs the callable at `sbt_index` with `data` (a `#[call_data]` parameter).

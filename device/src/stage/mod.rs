@@ -72,6 +72,49 @@ macro_rules! launch_accessors {
 }
 pub(crate) use launch_accessors;
 
+/// The trace of the stages that run for a traced ray and may trace again (miss
+/// and closest-hit; fields `depth`, `max_trace_depth`), which stops at the
+/// pipeline's `max_trace_depth`, and the depth the macros hand them.
+macro_rules! recursive_trace {
+    () => {
+        #[doc(hidden)]
+        pub fn __with_trace_depth(mut self, depth: u32, max_trace_depth: u32) -> Self {
+            self.depth = depth;
+            self.max_trace_depth = max_trace_depth;
+            self
+        }
+
+        /// The trace depth of the ray this program runs for: 1 for a ray raygen
+        /// traced, one more per level of recursion. Known when the program's ray
+        /// type has [`RayType::CHECK_DEPTH`](crate::RayType::CHECK_DEPTH); 1 otherwise.
+        pub fn trace_depth(&self) -> u32 {
+            self.depth
+        }
+
+        /// Traces `ray` of ray type `R` into `scene` (`optixTrace`); `payload` is a
+        /// `#[trace_payload]` parameter of this program. A trace that would go past
+        /// the pipeline's `max_trace_depth` is not made: it throws
+        /// [`TRACE_DEPTH_EXCEEDED`](crate::exception::TRACE_DEPTH_EXCEEDED) and
+        /// leaves `payload` as it was (see [`RayType::CHECK_DEPTH`](crate::RayType::CHECK_DEPTH)).
+        pub fn trace<R: $crate::RayType>(
+            &mut self,
+            scene: $crate::Traversable,
+            ray: $crate::Ray,
+            payload: &mut R::Payload,
+        ) {
+            if self.depth >= self.max_trace_depth {
+                self.throw_exception($crate::exception::TRACE_DEPTH_EXCEEDED);
+                return;
+            }
+            if R::CHECK_DEPTH {
+                R::set_depth(payload, self.depth + 1);
+            }
+            super::trace::<R>(scene, ray, payload)
+        }
+    };
+}
+pub(crate) use recursive_trace;
+
 /// `OpExecuteCallableKHR` with a run-time SBT index (spirv-std's
 /// `execute_callable` takes it as a const generic). `data` must be a
 /// `CallableDataKHR` variable: the macros only hand out `#[call_data]` ones.

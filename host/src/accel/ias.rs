@@ -317,8 +317,8 @@ impl Ias {
             .iter()
             .map(|g| (g.version.clone(), g.version.load(std::sync::atomic::Ordering::Acquire)))
             .collect();
-        self.accel.ctx.traversables.insert(self.accel.address, over);
-        self.accel.ctx.traversables.insert_hit_reach(self.accel.address, self.reach.clone());
+        let ias = crate::handles::LiveIas { over, reach: self.reach.clone() };
+        self.accel.ctx.traversables.insert(self.accel.address, ias);
     }
 
     /// Rebuilds the IAS over `instances` with its options; the count may change.

@@ -49,10 +49,7 @@ pub(crate) fn check_scene(
         return Ok(());
     }
     for (offset, name) in fields.iter().filter_map(HandleField::traversable) {
-        let Some(bytes) = params.get(offset as usize..offset as usize + 8) else { continue };
-        let mut word = [0u8; 8];
-        word.copy_from_slice(bytes);
-        let address = u64::from_le_bytes(word);
+        let Some(address) = crate::handles::read_traversable(params, offset) else { continue };
         if address == 0 {
             continue;
         }
