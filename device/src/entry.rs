@@ -6,8 +6,10 @@
 
 pub use raykit_abi::{ProgramKind, ProgramPrefix};
 
-/// A device program as the host refers to it: its SPIR-V entry-point name and kind.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+/// A device program as the host refers to it: its SPIR-V entry-point name and
+/// kind, and, on the host, the program compiled for the CPU backend. Two entry
+/// points are equal when their names, kinds and ray types are.
+#[derive(Copy, Clone, Debug)]
 pub struct EntryPoint {
     /// The SPIR-V entry-point name, e.g. `__raygen__rg`.
     pub name: &'static str,
@@ -17,6 +19,21 @@ pub struct EntryPoint {
     /// (`#[miss(ray = R)]`), so the host can place its group where `trace::<R>`
     /// looks; `None` for other programs and when no ray type was named.
     pub ray: Option<RayTypeInfo>,
+    /// The program compiled for the host, which raykit's CPU backend runs.
+    #[cfg(not(target_arch = "spirv"))]
+    pub cpu: &'static crate::cpu::CpuProgram,
+}
+
+impl PartialEq for EntryPoint {
+    fn eq(&self, other: &Self) -> bool {
+        (self.name, self.kind, self.ray) == (other.name, other.kind, other.ray)
+    }
+}
+impl Eq for EntryPoint {}
+impl core::hash::Hash for EntryPoint {
+    fn hash<H: core::hash::Hasher>(&self, state: &mut H) {
+        (self.name, self.kind, self.ray).hash(state)
+    }
 }
 
 /// What the SBT needs to know of a ray type: its name and where `trace::<R>`

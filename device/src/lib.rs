@@ -62,6 +62,8 @@
 #![cfg_attr(target_arch = "spirv", feature(asm_experimental_arch))]
 #![deny(missing_docs)]
 
+#[cfg(not(target_arch = "spirv"))]
+pub mod cpu;
 pub mod entry;
 pub mod exception;
 pub mod handles;

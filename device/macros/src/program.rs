@@ -134,6 +134,16 @@ enum Role {
     },
 }
 
+/// The types a program receives, which the CPU backend checks before it calls it.
+#[derive(Default)]
+struct CpuTypes {
+    params: Option<Type>,
+    record: Option<Type>,
+    payload: Option<Type>,
+    attributes: Option<Type>,
+    callable_data: Option<Type>,
+}
+
 struct Param {
     name: Ident,
     role: Role,
@@ -631,6 +641,142 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
         None => body,
     };
 
+    // The same program compiled for the host, called by raykit's CPU backend
+    // with an `Invocation` that carries what the SPIR-V entry point's variables
+    // and built-ins hold.
+    let mut cpu_lets = Vec::new();
+    let mut cpu_args = Vec::new();
+    let mut cpu_types = CpuTypes::default();
+    for p in &params {
+        let name = &p.name;
+        let storage = format_ident!("__raykit_storage_{}", name);
+        let zeroed = |ty: &Type| {
+            quote! {
+                // Zeroed, as the backend documents: payload and callable-data
+                // variables hold plain data.
+                let mut #storage: #ty = unsafe { ::raykit_device::cpu::zeroed() };
+                let #name: &mut #ty = &mut #storage;
+            }
+        };
+        match &p.role {
+            Role::Context { by_ref } => cpu_args.push(if *by_ref { quote!(&mut __ctx) } else { quote!(__ctx) }),
+            Role::Params(ty) => {
+                cpu_types.params = Some(ty.clone());
+                cpu_lets.push(quote! { let #name: &#ty = unsafe { &*(__inv.params as *const #ty) }; });
+                cpu_args.push(quote!(#name));
+            }
+            Role::Record(ty) => {
+                cpu_types.record = Some(ty.clone());
+                cpu_lets.push(quote! { let #name: &#ty = unsafe { &*(__inv.record as *const #ty) }; });
+                cpu_args.push(quote!(#name));
+            }
+            Role::SpecConstant { id, default } => {
+                cpu_lets.push(quote! { let #name: u32 = __inv.spec_constant(#id, #default); });
+                cpu_args.push(quote!(#name));
+            }
+            Role::TracePayload(ty) | Role::CallData(ty) => {
+                cpu_lets.push(zeroed(ty));
+                cpu_args.push(quote!(#name));
+            }
+            Role::Payload(ty) if stage == Stage::Raygen => {
+                cpu_lets.push(zeroed(ty));
+                cpu_args.push(quote!(#name));
+            }
+            Role::Payload(ty) => {
+                cpu_types.payload = Some(ty.clone());
+                cpu_lets.push(quote! { let #name: &mut #ty = unsafe { &mut *(__inv.payload as *mut #ty) }; });
+                cpu_args.push(quote!(#name));
+            }
+            Role::CallableData(ty) => {
+                cpu_types.callable_data = Some(ty.clone());
+                cpu_lets.push(quote! { let #name: &mut #ty = unsafe { &mut *(__inv.callable_data as *mut #ty) }; });
+                cpu_args.push(quote!(#name));
+            }
+            Role::Attributes(ty) => {
+                cpu_types.attributes = Some(ty.clone());
+                if stage == Stage::Intersection {
+                    cpu_lets.push(quote! { let #name: &mut #ty = unsafe { &mut *(__inv.attributes as *mut #ty) }; });
+                } else {
+                    cpu_lets.push(quote! { let #name: &#ty = unsafe { &*(__inv.attributes as *const #ty) }; });
+                }
+                cpu_args.push(quote!(#name));
+            }
+        }
+    }
+    let cpu_ctx = match stage {
+        Stage::Raygen | Stage::DirectCallable | Stage::ContinuationCallable => quote! {
+            ::raykit_device::#ctx_ty::__new(__inv.launch_index, __inv.launch_dimensions, __inv.runtime, 0, &mut __raykit_exception_call)
+        },
+        Stage::Exception => quote! {
+            ::raykit_device::#ctx_ty::__new(__inv.exception, __inv.launch_dimensions, __inv.runtime)
+        },
+        Stage::Miss => quote! {
+            ::raykit_device::#ctx_ty::__new(
+                __inv.launch_index,
+                __inv.launch_dimensions,
+                __inv.world_ray_origin,
+                __inv.world_ray_direction,
+                __inv.runtime,
+                0,
+                &mut __raykit_exception_call,
+            )
+            .__with_trace_depth(__inv.depth, __inv.max_trace_depth)
+        },
+        Stage::ClosestHit => {
+            let barycentrics = if has_attributes {
+                quote!(::raykit_device::glam::Vec2::ZERO)
+            } else {
+                quote!(unsafe { __inv.barycentrics() })
+            };
+            quote! {
+                ::raykit_device::#ctx_ty::__new(__inv.hit, #barycentrics, __inv.runtime, 0, &mut __raykit_exception_call)
+                    .__with_trace_depth(__inv.depth, __inv.max_trace_depth)
+            }
+        }
+        Stage::AnyHit | Stage::Intersection => quote! {
+            ::raykit_device::#ctx_ty::__new(__inv.hit, __inv.runtime, 0)
+        },
+    };
+    let cpu_wrapper = format_ident!("__cpu{}", entry_name);
+    let cpu_program = format_ident!("__RAYKIT_CPU{}", entry_name.to_uppercase());
+    let type_info = |ty: &Option<Type>| match ty {
+        Some(ty) => quote!(::core::option::Option::Some(::raykit_device::cpu::TypeInfo::of::<#ty>())),
+        None => quote!(::core::option::Option::None),
+    };
+    let (cpu_params, cpu_record, cpu_payload, cpu_attributes, cpu_callable_data) = (
+        type_info(&cpu_types.params),
+        type_info(&cpu_types.record),
+        type_info(&cpu_types.payload),
+        type_info(&cpu_types.attributes),
+        type_info(&cpu_types.callable_data),
+    );
+    let cpu_items = quote! {
+        #[cfg(not(target_arch = "spirv"))]
+        #[doc(hidden)]
+        #[allow(non_snake_case, unused_mut, unused_variables, clippy::undocumented_unsafe_blocks)]
+        // SAFETY (of the casts): raykit's CPU backend hands this function only
+        // values of the types `#cpu_program` names, aligned for them.
+        pub fn #cpu_wrapper(__inv: &mut ::raykit_device::cpu::Invocation<'_>) {
+            let mut __raykit_exception_call = ::raykit_device::exception::ExceptionDetails::default();
+            #(#cpu_lets)*
+            let mut __ctx = #cpu_ctx;
+            #fn_name(#(#cpu_args),*);
+        }
+
+        #[cfg(not(target_arch = "spirv"))]
+        #[doc(hidden)]
+        #[allow(non_upper_case_globals)]
+        pub const #cpu_program: ::raykit_device::cpu::CpuProgram = ::raykit_device::cpu::CpuProgram {
+            run: #cpu_wrapper,
+            crate_name: env!("CARGO_PKG_NAME"),
+            params: #cpu_params,
+            record: #cpu_record,
+            payload: #cpu_payload,
+            attributes: #cpu_attributes,
+            callable_data: #cpu_callable_data,
+        };
+    };
+
     let doc = format!("The entry point `{entry_name}` (a {} program), for the host.", stage.context_type());
     let ray_info = match &args.ray {
         Some(ray) => {
@@ -650,10 +796,15 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
             name: #entry_name,
             kind: #kind,
             ray: #ray_info,
+            #[cfg(not(target_arch = "spirv"))]
+            cpu: &#cpu_program,
         };
+
+        #cpu_items
 
         #(#checks)*
 
+        #[cfg(target_arch = "spirv")]
         #[doc(hidden)]
         #[allow(non_snake_case, clippy::too_many_arguments)]
         #[::raykit_device::__private::spirv(#model(entry_point_name = #entry_name))]

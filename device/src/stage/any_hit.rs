@@ -1,22 +1,22 @@
 //! The any-hit stage (`__anyhit__`): runs for each candidate hit along a ray
 //! (unless the geometry is opaque) and may reject it or end the traversal.
 
-use crate::BufferTable;
+
 
 use super::hit::{hit_accessors, hit_kind_accessors, HitBuiltins};
 
-/// What an any-hit program may use: the ray, the candidate hit, buffers, and
+/// What an any-hit program may use: the ray, the candidate hit, device, and
 /// [`AnyHit::ignore_intersection`] / [`AnyHit::terminate_ray`].
 pub struct AnyHit<'a> {
     hit: HitBuiltins,
-    buffers: &'a mut BufferTable,
+    device: super::DeviceAccess<'a>,
     exception_slot: u32,
 }
 
 impl<'a> AnyHit<'a> {
     #[doc(hidden)]
-    pub fn __new(hit: HitBuiltins, buffers: &'a mut BufferTable, exception_slot: u32) -> Self {
-        AnyHit { hit, buffers, exception_slot }
+    pub fn __new(hit: HitBuiltins, device: super::DeviceAccess<'a>, exception_slot: u32) -> Self {
+        AnyHit { hit, device, exception_slot }
     }
 
     hit_accessors!();
@@ -26,7 +26,7 @@ impl<'a> AnyHit<'a> {
     /// this stage, so no `#[exception]` program runs. The program goes on:
     /// follow it with `ignore_intersection`, `terminate_ray` or a return.
     pub fn throw_exception(&mut self, code: u32) {
-        super::throw_exception(self.buffers, self.exception_slot, self.hit.launch_index, code);
+        super::throw_exception(self.device, self.exception_slot, self.hit.launch_index, code);
     }
     hit_kind_accessors!();
 
@@ -38,7 +38,7 @@ impl<'a> AnyHit<'a> {
             spirv_std::arch::ignore_intersection()
         }
         #[cfg(not(target_arch = "spirv"))]
-        unreachable!("device programs run on the device")
+        self.device.ignore_intersection()
     }
 
     /// Accepts this hit and ends the traversal: the closest-hit program of this
@@ -50,6 +50,6 @@ impl<'a> AnyHit<'a> {
             spirv_std::arch::terminate_ray()
         }
         #[cfg(not(target_arch = "spirv"))]
-        unreachable!("device programs run on the device")
+        self.device.terminate_ray()
     }
 }

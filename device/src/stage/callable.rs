@@ -8,13 +8,13 @@
 
 use spirv_std::glam::UVec3;
 
-use crate::{BufferTable, Ray, RayType, Traversable};
+use crate::{Ray, RayType, Traversable};
 
-/// What a direct callable may use: launch index and size, buffers, callables.
+/// What a direct callable may use: launch index and size, device, callables.
 pub struct DirectCallable<'a> {
     launch_index: UVec3,
     launch_dimensions: UVec3,
-    buffers: &'a mut BufferTable,
+    device: super::DeviceAccess<'a>,
     exception_slot: u32,
     exception_call: &'a mut crate::exception::ExceptionDetails,
 }
@@ -23,7 +23,7 @@ pub struct DirectCallable<'a> {
 pub struct ContinuationCallable<'a> {
     launch_index: UVec3,
     launch_dimensions: UVec3,
-    buffers: &'a mut BufferTable,
+    device: super::DeviceAccess<'a>,
     exception_slot: u32,
     exception_call: &'a mut crate::exception::ExceptionDetails,
 }
@@ -35,11 +35,11 @@ macro_rules! callable_common {
             pub fn __new(
                 launch_index: UVec3,
                 launch_dimensions: UVec3,
-                buffers: &'a mut BufferTable,
+                device: super::DeviceAccess<'a>,
                 exception_slot: u32,
                 exception_call: &'a mut crate::exception::ExceptionDetails,
             ) -> Self {
-                $ty { launch_index, launch_dimensions, buffers, exception_slot, exception_call }
+                $ty { launch_index, launch_dimensions, device, exception_slot, exception_call }
             }
 
             super::launch_accessors!();
@@ -57,6 +57,6 @@ impl ContinuationCallable<'_> {
             // A callable traces at depth 1 (see `crate::exception`).
             R::set_depth(payload, 1);
         }
-        super::trace::<R>(scene, ray, payload)
+        super::trace::<R>(self.device, scene, ray, payload)
     }
 }

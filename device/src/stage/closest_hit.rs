@@ -3,18 +3,18 @@
 
 use spirv_std::glam::Vec2;
 
-use crate::BufferTable;
+
 
 use super::hit::{hit_accessors, hit_kind_accessors, HitBuiltins};
 
-/// What a closest-hit program may use: the ray, the hit, buffers, tracing and
+/// What a closest-hit program may use: the ray, the hit, device, tracing and
 /// callables. Typed hit attributes (from an intersection program) are an
 /// `#[attributes] a: &T` parameter; for triangles without one,
 /// [`ClosestHit::barycentrics`] gives the built-in attributes.
 pub struct ClosestHit<'a> {
     hit: HitBuiltins,
     barycentrics: Vec2,
-    buffers: &'a mut BufferTable,
+    device: super::DeviceAccess<'a>,
     exception_slot: u32,
     exception_call: &'a mut crate::exception::ExceptionDetails,
     /// The trace depth of the ray being shaded (see [`ClosestHit::trace_depth`]).
@@ -28,11 +28,11 @@ impl<'a> ClosestHit<'a> {
     pub fn __new(
         hit: HitBuiltins,
         barycentrics: Vec2,
-        buffers: &'a mut BufferTable,
+        device: super::DeviceAccess<'a>,
         exception_slot: u32,
         exception_call: &'a mut crate::exception::ExceptionDetails,
     ) -> Self {
-        ClosestHit { hit, barycentrics, buffers, exception_slot, exception_call, depth: 1, max_trace_depth: u32::MAX }
+        ClosestHit { hit, barycentrics, device, exception_slot, exception_call, depth: 1, max_trace_depth: u32::MAX }
     }
 
     super::recursive_trace!();
@@ -42,7 +42,7 @@ impl<'a> ClosestHit<'a> {
     /// `#[exception]` program, if any, runs now. The program goes on: return
     /// after it (see [`crate::exception`](mod@crate::exception)).
     pub fn throw_exception(&mut self, code: u32) {
-        super::throw_and_handle(self.buffers, self.exception_slot, self.hit.launch_index, code, self.exception_call)
+        super::throw_and_handle(self.device, self.exception_slot, self.hit.launch_index, code, self.exception_call)
     }
 
     hit_accessors!();
@@ -62,6 +62,6 @@ impl<'a> ClosestHit<'a> {
 
     /// Runs the callable at `sbt_index` with `data` (a `#[call_data]` parameter).
     pub fn call<T>(&mut self, sbt_index: u32, data: &mut T) {
-        super::execute_callable(sbt_index, data)
+        super::execute_callable(self.device, sbt_index, data)
     }
 }

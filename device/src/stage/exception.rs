@@ -5,20 +5,20 @@
 use spirv_std::glam::UVec3;
 
 use crate::exception::ExceptionDetails;
-use crate::{Buffer, BufferTable, Element};
+use crate::{Buffer, Element};
 
 /// What an exception program may use: the exception, launch index and size,
 /// buffers (to write a marker into the output, say).
 pub struct Exception<'a> {
     details: ExceptionDetails,
     launch_dimensions: UVec3,
-    buffers: &'a mut BufferTable,
+    device: super::DeviceAccess<'a>,
 }
 
 impl<'a> Exception<'a> {
     #[doc(hidden)]
-    pub fn __new(details: ExceptionDetails, launch_dimensions: UVec3, buffers: &'a mut BufferTable) -> Self {
-        Exception { details, launch_dimensions, buffers }
+    pub fn __new(details: ExceptionDetails, launch_dimensions: UVec3, device: super::DeviceAccess<'a>) -> Self {
+        Exception { details, launch_dimensions, device }
     }
 
     /// The code the program threw (`optixGetExceptionCode`).
@@ -44,11 +44,11 @@ impl<'a> Exception<'a> {
 
     /// Reads element `index` of `buffer`.
     pub fn load<T: Element>(&self, buffer: Buffer<T>, index: u32) -> T {
-        super::load(self.buffers, buffer, index)
+        super::load(self.device, buffer, index)
     }
 
     /// Writes element `index` of `buffer`.
     pub fn store<T: Element>(&mut self, buffer: Buffer<T>, index: u32, value: T) {
-        super::store(self.buffers, buffer, index, value)
+        super::store(self.device, buffer, index, value)
     }
 }

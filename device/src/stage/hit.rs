@@ -32,6 +32,28 @@ pub struct HitBuiltins {
     pub world_to_object: Matrix4x3,
 }
 
+impl HitBuiltins {
+    /// All zeros: the built-ins of a stage that has no hit.
+    pub const ZERO: HitBuiltins = HitBuiltins {
+        launch_index: UVec3::ZERO,
+        launch_dimensions: UVec3::ZERO,
+        world_ray_origin: Vec3::ZERO,
+        world_ray_direction: Vec3::ZERO,
+        object_ray_origin: Vec3::ZERO,
+        object_ray_direction: Vec3::ZERO,
+        ray_tmin: 0.0,
+        ray_tmax: 0.0,
+        ray_flags: 0,
+        hit_kind: 0,
+        primitive_index: 0,
+        instance_id: 0,
+        instance_custom_index: 0,
+        geometry_index: 0,
+        object_to_world: Matrix4x3 { x_axis: Vec3::ZERO, y_axis: Vec3::ZERO, z_axis: Vec3::ZERO, w_axis: Vec3::ZERO },
+        world_to_object: Matrix4x3 { x_axis: Vec3::ZERO, y_axis: Vec3::ZERO, z_axis: Vec3::ZERO, w_axis: Vec3::ZERO },
+    };
+}
+
 /// The accessors every hit stage has, documented with OptiX's names.
 macro_rules! hit_accessors {
     () => {
@@ -113,12 +135,12 @@ macro_rules! hit_accessors {
 
         /// Reads element `index` of `buffer`.
         pub fn load<T: $crate::Element>(&self, buffer: $crate::Buffer<T>, index: u32) -> T {
-            super::load(self.buffers, buffer, index)
+            super::load(self.device, buffer, index)
         }
 
         /// Writes element `index` of `buffer`.
         pub fn store<T: $crate::Element>(&mut self, buffer: $crate::Buffer<T>, index: u32, value: T) {
-            super::store(self.buffers, buffer, index, value)
+            super::store(self.device, buffer, index, value)
         }
     };
 }

@@ -1,23 +1,23 @@
 //! The intersection stage (`__intersection__`): computes hits with custom
 //! primitives (AABBs in the GAS) and reports them with typed attributes.
 
-use crate::BufferTable;
+
 
 use super::hit::{hit_accessors, HitBuiltins};
 
-/// What an intersection program may use: the ray, the primitive, buffers, and
+/// What an intersection program may use: the ray, the primitive, device, and
 /// [`Intersection::report_intersection`]. Its hit attributes are a
 /// `#[attributes] a: &mut T` parameter, written before reporting.
 pub struct Intersection<'a> {
     hit: HitBuiltins,
-    buffers: &'a mut BufferTable,
+    device: super::DeviceAccess<'a>,
     exception_slot: u32,
 }
 
 impl<'a> Intersection<'a> {
     #[doc(hidden)]
-    pub fn __new(hit: HitBuiltins, buffers: &'a mut BufferTable, exception_slot: u32) -> Self {
-        Intersection { hit, buffers, exception_slot }
+    pub fn __new(hit: HitBuiltins, device: super::DeviceAccess<'a>, exception_slot: u32) -> Self {
+        Intersection { hit, device, exception_slot }
     }
 
     hit_accessors!();
@@ -27,7 +27,7 @@ impl<'a> Intersection<'a> {
     /// this stage, so no `#[exception]` program runs. The program goes on:
     /// follow it with `ignore_intersection`, `terminate_ray` or a return.
     pub fn throw_exception(&mut self, code: u32) {
-        super::throw_exception(self.buffers, self.exception_slot, self.hit.launch_index, code);
+        super::throw_exception(self.device, self.exception_slot, self.hit.launch_index, code);
     }
 
     /// Reports a hit at distance `t` with `hit_kind` (`0..=127`; larger values
@@ -41,9 +41,6 @@ impl<'a> Intersection<'a> {
             spirv_std::arch::report_intersection(t, hit_kind & 0x7f)
         }
         #[cfg(not(target_arch = "spirv"))]
-        {
-            let _ = (t, hit_kind);
-            unreachable!("device programs run on the device")
-        }
+        self.device.report_intersection(t, hit_kind & 0x7f)
     }
 }

@@ -2,16 +2,16 @@
 
 use spirv_std::glam::{UVec3, Vec3};
 
-use crate::BufferTable;
 
-/// What a miss program may use: launch index and size, the ray, buffers,
+
+/// What a miss program may use: launch index and size, the ray, device,
 /// tracing and callables.
 pub struct Miss<'a> {
     launch_index: UVec3,
     launch_dimensions: UVec3,
     world_ray_origin: Vec3,
     world_ray_direction: Vec3,
-    buffers: &'a mut BufferTable,
+    device: super::DeviceAccess<'a>,
     exception_slot: u32,
     exception_call: &'a mut crate::exception::ExceptionDetails,
     /// The trace depth of the ray that missed (see [`Miss::trace_depth`]).
@@ -27,7 +27,7 @@ impl<'a> Miss<'a> {
         launch_dimensions: UVec3,
         world_ray_origin: Vec3,
         world_ray_direction: Vec3,
-        buffers: &'a mut BufferTable,
+        device: super::DeviceAccess<'a>,
         exception_slot: u32,
         exception_call: &'a mut crate::exception::ExceptionDetails,
     ) -> Self {
@@ -36,7 +36,7 @@ impl<'a> Miss<'a> {
             launch_dimensions,
             world_ray_origin,
             world_ray_direction,
-            buffers,
+            device,
             exception_slot,
             exception_call,
             depth: 1,

@@ -2,14 +2,14 @@
 
 use spirv_std::glam::{UVec3, Vec3};
 
-use crate::{BufferTable, Ray, RayType, Traversable};
+use crate::{Ray, RayType, Traversable};
 
 /// What a raygen program may use: launch index and size, tracing, callables,
 /// buffers.
 pub struct Raygen<'a> {
     launch_index: UVec3,
     launch_dimensions: UVec3,
-    buffers: &'a mut BufferTable,
+    device: super::DeviceAccess<'a>,
     exception_slot: u32,
     exception_call: &'a mut crate::exception::ExceptionDetails,
 }
@@ -19,11 +19,11 @@ impl<'a> Raygen<'a> {
     pub fn __new(
         launch_index: UVec3,
         launch_dimensions: UVec3,
-        buffers: &'a mut BufferTable,
+        device: super::DeviceAccess<'a>,
         exception_slot: u32,
         exception_call: &'a mut crate::exception::ExceptionDetails,
     ) -> Self {
-        Raygen { launch_index, launch_dimensions, buffers, exception_slot, exception_call }
+        Raygen { launch_index, launch_dimensions, device, exception_slot, exception_call }
     }
 
     super::launch_accessors!();
@@ -42,7 +42,7 @@ impl<'a> Raygen<'a> {
             // Raygen traces at depth 1 (see `crate::exception`).
             R::set_depth(payload, 1);
         }
-        super::trace::<R>(scene, ray, payload)
+        super::trace::<R>(self.device, scene, ray, payload)
     }
 
     /// Shorthand for a ray from `origin` along `direction` over `[0, 1e16]`.
