@@ -64,12 +64,12 @@ struct AshLauncher<'c> {
 
 impl<'c> AshLauncher<'c> {
     fn new(ctx: &'c Context) -> anyhow::Result<Self> {
-        let device = ctx.raw_device();
+        let device = ctx.raw_device().expect("a Vulkan context");
         // SAFETY: queue 0 of raykit's family exists; this benchmark is single-threaded,
         // so raykit never submits to it at the same time.
-        let queue = unsafe { device.get_device_queue(ctx.queue_family(), 0) };
+        let queue = unsafe { device.get_device_queue(ctx.queue_family().expect("a Vulkan context"), 0) };
         let info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(ctx.queue_family())
+            .queue_family_index(ctx.queue_family().expect("a Vulkan context"))
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: valid create info.
         let pool = unsafe { device.create_command_pool(&info, None) }?;
@@ -78,12 +78,12 @@ impl<'c> AshLauncher<'c> {
         let cmd = unsafe { device.allocate_command_buffers(&alloc) }?[0];
         // SAFETY: valid create info.
         let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }?;
-        Ok(AshLauncher { device, rt: ctx.raw_ray_tracing(), queue, pool, cmd, fence })
+        Ok(AshLauncher { device, rt: ctx.raw_ray_tracing().expect("a Vulkan context"), queue, pool, cmd, fence })
     }
 
     fn launch(&self, ctx: &Context, p: &PrimaryPipeline, params: &[u8], dims: [u32; 3]) -> anyhow::Result<()> {
         let d = self.device;
-        let [raygen, miss, hit, callable] = p.sbt.raw_regions();
+        let [raygen, miss, hit, callable] = p.sbt.raw_regions().expect("a Vulkan context");
         // SAFETY: the command buffer is not in use (the last launch was waited for);
         // the pipeline, layout, set and SBT belong to live raykit objects.
         unsafe {
@@ -91,16 +91,20 @@ impl<'c> AshLauncher<'c> {
                 self.cmd,
                 &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
             )?;
-            d.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, p.pipeline.raw_pipeline());
+            d.cmd_bind_pipeline(
+                self.cmd,
+                vk::PipelineBindPoint::RAY_TRACING_KHR,
+                p.pipeline.raw_pipeline().expect("a Vulkan context"),
+            );
             d.cmd_bind_descriptor_sets(
                 self.cmd,
                 vk::PipelineBindPoint::RAY_TRACING_KHR,
-                p.pipeline.raw_layout(),
+                p.pipeline.raw_layout().expect("a Vulkan context"),
                 0,
-                &[ctx.raw_buffer_table_set()],
+                &[ctx.raw_buffer_table_set().expect("a Vulkan context")],
                 &[],
             );
-            d.cmd_push_constants(self.cmd, p.pipeline.raw_layout(), rt_stages(), 0, params);
+            d.cmd_push_constants(self.cmd, p.pipeline.raw_layout().expect("a Vulkan context"), rt_stages(), 0, params);
             self.rt.cmd_trace_rays(self.cmd, &raygen, &miss, &hit, &callable, dims[0], dims[1], dims[2]);
             let barrier = vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::SHADER_WRITE)
@@ -223,7 +227,7 @@ fn ash_loop(ctx: &Context, ash: &AshLauncher<'_>, p: &PrimaryPipeline, params: &
 
 /// The physical device raykit runs on (matched by name), for memory types.
 fn memory_properties(ctx: &Context) -> anyhow::Result<vk::PhysicalDeviceMemoryProperties> {
-    let instance = ctx.raw_instance();
+    let instance = ctx.raw_instance().expect("a Vulkan context");
     // SAFETY: live instance.
     for physical in unsafe { instance.enumerate_physical_devices() }? {
         // SAFETY: `physical` came from this instance.
@@ -244,7 +248,7 @@ fn ash_create(
     memory: &vk::PhysicalDeviceMemoryProperties,
     cache: vk::PipelineCache,
 ) -> anyhow::Result<f64> {
-    let d = ctx.raw_device();
+    let d = ctx.raw_device().expect("a Vulkan context");
     let limits = ctx.limits();
     let start = Instant::now();
     // SAFETY: everything created here is destroyed below, after its last use;
@@ -277,7 +281,7 @@ fn ash_create(
                 .any_hit_shader(vk::SHADER_UNUSED_KHR)
                 .intersection_shader(vk::SHADER_UNUSED_KHR),
         ];
-        let set_layouts = [ctx.raw_buffer_table_layout()];
+        let set_layouts = [ctx.raw_buffer_table_layout().expect("a Vulkan context")];
         let ranges = [vk::PushConstantRange::default().stage_flags(rt_stages()).offset(0).size(72)];
         let layout = d.create_pipeline_layout(
             &vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&ranges),
@@ -290,10 +294,16 @@ fn ash_create(
             .layout(layout);
         let pipeline = ctx
             .raw_ray_tracing()
+            .expect("a Vulkan context")
             .create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), cache, &[info], None)
             .map_err(|(_, e)| e)?[0];
         let handle_size = limits.shader_group_handle_size as usize;
-        let handles = ctx.raw_ray_tracing().get_ray_tracing_shader_group_handles(pipeline, 0, 3, 3 * handle_size)?;
+        let handles = ctx.raw_ray_tracing().expect("a Vulkan context").get_ray_tracing_shader_group_handles(
+            pipeline,
+            0,
+            3,
+            3 * handle_size,
+        )?;
         // Three regions, each one record, at the base alignment.
         let base = limits.shader_group_base_alignment.max(1) as u64;
         let record = (handle_size as u64 + 16).next_multiple_of(limits.shader_group_handle_alignment.max(1) as u64);
@@ -392,7 +402,7 @@ pub fn creation(ctx: &Context, reps: usize) -> anyhow::Result<Vec<Row>> {
     let fresh = || {
         Context::new(ContextOptions {
             validation: Some(false),
-            device_name_contains: Some(ctx.device_name().to_owned()),
+            device_name_contains: Some(ctx.device_name().into_owned()),
             pipeline_cache: PipelineCacheLocation::Off,
             ..Default::default()
         })
@@ -406,7 +416,7 @@ pub fn creation(ctx: &Context, reps: usize) -> anyhow::Result<Vec<Row>> {
 
     // Warm cache: raykit's context cache and an ash-owned cache, each warmed by one
     // creation first.
-    let d = ctx.raw_device();
+    let d = ctx.raw_device().expect("a Vulkan context");
     // SAFETY: valid create info; destroyed below after its last use.
     let cache = unsafe { d.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }?;
     let warm = (|| -> anyhow::Result<Vec<(f64, f64)>> {

@@ -38,7 +38,11 @@ pub struct TypeInfo {
 impl TypeInfo {
     /// The description of `T`.
     pub const fn of<T>() -> TypeInfo {
-        TypeInfo { type_name: core::any::type_name::<T>, size: core::mem::size_of::<T>(), align: core::mem::align_of::<T>() }
+        TypeInfo {
+            type_name: core::any::type_name::<T>,
+            size: core::mem::size_of::<T>(),
+            align: core::mem::align_of::<T>(),
+        }
     }
 
     /// The type's name.
@@ -208,6 +212,8 @@ pub unsafe fn zeroed<T>() -> T {
 pub struct CpuProgram {
     /// Calls the program with one invocation's built-ins and data.
     pub run: fn(&mut Invocation<'_>),
+    /// The entry-point name, e.g. `__raygen__rg`.
+    pub name: &'static str,
     /// The device crate the program is in (`CARGO_PKG_NAME`).
     pub crate_name: &'static str,
     /// The launch params type, for programs with `#[params]`.
@@ -225,6 +231,7 @@ pub struct CpuProgram {
 impl core::fmt::Debug for CpuProgram {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("CpuProgram")
+            .field("name", &self.name)
             .field("crate_name", &self.crate_name)
             .field("params", &self.params)
             .field("record", &self.record)

@@ -56,7 +56,7 @@ const SLOT_BITS: u32 = SLOTS.trailing_zeros();
 /// Generations are unique across the process (until they wrap after 2^20 buffers),
 /// so a handle of another context, or of a buffer whose slot was reused, differs
 /// from the live one's.
-fn next_generation() -> u32 {
+pub(crate) fn next_generation() -> u32 {
     static NEXT: AtomicU32 = AtomicU32::new(1);
     loop {
         let g = NEXT.fetch_add(1, Ordering::Relaxed) & ((1 << (32 - SLOT_BITS)) - 1);

@@ -90,6 +90,13 @@ pub struct PipelineCacheInfo {
     pub current_bytes: usize,
 }
 
+impl PipelineCacheInfo {
+    /// A cache that is off.
+    pub(crate) fn off() -> PipelineCacheInfo {
+        PipelineCacheInfo { path: None, load: CacheLoad::Off, current_bytes: 0 }
+    }
+}
+
 const MAGIC: &[u8; 8] = b"RAYKITPC";
 const FORMAT_VERSION: u32 = 1;
 /// raykit's header: magic, format, vendor, device, driver, UUID, length, checksum.

@@ -53,9 +53,38 @@ use crate::handles::LiveTraversables;
 use crate::log::{LogCallback, MessageLog};
 use crate::timeline::Timeline;
 
+/// Where a [`Context`] runs device programs.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Backend {
+    /// A Vulkan device with ray-tracing pipelines: a GPU, or Mesa's lavapipe.
+    #[default]
+    Vulkan,
+    /// The host's CPUs: the device crates' programs, compiled for the host and
+    /// linked into the program, called as Rust functions (see [`crate::cpu`]).
+    /// Needs no Vulkan driver.
+    Cpu,
+}
+
+impl Backend {
+    /// The backend `RAYKIT_BACKEND` names (`vulkan` or `cpu`), if it is set.
+    pub fn from_env() -> Option<Backend> {
+        match std::env::var("RAYKIT_BACKEND").ok()?.to_ascii_lowercase().as_str() {
+            "cpu" => Some(Backend::Cpu),
+            "vulkan" => Some(Backend::Vulkan),
+            _ => None,
+        }
+    }
+}
+
 /// How to create a [`Context`].
 #[derive(Clone, Debug, Default)]
 pub struct ContextOptions {
+    /// The backend. `None` means: what the environment variable `RAYKIT_BACKEND`
+    /// says (`cpu` or `vulkan`), else Vulkan.
+    pub backend: Option<Backend>,
+    /// Threads of the CPU backend's pool; `None` means `RAYKIT_CPU_THREADS`, else
+    /// one per logical CPU. Results do not depend on it.
+    pub cpu_threads: Option<usize>,
     /// Enable the Khronos validation layer and collect its messages in
     /// [`Context::messages`]. `None` means: on when the environment variable
     /// `RAYKIT_VALIDATION` is `1`. The layer is a property of the Vulkan instance:
@@ -111,10 +140,18 @@ pub struct DeviceLimits {
     pub max_instance_count: u64,
 }
 
-/// A Vulkan device with ray tracing, and what every raykit object shares.
+/// A device with ray tracing, and what every raykit object shares: a Vulkan
+/// device, or the CPU backend (see [`Backend`]).
 #[derive(Clone)]
 pub struct Context {
-    pub(crate) inner: Arc<ContextInner>,
+    backend: ContextBackend,
+}
+
+/// What a [`Context`] is underneath.
+#[derive(Clone)]
+pub(crate) enum ContextBackend {
+    Vulkan(Arc<ContextInner>),
+    Cpu(Arc<crate::cpu::CpuContext>),
 }
 pub(crate) struct ContextInner {
     /// This context's id, which its objects' debug names carry (see [`crate::log`]).
@@ -166,9 +203,67 @@ fn next_context_id() -> u64 {
 }
 
 impl Context {
-    /// Creates a context on the first device with ray-tracing pipelines; when
-    /// another context already uses that GPU, the new one shares its `VkDevice`.
+    /// Creates a context on the backend `options` choose. On Vulkan, the first
+    /// device with ray-tracing pipelines; when another context already uses that
+    /// GPU, the new one shares its `VkDevice`.
     pub fn new(options: ContextOptions) -> Result<Context> {
+        match options.backend.or_else(Backend::from_env).unwrap_or_default() {
+            Backend::Vulkan => Self::new_vulkan(options),
+            Backend::Cpu => {
+                let cpu = crate::cpu::CpuContext::new(next_context_id(), &options)?;
+                Ok(Context { backend: ContextBackend::Cpu(Arc::new(cpu)) })
+            }
+        }
+    }
+
+    /// A context of an existing Vulkan context's inner state.
+    pub(crate) fn from_vulkan(inner: Arc<ContextInner>) -> Context {
+        Context { backend: ContextBackend::Vulkan(inner) }
+    }
+
+    /// A context of an existing CPU context.
+    pub(crate) fn from_cpu(cpu: Arc<crate::cpu::CpuContext>) -> Context {
+        Context { backend: ContextBackend::Cpu(cpu) }
+    }
+
+    /// The Vulkan context, or `NotOnCpuBackend` naming `what`.
+    pub(crate) fn vulkan(&self, what: &'static str) -> Result<&Arc<ContextInner>> {
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => Ok(inner),
+            ContextBackend::Cpu(_) => Err(Error::NotOnCpuBackend {
+                what,
+                why: "it is part of Vulkan",
+                fix: "use a Context of Backend::Vulkan for it",
+            }),
+        }
+    }
+
+    /// The Vulkan context, when this is one.
+    pub(crate) fn as_vulkan(&self) -> Option<&Arc<ContextInner>> {
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => Some(inner),
+            ContextBackend::Cpu(_) => None,
+        }
+    }
+
+    /// The CPU context, when this is one.
+    pub(crate) fn cpu(&self) -> Option<&Arc<crate::cpu::CpuContext>> {
+        match &self.backend {
+            ContextBackend::Cpu(cpu) => Some(cpu),
+            ContextBackend::Vulkan(_) => None,
+        }
+    }
+
+    /// The backend this context runs programs on.
+    pub fn backend(&self) -> Backend {
+        match &self.backend {
+            ContextBackend::Vulkan(_) => Backend::Vulkan,
+            ContextBackend::Cpu(_) => Backend::Cpu,
+        }
+    }
+
+    /// A Vulkan context on the first device with ray-tracing pipelines.
+    fn new_vulkan(options: ContextOptions) -> Result<Context> {
         let validation =
             options.validation.unwrap_or_else(|| std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1"));
         let instance = crate::device_registry::instance(validation)?;
@@ -230,35 +325,44 @@ impl Context {
         // The context now owns the route and the hold.
         route.armed = false;
         hold.armed = false;
-        Ok(Context { inner: Arc::new(inner) })
+        Ok(Context::from_vulkan(Arc::new(inner)))
     }
 
     /// The name of the device in use.
-    pub fn device_name(&self) -> &str {
-        &self.inner.shared.name
+    pub fn device_name(&self) -> std::borrow::Cow<'_, str> {
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => std::borrow::Cow::Borrowed(&inner.shared.name),
+            ContextBackend::Cpu(cpu) => std::borrow::Cow::Owned(cpu.name()),
+        }
     }
 
     /// Whether this device links pipelines from libraries
     /// (`VK_KHR_pipeline_library`; see [`crate::PipelineLibrary`]).
     pub fn supports_pipeline_libraries(&self) -> bool {
-        self.inner.pipeline_library
+        matches!(&self.backend, ContextBackend::Vulkan(inner) if inner.pipeline_library)
     }
 
     /// The device's ray-tracing limits.
     pub fn limits(&self) -> &DeviceLimits {
-        &self.inner.limits
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => &inner.limits,
+            ContextBackend::Cpu(_) => &crate::cpu::LIMITS,
+        }
     }
 
     /// Whether this context and `other` share one `VkDevice` (contexts made for one
     /// GPU do).
     pub fn shares_device_with(&self, other: &Context) -> bool {
-        Arc::ptr_eq(&self.inner.shared, &other.inner.shared)
+        match (&self.backend, &other.backend) {
+            (ContextBackend::Vulkan(a), ContextBackend::Vulkan(b)) => Arc::ptr_eq(&a.shared, &b.shared),
+            _ => false,
+        }
     }
 
     /// Whether the device was lost (`VK_ERROR_DEVICE_LOST`): then every context on it
     /// refuses new work with [`Error::DeviceLost`]; drop them, and make a new context.
     pub fn is_device_lost(&self) -> bool {
-        self.inner.shared.is_lost()
+        matches!(&self.backend, ContextBackend::Vulkan(inner) if inner.shared.is_lost())
     }
 
     /// Test hook: the next submission on this context's device (by any context on
@@ -266,7 +370,9 @@ impl Context {
     #[cfg(feature = "fault-injection")]
     #[doc(hidden)]
     pub fn inject_device_loss_at_next_submit(&self) {
-        self.inner.shared.inject_loss();
+        if let ContextBackend::Vulkan(inner) = &self.backend {
+            inner.shared.inject_loss();
+        }
     }
 
     /// Validation messages collected so far (empty when validation is off): those
@@ -274,32 +380,47 @@ impl Context {
     /// returned log is shared: it keeps collecting, also while the context is
     /// destroyed, so a test can check for leaks reported at destruction.
     pub fn messages(&self) -> MessageLog {
-        self.inner.log.clone()
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => inner.log.clone(),
+            ContextBackend::Cpu(cpu) => cpu.log.clone(),
+        }
     }
 
-    /// The queue family used for all work.
-    pub fn queue_family(&self) -> u32 {
-        self.inner.shared.queue_family
+    /// The queue family used for all work (`None` on the CPU backend).
+    pub fn queue_family(&self) -> Option<u32> {
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => Some(inner.shared.queue_family),
+            ContextBackend::Cpu(_) => None,
+        }
     }
 
     /// Names `handle` (an object of this context's device) for validation messages
     /// and debugging tools (`vkSetDebugUtilsObjectNameEXT`); does nothing without
     /// VK_EXT_debug_utils. raykit names the objects it makes itself.
     pub fn set_debug_name<H: vk::Handle>(&self, handle: H, name: &str) {
-        self.inner.set_name(handle, name);
+        if let ContextBackend::Vulkan(inner) = &self.backend {
+            inner.set_name(handle, name);
+        }
     }
 
     /// The compile cache: its file, whether it was loaded (warm), missing (cold)
     /// or refused, and its current size. See [`crate::cache`].
+    /// On the CPU backend, which compiles nothing at run time, the cache is off.
     pub fn pipeline_cache_info(&self) -> PipelineCacheInfo {
-        self.inner.pipeline_cache.info(&self.inner.device)
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => inner.pipeline_cache.info(&inner.device),
+            ContextBackend::Cpu(_) => PipelineCacheInfo::off(),
+        }
     }
 
     /// Writes the compile cache to its file now (it is also written when the
     /// context is destroyed); returns the file, or `None` when the cache is off or
     /// empty.
     pub fn save_pipeline_cache(&self) -> Result<Option<std::path::PathBuf>> {
-        self.inner.pipeline_cache.save(&self.inner.device)
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => inner.pipeline_cache.save(&inner.device),
+            ContextBackend::Cpu(_) => Ok(None),
+        }
     }
 
     /// The largest launch width, height and depth each on its own:
@@ -307,7 +428,10 @@ impl Context {
     /// `vkCmdTraceRaysKHR` requires besides the total of
     /// [`DeviceLimits::max_ray_dispatch_invocation_count`].
     pub fn max_launch_dimensions(&self) -> [u64; 3] {
-        self.inner.launch_dimension_limits
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => inner.launch_dimension_limits,
+            ContextBackend::Cpu(_) => crate::cpu::LAUNCH_DIMENSION_LIMITS,
+        }
     }
 
     /// Device memory raykit holds now, from its allocator (gpu-allocator): what
@@ -316,8 +440,17 @@ impl Context {
     ///
     /// Objects dropped while the device may still use them count until their work
     /// has finished and they are collected (see [`Context::poll`]).
+    ///
+    /// On the CPU backend: the live buffers and their bytes.
     pub fn memory_usage(&self) -> MemoryUsage {
-        let report = self.inner.allocator().generate_report();
+        let inner = match &self.backend {
+            ContextBackend::Vulkan(inner) => inner,
+            ContextBackend::Cpu(cpu) => {
+                let (allocations, bytes) = cpu.buffers.usage();
+                return MemoryUsage { allocations, allocated_bytes: bytes, reserved_bytes: bytes, blocks: allocations };
+            }
+        };
+        let report = inner.allocator().generate_report();
         MemoryUsage {
             allocations: report.allocations.len(),
             allocated_bytes: report.total_allocated_bytes,
@@ -332,57 +465,75 @@ impl Context {
     /// that work has finished (see [`crate::timeline`]); every submission does it
     /// too. Does not block.
     pub fn poll(&self) -> Result<()> {
-        self.inner.collect()
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => inner.collect(),
+            ContextBackend::Cpu(_) => Ok(()),
+        }
     }
 
     /// Blocks until the device has finished everything submitted so far, then
     /// destroys every object dropped meanwhile.
     pub fn wait_idle(&self) -> Result<()> {
-        self.inner.wait_for_pending_work()?;
-        self.inner.collect()
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => {
+                inner.wait_for_pending_work()?;
+                inner.collect()
+            }
+            ContextBackend::Cpu(cpu) => {
+                cpu.wait_idle();
+                Ok(())
+            }
+        }
     }
 
     /// The epoch of the last submission on this context's GPU timeline, and the
     /// highest epoch the device has finished.
     pub fn timeline_epochs(&self) -> Result<(u64, u64)> {
-        Ok((self.inner.last_submitted_epoch(), self.inner.completed_epoch()?))
+        let inner = self.vulkan("the GPU timeline")?;
+        Ok((inner.last_submitted_epoch(), inner.completed_epoch()?))
     }
 
     /// Number of dropped objects still waiting for their work to finish.
     pub fn pending_retirements(&self) -> usize {
-        self.inner.pending_retirements()
+        match &self.backend {
+            ContextBackend::Vulkan(inner) => inner.pending_retirements(),
+            ContextBackend::Cpu(_) => 0,
+        }
     }
 }
 
 /// The Vulkan objects under a context, for interoperation and for comparisons with
 /// hand-written Vulkan. Using them is `unsafe` ash code under the rules
-/// [`crate::pipeline::raw`] states.
+/// [`crate::pipeline::raw`] states. `None` on the CPU backend.
 impl Context {
     /// The `ash` instance.
-    pub fn raw_instance(&self) -> &ash::Instance {
-        &self.inner.instance
+    pub fn raw_instance(&self) -> Option<&ash::Instance> {
+        self.vulkan("").ok().map(|inner| &inner.instance)
     }
     /// The `ash` device.
-    pub fn raw_device(&self) -> &ash::Device {
-        &self.inner.device
+    pub fn raw_device(&self) -> Option<&ash::Device> {
+        self.vulkan("").ok().map(|inner| &inner.device)
     }
     /// The `VK_KHR_ray_tracing_pipeline` functions of the device.
-    pub fn raw_ray_tracing(&self) -> &ash::khr::ray_tracing_pipeline::Device {
-        &self.inner.rt
+    pub fn raw_ray_tracing(&self) -> Option<&ash::khr::ray_tracing_pipeline::Device> {
+        self.vulkan("").ok().map(|inner| &inner.rt)
     }
     /// The bindless buffer table's descriptor set (set 0 of every raykit pipeline layout).
-    pub fn raw_buffer_table_set(&self) -> vk::DescriptorSet {
-        self.inner.buffer_table.set
+    pub fn raw_buffer_table_set(&self) -> Option<vk::DescriptorSet> {
+        self.vulkan("").ok().map(|inner| inner.buffer_table.set)
     }
     /// The bindless buffer table's descriptor set layout.
-    pub fn raw_buffer_table_layout(&self) -> vk::DescriptorSetLayout {
-        self.inner.buffer_table.layout
+    pub fn raw_buffer_table_layout(&self) -> Option<vk::DescriptorSetLayout> {
+        self.vulkan("").ok().map(|inner| inner.buffer_table.layout)
     }
 }
 
 impl std::fmt::Debug for Context {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let inner = &self.inner;
+        let inner = match &self.backend {
+            ContextBackend::Vulkan(inner) => inner,
+            ContextBackend::Cpu(cpu) => return f.debug_tuple("Context").field(cpu).finish(),
+        };
         f.debug_struct("Context")
             .field("id", &inner.id)
             .field("device", &inner.shared.name)

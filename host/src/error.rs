@@ -96,6 +96,65 @@ fn list_indices(indices: &[[u32; 3]]) -> String {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// Something that only the Vulkan backend has was asked of a context of the
+    /// CPU backend (see [`crate::cpu`]).
+    #[error("{what} is not available on the CPU backend: {why}; {fix}")]
+    NotOnCpuBackend {
+        /// What was asked.
+        what: &'static str,
+        /// Why the CPU backend has no such thing.
+        why: &'static str,
+        /// What to do instead.
+        fix: &'static str,
+    },
+
+    /// A device program panicked (a failed `assert!`, an index out of bounds, an
+    /// explicit `panic!`) while the CPU backend ran it: the launch stopped.
+    #[error("device program `{program}` panicked at launch index {launch_index:?}: {message}")]
+    ProgramPanicked {
+        /// The program's entry-point name.
+        program: String,
+        /// The launch index of the invocation that panicked.
+        launch_index: [u32; 3],
+        /// The panic's message.
+        message: String,
+    },
+
+    /// A device program asked the CPU backend for something the device leaves
+    /// undefined: a trace into a traversable that is no live IAS, a record past
+    /// the end of an SBT region, a payload or callable data of another type than
+    /// the receiving program's. The launch stopped.
+    #[error("device program `{program}` at launch index {launch_index:?}: {problem}")]
+    CpuLaunchFault {
+        /// The program running when it happened.
+        program: String,
+        /// The launch index of the invocation.
+        launch_index: [u32; 3],
+        /// What went wrong, and how to fix it.
+        problem: String,
+    },
+
+    /// A program linked on the CPU backend takes a value of another type than
+    /// the pipeline gives it, or of a type the backend cannot hold.
+    #[error("program `{program}` takes {what} of type {declared}, but the pipeline gives {given}; use one type on both sides")]
+    CpuTypeMismatch {
+        /// The program's entry-point name.
+        program: String,
+        /// What the value is (launch params, record data, hit attributes).
+        what: &'static str,
+        /// The type the program declares.
+        declared: &'static str,
+        /// What it is given instead.
+        given: String,
+    },
+
+    /// The CPU backend's thread pool could not be made.
+    #[error("cannot start the CPU backend's threads: {reason}")]
+    CpuThreads {
+        /// What the system said.
+        reason: String,
+    },
+
     /// The Vulkan loader (`libvulkan.so.1`) could not be loaded.
     #[error("cannot load the Vulkan loader: {0}. Install it (Debian: `apt-get install libvulkan1`) or run `cargo xtask test`, which installs what is missing")]
     LoaderMissing(String),

@@ -138,7 +138,8 @@ impl Context {
     /// [`crate::gate`]). Closing a closed gate returns the same gate.
     #[doc(hidden)]
     pub fn close_submission_gate(&self) -> Result<SubmissionGate> {
-        let value = self.inner.close_gate()?;
-        Ok(SubmissionGate { ctx: self.inner.clone(), value })
+        let inner = self.vulkan("a submission gate")?;
+        let value = inner.close_gate()?;
+        Ok(SubmissionGate { ctx: inner.clone(), value })
     }
 }

@@ -138,9 +138,98 @@ pub(crate) fn read_traversable(bytes: &[u8], offset: u32) -> Option<u64> {
     Some(u64::from_le_bytes(word.try_into().ok()?))
 }
 
+/// What a checked traversable is to its context.
+pub(crate) enum TraversableState {
+    /// A live IAS, built after the last refit of every GAS it instances.
+    Live,
+    /// No live IAS of this context.
+    Unknown,
+    /// A live IAS whose instance's GAS was refitted since it was built.
+    Stale { instance: usize },
+}
+
+impl LiveIas {
+    /// Whether a GAS it instances was refitted since it was built.
+    pub(crate) fn state(&self) -> TraversableState {
+        match self.over.iter().position(|(now, built)| now.load(Ordering::Acquire) != *built) {
+            Some(instance) => TraversableState::Stale { instance },
+            None => TraversableState::Live,
+        }
+    }
+}
+
+/// Checks the handles of `params` (laid out as `fields` says) with the context's
+/// answers: whether a buffer handle is live, and what a traversable is. `record`
+/// is the SBT record the bytes are the data of, `None` for launch params.
+pub(crate) fn check_handles(
+    fields: &[HandleField],
+    params: &[u8],
+    record: Option<(SbtRegion, usize)>,
+    buffer_is_live: impl Fn(u32) -> bool,
+    mut traversable: impl FnMut(u64) -> TraversableState,
+) -> Result<()> {
+    let (buffer_fix, tlas_fix) = match record {
+        None => (
+            "put the handle() of a DeviceBuffer of this Context, alive until the launch is submitted, in the params",
+            "put the handle() of a live Ias of this Context in the params",
+        ),
+        Some(_) => (
+            "put the handle() of a DeviceBuffer of this Context, alive until the launch is submitted, in the record (Sbt::update)",
+            "put the handle() of a live Ias of this Context in the record (Sbt::update)",
+        ),
+    };
+    let read = |offset: u32, n: usize| params.get(offset as usize..offset as usize + n);
+    for field in fields {
+        match field.kind {
+            HandleKind::Buffer => {
+                let Some(bytes) = read(field.offset, 4) else { continue };
+                let handle = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
+                if !buffer_is_live(handle) {
+                    return Err(Error::InvalidHandle {
+                        record,
+                        field: field.name.clone(),
+                        problem: format!(
+                            "buffer handle {handle:#x} names no live DeviceBuffer of this Context (its buffer was dropped, its slot reused, or it belongs to another Context)"
+                        ),
+                        fix: buffer_fix,
+                    });
+                }
+            }
+            HandleKind::Traversable => {
+                let Some(address) = read_traversable(params, field.offset) else { continue };
+                if address == 0 {
+                    continue;
+                }
+                match traversable(address) {
+                    TraversableState::Live => {}
+                    TraversableState::Unknown => {
+                        return Err(Error::InvalidHandle {
+                            record,
+                            field: field.name.clone(),
+                            problem: format!(
+                                "traversable {address:#x} is no live IAS of this Context (it was dropped, rebuilt, or belongs to another Context)"
+                            ),
+                            fix: tlas_fix,
+                        })
+                    }
+                    TraversableState::Stale { instance } => {
+                        return Err(Error::InvalidHandle {
+                            record,
+                            field: field.name.clone(),
+                            problem: format!("the GAS of instance {instance} was refitted since this IAS was built"),
+                            fix: "update the IAS (Ias::update with its instances) or rebuild it after refitting its GASes",
+                        })
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 impl ContextInner {
-    /// Checks the handles of `params` (laid out as `fields` says); `record` is the
-    /// SBT record the bytes are the data of, `None` for launch params.
+    /// Checks the handles of `params` against this context's live buffers and
+    /// IASes (see [`check_handles`]).
     pub(crate) fn check_handles(
         &self,
         fields: &[HandleField],
@@ -150,65 +239,17 @@ impl ContextInner {
         if fields.is_empty() {
             return Ok(());
         }
-        let (buffer_fix, tlas_fix) = match record {
-            None => (
-                "put the handle() of a DeviceBuffer of this Context, alive until the launch is submitted, in the params",
-                "put the handle() of a live Ias of this Context in the params",
-            ),
-            Some(_) => (
-                "put the handle() of a DeviceBuffer of this Context, alive until the launch is submitted, in the record (Sbt::update)",
-                "put the handle() of a live Ias of this Context in the record (Sbt::update)",
-            ),
-        };
-        let read = |offset: u32, n: usize| params.get(offset as usize..offset as usize + n);
         let mut tlas = None;
-        for field in fields {
-            match field.kind {
-                HandleKind::Buffer => {
-                    let Some(bytes) = read(field.offset, 4) else { continue };
-                    let handle = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
-                    if !self.buffer_table.is_live(handle) {
-                        return Err(Error::InvalidHandle {
-                            record,
-                            field: field.name.clone(),
-                            problem: format!(
-                                "buffer handle {handle:#x} names no live DeviceBuffer of this Context (its buffer was dropped, its slot reused, or it belongs to another Context)"
-                            ),
-                            fix: buffer_fix,
-                        });
-                    }
-                }
-                HandleKind::Traversable => {
-                    let Some(address) = read_traversable(params, field.offset) else { continue };
-                    if address == 0 {
-                        continue;
-                    }
-                    let map = tlas.get_or_insert_with(|| self.traversables.lock());
-                    let Some(LiveIas { over, .. }) = map.get(&address) else {
-                        return Err(Error::InvalidHandle {
-                            record,
-                            field: field.name.clone(),
-                            problem: format!(
-                                "traversable {address:#x} is no live IAS of this Context (it was dropped, rebuilt, or belongs to another Context)"
-                            ),
-                            fix: tlas_fix,
-                        });
-                    };
-                    let stale = over.iter().position(|(now, built)| now.load(Ordering::Acquire) != *built);
-                    if let Some(instance) = stale {
-                        return Err(Error::InvalidHandle {
-                            record,
-                            field: field.name.clone(),
-                            problem: format!(
-                                "the GAS of instance {instance} was refitted since this IAS was built"
-                            ),
-                            fix: "update the IAS (Ias::update with its instances) or rebuild it after refitting its GASes",
-                        });
-                    }
-                }
-            }
-        }
-        Ok(())
+        check_handles(
+            fields,
+            params,
+            record,
+            |handle| self.buffer_table.is_live(handle),
+            |address| {
+                let map = tlas.get_or_insert_with(|| self.traversables.lock());
+                map.get(&address).map_or(TraversableState::Unknown, LiveIas::state)
+            },
+        )
     }
 }
 

@@ -8,6 +8,7 @@ pub mod accel;
 mod buffer_table;
 pub mod cache;
 pub mod context;
+pub mod cpu;
 mod device_registry;
 mod driver_lock;
 pub mod error;
@@ -30,7 +31,7 @@ pub use accel::{
     InstanceFlags, PendingBuild, Triangles,
 };
 pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
-pub use context::{Context, ContextOptions, DeviceLimits, MemoryUsage};
+pub use context::{Backend, Context, ContextOptions, DeviceLimits, MemoryUsage};
 pub use error::{DeviceReport, Error, Result, UserException};
 #[cfg(feature = "fault-injection")]
 #[doc(hidden)]

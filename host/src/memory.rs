@@ -115,13 +115,21 @@ impl Drop for RawBuffer {
 /// A typed array of `T` in device memory, visible to device programs through
 /// [`DeviceBuffer::handle`] and readable and writable from the host.
 pub struct DeviceBuffer<T: Element> {
-    raw: RawBuffer,
+    storage: Storage,
     slot: u32,
     /// The handle's value: the slot, and the generation that tells this buffer
     /// from earlier and later ones in the slot (see [`crate::handles`]).
     handle: u32,
     len: usize,
     _element: PhantomData<T>,
+}
+
+/// Where a [`DeviceBuffer`]'s elements are.
+enum Storage {
+    /// A Vulkan buffer.
+    Vulkan(RawBuffer),
+    /// Words in host memory, in the CPU backend's table.
+    Cpu { ctx: Arc<crate::cpu::CpuContext>, words: crate::cpu::buffers::Words },
 }
 
 impl<T: Element> DeviceBuffer<T> {
@@ -143,33 +151,42 @@ impl<T: Element> DeviceBuffer<T> {
             element_size,
             reason: "the size overflows 64 bits",
         })?;
-        crate::validate::check_storage_buffer(size, ctx.inner.limits.max_storage_buffer_range)?;
+        crate::validate::check_storage_buffer(size, ctx.limits().max_storage_buffer_range)?;
+        if let Some(cpu) = ctx.cpu() {
+            let words = crate::cpu::buffers::zeroed_words(len * T::WORDS as usize);
+            let (slot, handle) = cpu.buffers.insert(words.clone())?;
+            let storage = Storage::Cpu { ctx: cpu.clone(), words };
+            return Ok(DeviceBuffer { storage, slot, handle, len, _element: PhantomData });
+        }
+        let inner = ctx.vulkan("a buffer")?;
         let raw = RawBuffer::new(
-            &ctx.inner,
+            inner,
             "DeviceBuffer",
             size,
             vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
             location,
             16,
         )?;
-        let table = &ctx.inner.buffer_table;
-        let (slot, handle) = match table.insert(&ctx.inner.device, raw.buffer) {
+        let table = &inner.buffer_table;
+        let (slot, handle) = match table.insert(&inner.device, raw.buffer) {
             // Slots of buffers dropped while work used them come back once it has
             // finished: collect those, then try again.
             Err(Error::BufferTableFull { .. }) => {
-                ctx.inner.collect()?;
-                table.insert(&ctx.inner.device, raw.buffer)?
+                inner.collect()?;
+                table.insert(&inner.device, raw.buffer)?
             }
             other => other?,
         };
-        Ok(DeviceBuffer { raw, slot, handle, len, _element: PhantomData })
+        Ok(DeviceBuffer { storage: Storage::Vulkan(raw), slot, handle, len, _element: PhantomData })
     }
 
     /// A zero-filled buffer of `len` elements, for results the host reads back.
     pub fn zeroed(ctx: &Context, len: usize) -> Result<Self> {
         let mut buffer = Self::new(ctx, len, MemoryLocation::GpuToCpu)?;
-        if let Some(bytes) = buffer.raw.mapped_mut() {
-            bytes.fill(0);
+        if let Storage::Vulkan(raw) = &mut buffer.storage {
+            if let Some(bytes) = raw.mapped_mut() {
+                bytes.fill(0);
+            }
         }
         Ok(buffer)
     }
@@ -177,7 +194,10 @@ impl<T: Element> DeviceBuffer<T> {
     /// A buffer holding a copy of `data`, for inputs of device programs.
     pub fn from_slice(ctx: &Context, data: &[T]) -> Result<Self> {
         let mut buffer = Self::new(ctx, data.len(), MemoryLocation::CpuToGpu)?;
-        buffer.raw.write_bytes(bytemuck::cast_slice(data))?;
+        match &mut buffer.storage {
+            Storage::Vulkan(raw) => raw.write_bytes(bytemuck::cast_slice(data))?,
+            Storage::Cpu { words, .. } => crate::cpu::buffers::write_words(words, 0, bytemuck::cast_slice(data)),
+        }
         Ok(buffer)
     }
 
@@ -201,8 +221,15 @@ impl<T: Element> DeviceBuffer<T> {
     /// pending launches leave; see [`DeviceBuffer::read_async`] for a copy that
     /// does not block.
     pub fn read(&self) -> Result<Vec<T>> {
-        self.raw.ctx.wait_for_pending_work()?;
-        let bytes = self.raw.mapped().ok_or(Error::BufferSize {
+        let raw = match &self.storage {
+            Storage::Vulkan(raw) => raw,
+            Storage::Cpu { ctx, words } => {
+                ctx.wait_idle();
+                return Ok(read_cpu(words, self.len));
+            }
+        };
+        raw.ctx.wait_for_pending_work()?;
+        let bytes = raw.mapped().ok_or(Error::BufferSize {
             len: self.len,
             element_size: std::mem::size_of::<T>(),
             reason: "the buffer is not host-visible",
@@ -214,17 +241,24 @@ impl<T: Element> DeviceBuffer<T> {
     /// leaves them, into host memory owned by the returned [`PendingRead`], and
     /// returns without waiting. The buffer may be dropped at once: the copy keeps
     /// what it reads alive on the device (see [`crate::timeline`]).
+    ///
+    /// On the CPU backend the copy is made when the launches running have
+    /// finished, before this returns.
     pub fn read_async(&self) -> Result<PendingRead<T>> {
-        let ctx = &self.raw.ctx;
+        let raw = match &self.storage {
+            Storage::Vulkan(raw) => raw,
+            Storage::Cpu { .. } => return Ok(PendingRead { state: Pending::Ready(self.read()?) }),
+        };
+        let ctx = &raw.ctx;
         let staging = RawBuffer::new(
             ctx,
             "DeviceBuffer readback",
-            self.raw.size,
+            raw.size,
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
             16,
         )?;
-        let (src, dst, size) = (self.raw.buffer, staging.buffer, self.raw.size);
+        let (src, dst, size) = (raw.buffer, staging.buffer, raw.size);
         let submission = ctx.submit("a buffer readback", |cmd| {
             let before = vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
@@ -261,7 +295,7 @@ impl<T: Element> DeviceBuffer<T> {
                 );
             }
         })?;
-        Ok(PendingRead { submission, staging, len: self.len, _element: PhantomData })
+        Ok(PendingRead { state: Pending::Copying { submission, staging, len: self.len } })
     }
 
     /// Overwrites the buffer's first `data.len()` elements.
@@ -274,19 +308,32 @@ impl<T: Element> DeviceBuffer<T> {
             });
         }
         // Pending launches may read or write the buffer: let them finish first.
-        self.raw.ctx.wait_for_pending_work()?;
-        self.raw.write_bytes(bytemuck::cast_slice(data))
+        match &mut self.storage {
+            Storage::Vulkan(raw) => {
+                raw.ctx.wait_for_pending_work()?;
+                raw.write_bytes(bytemuck::cast_slice(data))
+            }
+            Storage::Cpu { ctx, words } => {
+                ctx.wait_idle();
+                crate::cpu::buffers::write_words(words, 0, bytemuck::cast_slice(data));
+                Ok(())
+            }
+        }
     }
 }
 
 impl<T: Element> std::fmt::Debug for DeviceBuffer<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (bytes, host_visible) = match &self.storage {
+            Storage::Vulkan(raw) => (raw.size, raw.mapped().is_some()),
+            Storage::Cpu { words, .. } => (4 * words.len() as u64, true),
+        };
         f.debug_struct("DeviceBuffer")
             .field("element", &std::any::type_name::<T>())
             .field("len", &self.len)
-            .field("bytes", &self.raw.size)
+            .field("bytes", &bytes)
             .field("table_index", &self.slot)
-            .field("host_visible", &self.raw.mapped().is_some())
+            .field("host_visible", &host_visible)
             .finish()
     }
 }
@@ -294,9 +341,15 @@ impl<T: Element> std::fmt::Debug for DeviceBuffer<T> {
 impl<T: Element> Drop for DeviceBuffer<T> {
     fn drop(&mut self) {
         // Launches refuse its handle from now on; the slot is reused only once no
-        // pending work can read it.
-        self.raw.ctx.buffer_table.kill(self.slot);
-        self.raw.ctx.retire(Retired::Slot(self.slot));
+        // pending work can read it (on the CPU backend, launches running keep the
+        // words they started with).
+        match &self.storage {
+            Storage::Vulkan(raw) => {
+                raw.ctx.buffer_table.kill(self.slot);
+                raw.ctx.retire(Retired::Slot(self.slot));
+            }
+            Storage::Cpu { ctx, .. } => ctx.buffers.remove(self.slot),
+        }
     }
 }
 
@@ -316,24 +369,47 @@ impl Context {
 /// ([`DeviceBuffer::read_async`]); owns the host memory it lands in.
 #[must_use = "a PendingRead is waited on to get the contents"]
 pub struct PendingRead<T: Element> {
-    // Field order: the submission (which waits when dropped) goes first.
-    submission: Submission,
-    staging: RawBuffer,
-    len: usize,
-    _element: PhantomData<T>,
+    state: Pending<T>,
+}
+
+/// Where a [`PendingRead`]'s contents are.
+enum Pending<T> {
+    /// On their way from a Vulkan buffer.
+    Copying {
+        // Field order: the submission (which waits when dropped) goes first.
+        submission: Submission,
+        staging: RawBuffer,
+        len: usize,
+    },
+    /// Copied already (the CPU backend).
+    Ready(Vec<T>),
+}
+
+/// The first `len` elements of CPU buffer words.
+fn read_cpu<T: Element>(words: &[std::sync::atomic::AtomicU32], len: usize) -> Vec<T> {
+    let mut out = vec![0u32; len * T::WORDS as usize];
+    crate::cpu::buffers::read_words(words, 0, &mut out);
+    bytemuck::pod_collect_to_vec(&out)
 }
 
 impl<T: Element> PendingRead<T> {
     /// Whether the copy has finished, without blocking.
     pub fn is_done(&self) -> Result<bool> {
-        self.submission.is_done()
+        match &self.state {
+            Pending::Copying { submission, .. } => submission.is_done(),
+            Pending::Ready(_) => Ok(true),
+        }
     }
 
     /// Blocks until the copy has finished and returns the contents.
-    pub fn wait(mut self) -> Result<Vec<T>> {
-        self.submission.wait()?;
-        let bytes = self.staging.mapped().ok_or(Error::BufferSize {
-            len: self.len,
+    pub fn wait(self) -> Result<Vec<T>> {
+        let (mut submission, staging, len) = match self.state {
+            Pending::Copying { submission, staging, len } => (submission, staging, len),
+            Pending::Ready(contents) => return Ok(contents),
+        };
+        submission.wait()?;
+        let bytes = staging.mapped().ok_or(Error::BufferSize {
+            len,
             element_size: std::mem::size_of::<T>(),
             reason: "the readback buffer is not host-visible",
         })?;
@@ -343,6 +419,11 @@ impl<T: Element> PendingRead<T> {
 
 impl<T: Element> std::fmt::Debug for PendingRead<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PendingRead").field("len", &self.len).field("epoch", &self.submission.epoch).finish()
+        match &self.state {
+            Pending::Copying { submission, len, .. } => {
+                f.debug_struct("PendingRead").field("len", len).field("epoch", &submission.epoch).finish()
+            }
+            Pending::Ready(contents) => f.debug_struct("PendingRead").field("len", &contents.len()).finish(),
+        }
     }
 }

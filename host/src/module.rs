@@ -42,10 +42,61 @@ pub struct EntryPointInfo {
     pub bindings: Vec<raykit_spirv::DescriptorBinding>,
 }
 
-/// A SPIR-V module on the device, with its entry points.
+/// A SPIR-V module on the device, with its entry points; on the CPU backend,
+/// the device crate linked into the program, whose programs the
+/// [`EntryPoint`](raykit_device::EntryPoint) constants carry.
 #[derive(Clone)]
 pub struct Module {
-    pub(crate) inner: Arc<ModuleInner>,
+    pub(crate) repr: ModuleRepr,
+}
+
+/// What a [`Module`] is underneath.
+#[derive(Clone)]
+pub(crate) enum ModuleRepr {
+    /// SPIR-V on a Vulkan device.
+    Spirv(Arc<ModuleInner>),
+    /// A device crate linked into the program (the CPU backend).
+    Linked(LinkedCrate),
+}
+
+/// A device crate linked into the program, for the CPU backend.
+#[derive(Clone)]
+pub(crate) struct LinkedCrate {
+    pub(crate) ctx: Arc<crate::cpu::CpuContext>,
+    /// Its package name (`CARGO_PKG_NAME`), which its programs carry.
+    pub(crate) crate_name: String,
+}
+
+impl Module {
+    /// The SPIR-V module, when this is one.
+    pub(crate) fn spirv(&self) -> Option<&Arc<ModuleInner>> {
+        match &self.repr {
+            ModuleRepr::Spirv(inner) => Some(inner),
+            ModuleRepr::Linked(_) => None,
+        }
+    }
+
+    /// The context the module was made on.
+    pub(crate) fn context(&self) -> Context {
+        match &self.repr {
+            ModuleRepr::Spirv(inner) => Context::from_vulkan(inner.ctx.clone()),
+            ModuleRepr::Linked(linked) => Context::from_cpu(linked.ctx.clone()),
+        }
+    }
+
+    /// A module of the device crate `crate_name` linked into the program.
+    fn linked(ctx: &Arc<crate::cpu::CpuContext>, crate_name: &str) -> Module {
+        Module { repr: ModuleRepr::Linked(LinkedCrate { ctx: ctx.clone(), crate_name: crate_name.to_owned() }) }
+    }
+}
+
+/// The error for SPIR-V given to the CPU backend.
+fn spirv_on_cpu() -> Error {
+    Error::NotOnCpuBackend {
+        what: "a SPIR-V module",
+        why: "the CPU backend runs the Rust device programs linked into this program, not SPIR-V (GLSL, WGSL and .spv files have no host code)",
+        fix: "load a Rust device crate with Module::from_device_crate (or from_embedded) and name its programs by their EntryPoint constants, or use Backend::Vulkan for SPIR-V modules",
+    }
 }
 
 pub(crate) struct ModuleInner {
@@ -341,7 +392,11 @@ impl Module {
     }
 
     pub(crate) fn named(ctx: &Context, spirv: &[u8], name: &str) -> Result<Module> {
-        ctx.inner.check_device("a module creation")?;
+        if ctx.cpu().is_some() {
+            return Err(spirv_on_cpu());
+        }
+        let vulkan = ctx.vulkan("a SPIR-V module")?;
+        vulkan.check_device("a module creation")?;
         let entry_points = reflect_entry_points(spirv)?;
         if !entry_points.iter().any(|e| e.kind.is_some()) {
             return Err(Error::NoRayTracingEntryPoints {
@@ -350,7 +405,7 @@ impl Module {
         }
         let words = words_of(spirv)?;
         crate::validate::spirv::validate(&words)?;
-        if !ctx.inner.non_semantic_info && declares_extension(&words, "SPV_KHR_non_semantic_info") {
+        if !vulkan.non_semantic_info && declares_extension(&words, "SPV_KHR_non_semantic_info") {
             return Err(Error::SpirvExtensionUnsupported {
                 spirv_extension: "SPV_KHR_non_semantic_info".to_owned(),
                 device_extension: "VK_KHR_shader_non_semantic_info",
@@ -360,19 +415,25 @@ impl Module {
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
         let (shader, log) = crate::log::capture(|| {
             // SAFETY: `words` is a parsed SPIR-V module; the device is live.
-            unsafe { ctx.inner.device.create_shader_module(&info, None) }
+            unsafe { vulkan.device.create_shader_module(&info, None) }
         });
         let shader = shader.map_err(Error::vk("vkCreateShaderModule"))?;
-        ctx.inner.set_name(shader, &format!("raykit module {name}"));
+        vulkan.set_name(shader, &format!("raykit module {name}"));
         let records_exceptions = declares_spec_id(&words, raykit_abi::EXCEPTION_SLOT_SPEC_ID);
-        let inner = ModuleInner { ctx: ctx.inner.clone(), shader, entry_points, words, log, records_exceptions };
-        Ok(Module { inner: Arc::new(inner) })
+        let inner = ModuleInner { ctx: vulkan.clone(), shader, entry_points, words, log, records_exceptions };
+        Ok(Module { repr: ModuleRepr::Spirv(Arc::new(inner)) })
     }
 
     /// Loads the SPIR-V that `cargo xtask build-shaders` built for the device crate
     /// `crate_name` (e.g. `"triangle-device"`), found by [`spirv_path`].
     /// When there is none, the error lists every path looked at.
+    ///
+    /// On the CPU backend no SPIR-V is read: the module is the crate linked into
+    /// the program, and its programs are named by their `EntryPoint` constants.
     pub fn from_device_crate(ctx: &Context, crate_name: &str) -> Result<Module> {
+        if let Some(cpu) = ctx.cpu() {
+            return Ok(Module::linked(cpu, crate_name));
+        }
         let tried = spirv_candidates(crate_name);
         match tried.iter().find(|p| p.is_file()) {
             Some(path) => Module::from_file(ctx, path),
@@ -387,7 +448,12 @@ impl Module {
     /// Loads SPIR-V embedded in the executable at compile time (see
     /// [`include_spirv!`](crate::include_spirv)): no file is needed at run time,
     /// and the bytes come from the same build as the crate's entry-point constants.
+    /// On the CPU backend, the crate linked into the program (as
+    /// [`Module::from_device_crate`]).
     pub fn from_embedded(ctx: &Context, spirv: &EmbeddedSpirv) -> Result<Module> {
+        if let Some(cpu) = ctx.cpu() {
+            return Ok(Module::linked(cpu, spirv.crate_name));
+        }
         Module::named(ctx, spirv.bytes, spirv.crate_name)
     }
 
@@ -401,23 +467,27 @@ impl Module {
     /// What the validation layer reported while the module was created (OptiX's
     /// log string of `optixModuleCreate`); see [`crate::log`].
     pub fn creation_log(&self) -> &[crate::log::ValidationMessage] {
-        &self.inner.log
+        self.spirv().map_or(&[], |inner| &inner.log)
     }
 
-    /// The module's entry points and their stages.
+    /// The module's entry points and their stages, from its SPIR-V (none for a
+    /// linked crate of the CPU backend, which is not reflected).
     pub fn entry_points(&self) -> &[EntryPointInfo] {
-        &self.inner.entry_points
+        self.spirv().map_or(&[], |inner| &inner.entry_points)
     }
 
     pub(crate) fn entry_list(&self) -> Vec<(String, Option<ProgramKind>)> {
-        self.inner.entry_points.iter().map(|e| (e.name.clone(), e.kind)).collect()
+        self.entry_points().iter().map(|e| (e.name.clone(), e.kind)).collect()
     }
 }
 
 impl std::fmt::Debug for Module {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let ModuleRepr::Linked(linked) = &self.repr {
+            return f.debug_struct("Module").field("linked_crate", &linked.crate_name).finish_non_exhaustive();
+        }
         let entries: std::collections::BTreeMap<&str, &str> =
-            self.inner.entry_points.iter().map(|e| (e.name.as_str(), e.execution_model.as_str())).collect();
+            self.entry_points().iter().map(|e| (e.name.as_str(), e.execution_model.as_str())).collect();
         f.debug_struct("Module").field("entry_points", &entries).finish_non_exhaustive()
     }
 }

@@ -10,7 +10,7 @@
 //! test fails when `RAYKIT_REQUIRE_DEVICE=1` (CI and `cargo xtask test`), and
 //! otherwise prints a loud SKIPPED line.
 
-use raykit::{Context, ContextOptions, Error, PipelineCacheLocation};
+use raykit::{Backend, Context, ContextOptions, Error, PipelineCacheLocation};
 
 /// Runs `test` with a fresh context; checks the validation log afterwards. The
 /// context's disk compile cache is off: tests never touch the user's cache.
@@ -20,6 +20,35 @@ pub fn with_context(name: &str, test: impl FnOnce(&Context) -> anyhow::Result<()
         ContextOptions { pipeline_cache: PipelineCacheLocation::Off, ..Default::default() },
         test,
     )
+}
+
+/// Runs `test` once on each backend: on a Vulkan context as [`with_context`]
+/// does, then on a CPU-backend context (see `raykit::cpu`). `RAYKIT_TEST_BACKENDS`
+/// (`vulkan`, `cpu`, or both, comma-separated; both by default) limits the runs,
+/// for running the suite on a machine without one of them. The test gets the
+/// context and the backend it is on.
+pub fn with_each_backend(name: &str, test: impl Fn(&Context, Backend) -> anyhow::Result<()>) -> anyhow::Result<()> {
+    for backend in test_backends()? {
+        let options = ContextOptions { backend: Some(backend), ..test_options() };
+        let label = format!("{name} [{backend:?}]");
+        run(&label, options, |ctx| {
+            anyhow::ensure!(ctx.backend() == backend, "{label}: made a {:?} context", ctx.backend());
+            test(ctx, backend).map_err(|e| e.context(label.clone()))
+        })?;
+    }
+    Ok(())
+}
+
+/// The backends [`with_each_backend`] runs on: `RAYKIT_TEST_BACKENDS`, else both.
+pub fn test_backends() -> anyhow::Result<Vec<Backend>> {
+    let Ok(list) = std::env::var("RAYKIT_TEST_BACKENDS") else { return Ok(vec![Backend::Vulkan, Backend::Cpu]) };
+    list.split(',')
+        .map(|b| match b.trim() {
+            "vulkan" => Ok(Backend::Vulkan),
+            "cpu" => Ok(Backend::Cpu),
+            other => anyhow::bail!("RAYKIT_TEST_BACKENDS: unknown backend {other:?} (vulkan, cpu)"),
+        })
+        .collect()
 }
 
 /// [`with_context`] with `options` (validation as `RAYKIT_VALIDATION` says).
@@ -90,7 +119,7 @@ pub fn provoke_validation_error(ctx: &Context, name: &str) -> anyhow::Result<boo
     if !validation_on() {
         return Ok(false);
     }
-    let device = ctx.raw_device();
+    let device = ctx.raw_device().expect("a Vulkan context");
     let info = vk::BufferCreateInfo::default().size(256).usage(vk::BufferUsageFlags::STORAGE_BUFFER);
     // SAFETY: a valid create info on the context's live device.
     let buffer = unsafe { device.create_buffer(&info, None) }?;

@@ -1223,7 +1223,7 @@ fn no_device_matches_the_requested_name() -> anyhow::Result<()> {
                 ContextOptions { device_name_contains: Some("no such device".to_owned()), ..Default::default() };
             let err = refused(Context::new(options), "a device name nothing has")?;
             // The message lists every device seen, the usable one included.
-            anyhow::ensure!(err.to_string().contains(ctx.device_name()), "{err}");
+            anyhow::ensure!(err.to_string().contains(ctx.device_name().as_ref()), "{err}");
             Ok(err)
         },
         |e| matches!(e, Error::NoRayTracingDevice { devices } if !devices.is_empty()),

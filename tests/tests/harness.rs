@@ -60,7 +60,7 @@ fn harness_reports_vulkan_objects_left_alive_at_device_destruction() -> anyhow::
         let info = vk::SamplerCreateInfo::default();
         // SAFETY: a valid create info on the context's live device. The sampler is
         // deliberately never destroyed: this test checks that the leak is reported.
-        let _sampler = unsafe { ctx.raw_device().create_sampler(&info, None) }?;
+        let _sampler = unsafe { ctx.raw_device().expect("a Vulkan context").create_sampler(&info, None) }?;
         created = true;
         Ok(())
     });
@@ -85,9 +85,9 @@ fn harness_passes_a_test_that_cleans_up() -> anyhow::Result<()> {
     with_context_validation("creates and destroys a VkSampler", true, |ctx| {
         let info = vk::SamplerCreateInfo::default();
         // SAFETY: a valid create info on the context's live device.
-        let sampler = unsafe { ctx.raw_device().create_sampler(&info, None) }?;
+        let sampler = unsafe { ctx.raw_device().expect("a Vulkan context").create_sampler(&info, None) }?;
         // SAFETY: the sampler was made above and is not in use.
-        unsafe { ctx.raw_device().destroy_sampler(sampler, None) };
+        unsafe { ctx.raw_device().expect("a Vulkan context").destroy_sampler(sampler, None) };
         let buffer = ctx.buffer::<u32>(16)?;
         drop(buffer);
         Ok(())

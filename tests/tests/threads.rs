@@ -60,7 +60,7 @@ fn round(gate: &Barrier, provoke: bool) -> anyhow::Result<Outcome> {
             check_triangle_picture(&image.read()?, WIDTH, HEIGHT)
                 .map_err(|e| anyhow::anyhow!("launch {launch}: {e}"))?;
         }
-        let device = raykit::ash::vk::Handle::as_raw(ctx.raw_device().handle());
+        let device = raykit::ash::vk::Handle::as_raw(ctx.raw_device().expect("a Vulkan context").handle());
         let log = ctx.messages();
         drop((image, pipeline, sbt, scene, gas));
         Ok((ctx, log, device, provoked))

@@ -1,12 +1,12 @@
 //! optixTriangle rendered on the device against a CPU reference of the same scene.
 
-use raykit_tests::{channel_distance, with_context};
+use raykit_tests::{channel_distance, with_context, with_each_backend};
 use triangle::BG_COLOR;
 use triangle_device::make_color;
 
 #[test]
 fn triangle_matches_the_cpu_reference() -> anyhow::Result<()> {
-    with_context("triangle_matches_the_cpu_reference", |ctx| {
+    with_each_backend("triangle_matches_the_cpu_reference", |ctx, _| {
         let (width, height) = (320u32, 240u32);
         let pixels = triangle::render(ctx, width, height)?;
         assert_matches_the_cpu_reference(&pixels, width, height);

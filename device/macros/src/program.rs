@@ -768,6 +768,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
         #[allow(non_upper_case_globals)]
         pub const #cpu_program: ::raykit_device::cpu::CpuProgram = ::raykit_device::cpu::CpuProgram {
             run: #cpu_wrapper,
+            name: #entry_name,
             crate_name: env!("CARGO_PKG_NAME"),
             params: #cpu_params,
             record: #cpu_record,

@@ -1,8 +1,6 @@
 //! The any-hit stage (`__anyhit__`): runs for each candidate hit along a ray
 //! (unless the geometry is opaque) and may reject it or end the traversal.
 
-
-
 use super::hit::{hit_accessors, hit_kind_accessors, HitBuiltins};
 
 /// What an any-hit program may use: the ray, the candidate hit, device, and

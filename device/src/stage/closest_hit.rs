@@ -3,8 +3,6 @@
 
 use spirv_std::glam::Vec2;
 
-
-
 use super::hit::{hit_accessors, hit_kind_accessors, HitBuiltins};
 
 /// What a closest-hit program may use: the ray, the hit, device, tracing and

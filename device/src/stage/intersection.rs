@@ -1,8 +1,6 @@
 //! The intersection stage (`__intersection__`): computes hits with custom
 //! primitives (AABBs in the GAS) and reports them with typed attributes.
 
-
-
 use super::hit::{hit_accessors, HitBuiltins};
 
 /// What an intersection program may use: the ray, the primitive, device, and

@@ -2,8 +2,6 @@
 
 use spirv_std::glam::{UVec3, Vec3};
 
-
-
 /// What a miss program may use: launch index and size, the ray, device,
 /// tracing and callables.
 pub struct Miss<'a> {

@@ -151,7 +151,9 @@ fn execute_callable<T>(device: DeviceAccess<'_>, sbt_index: u32, data: &mut T) {
 /// when the pipeline has none).
 #[cfg(target_arch = "spirv")]
 fn record_exception(table: &mut crate::BufferTable, slot: u32, launch_index: spirv_std::glam::UVec3, code: u32) -> u32 {
-    use crate::exception::{EXCEPTION_CAPACITY, EXCEPTION_HANDLER_WORD, EXCEPTION_RECORDS_WORD, EXCEPTION_RECORD_WORDS};
+    use crate::exception::{
+        EXCEPTION_CAPACITY, EXCEPTION_HANDLER_WORD, EXCEPTION_RECORDS_WORD, EXCEPTION_RECORD_WORDS,
+    };
     // SAFETY: raykit fills `slot` with the pipeline's exception buffer of
     // EXCEPTION_BUFFER_WORDS words before every launch.
     let words: &mut [u32] = unsafe { table.index_mut(slot as usize) };

@@ -442,27 +442,35 @@ impl InFlight {
 #[must_use = "a PendingBuild holds the structures being built; call wait() to get them"]
 pub struct PendingBuild<T> {
     // Field order matters: the in-flight work is waited on before `value` drops.
-    in_flight: InFlight,
+    /// The work on the device; `None` for structures built already (the CPU backend).
+    in_flight: Option<InFlight>,
     value: T,
     finish: fn(&mut T, &[u64]),
 }
 
 impl<T> PendingBuild<T> {
     pub(crate) fn new(in_flight: InFlight, value: T, finish: fn(&mut T, &[u64])) -> Self {
-        PendingBuild { in_flight, value, finish }
+        PendingBuild { in_flight: Some(in_flight), value, finish }
+    }
+
+    /// Structures built already.
+    pub(crate) fn ready(value: T) -> Self {
+        PendingBuild { in_flight: None, value, finish: |_, _| {} }
     }
 
     /// Whether the GPU has finished, without blocking.
     pub fn is_ready(&self) -> Result<bool> {
-        self.in_flight.is_done()
+        self.in_flight.as_ref().map_or(Ok(true), InFlight::is_done)
     }
 
     /// Blocks until the builds have finished; releases their scratch and input
     /// memory and returns the structures.
     pub fn wait(self) -> Result<T> {
         let PendingBuild { in_flight, mut value, finish } = self;
-        let sizes = in_flight.wait()?;
-        finish(&mut value, &sizes);
+        if let Some(in_flight) = in_flight {
+            let sizes = in_flight.wait()?;
+            finish(&mut value, &sizes);
+        }
         Ok(value)
     }
 }

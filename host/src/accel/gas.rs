@@ -31,12 +31,39 @@ pub struct Compaction {
 /// of one kind (triangles or AABBs). Instance it in an [`Ias`](super::Ias) to
 /// trace it.
 pub struct Gas {
-    pub(crate) accel: Arc<AccelStructure>,
+    pub(crate) accel: GasAccel,
     shapes: Vec<Shape>,
     options: BuildOptions,
     sizes: AccelSizes,
     compacted_size: Option<u64>,
     compaction: Option<Compaction>,
+}
+
+/// What a [`Gas`] is underneath.
+#[derive(Clone)]
+pub(crate) enum GasAccel {
+    /// A Vulkan acceleration structure.
+    Vulkan(Arc<AccelStructure>),
+    /// A tree of the CPU backend.
+    Cpu(Arc<crate::cpu::accel::CpuGas>),
+}
+
+impl GasAccel {
+    /// The version every refit bumps (see [`crate::handles`]).
+    pub(crate) fn version(&self) -> &Arc<std::sync::atomic::AtomicU64> {
+        match self {
+            GasAccel::Vulkan(accel) => &accel.version,
+            GasAccel::Cpu(cpu) => &cpu.version,
+        }
+    }
+
+    /// The context it was built on.
+    pub(crate) fn context(&self) -> Context {
+        match self {
+            GasAccel::Vulkan(accel) => Context::from_vulkan(accel.ctx.clone()),
+            GasAccel::Cpu(cpu) => Context::from_cpu(cpu.ctx.clone()),
+        }
+    }
 }
 
 /// Describes a GAS build: its inputs and options (OptiX's `OptixBuildInput`s and
@@ -95,13 +122,21 @@ impl<'a> GasBuilder<'a> {
 
     /// Validates the inputs and queries the memory the build needs, without
     /// building (OptiX's `optixAccelComputeMemoryUsage`).
+    ///
+    /// On the CPU backend the tree is built to measure it; both scratch sizes are 0.
     pub fn sizes(&self, ctx: &Context) -> Result<AccelSizes> {
-        let shapes = input::validate(&self.inputs, &ctx.inner.limits, false)?;
+        if ctx.cpu().is_some() {
+            input::validate(&self.inputs, ctx.limits(), false)?;
+            let size = crate::cpu::accel::GasData::build(&self.inputs).size();
+            return Ok(AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 });
+        }
+        let inner = ctx.vulkan("a GAS size query")?;
+        let shapes = input::validate(&self.inputs, &inner.limits, false)?;
         let counts: Vec<u32> = shapes.iter().map(Shape::primitives).collect();
         // The size query ignores addresses (only a transform's presence counts):
         // describe the geometry without uploading it.
         let geometries: Vec<Geometry> = self.inputs.iter().zip(&shapes).map(|(i, s)| describe(i, s)).collect();
-        Ok(build::query_sizes(&ctx.inner, BOTTOM, self.options.vk_flags(), &geometries, &counts))
+        Ok(build::query_sizes(inner, BOTTOM, self.options.vk_flags(), &geometries, &counts))
     }
 
     /// Builds and waits.
@@ -111,7 +146,11 @@ impl<'a> GasBuilder<'a> {
 
     /// Submits the build and returns without waiting.
     pub fn submit(self, ctx: &Context) -> Result<PendingBuild<Gas>> {
-        let (in_flight, mut gases) = submit_gases(&ctx.inner, std::slice::from_ref(&self))?;
+        if let Some(cpu) = ctx.cpu() {
+            let gas = crate::cpu::accel::build_gas(cpu, &self.inputs, self.options)?;
+            return Ok(PendingBuild::ready(gas));
+        }
+        let (in_flight, mut gases) = submit_gases(ctx.vulkan("a GAS build")?, std::slice::from_ref(&self))?;
         let gas = gases.pop().ok_or(Error::AccelEmpty { what: "the batch has no GAS builds".to_owned() })?;
         Ok(PendingBuild::new(in_flight, gas, |gas, sizes| {
             if gas.options.allow_compaction {
@@ -168,7 +207,7 @@ fn submit_gases(ctx: &Arc<ContextInner>, builds: &[GasBuilder<'_>]) -> Result<(b
         });
         buffers.push(p.input_buffer);
         gases.push(Gas {
-            accel: Arc::new(accel),
+            accel: GasAccel::Vulkan(Arc::new(accel)),
             shapes: p.shapes,
             options: b.options,
             sizes: p.sizes,
@@ -210,7 +249,20 @@ impl Gas {
     /// scratch buffer) without waiting. Every input is validated before anything
     /// is submitted.
     pub fn submit_many(ctx: &Context, builds: Vec<GasBuilder<'_>>) -> Result<PendingBuild<Vec<Gas>>> {
-        let (in_flight, gases) = submit_gases(&ctx.inner, &builds)?;
+        if let Some(cpu) = ctx.cpu() {
+            if builds.is_empty() {
+                return Err(Error::AccelEmpty { what: "the batch has no GAS builds".to_owned() });
+            }
+            for b in &builds {
+                input::validate(&b.inputs, ctx.limits(), b.options.allow_update)?;
+            }
+            let gases = builds
+                .iter()
+                .map(|b| crate::cpu::accel::build_gas(cpu, &b.inputs, b.options))
+                .collect::<Result<Vec<_>>>()?;
+            return Ok(PendingBuild::ready(gases));
+        }
+        let (in_flight, gases) = submit_gases(ctx.vulkan("a GAS build")?, &builds)?;
         Ok(PendingBuild::new(in_flight, gases, |gases, sizes| {
             let mut sizes = sizes.iter();
             for gas in gases.iter_mut().filter(|g| g.options.allow_compaction) {
@@ -226,13 +278,25 @@ impl Gas {
     /// rebuild the [`Ias`](super::Ias)es that instance this GAS afterwards, so
     /// their bounds follow.
     pub fn update(&mut self, inputs: &[BuildInput<'_>]) -> Result<()> {
-        let ctx = self.accel.ctx.clone();
         if !self.options.allow_update {
             return Err(Error::UpdateRefused {
                 what: "GAS",
                 reason: "it was built without BuildOptions::allow_update".to_owned(),
             });
         }
+        let accel = match &self.accel {
+            GasAccel::Vulkan(accel) => accel.clone(),
+            GasAccel::Cpu(cpu) => {
+                let shapes = input::validate(inputs, &crate::cpu::LIMITS, true)?;
+                if let Some(reason) = input::update_refusal(&self.shapes, &shapes) {
+                    return Err(Error::UpdateRefused { what: "GAS", reason });
+                }
+                cpu.refit(inputs);
+                self.compacted_size = None;
+                return Ok(());
+            }
+        };
+        let ctx = accel.ctx.clone();
         let shapes = input::validate(inputs, &ctx.limits, true)?;
         if let Some(reason) = input::update_refusal(&self.shapes, &shapes) {
             return Err(Error::UpdateRefused { what: "GAS", reason });
@@ -241,15 +305,15 @@ impl Gas {
         let job = Job {
             ty: BOTTOM,
             flags: self.options.vk_flags(),
-            update_from: Some(self.accel.handle),
-            dst: self.accel.handle,
+            update_from: Some(accel.handle),
+            dst: accel.handle,
             geometries: p.geometries,
             counts: p.counts,
             scratch: p.sizes.update_scratch,
             query_compacted: false,
         };
         build::submit(&ctx, &[job], vec![p.input_buffer])?.wait()?;
-        self.accel.version.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
+        accel.version.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
         self.compacted_size = None;
         Ok(())
     }
@@ -257,7 +321,7 @@ impl Gas {
     /// Rebuilds the GAS from `inputs` with its options; the topology may change.
     /// The structure may move: rebuild the [`Ias`](super::Ias)es that instance it.
     pub fn rebuild(&mut self, inputs: &[BuildInput<'_>]) -> Result<()> {
-        let ctx = Context { inner: self.accel.ctx.clone() };
+        let ctx = self.accel.context();
         let rebuilt = GasBuilder { inputs: inputs.to_vec(), options: self.options }.build(&ctx)?;
         *self = rebuilt;
         Ok(())
@@ -270,13 +334,21 @@ impl Gas {
         if !self.options.allow_compaction {
             return Err(Error::CompactionNotAllowed);
         }
-        let ctx = self.accel.ctx.clone();
+        let accel = match &self.accel {
+            GasAccel::Vulkan(accel) => accel.clone(),
+            GasAccel::Cpu(_) => {
+                // The CPU tree is as small as it gets: compaction keeps it.
+                let size = self.size();
+                return Ok(Gas { compaction: Some(Compaction { before: size, after: size }), ..self });
+            }
+        };
+        let ctx = accel.ctx.clone();
         let compacted_size = match self.compacted_size {
             Some(size) => size,
             None => {
                 // Updated since the build: ask again.
                 let pool = build::QueryPool::compacted_sizes(&ctx, 1)?;
-                let handle = self.accel.handle;
+                let handle = accel.handle;
                 let mut submission = ctx.submit("a compacted-size query", |cmd| {
                     // SAFETY: the structure is built and alive; the pool has one query.
                     unsafe {
@@ -293,12 +365,12 @@ impl Gas {
                 })?;
                 submission.wait()?;
                 drop(submission);
-                pool.results()?.first().copied().unwrap_or(self.accel.size)
+                pool.results()?.first().copied().unwrap_or(accel.size)
             }
         };
         let compacted = AccelStructure::new(&ctx, BOTTOM, compacted_size.max(1))?;
         let info = vk::CopyAccelerationStructureInfoKHR::default()
-            .src(self.accel.handle)
+            .src(accel.handle)
             .dst(compacted.handle)
             .mode(vk::CopyAccelerationStructureModeKHR::COMPACT);
         let mut submission = ctx.submit("an acceleration structure compaction", |cmd| {
@@ -313,8 +385,8 @@ impl Gas {
         submission.wait()?;
         drop(submission);
         Ok(Gas {
-            compaction: Some(Compaction { before: self.accel.size, after: compacted.size }),
-            accel: Arc::new(compacted),
+            compaction: Some(Compaction { before: accel.size, after: compacted.size }),
+            accel: GasAccel::Vulkan(Arc::new(compacted)),
             shapes: self.shapes,
             options: self.options,
             sizes: self.sizes,
@@ -324,7 +396,10 @@ impl Gas {
 
     /// Bytes of device memory the structure takes.
     pub fn size(&self) -> u64 {
-        self.accel.size
+        match &self.accel {
+            GasAccel::Vulkan(accel) => accel.size,
+            GasAccel::Cpu(cpu) => cpu.data().size(),
+        }
     }
 
     /// The sizes the driver reported for the last full build.
@@ -357,9 +432,25 @@ impl Gas {
         self.shapes.iter().map(|s| s.primitives() as u64).sum()
     }
 
-    /// The structure's device address.
+    /// The structure's device address (0 on the CPU backend, where
+    /// structures have none).
     pub fn device_address(&self) -> u64 {
-        self.accel.address
+        match &self.accel {
+            GasAccel::Vulkan(accel) => accel.address,
+            GasAccel::Cpu(_) => 0,
+        }
+    }
+
+    /// A GAS of the CPU backend built from validated inputs.
+    pub(crate) fn from_cpu(
+        accel: Arc<crate::cpu::accel::CpuGas>,
+        shapes: Vec<Shape>,
+        options: BuildOptions,
+        size: u64,
+    ) -> Gas {
+        let sizes = AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 };
+        let compacted_size = options.allow_compaction.then_some(size);
+        Gas { accel: GasAccel::Cpu(accel), shapes, options, sizes, compacted_size, compaction: None }
     }
 }
 
@@ -368,7 +459,7 @@ impl std::fmt::Debug for Gas {
         f.debug_struct("Gas")
             .field("geometries", &self.shapes.len())
             .field("primitives", &self.primitive_count())
-            .field("size", &self.accel.size)
+            .field("size", &self.size())
             .field("options", &self.options)
             .finish()
     }

@@ -3,6 +3,7 @@
 //! index, a visibility mask, an SBT offset and flags
 //! ([`VkAccelerationStructureInstanceKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkAccelerationStructureInstanceKHR.html)).
 
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use ash::vk;
@@ -10,7 +11,7 @@ use glam::Affine3A;
 use raykit_device::Traversable;
 
 use super::build::{self, Geometry, InputPacker, Job, PendingBuild};
-use super::gas::Gas;
+use super::gas::{Gas, GasAccel};
 use super::structure::{AccelSizes, AccelStructure, BuildOptions};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
@@ -53,7 +54,7 @@ impl std::ops::BitOr for InstanceFlags {
 #[derive(Clone)]
 #[must_use]
 pub struct Instance {
-    accel: Arc<AccelStructure>,
+    accel: GasAccel,
     transform: [f32; 12],
     custom_index: u32,
     mask: u8,
@@ -128,7 +129,10 @@ impl Instance {
             instance_custom_index_and_mask: vk::Packed24_8::new(self.custom_index, self.mask),
             instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(self.sbt_offset, self.flags.0),
             acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
-                device_handle: self.accel.address,
+                device_handle: match &self.accel {
+                    GasAccel::Vulkan(accel) => accel.address,
+                    GasAccel::Cpu(_) => 0,
+                },
             },
         }
     }
@@ -149,10 +153,19 @@ impl std::fmt::Debug for Instance {
 
 /// Checks instances; returns their device records.
 fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<Vec<vk::AccelerationStructureInstanceKHR>> {
+    check_fields(instances, ctx.limits.max_instance_count)?;
+    if instances.iter().any(|i| !matches!(&i.accel, GasAccel::Vulkan(accel) if Arc::ptr_eq(&accel.ctx, ctx))) {
+        return Err(Error::ContextMismatch);
+    }
+    Ok(instances.iter().map(Instance::record).collect())
+}
+
+/// Checks what every backend requires of instances: some, at most `limit`, with
+/// 24-bit custom indices and SBT offsets and finite transforms.
+fn check_fields(instances: &[Instance], limit: u64) -> Result<()> {
     if instances.is_empty() {
         return Err(Error::AccelEmpty { what: "the IAS build has no instances".to_owned() });
     }
-    let limit = ctx.limits.max_instance_count;
     if instances.len() as u64 > limit {
         return Err(Error::AccelLimit {
             what: "instances",
@@ -162,9 +175,6 @@ fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<Vec<vk::A
         });
     }
     for (i, instance) in instances.iter().enumerate() {
-        if !Arc::ptr_eq(&instance.accel.ctx, ctx) {
-            return Err(Error::ContextMismatch);
-        }
         for (field, value) in [("custom_index", instance.custom_index), ("sbt_offset", instance.sbt_offset)] {
             if value >= 1 << 24 {
                 return Err(Error::InstanceField { instance: i, field, value, max: (1 << 24) - 1 });
@@ -174,7 +184,7 @@ fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<Vec<vk::A
             return Err(Error::NonFiniteTransform { what: format!("the transform of instance {i}") });
         }
     }
-    Ok(instances.iter().map(Instance::record).collect())
+    Ok(())
 }
 
 /// Uploads instance records; returns the buffer and the geometry naming it.
@@ -214,7 +224,19 @@ impl IasBuilder<'_> {
 
     /// Submits the build and returns without waiting.
     pub fn submit(self, ctx: &Context) -> Result<PendingBuild<Ias>> {
-        let inner = &ctx.inner;
+        if let Some(cpu) = ctx.cpu() {
+            let ias = Ias {
+                accel: IasAccel::Cpu { ctx: cpu.clone(), address: crate::cpu::next_scene_address() },
+                gases: Vec::new(),
+                options: self.options,
+                sizes: AccelSizes::default(),
+                reach: Arc::new(HitReach::default()),
+            };
+            let mut ias = ias;
+            ias.build_cpu(self.instances)?;
+            return Ok(PendingBuild::ready(ias));
+        }
+        let inner = ctx.vulkan("an IAS build")?;
         let records = validate(inner, self.instances)?;
         let (buffer, geometry) = upload(inner, &records)?;
         let counts = [records.len() as u32];
@@ -232,7 +254,7 @@ impl IasBuilder<'_> {
         };
         let in_flight = build::submit(inner, &[job], vec![buffer])?;
         let ias = Ias {
-            accel,
+            accel: IasAccel::Vulkan(accel),
             gases: self.instances.iter().map(|i| i.accel.clone()).collect(),
             options: self.options,
             sizes,
@@ -243,11 +265,28 @@ impl IasBuilder<'_> {
     }
 }
 
+/// What an [`Ias`] is underneath.
+enum IasAccel {
+    /// A Vulkan acceleration structure.
+    Vulkan(AccelStructure),
+    /// A tree of the CPU backend, registered in its context by `address`.
+    Cpu { ctx: Arc<crate::cpu::CpuContext>, address: u64 },
+}
+
+impl IasAccel {
+    fn address(&self) -> u64 {
+        match self {
+            IasAccel::Vulkan(accel) => accel.address,
+            IasAccel::Cpu { address, .. } => *address,
+        }
+    }
+}
+
 /// An instance acceleration structure (top level): what device programs trace.
 pub struct Ias {
     // Field order: the structure goes before the GASes it references.
-    accel: AccelStructure,
-    gases: Vec<Arc<AccelStructure>>,
+    accel: IasAccel,
+    gases: Vec<GasAccel>,
     options: BuildOptions,
     sizes: AccelSizes,
     /// The hit records its instances can select, checked by every launch.
@@ -275,7 +314,6 @@ impl Ias {
     /// with [`Error::UpdateRefused`], saying why, when the build did not allow
     /// updates or the count changed. Also the way to follow a refitted GAS.
     pub fn update(&mut self, instances: &[Instance]) -> Result<()> {
-        let ctx = self.accel.ctx.clone();
         if !self.options.allow_update {
             return Err(Error::UpdateRefused {
                 what: "IAS",
@@ -288,6 +326,10 @@ impl Ias {
                 reason: format!("the instance count changed from {} to {}", self.gases.len(), instances.len()),
             });
         }
+        let (ctx, handle) = match &self.accel {
+            IasAccel::Vulkan(accel) => (accel.ctx.clone(), accel.handle),
+            IasAccel::Cpu { .. } => return self.build_cpu(instances),
+        };
         let records = validate(&ctx, instances)?;
         let (buffer, geometry) = upload(&ctx, &records)?;
         let counts = [records.len() as u32];
@@ -295,8 +337,8 @@ impl Ias {
         let job = Job {
             ty: TOP,
             flags: self.options.vk_flags(),
-            update_from: Some(self.accel.handle),
-            dst: self.accel.handle,
+            update_from: Some(handle),
+            dst: handle,
             geometries: vec![geometry],
             counts: counts.to_vec(),
             scratch: sizes.update_scratch,
@@ -312,19 +354,53 @@ impl Ias {
     /// Records this IAS, with the versions of the GASes it was built over, as
     /// what launches may trace.
     fn register(&self) {
-        let over = self
-            .gases
-            .iter()
-            .map(|g| (g.version.clone(), g.version.load(std::sync::atomic::Ordering::Acquire)))
-            .collect();
+        let over = self.gases.iter().map(|g| (g.version().clone(), g.version().load(Ordering::Acquire))).collect();
         let ias = crate::handles::LiveIas { over, reach: self.reach.clone() };
-        self.accel.ctx.traversables.insert(self.accel.address, ias);
+        if let IasAccel::Vulkan(accel) = &self.accel {
+            accel.ctx.traversables.insert(accel.address, ias);
+        }
+    }
+
+    /// Builds (or rebuilds in place, for an update) the CPU backend's tree over
+    /// `instances` and registers it under the IAS's address.
+    fn build_cpu(&mut self, instances: &[Instance]) -> Result<()> {
+        let IasAccel::Cpu { ctx, address } = &self.accel else { return Ok(()) };
+        check_fields(instances, crate::cpu::LIMITS.max_instance_count)?;
+        let mut scene = Vec::with_capacity(instances.len());
+        for instance in instances {
+            let GasAccel::Cpu(gas) = &instance.accel else { return Err(Error::ContextMismatch) };
+            if !Arc::ptr_eq(&gas.ctx, ctx) {
+                return Err(Error::ContextMismatch);
+            }
+            let object_to_world = crate::cpu::accel::affine_from_rows(&instance.transform);
+            scene.push(crate::cpu::accel::SceneInstance {
+                gas: gas.data(),
+                object_to_world,
+                world_to_object: object_to_world.inverse(),
+                custom_index: instance.custom_index,
+                mask: instance.mask,
+                sbt_offset: instance.sbt_offset,
+                flags: instance.flags,
+            });
+        }
+        let data = Arc::new(crate::cpu::accel::SceneData::build(scene));
+        let size = data.size();
+        self.sizes = AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 };
+        self.gases = instances.iter().map(|i| i.accel.clone()).collect();
+        self.reach = Arc::new(HitReach::of(instances));
+        let over = self.gases.iter().map(|g| (g.version().clone(), g.version().load(Ordering::Acquire))).collect();
+        let check = crate::handles::LiveIas { over, reach: self.reach.clone() };
+        ctx.scenes().insert(*address, crate::cpu::LiveScene { data, check });
+        Ok(())
     }
 
     /// Rebuilds the IAS over `instances` with its options; the count may change.
     /// The handle changes: put the new [`Ias::handle`] in the launch params.
     pub fn rebuild(&mut self, instances: &[Instance]) -> Result<()> {
-        let ctx = Context { inner: self.accel.ctx.clone() };
+        let ctx = match &self.accel {
+            IasAccel::Vulkan(accel) => Context::from_vulkan(accel.ctx.clone()),
+            IasAccel::Cpu { ctx, .. } => Context::from_cpu(ctx.clone()),
+        };
         *self = Ias::builder(instances).options(self.options).build(&ctx)?;
         Ok(())
     }
@@ -333,7 +409,7 @@ impl Ias {
     pub fn handle(&self) -> Traversable {
         // SAFETY: the address of this live, built IAS; launches check it is still
         // alive and up to date when they are submitted (see `crate::handles`).
-        unsafe { Traversable::from_device_address(self.accel.address) }
+        unsafe { Traversable::from_device_address(self.accel.address()) }
     }
 
     /// How many hit records an SBT needs for traces of ray type `R` into this
@@ -351,7 +427,10 @@ impl Ias {
 
     /// Bytes of device memory the structure takes.
     pub fn size(&self) -> u64 {
-        self.accel.size
+        match &self.accel {
+            IasAccel::Vulkan(accel) => accel.size,
+            IasAccel::Cpu { .. } => self.sizes.structure,
+        }
     }
 
     /// The sizes the driver reported for the build.
@@ -364,13 +443,18 @@ impl Drop for Ias {
     fn drop(&mut self) {
         // Launches refuse its handle from now on; the structure itself waits for
         // the pending work that may trace it (see `crate::timeline`).
-        self.accel.ctx.traversables.remove(self.accel.address);
+        match &self.accel {
+            IasAccel::Vulkan(accel) => accel.ctx.traversables.remove(accel.address),
+            IasAccel::Cpu { ctx, address } => {
+                ctx.scenes().remove(address);
+            }
+        }
     }
 }
 
 impl std::fmt::Debug for Ias {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Ias").field("instances", &self.gases.len()).field("size", &self.accel.size).finish()
+        f.debug_struct("Ias").field("instances", &self.gases.len()).field("size", &self.size()).finish()
     }
 }
 

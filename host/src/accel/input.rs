@@ -75,7 +75,7 @@ impl Indices<'_> {
         }
     }
 
-    fn get(&self, i: usize) -> u32 {
+    pub(crate) fn get(&self, i: usize) -> u32 {
         match self {
             Indices::None => i as u32,
             Indices::U16(x) => x[i] as u32,
@@ -251,7 +251,7 @@ impl<'a> Aabbs<'a> {
         self
     }
 
-    fn aabb(&self, i: usize) -> Aabb {
+    pub(crate) fn aabb(&self, i: usize) -> Aabb {
         let at = i * self.stride as usize;
         bytemuck::pod_read_unaligned(&self.bytes[at..at + AABB_SIZE as usize])
     }

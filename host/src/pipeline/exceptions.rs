@@ -32,7 +32,8 @@ impl ExceptionBuffer {
 
     /// The exception buffer of `groups`, compiled together.
     pub(crate) fn new(ctx: &Arc<ContextInner>, groups: &[&ProgramGroup]) -> Result<ExceptionBuffer> {
-        let recorded = groups.iter().any(|g| g.programs().iter().any(|p| p.module.records_exceptions));
+        let recorded =
+            groups.iter().any(|g| g.programs().iter().any(|p| p.module().is_some_and(|m| m.records_exceptions)));
         let buffer = RawBuffer::new(
             ctx,
             "user exception buffer",

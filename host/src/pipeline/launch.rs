@@ -56,17 +56,28 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::exceptions::ExceptionBuffer;
-use super::{Pipeline, PipelineInner};
+use super::{Pipeline, PipelineInner, PipelineRepr};
 use crate::buffer_table::RT_STAGES;
 use crate::context::Submission;
 use crate::error::{Error, Result};
 use crate::memory::RawBuffer;
-use crate::sbt::Sbt;
+use crate::sbt::{Sbt, SbtDevice};
 
 /// A launch submitted to the device and not yet waited for (OptiX's launch on a
 /// stream). Dropping it waits for the work first.
 #[must_use = "a Launch is waited on (or polled); dropping it waits and discards its user exceptions"]
 pub struct Launch {
+    repr: LaunchRepr,
+}
+
+/// What a [`Launch`] is underneath.
+enum LaunchRepr {
+    Vulkan(VulkanLaunch),
+    Cpu(crate::cpu::launch::CpuLaunch),
+}
+
+/// A launch submitted to a Vulkan queue.
+struct VulkanLaunch {
     // Field order matters: the submission (which waits in its drop) goes first.
     submission: Submission,
     /// Host-visible copies of the pipeline's exception buffers, written by the
@@ -76,7 +87,7 @@ pub struct Launch {
     _sbt: Arc<RawBuffer>,
 }
 
-impl Drop for Launch {
+impl Drop for VulkanLaunch {
     fn drop(&mut self) {
         // The work is done once the submission has waited: only then may the
         // readback buffer serve another launch.
@@ -93,10 +104,14 @@ impl Drop for Launch {
 
 impl std::fmt::Debug for Launch {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let groups: Vec<_> = self.pipeline.groups.iter().map(|g| g.kind).collect();
+        let this = match &self.repr {
+            LaunchRepr::Vulkan(launch) => launch,
+            LaunchRepr::Cpu(launch) => return launch.fmt(f),
+        };
+        let groups: Vec<_> = this.pipeline.groups.iter().map(|g| g.kind).collect();
         f.debug_struct("Launch")
             .field("pipeline_groups", &groups)
-            .field("exception_buffers", &self.pipeline.exceptions.len())
+            .field("exception_buffers", &this.pipeline.exceptions.len())
             .finish_non_exhaustive()
     }
 }
@@ -104,16 +119,25 @@ impl std::fmt::Debug for Launch {
 impl Launch {
     /// Whether the launch has finished, without blocking.
     pub fn is_done(&self) -> Result<bool> {
-        self.submission.is_done()
+        match &self.repr {
+            LaunchRepr::Vulkan(launch) => launch.submission.is_done(),
+            LaunchRepr::Cpu(launch) => Ok(launch.is_done()),
+        }
     }
 
     /// Blocks until the launch has finished; then the buffers it wrote hold the
     /// results. Returns [`Error::UserExceptions`] if device programs threw any, or
     /// [`Error::RecursionTooDeep`] if traces past the pipeline's `max_trace_depth`
     /// were refused on the device.
-    pub fn wait(mut self) -> Result<()> {
-        self.submission.wait()?;
-        let Some(bytes) = self.readback.as_ref().and_then(|r| r.mapped()) else { return Ok(()) };
+    /// Errors of the CPU backend's launches: [`Error::ProgramPanicked`] and
+    /// [`Error::CpuLaunchFault`].
+    pub fn wait(self) -> Result<()> {
+        let mut launch = match self.repr {
+            LaunchRepr::Vulkan(launch) => launch,
+            LaunchRepr::Cpu(launch) => return launch.wait(),
+        };
+        launch.submission.wait()?;
+        let Some(bytes) = launch.readback.as_ref().and_then(|r| r.mapped()) else { return Ok(()) };
         let mut total = 0;
         let mut exceptions = Vec::new();
         for copy in bytes.chunks_exact(ExceptionBuffer::SIZE as usize) {
@@ -122,7 +146,7 @@ impl Launch {
             exceptions.extend(thrown);
         }
         if total > 0 {
-            return Err(super::exceptions::launch_error(total, exceptions, self.pipeline.max_trace_depth));
+            return Err(super::exceptions::launch_error(total, exceptions, launch.pipeline.max_trace_depth));
         }
         Ok(())
     }
@@ -161,39 +185,30 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         dims: [u32; 3],
         timestamps: Option<vk::QueryPool>,
     ) -> Result<Launch> {
-        let inner = &self.inner;
+        let inner = match (&self.repr, &sbt.device) {
+            (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan { pipeline, .. }) if Arc::ptr_eq(pipeline, inner) => inner,
+            (PipelineRepr::Cpu(data), SbtDevice::Cpu { pipeline, data: records }) if Arc::ptr_eq(pipeline, data) => {
+                check_dimensions(dims, &crate::cpu::LIMITS, crate::cpu::LAUNCH_DIMENSION_LIMITS)?;
+                let ctx = &data.ctx;
+                let params_bytes = bytemuck::bytes_of(params);
+                let live = |handle| ctx.buffers.is_live(handle);
+                let scenes = ctx.scenes();
+                let traversable = |address| {
+                    scenes.get(&address).map_or(crate::handles::TraversableState::Unknown, |s| s.check.state())
+                };
+                crate::handles::check_handles(&data.handle_fields, params_bytes, None, live, traversable)?;
+                for record in &sbt.checked {
+                    let region = Some((record.region, record.index));
+                    crate::handles::check_handles(&record.fields, &record.data, region, live, traversable)?;
+                }
+                drop(scenes);
+                let job = crate::cpu::launch::LaunchJob::new(data.clone(), records.clone(), params_bytes, dims);
+                return Ok(Launch { repr: LaunchRepr::Cpu(crate::cpu::launch::CpuLaunch::start(job)) });
+            }
+            _ => return Err(Error::SbtOfAnotherPipeline),
+        };
         let ctx = &inner.ctx;
-        if !Arc::ptr_eq(&sbt.pipeline, inner) {
-            return Err(Error::SbtOfAnotherPipeline);
-        }
-        if dims.contains(&0) {
-            return Err(Error::LaunchDimensions { dims, reason: "every dimension must be at least 1".to_owned() });
-        }
-        // Three u32s can overflow u64 (2^96): an overflowing product is over any limit.
-        let invocations = dims.iter().try_fold(1u64, |n, &d| n.checked_mul(d as u64));
-        let limit = ctx.limits.max_ray_dispatch_invocation_count as u64;
-        if invocations.is_none_or(|n| n > limit) {
-            let count = invocations.map_or_else(|| "more than 2^64".to_owned(), |n| n.to_string());
-            return Err(Error::LaunchDimensions {
-                dims,
-                reason: format!(
-                    "{count} invocations exceed maxRayDispatchInvocationCount {limit}; split the launch into tiles"
-                ),
-            });
-        }
-        // vkCmdTraceRaysKHR also bounds each dimension (VUID-vkCmdTraceRaysKHR-width-03638 …
-        // depth-03640): maxComputeWorkGroupCount[i] × maxComputeWorkGroupSize[i].
-        if let Some(i) = (0..3).find(|&i| dims[i] as u64 > ctx.launch_dimension_limits[i]) {
-            return Err(Error::LaunchDimensions {
-                dims,
-                reason: format!(
-                    "{} {} is over this device's limit of {} (maxComputeWorkGroupCount[{i}] × maxComputeWorkGroupSize[{i}]); split the launch into tiles",
-                    ["width", "height", "depth"][i],
-                    dims[i],
-                    ctx.launch_dimension_limits[i],
-                ),
-            });
-        }
+        check_dimensions(dims, &ctx.limits, ctx.launch_dimension_limits)?;
         let device = &ctx.device;
         let params_bytes = bytemuck::bytes_of(params);
         // `vkCmdUpdateBuffer` takes whole words: pad the params to the buffer's size.
@@ -233,6 +248,9 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 ctx.check_handles(&record.fields, &record.data, Some((record.region, record.index)))?;
             }
             crate::validate::scene::check_scene(ctx, &inner.handle_fields, params_bytes, sbt, &inner.reach)
+        };
+        let SbtDevice::Vulkan { raygen, miss, hit, callable, .. } = &sbt.device else {
+            return Err(Error::SbtOfAnotherPipeline);
         };
         let submission = ctx.submit_checked("a launch", check, |cmd| {
             // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
@@ -304,7 +322,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                     device.cmd_reset_query_pool(cmd, pool, 0, 2);
                     device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0);
                 }
-                ctx.rt.cmd_trace_rays(cmd, &sbt.raygen, &sbt.miss, &sbt.hit, &sbt.callable, dims[0], dims[1], dims[2]);
+                ctx.rt.cmd_trace_rays(cmd, raygen, miss, hit, callable, dims[0], dims[1], dims[2]);
                 if let Some(pool) = timestamps {
                     device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
                 }
@@ -340,8 +358,45 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 }
             }
         })?;
-        Ok(Launch { submission, readback, pipeline: inner.clone(), _sbt: sbt.buffer.clone() })
+        let SbtDevice::Vulkan { buffer, .. } = &sbt.device else { return Err(Error::SbtOfAnotherPipeline) };
+        let launch = VulkanLaunch { submission, readback, pipeline: inner.clone(), _sbt: buffer.clone() };
+        Ok(Launch { repr: LaunchRepr::Vulkan(launch) })
     }
+}
+
+/// Checks a launch's `dims` against the device's limits: every dimension at
+/// least 1, at most `invocation limit` invocations in all, and each dimension
+/// within `dimension_limits`.
+fn check_dimensions(dims: [u32; 3], limits: &crate::context::DeviceLimits, dimension_limits: [u64; 3]) -> Result<()> {
+    if dims.contains(&0) {
+        return Err(Error::LaunchDimensions { dims, reason: "every dimension must be at least 1".to_owned() });
+    }
+    // Three u32s can overflow u64 (2^96): an overflowing product is over any limit.
+    let invocations = dims.iter().try_fold(1u64, |n, &d| n.checked_mul(d as u64));
+    let limit = limits.max_ray_dispatch_invocation_count as u64;
+    if invocations.is_none_or(|n| n > limit) {
+        let count = invocations.map_or_else(|| "more than 2^64".to_owned(), |n| n.to_string());
+        return Err(Error::LaunchDimensions {
+            dims,
+            reason: format!(
+                "{count} invocations exceed maxRayDispatchInvocationCount {limit}; split the launch into tiles"
+            ),
+        });
+    }
+    // vkCmdTraceRaysKHR also bounds each dimension (VUID-vkCmdTraceRaysKHR-width-03638 …
+    // depth-03640): maxComputeWorkGroupCount[i] × maxComputeWorkGroupSize[i].
+    if let Some(i) = (0..3).find(|&i| dims[i] as u64 > dimension_limits[i]) {
+        return Err(Error::LaunchDimensions {
+            dims,
+            reason: format!(
+                "{} {} is over this device's limit of {} (maxComputeWorkGroupCount[{i}] × maxComputeWorkGroupSize[{i}]); split the launch into tiles",
+                ["width", "height", "depth"][i],
+                dims[i],
+                dimension_limits[i],
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// What the programs of a launch access: uniform params, buffers (read and written).

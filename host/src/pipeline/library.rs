@@ -131,7 +131,14 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         options: LibraryOptions,
         constants: &Specialization,
     ) -> Result<PipelineLibrary<P>> {
-        let inner = &ctx.inner;
+        if ctx.cpu().is_some() {
+            return Err(Error::NotOnCpuBackend {
+                what: "a pipeline library",
+                why: "the CPU backend compiles nothing at run time: its programs were compiled with the program",
+                fix: "link the groups directly with Pipeline::new on the CPU backend",
+            });
+        }
+        let inner = ctx.vulkan("a pipeline library")?;
         if !inner.pipeline_library {
             return Err(Error::PipelineLibrariesUnsupported);
         }

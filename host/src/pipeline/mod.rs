@@ -46,13 +46,15 @@ use crate::error::{Error, Result};
 use crate::memory::RawBuffer;
 use crate::program_group::ProgramGroup;
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
+pub(crate) use exceptions::launch_error as exceptions_error;
 use exceptions::ExceptionBuffer;
 use handle::PipelineHandle;
 pub use layout::params_delivery;
 use layout::{ParamsUniform, PipelineLayout};
 use library::{interface_info, LibraryInner, PipelineLibrary, PushConstantCarrier};
+pub(crate) use shader_groups::check_linkable;
 pub use shader_groups::Specialization;
-use shader_groups::{check_groups, check_linkable, CompiledGroup, LinkedGroup, ShaderGroups};
+use shader_groups::{check_groups, CompiledGroup, LinkedGroup, ShaderGroups};
 
 /// Link options (OptiX's `OptixPipelineLinkOptions`).
 #[derive(Copy, Clone, Debug)]
@@ -69,8 +71,25 @@ impl Default for LinkOptions {
 
 /// A linked ray-tracing pipeline whose programs take launch params `P`.
 pub struct Pipeline<P: LaunchParams> {
-    pub(crate) inner: Arc<PipelineInner>,
+    pub(crate) repr: PipelineRepr,
     _params: PhantomData<fn(&P)>,
+}
+
+/// What a [`Pipeline`] is underneath.
+pub(crate) enum PipelineRepr {
+    /// A Vulkan pipeline.
+    Vulkan(Arc<PipelineInner>),
+    /// The CPU backend's programs.
+    Cpu(Arc<crate::cpu::program::PipelineData>),
+}
+
+/// The error for stack sizes on the CPU backend.
+fn no_stack_on_cpu() -> Error {
+    Error::NotOnCpuBackend {
+        what: "a ray-tracing stack size",
+        why: "programs run on the CPU threads' own stacks (64 MiB each), which no formula sizes",
+        fix: "leave the stack size to the backend",
+    }
 }
 
 /// A created pipeline with everything it owns.
@@ -192,7 +211,11 @@ impl<P: LaunchParams> Pipeline<P> {
         options: LinkOptions,
         constants: &Specialization,
     ) -> Result<Pipeline<P>> {
-        let inner = &ctx.inner;
+        if let Some(cpu) = ctx.cpu() {
+            let data = crate::cpu::program::link::<P>(cpu, groups, options.max_trace_depth, constants)?;
+            return Ok(Pipeline { repr: PipelineRepr::Cpu(Arc::new(data)), _params: PhantomData });
+        }
+        let inner = ctx.vulkan("a pipeline")?;
         check_groups::<P>(inner, groups, options.max_trace_depth)?;
         check_linkable(groups.iter().copied())?;
         let exceptions = Arc::new(ExceptionBuffer::new(inner, groups)?);
@@ -228,7 +251,7 @@ impl<P: LaunchParams> Pipeline<P> {
     /// `options.max_trace_depth` and the same [`InterfaceSizes`]. The SBT, stack
     /// sizing and launches work as for [`Pipeline::new`].
     pub fn link(ctx: &Context, libraries: &[&PipelineLibrary<P>], options: LinkOptions) -> Result<Pipeline<P>> {
-        let inner = &ctx.inner;
+        let inner = ctx.vulkan("a pipeline linked from libraries")?;
         if !inner.pipeline_library {
             return Err(Error::PipelineLibrariesUnsupported);
         }
@@ -302,40 +325,50 @@ impl<P: LaunchParams> Pipeline<P> {
     /// linked, hence a pipeline method.
     pub fn group_stack_sizes(&self, group: &ProgramGroup) -> Result<GroupStackSizes> {
         let index = self.group_index(group).ok_or(Error::GroupNotInPipeline { kind: group.kind() })?;
-        Ok(self.inner.groups[index].stack_sizes)
+        let inner = self.vulkan_inner().ok_or_else(no_stack_on_cpu)?;
+        Ok(inner.groups[index].stack_sizes)
     }
 
-    /// Every group's role and stack sizes, in the order the groups were linked.
+    /// Every group's role and stack sizes, in the order the groups were linked
+    /// (none on the CPU backend).
     pub fn all_group_stack_sizes(&self) -> Vec<(GroupRole, GroupStackSizes)> {
-        self.inner.groups.iter().map(|g| (g.role, g.stack_sizes)).collect()
+        self.vulkan_inner()
+            .map_or_else(Vec::new, |inner| inner.groups.iter().map(|g| (g.role, g.stack_sizes)).collect())
     }
 
     /// The maxima of the groups' stack sizes by program kind: the input of
-    /// [`stack::conservative`], [`stack::refined`] and [`stack::vulkan_default`].
+    /// [`stack::conservative`], [`stack::refined`] and [`stack::vulkan_default`]
+    /// (zeros on the CPU backend).
     pub fn stack_sizes(&self) -> StackSizes {
-        stack_sizes(&self.inner.groups)
+        self.vulkan_inner().map_or_else(StackSizes::default, |inner| stack_sizes(&inner.groups))
     }
 
     /// What the validation layer reported while the pipeline was linked (OptiX's
     /// log string of `optixPipelineCreate`); see [`crate::log`].
     pub fn creation_log(&self) -> &[crate::log::ValidationMessage] {
-        &self.inner.pipeline.log
+        self.vulkan_inner().map_or(&[], |inner| &inner.pipeline.log)
     }
 
     /// The pipeline's `max_trace_depth` (`maxPipelineRayRecursionDepth`).
     pub fn max_trace_depth(&self) -> u32 {
-        self.inner.max_trace_depth
+        match &self.repr {
+            PipelineRepr::Vulkan(inner) => inner.max_trace_depth,
+            PipelineRepr::Cpu(data) => data.max_trace_depth,
+        }
     }
 
     /// The stack size Vulkan defines for this pipeline were it made without the
-    /// dynamic stack-size state ([`stack::vulkan_default`]).
+    /// dynamic stack-size state ([`stack::vulkan_default`]); 0 on the CPU backend.
     pub fn driver_default_stack_size(&self) -> u64 {
-        stack::vulkan_default(&self.stack_sizes(), self.inner.max_trace_depth)
+        stack::vulkan_default(&self.stack_sizes(), self.max_trace_depth())
     }
 
     /// The size `choice` gives for this pipeline, in bytes, without setting it.
     pub fn compute_stack_size(&self, choice: &StackSize<'_>) -> Result<u32> {
-        let max_depth = self.inner.max_trace_depth;
+        if self.vulkan_inner().is_none() {
+            return Err(no_stack_on_cpu());
+        }
+        let max_depth = self.max_trace_depth();
         let check_depth = |depth: u32| -> Result<()> {
             if depth > max_depth {
                 return Err(Error::StackSize {
@@ -372,13 +405,15 @@ impl<P: LaunchParams> Pipeline<P> {
     /// use [`StackSize::DriverDefault`].
     pub fn set_stack_size(&self, choice: &StackSize<'_>) -> Result<u32> {
         let bytes = self.compute_stack_size(choice)?;
-        self.inner.stack_size.store(bytes, Ordering::Relaxed);
+        if let Some(inner) = self.vulkan_inner() {
+            inner.stack_size.store(bytes, Ordering::Relaxed);
+        }
         Ok(bytes)
     }
 
-    /// The stack size launches set, in bytes.
+    /// The stack size launches set, in bytes (0 on the CPU backend).
     pub fn stack_size(&self) -> u32 {
-        self.inner.stack_size.load(Ordering::Relaxed)
+        self.vulkan_inner().map_or(0, |inner| inner.stack_size.load(Ordering::Relaxed))
     }
 
     /// How this pipeline delivers its params: push constants, or a uniform buffer
@@ -389,11 +424,22 @@ impl<P: LaunchParams> Pipeline<P> {
 
     /// The position of `group` in this pipeline, if it was linked into it.
     pub(crate) fn group_index(&self, group: &ProgramGroup) -> Option<usize> {
-        self.inner.groups.iter().position(|g| g.id == group.id)
+        match &self.repr {
+            PipelineRepr::Vulkan(inner) => inner.groups.iter().position(|g| g.id == group.id),
+            PipelineRepr::Cpu(data) => data.groups.iter().position(|g| g.id == group.id),
+        }
+    }
+
+    /// The Vulkan pipeline, when this is one.
+    pub(crate) fn vulkan_inner(&self) -> Option<&Arc<PipelineInner>> {
+        match &self.repr {
+            PipelineRepr::Vulkan(inner) => Some(inner),
+            PipelineRepr::Cpu(_) => None,
+        }
     }
 
     fn from_inner(inner: PipelineInner) -> Pipeline<P> {
-        Pipeline { inner: Arc::new(inner), _params: PhantomData }
+        Pipeline { repr: PipelineRepr::Vulkan(Arc::new(inner)), _params: PhantomData }
     }
 }
 
@@ -410,7 +456,19 @@ impl ProgramGroup {
 
 impl<P: LaunchParams> fmt::Debug for Pipeline<P> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let inner = &self.inner;
+        let inner = match &self.repr {
+            PipelineRepr::Vulkan(inner) => inner,
+            PipelineRepr::Cpu(data) => {
+                let groups: Vec<_> = data.groups.iter().map(|g| g.kind).collect();
+                return f
+                    .debug_struct("Pipeline")
+                    .field("backend", &"cpu")
+                    .field("params", &std::any::type_name::<P>())
+                    .field("groups", &groups)
+                    .field("max_trace_depth", &data.max_trace_depth)
+                    .finish();
+            }
+        };
         let groups: Vec<_> = inner.groups.iter().map(|g| g.kind).collect();
         f.debug_struct("Pipeline")
             .field("params", &std::any::type_name::<P>())

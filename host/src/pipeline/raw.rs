@@ -15,17 +15,17 @@ use ash::vk;
 use super::Pipeline;
 
 impl<P: raykit_device::LaunchParams> Pipeline<P> {
-    /// The `VkPipeline`.
-    pub fn raw_pipeline(&self) -> vk::Pipeline {
-        self.inner.pipeline.handle
+    /// The `VkPipeline` (`None` on the CPU backend).
+    pub fn raw_pipeline(&self) -> Option<vk::Pipeline> {
+        self.vulkan_inner().map(|inner| inner.pipeline.handle)
     }
-    /// The `VkPipelineLayout`.
-    pub fn raw_layout(&self) -> vk::PipelineLayout {
-        self.inner.layout.handle
+    /// The `VkPipelineLayout` (`None` on the CPU backend).
+    pub fn raw_layout(&self) -> Option<vk::PipelineLayout> {
+        self.vulkan_inner().map(|inner| inner.layout.handle)
     }
     /// Bytes of push constants the launch pushes (0 when the params go through a
-    /// uniform buffer).
+    /// uniform buffer, or on the CPU backend).
     pub fn raw_push_constant_size(&self) -> u32 {
-        self.inner.layout.push_constant_size
+        self.vulkan_inner().map_or(0, |inner| inner.layout.push_constant_size)
     }
 }

@@ -27,6 +27,11 @@ pub struct Specialization {
 }
 
 impl Specialization {
+    /// The constants set, by id.
+    pub(crate) fn values(&self) -> &[(u32, u32)] {
+        &self.values
+    }
+
     /// No constants set: every program sees its defaults.
     pub fn new() -> Self {
         Specialization::default()
@@ -152,7 +157,7 @@ impl ShaderGroups {
             .map(|p| {
                 vk::PipelineShaderStageCreateInfo::default()
                     .stage(stage_flag(p.kind))
-                    .module(p.module.shader)
+                    .module(p.module().map_or(vk::ShaderModule::null(), |m| m.shader))
                     .name(&p.name)
                     .specialization_info(specialization)
             })
@@ -178,7 +183,7 @@ pub(crate) fn check_groups<P: LaunchParams>(
     if max_trace_depth > limits.max_ray_recursion_depth {
         return Err(Error::TraceDepthTooLarge { requested: max_trace_depth, limit: limits.max_ray_recursion_depth });
     }
-    if groups.iter().any(|g| !Arc::ptr_eq(&g.ctx, inner)) {
+    if groups.iter().any(|g| g.ctx.as_vulkan().is_none_or(|c| !Arc::ptr_eq(c, inner))) {
         return Err(Error::ContextMismatch);
     }
     let params_size = std::mem::size_of::<P>();

@@ -27,7 +27,7 @@ impl LaunchTimer {
     /// A timer for launches on `ctx`; `None` when its queue has no timestamps
     /// (`timestampValidBits == 0` or a zero `timestampPeriod`).
     pub fn new(ctx: &Context) -> Result<Option<LaunchTimer>> {
-        let inner = &ctx.inner;
+        let inner = ctx.vulkan("GPU timestamps")?;
         let Some((period_ns, valid_bits)) = timestamp_support(ctx) else {
             return Ok(None);
         };
@@ -61,7 +61,7 @@ impl Drop for LaunchTimer {
 
 /// The queue's timestamp period (ns) and valid bits, if it has timestamps.
 fn timestamp_support(ctx: &Context) -> Option<(f64, u32)> {
-    let shared = &ctx.inner.shared;
+    let shared = &ctx.as_vulkan()?.shared;
     // SAFETY: the physical device belongs to the context's live instance.
     let families = unsafe { shared.instance.instance.get_physical_device_queue_family_properties(shared.physical) };
     let family = families.get(shared.queue_family as usize)?;
@@ -76,7 +76,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
     /// [`Pipeline::launch`] with GPU timestamps around the trace: returns the GPU
     /// time of `vkCmdTraceRaysKHR` alone (without binding, submission and wait).
     pub fn launch_timed(&self, sbt: &Sbt, params: &P, dims: [u32; 3], timer: &LaunchTimer) -> Result<Duration> {
-        if !Arc::ptr_eq(&timer.ctx, &self.inner.ctx) {
+        if self.vulkan_inner().is_none_or(|inner| !Arc::ptr_eq(&timer.ctx, &inner.ctx)) {
             return Err(Error::ContextMismatch);
         }
         self.launch_recording(sbt, params, dims, Some(timer.pool))?;

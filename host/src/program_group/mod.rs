@@ -17,7 +17,6 @@ use std::sync::Arc;
 
 use raykit_device::{EntryPoint, ProgramKind};
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
 use crate::module::{Module, ModuleInner};
 pub use kind::GroupKind;
@@ -35,6 +34,11 @@ pub trait EntryName {
     fn ray(&self) -> Option<raykit_device::RayTypeInfo> {
         None
     }
+    /// The program compiled for the host, which the CPU backend runs (only
+    /// [`EntryPoint`] constants carry it).
+    fn cpu_program(&self) -> Option<&'static raykit_device::cpu::CpuProgram> {
+        None
+    }
 }
 
 impl EntryName for EntryPoint {
@@ -46,6 +50,9 @@ impl EntryName for EntryPoint {
     }
     fn ray(&self) -> Option<raykit_device::RayTypeInfo> {
         self.ray
+    }
+    fn cpu_program(&self) -> Option<&'static raykit_device::cpu::CpuProgram> {
+        Some(self.cpu)
     }
 }
 impl EntryName for &str {
@@ -59,10 +66,19 @@ impl EntryName for String {
     }
 }
 
+/// Where a program's code is.
+#[derive(Clone)]
+pub(crate) enum ProgramCode {
+    /// An entry point of a SPIR-V module.
+    Spirv(Arc<ModuleInner>),
+    /// A program of a device crate linked into the program (the CPU backend).
+    Cpu(&'static raykit_device::cpu::CpuProgram),
+}
+
 /// One checked entry point inside a group.
 #[derive(Clone)]
 pub(crate) struct Program {
-    pub(crate) module: Arc<ModuleInner>,
+    pub(crate) code: ProgramCode,
     pub(crate) name: CString,
     pub(crate) kind: ProgramKind,
     /// The ray type it was declared for (from its [`EntryPoint`] constant).
@@ -73,7 +89,52 @@ impl Program {
     /// What reflection found for this program's entry point.
     pub(crate) fn entry_info(&self) -> Option<&crate::module::EntryPointInfo> {
         let name = self.name.to_str().ok()?;
-        self.module.entry_points.iter().find(|e| e.name == name)
+        self.module()?.entry_points.iter().find(|e| e.name == name)
+    }
+
+    /// Its SPIR-V module (`None` for a CPU program).
+    pub(crate) fn module(&self) -> Option<&Arc<ModuleInner>> {
+        match &self.code {
+            ProgramCode::Spirv(module) => Some(module),
+            ProgramCode::Cpu(_) => None,
+        }
+    }
+
+    /// A program of the device crate `linked` on the CPU backend: only an
+    /// [`EntryPoint`] constant of that crate, of the kind expected, names one.
+    fn resolve_linked(
+        linked: &crate::module::LinkedCrate,
+        entry: &dyn EntryName,
+        expected: ProgramKind,
+        context: &'static str,
+    ) -> Result<Program> {
+        let name = entry.entry_name();
+        let Some(cpu) = entry.cpu_program() else {
+            return Err(Error::NotOnCpuBackend {
+                what: "a program named by a string",
+                why: "the CPU backend calls the host-compiled programs that EntryPoint constants carry",
+                fix: "name the program by the EntryPoint constant its macro generated (e.g. my_device::RG)",
+            });
+        };
+        if cpu.crate_name.replace('-', "_") != linked.crate_name.replace('-', "_") {
+            return Err(Error::EntryPointNotFound {
+                name: format!("{name} (a program of `{}`, not of `{}`)", cpu.crate_name, linked.crate_name),
+                available: Vec::new(),
+            });
+        }
+        let kind = entry.claimed_kind();
+        if kind != Some(expected) {
+            return Err(Error::ProgramKindMismatch {
+                name: name.to_owned(),
+                expected,
+                actual: kind.map_or_else(|| "unknown".to_owned(), |k| format!("{k} (by its EntryPoint constant)")),
+                context,
+                available: Vec::new(),
+            });
+        }
+        let name = CString::new(name)
+            .map_err(|_| Error::EntryPointNotFound { name: name.to_owned(), available: Vec::new() })?;
+        Ok(Program { code: ProgramCode::Cpu(cpu), name, kind: expected, ray: entry.ray() })
     }
 
     fn resolve(
@@ -82,6 +143,10 @@ impl Program {
         expected: ProgramKind,
         context: &'static str,
     ) -> Result<Program> {
+        let spirv = match &module.repr {
+            crate::module::ModuleRepr::Spirv(spirv) => spirv,
+            crate::module::ModuleRepr::Linked(linked) => return Self::resolve_linked(linked, entry, expected, context),
+        };
         let name = entry.entry_name();
         let available = module.entry_list();
         let mismatch = |actual: String| Error::ProgramKindMismatch {
@@ -113,7 +178,7 @@ impl Program {
         }
         let name = CString::new(name)
             .map_err(|_| Error::EntryPointNotFound { name: name.to_owned(), available: module.entry_list() })?;
-        Ok(Program { module: module.inner.clone(), name, kind: expected, ray: entry.ray() })
+        Ok(Program { code: ProgramCode::Spirv(spirv.clone()), name, kind: expected, ray: entry.ray() })
     }
 }
 
@@ -137,7 +202,7 @@ pub(crate) enum GroupPrograms {
 #[derive(Clone)]
 pub struct ProgramGroup {
     pub(crate) id: u64,
-    pub(crate) ctx: Arc<ContextInner>,
+    pub(crate) ctx: crate::Context,
     pub(crate) programs: GroupPrograms,
 }
 
@@ -160,7 +225,7 @@ impl ProgramGroup {
     }
 
     fn from_programs(module: &Module, programs: GroupPrograms) -> ProgramGroup {
-        ProgramGroup { id: NEXT_GROUP_ID.fetch_add(1, Ordering::Relaxed), ctx: module.inner.ctx.clone(), programs }
+        ProgramGroup { id: NEXT_GROUP_ID.fetch_add(1, Ordering::Relaxed), ctx: module.context(), programs }
     }
 
     /// A raygen group from `entry` of `module`.

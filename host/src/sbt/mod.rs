@@ -30,7 +30,7 @@ use crate::context::DeviceLimits;
 use crate::error::{Error, Result};
 use crate::handles::HandleField;
 use crate::memory::RawBuffer;
-use crate::pipeline::{Pipeline, PipelineInner};
+use crate::pipeline::{Pipeline, PipelineInner, PipelineRepr};
 use crate::program_group::{GroupKind, ProgramGroup};
 use raykit_device::{RayType, SbtRecordData};
 pub use region::SbtRegion;
@@ -343,10 +343,15 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         };
         let miss = filled(self.miss, SbtRegion::Miss)?;
         let hit = filled(self.hit, SbtRegion::Hit)?;
-        let pipeline = &self.pipeline.inner;
-        let has = |kind: GroupKind| pipeline.groups.iter().any(|g| g.kind == kind);
-        pipeline.reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
-        let limits = pipeline.ctx.limits;
+        let (limits, exception_group) = match &self.pipeline.repr {
+            PipelineRepr::Vulkan(pipeline) => {
+                let has = |kind: GroupKind| pipeline.groups.iter().any(|g| g.kind == kind);
+                pipeline.reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
+                let exception = pipeline.groups.iter().position(|g| g.kind == GroupKind::Exception);
+                (pipeline.ctx.limits, exception)
+            }
+            PipelineRepr::Cpu(pipeline) => (crate::cpu::LIMITS, pipeline.exception_group),
+        };
         let max_data = |records: &[PackedRecord]| records.iter().map(|r| r.data.len()).max().unwrap_or(0);
         let check = |layout: RegionLayout, data: usize| -> Result<RegionLayout> {
             if layout.stride > limits.max_shader_group_stride as u64 {
@@ -365,7 +370,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         // The exception program, if the pipeline has one, goes after the user's
         // callables; its index reaches the device through the exception buffer.
         let mut callable = self.callable;
-        let exception_index = match pipeline.groups.iter().position(|g| g.kind == GroupKind::Exception) {
+        let exception_index = match exception_group {
             Some(group_index) => {
                 callable.push(PackedRecord {
                     group_index,
@@ -382,6 +387,43 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             max_data(&callable),
         )?;
         let total = cl.offset + cl.size;
+        let mut checked = Vec::new();
+        for (region, records) in SbtRegion::ALL.into_iter().zip([raygen_records, &miss[..], &hit[..], &callable[..]]) {
+            for (index, record) in records.iter().enumerate().filter(|(_, r)| !r.handles.is_empty()) {
+                checked.push(CheckedRecord {
+                    region,
+                    index,
+                    fields: record.handles.clone(),
+                    data: record.data.clone(),
+                });
+            }
+        }
+        let layouts = [rg, ms, ht, cl];
+        let counts = [1, miss.len(), hit.len(), callable.len()];
+        let data_types = [raygen_records, &miss[..], &hit[..], &callable[..]]
+            .map(|records| records.iter().map(|r| r.data_type).collect());
+        let pipeline = match &self.pipeline.repr {
+            PipelineRepr::Vulkan(pipeline) => pipeline,
+            PipelineRepr::Cpu(pipeline) => {
+                let data = [raygen_records, &miss[..], &hit[..], &callable[..]].map(|records| {
+                    records
+                        .iter()
+                        .map(|r| {
+                            let len = pipeline.groups[r.group_index].record_size();
+                            crate::cpu::program::Record {
+                                group: r.group_index,
+                                data: crate::cpu::program::Aligned::new(&r.data, len),
+                            }
+                        })
+                        .collect()
+                });
+                let device = SbtDevice::Cpu {
+                    pipeline: pipeline.clone(),
+                    data: Arc::new(crate::cpu::program::SbtData { regions: data }),
+                };
+                return Ok(Sbt { device, layouts, counts, data_types, exception_index, checked });
+            }
+        };
 
         let mut bytes = Vec::new();
         usize::try_from(total)
@@ -407,36 +449,20 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             limits.shader_group_base_alignment as u64,
         )?;
         buffer.write_bytes(&bytes)?;
-        let mut checked = Vec::new();
-        for (region, records) in SbtRegion::ALL.into_iter().zip([raygen_records, &miss[..], &hit[..], &callable[..]]) {
-            for (index, record) in records.iter().enumerate().filter(|(_, r)| !r.handles.is_empty()) {
-                checked.push(CheckedRecord {
-                    region,
-                    index,
-                    fields: record.handles.clone(),
-                    data: record.data.clone(),
-                });
-            }
-        }
         let region = |l: RegionLayout| vk::StridedDeviceAddressRegionKHR {
             device_address: if l.size == 0 { 0 } else { buffer.address + l.offset },
             stride: l.stride,
             size: l.size,
         };
-        Ok(Sbt {
+        let device = SbtDevice::Vulkan {
             pipeline: pipeline.clone(),
             raygen: region(rg),
             miss: region(ms),
             hit: region(ht),
             callable: region(cl),
-            layouts: [rg, ms, ht, cl],
-            counts: [1, miss.len(), hit.len(), callable.len()],
-            data_types: [raygen_records, &miss[..], &hit[..], &callable[..]]
-                .map(|records| records.iter().map(|r| r.data_type).collect()),
-            exception_index,
-            checked,
             buffer: Arc::new(buffer),
-        })
+        };
+        Ok(Sbt { device, layouts, counts, data_types, exception_index, checked })
     }
 }
 
@@ -452,13 +478,25 @@ impl<P: raykit_device::LaunchParams> fmt::Debug for SbtBuilder<'_, P> {
     }
 }
 
+/// Where an [`Sbt`]'s records are.
+pub(crate) enum SbtDevice {
+    /// In a Vulkan buffer.
+    Vulkan {
+        pipeline: Arc<PipelineInner>,
+        raygen: vk::StridedDeviceAddressRegionKHR,
+        miss: vk::StridedDeviceAddressRegionKHR,
+        hit: vk::StridedDeviceAddressRegionKHR,
+        callable: vk::StridedDeviceAddressRegionKHR,
+        /// Shared with launches in flight ([`crate::Launch`]), which keep it alive.
+        buffer: Arc<RawBuffer>,
+    },
+    /// In host memory, for the CPU backend (launches running hold their own `Arc`).
+    Cpu { pipeline: Arc<crate::cpu::program::PipelineData>, data: Arc<crate::cpu::program::SbtData> },
+}
+
 /// A shader binding table on the device, made for one pipeline.
 pub struct Sbt {
-    pub(crate) pipeline: Arc<PipelineInner>,
-    pub(crate) raygen: vk::StridedDeviceAddressRegionKHR,
-    pub(crate) miss: vk::StridedDeviceAddressRegionKHR,
-    pub(crate) hit: vk::StridedDeviceAddressRegionKHR,
-    pub(crate) callable: vk::StridedDeviceAddressRegionKHR,
+    pub(crate) device: SbtDevice,
     layouts: [RegionLayout; 4],
     /// Record counts per region (raygen, miss, hit, callable).
     counts: [usize; 4],
@@ -468,8 +506,6 @@ pub struct Sbt {
     pub(crate) exception_index: Option<u32>,
     /// The records whose data holds handles, which launches check.
     pub(crate) checked: Vec<CheckedRecord>,
-    /// Shared with launches in flight ([`crate::Launch`]), which keep it alive.
-    pub(crate) buffer: Arc<RawBuffer>,
 }
 
 impl Sbt {
@@ -513,7 +549,11 @@ impl Sbt {
             });
         }
         let layout = self.layouts[r];
-        let handle = self.pipeline.ctx.limits.shader_group_handle_size as u64;
+        let limits = match &self.device {
+            SbtDevice::Vulkan { pipeline, .. } => pipeline.ctx.limits,
+            SbtDevice::Cpu { .. } => crate::cpu::LIMITS,
+        };
+        let handle = limits.shader_group_handle_size as u64;
         let room = layout.stride - handle;
         let bytes = data.record_bytes();
         if bytes.len() as u64 > room {
@@ -526,29 +566,41 @@ impl Sbt {
             });
         }
         let at = (layout.offset + layout.stride * index as u64 + handle) as usize;
-        // A launch in flight holds a clone of the buffer: the device may be reading
-        // it. Write into a copy, which launches from now on use.
-        if Arc::get_mut(&mut self.buffer).is_none() {
-            self.copy_on_write(region)?;
-        }
-        let buffer = Arc::get_mut(&mut self.buffer)
-            .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is shared".to_owned() })?;
-        let mapped = buffer
-            .mapped_mut()
-            .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
-        mapped[at..at + bytes.len()].copy_from_slice(bytes);
         // The same type as at the build: the same handle fields, with new values.
         if let Some(checked) = self.checked.iter_mut().find(|c| c.region == region && c.index == index) {
             checked.data.clear();
             checked.data.extend_from_slice(bytes);
         }
+        let buffer = match &mut self.device {
+            SbtDevice::Vulkan { buffer, .. } => buffer,
+            SbtDevice::Cpu { data, .. } => {
+                // Launches running hold the old records; later ones get these.
+                Arc::make_mut(data).regions[r][index].data.write(bytes);
+                return Ok(());
+            }
+        };
+        // A launch in flight holds a clone of the buffer: the device may be reading
+        // it. Write into a copy, which launches from now on use.
+        if Arc::get_mut(buffer).is_none() {
+            self.copy_on_write(region)?;
+        }
+        let SbtDevice::Vulkan { buffer, .. } = &mut self.device else { return Ok(()) };
+        let buffer =
+            Arc::get_mut(buffer).ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is shared".to_owned() })?;
+        let mapped = buffer
+            .mapped_mut()
+            .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
+        mapped[at..at + bytes.len()].copy_from_slice(bytes);
         Ok(())
     }
 
     /// Replaces the buffer with a copy of it, for an update while launches use it.
     fn copy_on_write(&mut self, region: SbtRegion) -> Result<()> {
-        let old = &self.buffer;
-        let ctx = &self.pipeline.ctx;
+        let SbtDevice::Vulkan { pipeline, raygen, miss, hit, callable, buffer } = &mut self.device else {
+            return Ok(());
+        };
+        let old = &*buffer;
+        let ctx = &pipeline.ctx;
         let mut copy = RawBuffer::new(
             ctx,
             "shader binding table",
@@ -561,19 +613,22 @@ impl Sbt {
             old.mapped().ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
         copy.write_bytes(bytes)?;
         let (from, to) = (old.address, copy.address);
-        for r in [&mut self.raygen, &mut self.miss, &mut self.hit, &mut self.callable] {
+        for r in [raygen, miss, hit, callable] {
             if r.size != 0 {
                 r.device_address = r.device_address - from + to;
             }
         }
-        self.buffer = Arc::new(copy);
+        *buffer = Arc::new(copy);
         Ok(())
     }
 
     /// The raygen, miss, hit and callable regions passed to `vkCmdTraceRaysKHR`, for
-    /// hand-written Vulkan (see [`crate::pipeline::raw`]).
-    pub fn raw_regions(&self) -> [vk::StridedDeviceAddressRegionKHR; 4] {
-        [self.raygen, self.miss, self.hit, self.callable]
+    /// hand-written Vulkan (see [`crate::pipeline::raw`]); `None` on the CPU backend.
+    pub fn raw_regions(&self) -> Option<[vk::StridedDeviceAddressRegionKHR; 4]> {
+        match &self.device {
+            SbtDevice::Vulkan { raygen, miss, hit, callable, .. } => Some([*raygen, *miss, *hit, *callable]),
+            SbtDevice::Cpu { .. } => None,
+        }
     }
 
     /// Layouts of the raygen, miss, hit and callable regions.

@@ -220,8 +220,9 @@ pub(crate) fn check_programs(
     let mut seen = std::collections::HashSet::new();
     for group in groups {
         for program in group.programs() {
-            if seen.insert(std::sync::Arc::as_ptr(&program.module)) {
-                spirv::validate(&spirv::freeze_spec_constants(&program.module.words, spec_values)?)?;
+            let Some(module) = program.module() else { continue };
+            if seen.insert(std::sync::Arc::as_ptr(module)) {
+                spirv::validate(&spirv::freeze_spec_constants(&module.words, spec_values)?)?;
             }
         }
     }

@@ -1,0 +1,814 @@
+//! Launches on the CPU backend: the launch grid in tiles over the context's
+//! thread pool, each invocation's programs called as Rust functions, and the
+//! runtime they call back into (buffers, traces, callables, exceptions).
+//!
+//! A trace follows Vulkan's traversal rules: instances whose mask shares no bit
+//! with the ray's cull mask are skipped; a candidate's opacity comes from its
+//! geometry's flag, overridden by the instance's `FORCE_*` flags, overridden by
+//! the ray's `OPAQUE`/`NO_OPAQUE` flags; the `CULL_*` and `SKIP_*` ray flags
+//! remove candidates; non-opaque candidates run the hit group's any-hit program,
+//! which may ignore the hit or end the traversal; AABBs run the group's
+//! intersection program, whose reports go through the same any-hit step; a hit
+//! is accepted inside `[t_min, t_max]` with `t_max` shrinking to it;
+//! `TERMINATE_ON_FIRST_HIT` ends at the first accepted hit. Then the committed
+//! hit's closest-hit program runs (unless `SKIP_CLOSEST_HIT_SHADER`), or the
+//! miss program. Hit records are found as on the device: `instance SBT offset +
+//! geometry index × stride + ray offset`.
+
+use std::cell::{Cell, RefCell};
+use std::collections::HashMap;
+use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use glam::{Affine3A, UVec3, Vec3, Vec3A};
+use obvhs::ray::Ray as BvhRay;
+use raykit_device::cpu::{Erased, Invocation, Runtime, TraceCall, TypeInfo};
+use raykit_device::exception::{ExceptionDetails, EXCEPTION_CAPACITY, TRACE_DEPTH_EXCEEDED};
+use raykit_device::stage::HitBuiltins;
+use raykit_device::{Matrix4x3, Ray, Traversable, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE};
+
+use super::accel::{Geometry, SceneData, SceneInstance};
+use super::buffers::{read_words, write_words, Words};
+use super::program::{Aligned, PipelineData, Program, SbtData, ATTRIBUTE_BYTES};
+use super::{CpuContext, TILE};
+use crate::accel::InstanceFlags;
+use crate::error::{Error, Result, UserException};
+
+/// `SpvRayFlags…KHR` bits.
+mod ray_flags {
+    pub const OPAQUE: u32 = 0x1;
+    pub const NO_OPAQUE: u32 = 0x2;
+    pub const TERMINATE_ON_FIRST_HIT: u32 = 0x4;
+    pub const SKIP_CLOSEST_HIT: u32 = 0x8;
+    pub const CULL_BACK_FACING: u32 = 0x10;
+    pub const CULL_FRONT_FACING: u32 = 0x20;
+    pub const CULL_OPAQUE: u32 = 0x40;
+    pub const CULL_NO_OPAQUE: u32 = 0x80;
+    pub const SKIP_TRIANGLES: u32 = 0x100;
+    pub const SKIP_AABBS: u32 = 0x200;
+}
+
+/// Everything a launch reads, fixed when it starts.
+pub(crate) struct LaunchJob {
+    pub(crate) ctx: Arc<CpuContext>,
+    pub(crate) pipeline: Arc<PipelineData>,
+    pub(crate) sbt: Arc<SbtData>,
+    pub(crate) params: Aligned,
+    pub(crate) dims: [u32; 3],
+    /// The buffer table when the launch started, by slot.
+    pub(crate) buffers: Vec<Option<Words>>,
+    /// The live IASes when the launch started, by address.
+    pub(crate) scenes: HashMap<u64, Arc<SceneData>>,
+}
+
+impl LaunchJob {
+    /// A launch of `pipeline` with `sbt` and `params` over `dims`, seeing the
+    /// context's buffers and IASes as they are now.
+    pub(crate) fn new(pipeline: Arc<PipelineData>, sbt: Arc<SbtData>, params: &[u8], dims: [u32; 3]) -> LaunchJob {
+        let ctx = pipeline.ctx.clone();
+        let buffers = ctx.buffers.snapshot();
+        let scenes = ctx.scenes().iter().map(|(a, s)| (*a, s.data.clone())).collect();
+        LaunchJob { ctx, pipeline, sbt, params: Aligned::new(params, 0), dims, buffers, scenes }
+    }
+}
+
+/// Why an invocation stopped early.
+enum Failure {
+    Panicked { program: &'static str, message: String },
+    Fault { program: &'static str, problem: String },
+}
+
+/// What one invocation (or tile) left.
+#[derive(Default)]
+struct Outcome {
+    exceptions: Vec<UserException>,
+    failure: Option<(u64, [u32; 3], Failure)>,
+}
+
+/// A fault: a program asked for something the device would not define (an
+/// unknown traversable, a record past the SBT, a payload of another type).
+/// Unwinds the invocation; the launch returns it as an error.
+struct Fault(String);
+
+/// What an any-hit program decided by not returning.
+enum AnyHitEnd {
+    Ignore,
+    Terminate,
+}
+
+/// Runs the launch; returns its error, if any, after every invocation ran.
+pub(crate) fn run(job: &LaunchJob) -> Result<()> {
+    let [w, h, d] = job.dims;
+    let (tiles_x, tiles_y) = (w.div_ceil(TILE), h.div_ceil(TILE));
+    let tiles = u64::from(tiles_x) * u64::from(tiles_y) * u64::from(d);
+    let stop = AtomicBool::new(false);
+    let outcomes: Vec<Outcome> = job.ctx.pool.install(|| {
+        use rayon::prelude::*;
+        (0..tiles)
+            .into_par_iter()
+            .map(|tile| {
+                let mut outcome = Outcome::default();
+                if stop.load(Ordering::Relaxed) {
+                    return outcome;
+                }
+                let z = (tile / (u64::from(tiles_x) * u64::from(tiles_y))) as u32;
+                let rest = tile % (u64::from(tiles_x) * u64::from(tiles_y));
+                let (ty, tx) = ((rest / u64::from(tiles_x)) as u32, (rest % u64::from(tiles_x)) as u32);
+                for y in ty * TILE..((ty + 1) * TILE).min(h) {
+                    for x in tx * TILE..((tx + 1) * TILE).min(w) {
+                        let index = UVec3::new(x, y, z);
+                        invoke(job, index, &mut outcome);
+                        if outcome.failure.is_some() {
+                            stop.store(true, Ordering::Relaxed);
+                            return outcome;
+                        }
+                    }
+                }
+                outcome
+            })
+            .collect()
+    });
+    let mut failures: Vec<(u64, [u32; 3], Failure)> = Vec::new();
+    let mut exceptions = Vec::new();
+    for outcome in outcomes {
+        failures.extend(outcome.failure);
+        exceptions.extend(outcome.exceptions);
+    }
+    failures.sort_by_key(|f| f.0);
+    if let Some((_, launch_index, failure)) = failures.into_iter().next() {
+        return Err(match failure {
+            Failure::Panicked { program, message } => {
+                Error::ProgramPanicked { program: program.to_owned(), launch_index, message }
+            }
+            Failure::Fault { program, problem } => {
+                Error::CpuLaunchFault { program: program.to_owned(), launch_index, problem }
+            }
+        });
+    }
+    if exceptions.is_empty() {
+        return Ok(());
+    }
+    let linear = |e: &UserException| {
+        let [x, y, z] = e.launch_index;
+        u64::from(x) + u64::from(w) * (u64::from(y) + u64::from(h) * u64::from(z))
+    };
+    exceptions.sort_by_key(linear);
+    let total = u32::try_from(exceptions.len()).unwrap_or(u32::MAX);
+    exceptions.truncate(EXCEPTION_CAPACITY as usize);
+    Err(crate::pipeline::exceptions_error(total, exceptions, job.pipeline.max_trace_depth))
+}
+
+/// The state of one invocation, shared by its nested program calls.
+struct InvocationState<'j> {
+    job: &'j LaunchJob,
+    launch_index: UVec3,
+    /// The programs running, innermost last (left as they are by a panic, so
+    /// that it names the program it came from).
+    running: RefCell<Vec<&'static str>>,
+    exceptions: RefCell<Vec<UserException>>,
+}
+
+/// Runs the raygen program at `index`.
+fn invoke(job: &LaunchJob, index: UVec3, outcome: &mut Outcome) {
+    let state = InvocationState {
+        job,
+        launch_index: index,
+        running: RefCell::new(Vec::new()),
+        exceptions: RefCell::new(Vec::new()),
+    };
+    let Some(record) = job.sbt.regions[0].first() else { return };
+    let Some(raygen) = job.pipeline.groups[record.group].general else { return };
+    let frame = Frame { state: &state, depth: 0, traversal: None };
+    let result = catch_unwind(AssertUnwindSafe(|| {
+        let mut inv = frame.invocation();
+        inv.record = record.data.ptr();
+        frame.run(raygen, &mut inv);
+    }));
+    outcome.exceptions.append(&mut state.exceptions.borrow_mut());
+    if let Err(payload) = result {
+        let program = state.running.borrow().last().copied().unwrap_or(raygen.name);
+        let failure = match payload.downcast::<Fault>() {
+            Ok(fault) => Failure::Fault { program, problem: fault.0 },
+            Err(payload) => Failure::Panicked { program, message: panic_message(payload.as_ref()) },
+        };
+        let [w, h, _] = job.dims;
+        let linear = u64::from(index.x) + u64::from(w) * (u64::from(index.y) + u64::from(h) * u64::from(index.z));
+        outcome.failure = Some((linear, index.to_array(), failure));
+    }
+}
+
+/// The message of a panic payload (`panic!`'s string, or a note that it had none).
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_owned()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "(a panic without a message)".to_owned()
+    }
+}
+
+/// Ends the invocation with a fault.
+fn fault(problem: String) -> ! {
+    resume_unwind(Box::new(Fault(problem)))
+}
+
+/// A program running, as its runtime: the invocation it belongs to, the depth
+/// of the ray it runs for, and, in intersection and any-hit programs, the
+/// traversal it runs inside.
+struct Frame<'s, 'j> {
+    state: &'s InvocationState<'j>,
+    depth: u32,
+    traversal: Option<&'s Traversal<'s>>,
+}
+
+impl<'j> Frame<'_, 'j> {
+    fn job(&self) -> &'j LaunchJob {
+        self.state.job
+    }
+
+    /// An invocation of this frame with every pointer null.
+    fn invocation(&self) -> Invocation<'_> {
+        let job = self.job();
+        Invocation {
+            runtime: self,
+            launch_index: self.state.launch_index,
+            launch_dimensions: UVec3::from_array(job.dims),
+            world_ray_origin: Vec3::ZERO,
+            world_ray_direction: Vec3::ZERO,
+            hit: HitBuiltins {
+                launch_index: self.state.launch_index,
+                launch_dimensions: UVec3::from_array(job.dims),
+                ..HitBuiltins::ZERO
+            },
+            params: job.params.ptr(),
+            record: std::ptr::null(),
+            payload: std::ptr::null_mut(),
+            attributes: std::ptr::null_mut(),
+            callable_data: std::ptr::null_mut(),
+            exception: ExceptionDetails::default(),
+            depth: self.depth,
+            max_trace_depth: job.pipeline.max_trace_depth,
+            specialization: &job.pipeline.specialization,
+        }
+    }
+
+    /// Calls `program` with `inv`, noting it as running.
+    fn run(&self, program: Program, inv: &mut Invocation<'_>) {
+        self.state.running.borrow_mut().push(program.name);
+        (program.cpu.run)(inv);
+        self.state.running.borrow_mut().pop();
+    }
+
+    /// Checks that `program` receives `what` of type `given`.
+    fn check_type(&self, program: Program, what: &str, declared: Option<TypeInfo>, given: TypeInfo) {
+        if let Some(declared) = declared {
+            if declared != given {
+                fault(format!(
+                    "`{}` takes a {what} of type {declared:?}, but was given one of type {given:?}",
+                    program.name
+                ));
+            }
+        }
+    }
+
+    /// The record at `index` of `region` (1 miss, 2 hit, 3 callable).
+    fn record(&self, region: usize, index: u64, what: &str) -> &'j super::program::Record {
+        let records = &self.job().sbt.regions[region];
+        usize::try_from(index).ok().and_then(|i| records.get(i)).unwrap_or_else(|| {
+            fault(format!(
+                "{what} {index} is past the SBT's {} record(s) of that region; build the SBT with a record there",
+                records.len()
+            ))
+        })
+    }
+}
+
+impl Runtime for Frame<'_, '_> {
+    fn load(&self, buffer: u32, first_word: u64, words: &mut [u32]) {
+        match self.job().buffers.get((buffer & (raykit_abi::BUFFER_TABLE_SLOTS - 1)) as usize) {
+            Some(Some(b)) => read_words(b, first_word, words),
+            _ => words.fill(0),
+        }
+    }
+
+    fn store(&self, buffer: u32, first_word: u64, words: &[u32]) {
+        if let Some(Some(b)) = self.job().buffers.get((buffer & (raykit_abi::BUFFER_TABLE_SLOTS - 1)) as usize) {
+            write_words(b, first_word, words)
+        }
+    }
+
+    fn trace(&self, scene: Traversable, ray: Ray, call: TraceCall, payload: Erased<'_>) {
+        let job = self.job();
+        let depth = self.depth + 1;
+        if depth > job.pipeline.max_trace_depth {
+            self.throw_exception(self.state.launch_index, TRACE_DEPTH_EXCEEDED, true);
+            return;
+        }
+        let address = scene.device_address();
+        let Some(scene) = job.scenes.get(&address) else {
+            fault(format!("a trace into traversable {address:#x}, which is no live IAS of this Context"));
+        };
+        let traversal = Traversal::new(self, scene, ray, call, depth, &payload);
+        traversal.run();
+        let frame = Frame { state: self.state, depth, traversal: None };
+        match traversal.committed.get() {
+            Some(hit) => {
+                if call.flags & ray_flags::SKIP_CLOSEST_HIT != 0 {
+                    return;
+                }
+                let record = frame.record(2, hit.record, "hit record");
+                let Some(program) = job.pipeline.groups[record.group].closest_hit else { return };
+                frame.check_type(program, "payload", program.cpu.payload, payload.ty);
+                let mut attributes = traversal.committed_attributes.get();
+                let mut inv = frame.invocation();
+                inv.hit = traversal.builtins(&hit, hit.t, hit.hit_kind);
+                inv.record = record.data.ptr();
+                inv.payload = payload.ptr;
+                inv.attributes = attributes.as_mut_ptr().cast();
+                frame.run(program, &mut inv);
+            }
+            None => {
+                let record = frame.record(1, u64::from(call.miss_index), "miss index");
+                let Some(program) = job.pipeline.groups[record.group].general else { return };
+                frame.check_type(program, "payload", program.cpu.payload, payload.ty);
+                let mut inv = frame.invocation();
+                inv.world_ray_origin = ray.origin;
+                inv.world_ray_direction = ray.direction;
+                inv.record = record.data.ptr();
+                inv.payload = payload.ptr;
+                frame.run(program, &mut inv);
+            }
+        }
+    }
+
+    fn call(&self, sbt_index: u32, data: Erased<'_>) {
+        let job = self.job();
+        let record = self.record(3, u64::from(sbt_index), "callable index");
+        let Some(program) = job.pipeline.groups[record.group].general else { return };
+        self.check_type(program, "callable data", program.cpu.callable_data, data.ty);
+        let frame = Frame { state: self.state, depth: self.depth, traversal: None };
+        let mut inv = frame.invocation();
+        inv.record = record.data.ptr();
+        inv.callable_data = data.ptr;
+        frame.run(program, &mut inv);
+    }
+
+    fn throw_exception(&self, launch_index: UVec3, code: u32, run_exception_program: bool) {
+        self.state.exceptions.borrow_mut().push(UserException { code, launch_index: launch_index.to_array() });
+        let job = self.job();
+        let Some(group) = job.pipeline.exception_group.filter(|_| run_exception_program) else { return };
+        let Some(program) = job.pipeline.groups[group].general else { return };
+        let record = job.sbt.regions[3].iter().find(|r| r.group == group);
+        let frame = Frame { state: self.state, depth: self.depth, traversal: None };
+        let mut inv = frame.invocation();
+        inv.exception = ExceptionDetails { code, launch_index };
+        inv.record = record.map_or(std::ptr::null(), |r| r.data.ptr());
+        frame.run(program, &mut inv);
+    }
+
+    fn report_intersection(&self, t: f32, hit_kind: u32) -> bool {
+        match self.traversal {
+            Some(traversal) => traversal.report(t, hit_kind),
+            None => fault("report_intersection outside an intersection program".to_owned()),
+        }
+    }
+
+    fn ignore_intersection(&self) -> ! {
+        resume_unwind(Box::new(AnyHitEnd::Ignore))
+    }
+
+    fn terminate_ray(&self) -> ! {
+        resume_unwind(Box::new(AnyHitEnd::Terminate))
+    }
+}
+
+/// Hit attributes: `ATTRIBUTE_BYTES`, aligned to 16.
+type Attributes = [u128; ATTRIBUTE_BYTES / 16];
+
+/// A hit accepted so far.
+#[derive(Copy, Clone, Debug)]
+struct Committed {
+    t: f32,
+    hit_kind: u32,
+    instance: u32,
+    geometry: u32,
+    primitive: u32,
+    record: u64,
+}
+
+/// The primitive being tested.
+#[derive(Copy, Clone)]
+struct Candidate {
+    instance: u32,
+    geometry: u32,
+    primitive: u32,
+    record: u64,
+    opaque: bool,
+}
+
+/// One trace through one IAS.
+struct Traversal<'f> {
+    frame: &'f Frame<'f, 'f>,
+    scene: &'f SceneData,
+    ray: Ray,
+    call: TraceCall,
+    depth: u32,
+    t_max: Cell<f32>,
+    committed: Cell<Option<Committed>>,
+    committed_attributes: Cell<Attributes>,
+    /// Where the running intersection program writes its attributes.
+    attribute_target: Cell<*mut u128>,
+    /// The payload of the trace, for any-hit programs.
+    payload: Cell<*mut u8>,
+    payload_type: TypeInfo,
+    /// The candidate an intersection program runs for.
+    candidate: Cell<Option<Candidate>>,
+    /// The object-space ray of the instance being traversed.
+    object_ray: Cell<(Vec3, Vec3)>,
+    terminated: Cell<bool>,
+}
+
+impl<'f> Traversal<'f> {
+    fn new(
+        frame: &'f Frame<'f, 'f>,
+        scene: &'f SceneData,
+        ray: Ray,
+        call: TraceCall,
+        depth: u32,
+        payload: &Erased<'_>,
+    ) -> Self {
+        Traversal {
+            frame,
+            scene,
+            ray,
+            call,
+            depth,
+            t_max: Cell::new(ray.t_max),
+            committed: Cell::new(None),
+            committed_attributes: Cell::new([0; ATTRIBUTE_BYTES / 16]),
+            attribute_target: Cell::new(std::ptr::null_mut()),
+            payload: Cell::new(payload.ptr),
+            payload_type: payload.ty,
+            candidate: Cell::new(None),
+            object_ray: Cell::new((ray.origin, ray.direction)),
+            terminated: Cell::new(false),
+        }
+    }
+
+    fn flags(&self) -> u32 {
+        self.call.flags
+    }
+
+    /// Walks the IAS's tree, then each instance's GAS tree.
+    fn run(&self) {
+        let origin = Vec3A::from(self.ray.origin);
+        let direction = Vec3A::from(self.ray.direction);
+        if !(self.ray.t_min <= self.ray.t_max) {
+            return;
+        }
+        let bvh = &self.scene.bvh;
+        let mut world_ray = BvhRay::new(origin, direction, self.ray.t_min, self.t_max.get());
+        let mut state = bvh.new_traversal(direction);
+        let mut node;
+        {
+            use glam::UVec2;
+            obvhs::traverse!(bvh, node, state, node.intersect_ray(&world_ray, state.oct_inv4), {
+                let index = bvh.primitive_indices[state.primitive_id as usize];
+                self.instance(index);
+                if self.terminated.get() {
+                    break;
+                }
+                world_ray.tmax = self.t_max.get();
+            });
+        }
+    }
+
+    /// Traverses instance `index`.
+    fn instance(&self, index: u32) {
+        let instance: &SceneInstance = &self.scene.instances[index as usize];
+        if u32::from(instance.mask) & self.call.cull_mask & 0xff == 0 {
+            return;
+        }
+        let w2o: Affine3A = instance.world_to_object;
+        let origin = w2o.transform_point3(self.ray.origin);
+        let direction = w2o.transform_vector3(self.ray.direction);
+        self.object_ray.set((origin, direction));
+        let gas = &instance.gas;
+        let bvh = &gas.bvh;
+        let (o, d) = (Vec3A::from(origin), Vec3A::from(direction));
+        let mut ray = BvhRay::new(o, d, self.ray.t_min, self.t_max.get());
+        let mut state = bvh.new_traversal(d);
+        let mut node;
+        use glam::UVec2;
+        obvhs::traverse!(bvh, node, state, node.intersect_ray(&ray, state.oct_inv4), {
+            let (geometry, primitive) = gas.primitives[bvh.primitive_indices[state.primitive_id as usize] as usize];
+            self.primitive(index, instance, geometry, primitive, o, d, &ray);
+            if self.terminated.get() {
+                break;
+            }
+            ray.tmax = self.t_max.get();
+        });
+    }
+
+    /// Tests one primitive of instance `index`.
+    #[allow(clippy::too_many_arguments)]
+    fn primitive(
+        &self,
+        index: u32,
+        instance: &SceneInstance,
+        geometry: u32,
+        primitive: u32,
+        origin: Vec3A,
+        direction: Vec3A,
+        ray: &BvhRay,
+    ) {
+        let geo = &instance.gas.geometries[geometry as usize];
+        let flags = self.flags();
+        let mut opaque = geo.opaque();
+        if instance.flags.contains(InstanceFlags::FORCE_OPAQUE) {
+            opaque = true;
+        }
+        if instance.flags.contains(InstanceFlags::FORCE_NON_OPAQUE) {
+            opaque = false;
+        }
+        if flags & ray_flags::OPAQUE != 0 {
+            opaque = true;
+        }
+        if flags & ray_flags::NO_OPAQUE != 0 {
+            opaque = false;
+        }
+        if (opaque && flags & ray_flags::CULL_OPAQUE != 0) || (!opaque && flags & ray_flags::CULL_NO_OPAQUE != 0) {
+            return;
+        }
+        let record = u64::from(instance.sbt_offset)
+            + u64::from(geometry) * u64::from(self.call.sbt_stride)
+            + u64::from(self.call.sbt_offset);
+        let candidate = Candidate { instance: index, geometry, primitive, record, opaque };
+        match geo {
+            Geometry::Triangles { triangles, .. } => {
+                if flags & ray_flags::SKIP_TRIANGLES != 0 {
+                    return;
+                }
+                let tri = triangles[primitive as usize];
+                let Some((t, u, v, det)) = intersect_triangle(&tri, origin, direction, ray.tmin, self.t_max.get())
+                else {
+                    return;
+                };
+                // Facing is decided in object space, where the instance's flip applies.
+                let mut front = det < 0.0;
+                if instance.flags.contains(InstanceFlags::FLIP_TRIANGLE_FACING) {
+                    front = !front;
+                }
+                if !instance.flags.contains(InstanceFlags::DISABLE_TRIANGLE_CULLING)
+                    && ((front && flags & ray_flags::CULL_FRONT_FACING != 0)
+                        || (!front && flags & ray_flags::CULL_BACK_FACING != 0))
+                {
+                    return;
+                }
+                let hit_kind = if front { HIT_KIND_FRONT_FACING_TRIANGLE } else { HIT_KIND_BACK_FACING_TRIANGLE };
+                let mut attributes: Attributes = [0; ATTRIBUTE_BYTES / 16];
+                bytemuck::cast_slice_mut::<u128, f32>(&mut attributes)[..2].copy_from_slice(&[u, v]);
+                self.consider(candidate, t, hit_kind, attributes);
+            }
+            Geometry::Aabbs { boxes, .. } => {
+                if flags & ray_flags::SKIP_AABBS != 0 {
+                    return;
+                }
+                if boxes[primitive as usize].intersect_ray(ray) == f32::INFINITY {
+                    return;
+                }
+                self.intersect(candidate);
+            }
+        }
+    }
+
+    /// Runs the candidate's intersection program.
+    fn intersect(&self, candidate: Candidate) {
+        let frame = self.frame;
+        let job = frame.job();
+        let record = frame.record(2, candidate.record, "hit record");
+        let Some(program) = job.pipeline.groups[record.group].intersection else { return };
+        self.candidate.set(Some(candidate));
+        let inner = Frame { state: frame.state, depth: self.depth, traversal: Some(self) };
+        let mut attributes: Attributes = [0; ATTRIBUTE_BYTES / 16];
+        let mut inv = inner.invocation();
+        let probe = Committed {
+            t: self.t_max.get(),
+            hit_kind: 0,
+            instance: candidate.instance,
+            geometry: candidate.geometry,
+            primitive: candidate.primitive,
+            record: candidate.record,
+        };
+        inv.hit = self.builtins(&probe, self.t_max.get(), 0);
+        inv.record = record.data.ptr();
+        inv.attributes = attributes.as_mut_ptr().cast();
+        // The program writes its attributes here; `report` reads them from the cell.
+        self.attribute_target.set(attributes.as_mut_ptr());
+        let running = frame.state.running.borrow().len();
+        let result = catch_unwind(AssertUnwindSafe(|| inner.run(program, &mut inv)));
+        self.attribute_target.set(std::ptr::null_mut());
+        if let Err(payload) = result {
+            match payload.downcast::<AnyHitEnd>() {
+                // An any-hit program ended the ray from inside a report.
+                Ok(end) if matches!(*end, AnyHitEnd::Terminate) => {
+                    frame.state.running.borrow_mut().truncate(running);
+                    self.terminated.set(true);
+                }
+                Ok(_) => fault("ignore_intersection outside an any-hit program".to_owned()),
+                Err(payload) => resume_unwind(payload),
+            }
+        }
+        self.candidate.set(None);
+    }
+
+    /// A hit reported by the running intersection program.
+    fn report(&self, t: f32, hit_kind: u32) -> bool {
+        let Some(candidate) = self.candidate.get() else {
+            fault("report_intersection outside an intersection program".to_owned());
+        };
+        if !(t >= self.ray.t_min && t <= self.t_max.get()) {
+            return false;
+        }
+        let target = self.attribute_target.get();
+        let mut attributes: Attributes = [0; ATTRIBUTE_BYTES / 16];
+        if !target.is_null() {
+            // SAFETY: `target` is the intersection program's attribute storage,
+            // alive while it runs (this call comes from it).
+            attributes = unsafe { *(target as *const Attributes) };
+        }
+        self.consider(candidate, t, hit_kind, attributes)
+    }
+
+    /// Runs the any-hit step for a hit at `t` and commits it if accepted;
+    /// whether it was.
+    fn consider(&self, candidate: Candidate, t: f32, hit_kind: u32, attributes: Attributes) -> bool {
+        let hit = Committed {
+            t,
+            hit_kind,
+            instance: candidate.instance,
+            geometry: candidate.geometry,
+            primitive: candidate.primitive,
+            record: candidate.record,
+        };
+        let mut terminate = self.flags() & ray_flags::TERMINATE_ON_FIRST_HIT != 0;
+        if !candidate.opaque {
+            let frame = self.frame;
+            let record = frame.record(2, candidate.record, "hit record");
+            if let Some(program) = frame.job().pipeline.groups[record.group].any_hit {
+                frame.check_type(program, "payload", program.cpu.payload, self.payload_type);
+                let inner = Frame { state: frame.state, depth: self.depth, traversal: Some(self) };
+                let mut attrs = attributes;
+                let mut inv = inner.invocation();
+                inv.hit = self.builtins(&hit, t, hit_kind);
+                inv.record = record.data.ptr();
+                inv.payload = self.payload.get();
+                inv.attributes = attrs.as_mut_ptr().cast();
+                let running = frame.state.running.borrow().len();
+                match catch_unwind(AssertUnwindSafe(|| inner.run(program, &mut inv))) {
+                    Ok(()) => {}
+                    Err(payload) => match payload.downcast::<AnyHitEnd>() {
+                        Ok(end) => {
+                            frame.state.running.borrow_mut().truncate(running);
+                            match *end {
+                                AnyHitEnd::Ignore => return false,
+                                AnyHitEnd::Terminate => terminate = true,
+                            }
+                        }
+                        Err(payload) => resume_unwind(payload),
+                    },
+                }
+            }
+        }
+        self.t_max.set(t);
+        self.committed.set(Some(hit));
+        self.committed_attributes.set(attributes);
+        if terminate {
+            self.terminated.set(true);
+            if self.candidate.get().is_some() {
+                // Inside an intersection program: end it too.
+                resume_unwind(Box::new(AnyHitEnd::Terminate));
+            }
+        }
+        true
+    }
+
+    /// The built-ins of hit stages for `hit`, with `t_max` as `ray_tmax`.
+    fn builtins(&self, hit: &Committed, t_max: f32, hit_kind: u32) -> HitBuiltins {
+        let instance = &self.scene.instances[hit.instance as usize];
+        let w2o = instance.world_to_object;
+        HitBuiltins {
+            launch_index: self.frame.state.launch_index,
+            launch_dimensions: UVec3::from_array(self.frame.job().dims),
+            world_ray_origin: self.ray.origin,
+            world_ray_direction: self.ray.direction,
+            object_ray_origin: w2o.transform_point3(self.ray.origin),
+            object_ray_direction: w2o.transform_vector3(self.ray.direction),
+            ray_tmin: self.ray.t_min,
+            ray_tmax: t_max,
+            ray_flags: self.call.flags,
+            hit_kind,
+            primitive_index: hit.primitive,
+            instance_id: hit.instance,
+            instance_custom_index: instance.custom_index,
+            geometry_index: hit.geometry,
+            object_to_world: matrix(instance.object_to_world),
+            world_to_object: matrix(w2o),
+        }
+    }
+}
+
+/// An affine transform as the 4×3 matrix built-ins use.
+fn matrix(a: Affine3A) -> Matrix4x3 {
+    Matrix4x3 {
+        x_axis: a.matrix3.x_axis.into(),
+        y_axis: a.matrix3.y_axis.into(),
+        z_axis: a.matrix3.z_axis.into(),
+        w_axis: a.translation.into(),
+    }
+}
+
+/// Möller–Trumbore: `(t, u, v, determinant)` of a hit inside `[t_min, t_max]`.
+fn intersect_triangle(
+    tri: &super::accel::Triangle,
+    origin: Vec3A,
+    direction: Vec3A,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(f32, f32, f32, f32)> {
+    let p = direction.cross(tri.e2);
+    let det = tri.e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = origin - tri.v0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(tri.e1);
+    let v = direction.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = tri.e2.dot(q) * inv;
+    (t >= t_min && t <= t_max).then_some((t, u, v, det))
+}
+
+/// A launch running on its own thread, which runs the tiles on the context's pool.
+pub(crate) struct CpuLaunch {
+    thread: Option<std::thread::JoinHandle<Result<()>>>,
+}
+
+impl CpuLaunch {
+    /// Starts `job`; the context counts it as running until it ends.
+    pub(crate) fn start(job: LaunchJob) -> CpuLaunch {
+        let running = job.ctx.start_launch();
+        let thread = std::thread::spawn(move || {
+            let result = run(&job);
+            drop(job);
+            drop(running);
+            result
+        });
+        CpuLaunch { thread: Some(thread) }
+    }
+
+    /// Whether it has ended.
+    pub(crate) fn is_done(&self) -> bool {
+        self.thread.as_ref().is_none_or(|t| t.is_finished())
+    }
+
+    /// Waits for its end and returns its result.
+    pub(crate) fn wait(mut self) -> Result<()> {
+        self.join()
+    }
+
+    fn join(&mut self) -> Result<()> {
+        let Some(thread) = self.thread.take() else { return Ok(()) };
+        match thread.join() {
+            Ok(result) => result,
+            // A panic outside any program (in the backend itself) ends the launch too.
+            Err(payload) => Err(Error::ProgramPanicked {
+                program: "(the CPU backend)".to_owned(),
+                launch_index: [0; 3],
+                message: panic_message(payload.as_ref()),
+            }),
+        }
+    }
+}
+
+impl Drop for CpuLaunch {
+    fn drop(&mut self) {
+        // Dropping a launch waits for it, as on Vulkan; its errors are discarded.
+        let _ = self.join();
+    }
+}
+
+impl std::fmt::Debug for CpuLaunch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Launch").field("backend", &"cpu").field("done", &self.is_done()).finish()
+    }
+}

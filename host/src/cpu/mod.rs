@@ -1,0 +1,178 @@
+//! The CPU backend: the same device programs, run natively on the host.
+//!
+//! A device crate compiles for the host as well as for SPIR-V (that is how host
+//! and device share types); compiled for the host, every `#[raygen]`,
+//! `#[miss]`, … function also becomes a [`CpuProgram`](raykit_device::cpu::CpuProgram)
+//! that its [`EntryPoint`](raykit_device::EntryPoint) constant carries. A
+//! [`Context`](crate::Context) made with [`Backend::Cpu`](crate::Backend::Cpu)
+//! (or `RAYKIT_BACKEND=cpu`) runs those programs as Rust functions, behind the
+//! same types and calls as on Vulkan: modules name the linked device crate
+//! ([`Module::from_device_crate`](crate::Module::from_device_crate)), program
+//! groups, pipelines, SBTs, GASes, IASes, buffers, launches (synchronous and
+//! asynchronous), specialization constants, user exceptions and the exception
+//! program. Device programs can then be debugged as ordinary Rust: breakpoints,
+//! `println!`, `assert!`, sanitizers. A panic in a program ends its launch with
+//! [`Error::ProgramPanicked`](crate::Error::ProgramPanicked), naming the
+//! program and the launch index.
+//!
+//! What differs from Vulkan:
+//! * SPIR-V modules (GLSL, WGSL, SPIR-V files) cannot run: they are refused with
+//!   [`Error::NotOnCpuBackend`](crate::Error::NotOnCpuBackend) saying why.
+//! * Traversal follows Vulkan's rules (ray flags, instance masks and flags,
+//!   geometry flags, SBT offset, stride and miss-index arithmetic, the `t`
+//!   interval, any-hit and intersection programs), on BVHs from
+//!   [obvhs](https://crates.io/crates/obvhs): compressed-wide BVH8 trees built
+//!   with PLOC, a pure-Rust library chosen over Embree because it needs no system
+//!   library and its single-ray traversal measured faster than Embree's here
+//!   (see `cargo xtask bench cpu`). Refit rebuilds the tree; compaction keeps it.
+//! * The trace depth is checked on every trace, for every ray type: a trace past
+//!   the pipeline's `max_trace_depth` is not made and the launch returns
+//!   [`Error::RecursionTooDeep`](crate::Error::RecursionTooDeep).
+//! * A launch runs in parallel over tiles of its grid on a thread pool of the
+//!   context ([rayon](https://crates.io/crates/rayon)); each invocation computes
+//!   the same values whatever the number of threads, and user exceptions are
+//!   reported in launch-index order.
+//! * Stack sizes, pipeline libraries, compile caches, GPU timestamps and the raw
+//!   Vulkan handles do not apply: those calls say so with a typed error or report
+//!   nothing.
+
+pub(crate) mod accel;
+pub(crate) mod buffers;
+pub(crate) mod launch;
+pub(crate) mod program;
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+
+use crate::context::{ContextOptions, DeviceLimits};
+use crate::error::{Error, Result};
+use crate::handles::LiveIas;
+use crate::log::MessageLog;
+
+/// The invocations of one launch tile: 8 × 8.
+pub(crate) const TILE: u32 = 8;
+
+/// The device limits of the CPU backend: Vulkan's, where they bound what the
+/// API accepts (record sizes, recursion), and the host's otherwise.
+pub(crate) const LIMITS: DeviceLimits = DeviceLimits {
+    shader_group_handle_size: 32,
+    shader_group_handle_alignment: 32,
+    shader_group_base_alignment: 64,
+    max_shader_group_stride: 4096,
+    max_ray_recursion_depth: 31,
+    max_ray_dispatch_invocation_count: 1 << 30,
+    max_ray_hit_attribute_size: 32,
+    max_push_constants_size: 256,
+    max_uniform_buffer_range: 65536,
+    max_storage_buffer_range: u32::MAX,
+    min_uniform_buffer_offset_alignment: 16,
+    min_scratch_alignment: 128,
+    max_geometry_count: 1 << 24,
+    max_primitive_count: 1 << 29,
+    max_instance_count: 1 << 24,
+};
+
+/// Each launch dimension's limit on the CPU backend.
+pub(crate) const LAUNCH_DIMENSION_LIMITS: [u64; 3] = [1 << 30, 1 << 30, 1 << 30];
+
+/// Stack of each of the pool's threads: deep enough for 31 levels of
+/// recursion through user programs.
+const THREAD_STACK: usize = 64 << 20;
+
+/// A live IAS as traces reach it: its built structure and what launches check.
+pub(crate) struct LiveScene {
+    pub(crate) data: Arc<accel::SceneData>,
+    pub(crate) check: LiveIas,
+}
+
+/// A context of the CPU backend.
+pub(crate) struct CpuContext {
+    pub(crate) id: u64,
+    pub(crate) log: MessageLog,
+    pub(crate) buffers: buffers::BufferTable,
+    /// The live IASes, by the address their `Traversable` carries.
+    pub(crate) scenes: Mutex<HashMap<u64, LiveScene>>,
+    pub(crate) pool: rayon::ThreadPool,
+    /// Launches running, which reads and writes of buffers wait for.
+    running: Mutex<usize>,
+    finished: Condvar,
+}
+
+impl std::fmt::Debug for CpuContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CpuContext").field("id", &self.id).field("threads", &self.pool.current_num_threads()).finish()
+    }
+}
+
+impl CpuContext {
+    /// A CPU context with `options.cpu_threads` threads (all the host's by default).
+    pub(crate) fn new(id: u64, options: &ContextOptions) -> Result<CpuContext> {
+        let threads = options
+            .cpu_threads
+            .or_else(|| std::env::var("RAYKIT_CPU_THREADS").ok().and_then(|v| v.parse().ok()))
+            .unwrap_or(0);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .stack_size(THREAD_STACK)
+            .thread_name(move |i| format!("raykit-cpu-{id}-{i}"))
+            .build()
+            .map_err(|e| Error::CpuThreads { reason: e.to_string() })?;
+        Ok(CpuContext {
+            id,
+            log: MessageLog::with_callback(options.log_callback.clone()),
+            buffers: Default::default(),
+            scenes: Mutex::new(HashMap::new()),
+            pool,
+            running: Mutex::new(0),
+            finished: Condvar::new(),
+        })
+    }
+
+    /// The backend's name for [`crate::Context::device_name`].
+    pub(crate) fn name(&self) -> String {
+        format!("raykit CPU backend ({} threads)", self.pool.current_num_threads())
+    }
+
+    pub(crate) fn scenes(&self) -> MutexGuard<'_, HashMap<u64, LiveScene>> {
+        self.scenes.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Counts a launch as running until the returned guard drops.
+    pub(crate) fn start_launch(self: &Arc<Self>) -> RunningLaunch {
+        *self.running.lock().unwrap_or_else(|p| p.into_inner()) += 1;
+        RunningLaunch(self.clone())
+    }
+
+    /// Blocks until no launch of this context runs.
+    pub(crate) fn wait_idle(&self) {
+        let mut running = self.running.lock().unwrap_or_else(|p| p.into_inner());
+        while *running > 0 {
+            running = self.finished.wait(running).unwrap_or_else(|p| p.into_inner());
+        }
+    }
+}
+
+impl Drop for CpuContext {
+    fn drop(&mut self) {
+        // Every object of the context holds an `Arc` of it: none is alive now.
+        self.log.mark_destroyed();
+    }
+}
+
+/// A launch counted as running (see [`CpuContext::start_launch`]).
+pub(crate) struct RunningLaunch(Arc<CpuContext>);
+
+impl Drop for RunningLaunch {
+    fn drop(&mut self) {
+        let mut running = self.0.running.lock().unwrap_or_else(|p| p.into_inner());
+        *running -= 1;
+        self.0.finished.notify_all();
+    }
+}
+
+/// Hands out the addresses of CPU IASes: never 0, never reused in a process.
+pub(crate) fn next_scene_address() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    (NEXT.fetch_add(1, Ordering::Relaxed) << 8) | 0x0c00_0000_0000_0000
+}

@@ -1,0 +1,191 @@
+//! Pipelines and shader binding tables of the CPU backend: the programs of each
+//! group, as the macros compiled them for the host, and each record's data.
+
+use std::sync::Arc;
+
+use raykit_device::cpu::{CpuProgram, TypeInfo};
+
+use super::CpuContext;
+use crate::error::{Error, Result};
+use crate::program_group::GroupKind;
+
+/// One program of a group: what runs and its name for errors.
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct Program {
+    pub(crate) cpu: &'static CpuProgram,
+    pub(crate) name: &'static str,
+}
+
+/// One group of a CPU pipeline.
+#[derive(Clone, Debug)]
+pub(crate) struct Group {
+    pub(crate) id: u64,
+    pub(crate) kind: GroupKind,
+    /// The raygen, miss, callable or exception program.
+    pub(crate) general: Option<Program>,
+    pub(crate) closest_hit: Option<Program>,
+    pub(crate) any_hit: Option<Program>,
+    pub(crate) intersection: Option<Program>,
+}
+
+impl Group {
+    /// Its programs.
+    pub(crate) fn programs(&self) -> impl Iterator<Item = &Program> {
+        [&self.general, &self.closest_hit, &self.any_hit, &self.intersection].into_iter().flatten()
+    }
+
+    /// The most bytes of record data its programs read.
+    pub(crate) fn record_size(&self) -> usize {
+        self.programs().filter_map(|p| p.cpu.record).map(|t| t.size).max().unwrap_or(0)
+    }
+}
+
+/// The most bytes of hit attributes a program may declare: Vulkan's
+/// `maxRayHitAttributeSize` on every device raykit knows.
+pub(crate) const ATTRIBUTE_BYTES: usize = 32;
+
+/// A linked CPU pipeline.
+#[derive(Debug)]
+pub(crate) struct PipelineData {
+    pub(crate) ctx: Arc<CpuContext>,
+    pub(crate) groups: Vec<Group>,
+    pub(crate) max_trace_depth: u32,
+    /// The specialization constants set, by id.
+    pub(crate) specialization: Vec<(u32, u32)>,
+    /// The index of the exception group, if there is one.
+    pub(crate) exception_group: Option<usize>,
+    /// Where the params' handles are, checked by every launch.
+    pub(crate) handle_fields: Vec<crate::handles::HandleField>,
+}
+
+impl PipelineData {
+    /// Checks that every program takes params `params` and records, payloads,
+    /// attributes and callable data the backend can hold.
+    pub(crate) fn check(groups: &[Group], params: TypeInfo) -> Result<()> {
+        for program in groups.iter().flat_map(Group::programs) {
+            if let Some(theirs) = program.cpu.params {
+                if theirs != params {
+                    return Err(Error::CpuTypeMismatch {
+                        program: program.name.to_owned(),
+                        what: "launch params",
+                        declared: theirs.name(),
+                        given: params.name().to_owned(),
+                    });
+                }
+            }
+            for (what, ty) in [("record data", program.cpu.record), ("hit attributes", program.cpu.attributes)] {
+                if let Some(ty) = ty.filter(|t| t.align > 16) {
+                    return Err(Error::CpuTypeMismatch {
+                        program: program.name.to_owned(),
+                        what,
+                        declared: ty.name(),
+                        given: format!("an alignment of {} (at most 16 is supported)", ty.align),
+                    });
+                }
+            }
+            if let Some(ty) = program.cpu.attributes.filter(|t| t.size > ATTRIBUTE_BYTES) {
+                return Err(Error::CpuTypeMismatch {
+                    program: program.name.to_owned(),
+                    what: "hit attributes",
+                    declared: ty.name(),
+                    given: format!("{} bytes (maxRayHitAttributeSize is {ATTRIBUTE_BYTES})", ty.size),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Bytes aligned to 16, as records, params and attributes are read.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Aligned(Vec<u128>);
+
+impl Aligned {
+    /// A copy of `bytes`, zero-padded to at least `len` bytes.
+    pub(crate) fn new(bytes: &[u8], len: usize) -> Aligned {
+        let mut words = vec![0u128; bytes.len().max(len).div_ceil(16).max(1)];
+        bytemuck::cast_slice_mut::<u128, u8>(&mut words)[..bytes.len()].copy_from_slice(bytes);
+        Aligned(words)
+    }
+
+    /// Overwrites the start with `bytes` (which fit).
+    pub(crate) fn write(&mut self, bytes: &[u8]) {
+        let all = bytemuck::cast_slice_mut::<u128, u8>(&mut self.0);
+        let n = bytes.len().min(all.len());
+        all[..n].copy_from_slice(&bytes[..n]);
+    }
+
+    /// The address of the first byte.
+    pub(crate) fn ptr(&self) -> *const u8 {
+        self.0.as_ptr().cast()
+    }
+}
+
+/// One SBT record on the CPU backend: its group and data.
+#[derive(Clone, Debug)]
+pub(crate) struct Record {
+    pub(crate) group: usize,
+    pub(crate) data: Aligned,
+}
+
+/// The records of a CPU SBT, by region: raygen, miss, hit, callable (the
+/// exception program's last).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct SbtData {
+    pub(crate) regions: [Vec<Record>; 4],
+}
+
+/// Links `groups` of a CPU context into a pipeline for params `P`.
+pub(crate) fn link<P: raykit_device::LaunchParams>(
+    ctx: &Arc<CpuContext>,
+    groups: &[&crate::ProgramGroup],
+    max_trace_depth: u32,
+    constants: &crate::Specialization,
+) -> Result<PipelineData> {
+    let limit = super::LIMITS.max_ray_recursion_depth;
+    if max_trace_depth > limit {
+        return Err(Error::TraceDepthTooLarge { requested: max_trace_depth, limit });
+    }
+    if groups.iter().any(|g| g.ctx.cpu().is_none_or(|c| !Arc::ptr_eq(c, ctx))) {
+        return Err(Error::ContextMismatch);
+    }
+    crate::pipeline::check_linkable(groups.iter().copied())?;
+    let linked: Vec<Group> = groups.iter().map(|g| group(g)).collect();
+    PipelineData::check(&linked, TypeInfo::of::<P>())?;
+    Ok(PipelineData {
+        ctx: ctx.clone(),
+        exception_group: linked.iter().position(|g| g.kind == GroupKind::Exception),
+        groups: linked,
+        max_trace_depth,
+        specialization: constants.values().to_vec(),
+        handle_fields: crate::handles::handle_fields(&P::LAYOUT),
+    })
+}
+
+/// The CPU programs of `group` (a group of a CPU context holds only those).
+fn group(group: &crate::ProgramGroup) -> Group {
+    use crate::program_group::{GroupPrograms, ProgramCode};
+    let program = |p: &Option<crate::program_group::Program>| -> Option<Program> {
+        let p = p.as_ref()?;
+        match p.code {
+            ProgramCode::Cpu(cpu) => Some(Program { cpu, name: cpu.name }),
+            ProgramCode::Spirv(_) => None,
+        }
+    };
+    let mut out =
+        Group { id: group.id, kind: group.kind(), general: None, closest_hit: None, any_hit: None, intersection: None };
+    match &group.programs {
+        GroupPrograms::Raygen(p)
+        | GroupPrograms::Miss(p)
+        | GroupPrograms::Callable(p)
+        | GroupPrograms::Exception(p) => {
+            out.general = program(&Some(p.clone()));
+        }
+        GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
+            out.closest_hit = program(closest_hit);
+            out.any_hit = program(any_hit);
+            out.intersection = program(intersection);
+        }
+    }
+    out
+}
