@@ -102,27 +102,46 @@ impl ContextInner {
 /// `fault-injection` feature): see the [module docs](self). Dropping it opens it.
 #[must_use = "the gate opens when dropped"]
 pub struct SubmissionGate {
-    ctx: Arc<ContextInner>,
+    owner: GateOwner,
     value: u64,
+}
+
+/// The context whose gate it is.
+enum GateOwner {
+    Vulkan(Arc<ContextInner>),
+    Cpu(Arc<crate::cpu::CpuContext>),
 }
 
 impl SubmissionGate {
     /// Whether the gate is open: by [`SubmissionGate::open`], or by a host wait of
     /// the context meanwhile.
     pub fn is_open(&self) -> bool {
-        !self.ctx.gate.is_closed_at(self.value)
+        match &self.owner {
+            GateOwner::Vulkan(ctx) => !ctx.gate.is_closed_at(self.value),
+            GateOwner::Cpu(ctx) => !ctx.gate.is_closed(),
+        }
     }
 
     /// Opens the gate: the held submissions start on the device.
     pub fn open(self) -> Result<()> {
-        self.ctx.open_gate()
+        self.open_now()
+    }
+
+    fn open_now(&self) -> Result<()> {
+        match &self.owner {
+            GateOwner::Vulkan(ctx) => ctx.open_gate(),
+            GateOwner::Cpu(ctx) => {
+                ctx.gate.open();
+                Ok(())
+            }
+        }
     }
 }
 
 impl Drop for SubmissionGate {
     fn drop(&mut self) {
         // Errors only on a lost device, where nothing waits on the gate any more.
-        let _ = self.ctx.open_gate();
+        let _ = self.open_now();
     }
 }
 
@@ -138,8 +157,12 @@ impl Context {
     /// [`crate::gate`]). Closing a closed gate returns the same gate.
     #[doc(hidden)]
     pub fn close_submission_gate(&self) -> Result<SubmissionGate> {
+        if let Some(cpu) = self.cpu() {
+            cpu.gate.close();
+            return Ok(SubmissionGate { owner: GateOwner::Cpu(cpu.clone()), value: 0 });
+        }
         let inner = self.vulkan("a submission gate")?;
         let value = inner.close_gate()?;
-        Ok(SubmissionGate { ctx: inner.clone(), value })
+        Ok(SubmissionGate { owner: GateOwner::Vulkan(inner.clone()), value })
     }
 }

@@ -242,12 +242,17 @@ impl<T: Element> DeviceBuffer<T> {
     /// returns without waiting. The buffer may be dropped at once: the copy keeps
     /// what it reads alive on the device (see [`crate::timeline`]).
     ///
-    /// On the CPU backend the copy is made when the launches running have
-    /// finished, before this returns.
+    /// On the CPU backend the copy is made once the launches started before it
+    /// have ended (when [`PendingRead::wait`] finds them ended), from the
+    /// buffer's words, which the returned value keeps.
     pub fn read_async(&self) -> Result<PendingRead<T>> {
         let raw = match &self.storage {
             Storage::Vulkan(raw) => raw,
-            Storage::Cpu { .. } => return Ok(PendingRead { state: Pending::Ready(self.read()?) }),
+            Storage::Cpu { ctx, words } => {
+                let after = ctx.last_epoch();
+                let state = Pending::CpuCopy { ctx: ctx.clone(), words: words.clone(), after, len: self.len };
+                return Ok(PendingRead { state, _element: PhantomData });
+            }
         };
         let ctx = &raw.ctx;
         let staging = RawBuffer::new(
@@ -295,7 +300,7 @@ impl<T: Element> DeviceBuffer<T> {
                 );
             }
         })?;
-        Ok(PendingRead { state: Pending::Copying { submission, staging, len: self.len } })
+        Ok(PendingRead { state: Pending::Copying { submission, staging, len: self.len }, _element: PhantomData })
     }
 
     /// Overwrites the buffer's first `data.len()` elements.
@@ -369,11 +374,12 @@ impl Context {
 /// ([`DeviceBuffer::read_async`]); owns the host memory it lands in.
 #[must_use = "a PendingRead is waited on to get the contents"]
 pub struct PendingRead<T: Element> {
-    state: Pending<T>,
+    state: Pending,
+    _element: PhantomData<T>,
 }
 
 /// Where a [`PendingRead`]'s contents are.
-enum Pending<T> {
+enum Pending {
     /// On their way from a Vulkan buffer.
     Copying {
         // Field order: the submission (which waits when dropped) goes first.
@@ -381,8 +387,9 @@ enum Pending<T> {
         staging: RawBuffer,
         len: usize,
     },
-    /// Copied already (the CPU backend).
-    Ready(Vec<T>),
+    /// A CPU buffer's words, copied once the launches started before epoch
+    /// `after` have ended.
+    CpuCopy { ctx: Arc<crate::cpu::CpuContext>, words: crate::cpu::buffers::Words, after: u64, len: usize },
 }
 
 /// The first `len` elements of CPU buffer words.
@@ -397,7 +404,7 @@ impl<T: Element> PendingRead<T> {
     pub fn is_done(&self) -> Result<bool> {
         match &self.state {
             Pending::Copying { submission, .. } => submission.is_done(),
-            Pending::Ready(_) => Ok(true),
+            Pending::CpuCopy { ctx, after, .. } => Ok(!ctx.is_running_before(*after)),
         }
     }
 
@@ -405,7 +412,10 @@ impl<T: Element> PendingRead<T> {
     pub fn wait(self) -> Result<Vec<T>> {
         let (mut submission, staging, len) = match self.state {
             Pending::Copying { submission, staging, len } => (submission, staging, len),
-            Pending::Ready(contents) => return Ok(contents),
+            Pending::CpuCopy { ctx, words, after, len } => {
+                ctx.wait_for(after);
+                return Ok(read_cpu(&words, len));
+            }
         };
         submission.wait()?;
         let bytes = staging.mapped().ok_or(Error::BufferSize {
@@ -423,7 +433,9 @@ impl<T: Element> std::fmt::Debug for PendingRead<T> {
             Pending::Copying { submission, len, .. } => {
                 f.debug_struct("PendingRead").field("len", len).field("epoch", &submission.epoch).finish()
             }
-            Pending::Ready(contents) => f.debug_struct("PendingRead").field("len", &contents.len()).finish(),
+            Pending::CpuCopy { len, after, .. } => {
+                f.debug_struct("PendingRead").field("len", len).field("after_launch", after).finish()
+            }
         }
     }
 }

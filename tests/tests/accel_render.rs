@@ -12,7 +12,7 @@ use raykit::{
     Aabb, BuildInput, Context, Error, Gas, Ias, Instance, LinkOptions, Module, Pipeline, ProgramGroup, Sbt,
     Traversable, Triangles,
 };
-use raykit_tests::{channel_distance, with_context};
+use raykit_tests::{channel_distance, with_each_backend};
 
 const W: u32 = 96;
 const H: u32 = 64;
@@ -122,7 +122,7 @@ struct FatVertex {
 
 #[test]
 fn indexed_and_non_indexed_meshes_render_identically() -> anyhow::Result<()> {
-    with_context("indexed_and_non_indexed_meshes_render_identically", |ctx| {
+    with_each_backend("indexed_and_non_indexed_meshes_render_identically", |ctx, _backend| {
         let (vertices, indices) = fan();
         let expanded = expand(&vertices, &indices);
         let indices16: Vec<u16> = indices.iter().map(|&i| i as u16).collect();
@@ -178,7 +178,7 @@ fn indexed_and_non_indexed_meshes_render_identically() -> anyhow::Result<()> {
 
 #[test]
 fn aabbs_are_hit_through_the_intersection_program() -> anyhow::Result<()> {
-    with_context("aabbs_are_hit_through_the_intersection_program", |ctx| {
+    with_each_backend("aabbs_are_hit_through_the_intersection_program", |ctx, _backend| {
         let boxes: Vec<Aabb> = (0..3)
             .map(|i| {
                 let (c, r) = sphere(i);
@@ -261,7 +261,7 @@ fn instance_hit(instances: &[(Affine3A, u8)], p: Vec2) -> (Option<usize>, f32) {
 
 #[test]
 fn instances_hit_the_right_records() -> anyhow::Result<()> {
-    with_context("instances_hit_the_right_records", |ctx| {
+    with_each_backend("instances_hit_the_right_records", |ctx, _backend| {
         let square = [
             Vec3::new(-0.5, -0.5, 0.0),
             Vec3::new(0.5, -0.5, 0.0),
@@ -346,7 +346,7 @@ fn check_coverage(picture: &[u32], expected: &[Option<bool>], color: Vec3) -> us
 
 #[test]
 fn refit_moves_the_picture_as_the_cpu_reference_says() -> anyhow::Result<()> {
-    with_context("refit_moves_the_picture_as_the_cpu_reference_says", |ctx| {
+    with_each_backend("refit_moves_the_picture_as_the_cpu_reference_says", |ctx, _backend| {
         let before = [Vec3::new(-1.2, -0.8, 0.0), Vec3::new(0.2, -0.8, 0.0), Vec3::new(-0.5, 0.7, 0.0)];
         let after = [Vec3::new(-0.2, -0.5, 0.3), Vec3::new(1.3, -0.9, 0.0), Vec3::new(0.9, 0.9, 0.0)];
         let options = BuildOptions::default().fast_build().allow_update(true);
@@ -377,7 +377,7 @@ fn refit_moves_the_picture_as_the_cpu_reference_says() -> anyhow::Result<()> {
 
 #[test]
 fn compaction_keeps_the_picture() -> anyhow::Result<()> {
-    with_context("compaction_keeps_the_picture", |ctx| {
+    with_each_backend("compaction_keeps_the_picture", |ctx, _backend| {
         // A 40 × 40 grid with a hole pattern, so the picture has structure.
         let n = 40u32;
         let mut vertices = Vec::new();
@@ -417,7 +417,7 @@ fn compaction_keeps_the_picture() -> anyhow::Result<()> {
 
 #[test]
 fn batched_builds_render() -> anyhow::Result<()> {
-    with_context("batched_builds_render", |ctx| {
+    with_each_backend("batched_builds_render", |ctx, _backend| {
         let left = [Vec3::new(-1.4, -0.5, 0.0), Vec3::new(-0.6, -0.5, 0.0), Vec3::new(-1.0, 0.5, 0.0)];
         let right = [Vec3::new(0.6, -0.5, 0.0), Vec3::new(1.4, -0.5, 0.0), Vec3::new(1.0, 0.5, 0.0)];
         let pending = Gas::submit_many(
@@ -461,7 +461,7 @@ fn batched_builds_render() -> anyhow::Result<()> {
 
 #[test]
 fn each_geometry_hits_its_own_record_after_the_instance_offset() -> anyhow::Result<()> {
-    with_context("each_geometry_hits_its_own_record_after_the_instance_offset", |ctx| {
+    with_each_backend("each_geometry_hits_its_own_record_after_the_instance_offset", |ctx, _backend| {
         let left = [Vec3::new(-1.4, -0.5, 0.0), Vec3::new(-0.6, -0.5, 0.0), Vec3::new(-1.0, 0.5, 0.0)];
         let right = [Vec3::new(0.6, -0.5, 0.0), Vec3::new(1.4, -0.5, 0.0), Vec3::new(1.0, 0.5, 0.0)];
         let gas = Gas::builder()

@@ -10,9 +10,9 @@
 use program_model_device::{pack, Params, Radiance, BACKGROUND, SPEC_COLORS};
 use raykit::glam::{UVec2, Vec3, Vec4};
 use raykit::{
-    BuildOptions, Context, DeviceBuffer, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Triangles,
+    Backend, BuildOptions, Context, DeviceBuffer, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Triangles,
 };
-use raykit_tests::with_context;
+use raykit_tests::with_each_backend;
 
 const WIDTH: u32 = 1920;
 const HEIGHT: u32 = 1080;
@@ -80,7 +80,7 @@ fn mismatches(got: &[u32], want: &[u32]) -> usize {
 #[test]
 fn dropping_everything_a_launch_in_flight_uses_keeps_new_objects_untouched_and_the_picture_right() -> anyhow::Result<()>
 {
-    with_context("dropping_everything_a_launch_in_flight_uses", |ctx| {
+    with_each_backend("dropping_everything_a_launch_in_flight_uses", |ctx, backend| {
         let baseline = ctx.memory_usage();
         let pixels = (WIDTH * HEIGHT) as usize;
         let vertices = scene_vertices(0.5, 20_000);
@@ -98,7 +98,11 @@ fn dropping_everything_a_launch_in_flight_uses_keeps_new_objects_untouched_and_t
         let readback = image.read_async()?;
         let gas_size = gas.size();
         drop((image, spheres, scene, gas, sbt, pipeline));
-        assert!(ctx.pending_retirements() > 0, "nothing was queued on the timeline while the launch is pending");
+        // On Vulkan the drops wait on the GPU timeline; on the CPU the launch holds
+        // what it uses itself.
+        if backend == Backend::Vulkan {
+            assert!(ctx.pending_retirements() > 0, "nothing was queued on the timeline while the launch is pending");
+        }
 
         // New objects of the same sizes, with other data, while the launch is pending.
         let pattern = vec![0xA5A5_A5A5u32; pixels];
@@ -119,7 +123,11 @@ fn dropping_everything_a_launch_in_flight_uses_keeps_new_objects_untouched_and_t
 
         // The new GAS is intact: it renders its own (smaller) quad.
         let fresh_gas = fresh_gas.wait()?;
-        assert_eq!(fresh_gas.size(), gas_size, "the new GAS should be the same size as the dropped one");
+        // (On Vulkan, so that its memory may be the dropped one's; a CPU tree's size
+        // follows its geometry.)
+        if backend == Backend::Vulkan {
+            assert_eq!(fresh_gas.size(), gas_size, "the new GAS should be the same size as the dropped one");
+        }
         let (pipeline, sbt) = radiance_pipeline(ctx)?;
         let scene = Ias::single(ctx, &fresh_gas)?;
         let image = ctx.buffer::<u32>(pixels)?;
@@ -141,7 +149,7 @@ fn dropping_everything_a_launch_in_flight_uses_keeps_new_objects_untouched_and_t
 
 #[test]
 fn a_refit_and_a_build_while_a_launch_traces_the_gas_wait_for_it() -> anyhow::Result<()> {
-    with_context("a_refit_and_a_build_while_a_launch_traces_the_gas_wait_for_it", |ctx| {
+    with_each_backend("a_refit_and_a_build_while_a_launch_traces_the_gas_wait_for_it", |ctx, backend| {
         let baseline = ctx.memory_usage();
         let pixels = (WIDTH * HEIGHT) as usize;
         let vertices = scene_vertices(0.5, 20_000);
@@ -156,13 +164,15 @@ fn a_refit_and_a_build_while_a_launch_traces_the_gas_wait_for_it() -> anyhow::Re
         let launch = pipeline.launch_async(&sbt, &params(&image, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
         // A build while the launch is pending, itself pending behind the gate.
         let pending = Gas::builder().triangles(Triangles::new(&vertices)).submit(ctx)?;
-        assert!(!launch.is_done()? && !pending.is_ready()?, "the gate let the work run");
+        // CPU builds finish before they return; only the launch waits at the gate.
+        assert!(!launch.is_done()? && (backend == Backend::Cpu || !pending.is_ready()?), "the gate let the work run");
         // A refit of the traced GAS while the launch is pending: it starts on the
         // device only after the launch has finished with the GAS. (The refit blocks
         // until it is done, which opens the gate.)
         let smaller = scene_vertices(0.25, 20_000);
         gas.update(&[Triangles::new(&smaller).into()])?;
-        assert!(gate.is_open());
+        // (The CPU backend's refit builds a new tree and leaves the launch its old one.)
+        assert!(gate.is_open() || backend == Backend::Cpu);
         launch.wait()?;
         assert_eq!(mismatches(&image.read()?, &reference(0.5)), 0, "the refit changed the GAS under the launch");
 
@@ -187,7 +197,7 @@ fn a_refit_and_a_build_while_a_launch_traces_the_gas_wait_for_it() -> anyhow::Re
 #[test]
 fn a_build_in_flight_survives_dropping_its_traced_predecessor_and_a_closed_gate_never_deadlocks() -> anyhow::Result<()>
 {
-    with_context("a_build_in_flight_survives_dropping_its_traced_predecessor", |ctx| {
+    with_each_backend("a_build_in_flight_survives_dropping_its_traced_predecessor", |ctx, backend| {
         let baseline = ctx.memory_usage();
         let (pipeline, sbt) = radiance_pipeline(ctx)?;
         let old = Gas::triangles(ctx, &scene_vertices(0.5, 20_000), None)?;
@@ -204,7 +214,10 @@ fn a_build_in_flight_survives_dropping_its_traced_predecessor_and_a_closed_gate_
             .options(BuildOptions::default().allow_update(true))
             .submit(ctx)?;
         drop((old_scene, old));
-        assert!(!gate.is_open() && !build.is_ready()? && !launch.is_done()?, "the gate let the work run");
+        assert!(
+            !gate.is_open() && (backend == Backend::Cpu || !build.is_ready()?) && !launch.is_done()?,
+            "the gate let the work run"
+        );
         // A host wait opens the gate rather than waiting forever.
         launch.wait()?;
         assert!(gate.is_open(), "the launch's wait did not open the gate");
@@ -215,12 +228,12 @@ fn a_build_in_flight_survives_dropping_its_traced_predecessor_and_a_closed_gate_
         // dropped: the refit's own wait opens the gate.
         let gate = ctx.close_submission_gate()?;
         let scene = Ias::single(ctx, &built)?;
-        assert!(gate.is_open(), "a blocking build waits, and opens the gate");
+        assert!(gate.is_open() || backend == Backend::Cpu, "a blocking build waits, and opens the gate");
         let gate = ctx.close_submission_gate()?;
         let launch = pipeline.launch_async(&sbt, &params(&image, &spheres, &scene), [WIDTH, HEIGHT, 1])?;
         drop(scene);
         built.update(&[Triangles::new(&scene_vertices(0.5, 20_000)).into()])?;
-        assert!(gate.is_open());
+        assert!(gate.is_open() || backend == Backend::Cpu);
         launch.wait()?;
         assert_eq!(mismatches(&image.read()?, &reference(0.25)), 0, "the launch saw the refit made after it");
         let scene = Ias::single(ctx, &built)?;
@@ -283,7 +296,7 @@ fn assert_invalid(result: raykit::Result<()>, field: &str, says: &str) {
 
 #[test]
 fn stale_recycled_and_foreign_buffer_handles_are_refused_naming_the_field() -> anyhow::Result<()> {
-    with_context("stale_recycled_and_foreign_buffer_handles_are_refused_naming_the_field", |ctx| {
+    with_each_backend("stale_recycled_and_foreign_buffer_handles_are_refused_naming_the_field", |ctx, _backend| {
         let quad = Quad::new(ctx)?;
         quad.launch(&quad.params())?;
         let centre = quad.image.read()?[8 * 16 + 8];
@@ -334,7 +347,7 @@ fn stale_recycled_and_foreign_buffer_handles_are_refused_naming_the_field() -> a
 
 #[test]
 fn a_dropped_ias_and_an_ias_over_a_refitted_gas_are_refused_at_launch() -> anyhow::Result<()> {
-    with_context("a_dropped_ias_and_an_ias_over_a_refitted_gas_are_refused_at_launch", |ctx| {
+    with_each_backend("a_dropped_ias_and_an_ias_over_a_refitted_gas_are_refused_at_launch", |ctx, _backend| {
         let mut quad = Quad::new(ctx)?;
         let dropped = Ias::single(ctx, &quad.gas)?;
         let params = Params { scene: dropped.handle(), ..quad.params() };
@@ -384,7 +397,7 @@ fn render_spheres(ctx: &Context, spheres: raykit::Buffer<Vec4>) -> anyhow::Resul
 
 #[test]
 fn device_reads_through_the_null_handle_and_past_a_buffers_end_give_zero() -> anyhow::Result<()> {
-    with_context("device_reads_through_the_null_handle_and_past_a_buffers_end_give_zero", |ctx| {
+    with_each_backend("device_reads_through_the_null_handle_and_past_a_buffers_end_give_zero", |ctx, _backend| {
         let all = ctx.buffer_from::<Vec4>(&program_model::SPHERES)?;
         let full = render_spheres(ctx, all.handle())?;
         let background = pack(BACKGROUND);
@@ -411,7 +424,7 @@ fn device_reads_through_the_null_handle_and_past_a_buffers_end_give_zero() -> an
 #[test]
 fn sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt() -> anyhow::Result<()> {
     use program_model_device::ColorRecord;
-    with_context("sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt", |ctx| {
+    with_each_backend("sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt", |ctx, _backend| {
         let (red, green) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
         let module = Module::from_device_crate(ctx, "program-model-device")?;
         let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;
@@ -457,7 +470,7 @@ fn sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt() -> anyhow::Res
 #[test]
 fn a_record_holding_a_dropped_buffer_handle_is_refused_at_launch_naming_the_record_and_field() -> anyhow::Result<()> {
     use program_model_device::PaletteRecord;
-    with_context("a_record_holding_a_dropped_buffer_handle_is_refused_at_launch", |ctx| {
+    with_each_backend("a_record_holding_a_dropped_buffer_handle_is_refused_at_launch", |ctx, _backend| {
         let (red, green, blue) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 1.0));
         let module = Module::from_device_crate(ctx, "program-model-device")?;
         let raygen = ProgramGroup::raygen(&module, program_model_device::RG)?;

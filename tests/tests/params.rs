@@ -8,7 +8,7 @@ use raykit::glam::{Mat4, UVec2, Vec2, Vec3, Vec3A, Vec4};
 use raykit::{
     Context, Error, LaunchParams, LayoutError, LinkOptions, Module, ParamsDelivery, Pipeline, ProgramGroup, Sbt,
 };
-use raykit_tests::with_context;
+use raykit_tests::{with_context, with_each_backend};
 
 /// Launches `entry` once with `params` (whose `out` is replaced by a fresh buffer)
 /// and returns the words it wrote.
@@ -42,7 +42,7 @@ fn f(i: u32) -> f32 {
 
 #[test]
 fn mixed_scalars_vectors_arrays_and_nested_structs_arrive_exactly() -> anyhow::Result<()> {
-    with_context("mixed_scalars_vectors_arrays_and_nested_structs_arrive_exactly", |ctx| {
+    with_each_backend("mixed_scalars_vectors_arrays_and_nested_structs_arrive_exactly", |ctx, _backend| {
         let params = Mixed {
             out: raykit::Buffer::from_table_index(0),
             a: 0xdead_beef,
@@ -66,7 +66,7 @@ fn mixed_scalars_vectors_arrays_and_nested_structs_arrive_exactly() -> anyhow::R
 
 #[test]
 fn glam_16_byte_aligned_types_arrive_exactly() -> anyhow::Result<()> {
-    with_context("glam_16_byte_aligned_types_arrive_exactly", |ctx| {
+    with_each_backend("glam_16_byte_aligned_types_arrive_exactly", |ctx, _backend| {
         let params = Aligned {
             out: raykit::Buffer::from_table_index(0),
             _pad: [0; 3],
@@ -84,7 +84,7 @@ fn glam_16_byte_aligned_types_arrive_exactly() -> anyhow::Result<()> {
 
 #[test]
 fn params_over_the_push_constant_budget_go_through_a_uniform_buffer() -> anyhow::Result<()> {
-    with_context("params_over_the_push_constant_budget_go_through_a_uniform_buffer", |ctx| {
+    with_each_backend("params_over_the_push_constant_budget_go_through_a_uniform_buffer", |ctx, _backend| {
         assert!(std::mem::size_of::<Large>() > raykit::device::PUSH_CONSTANT_BUDGET);
         let params = Large {
             out: raykit::Buffer::from_table_index(0),
@@ -116,7 +116,7 @@ fn params_over_the_push_constant_budget_go_through_a_uniform_buffer() -> anyhow:
 
 #[test]
 fn async_launches_in_flight_each_see_their_own_uniform_params() -> anyhow::Result<()> {
-    with_context("async_launches_in_flight_each_see_their_own_uniform_params", |ctx| {
+    with_each_backend("async_launches_in_flight_each_see_their_own_uniform_params", |ctx, _backend| {
         let module = Module::from_device_crate(ctx, "params-device")?;
         let raygen = ProgramGroup::raygen(&module, params_device::RG_LARGE)?;
         let pipeline = Pipeline::<Large>::new(ctx, &[&raygen], LinkOptions::default())?;

@@ -8,7 +8,7 @@ use program_model::{
 use program_model_device::{cutout_solid, normal_color, ortho_ray, pack, ray_sphere, Params, BACKGROUND, MATERIALS};
 use raykit::glam::{UVec2, Vec2, Vec3, Vec4};
 use raykit::{Context, Error, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, ProgramKind, Sbt};
-use raykit_tests::{channel_distance, with_context};
+use raykit_tests::{channel_distance, with_context, with_each_backend};
 
 const SIZE: u32 = 96;
 
@@ -114,7 +114,7 @@ fn every_program_kind_has_its_prefix_and_wrong_pairings_are_refused() -> anyhow:
 
 #[test]
 fn spheres_from_an_intersection_program_match_the_cpu_reference() -> anyhow::Result<()> {
-    with_context("spheres_from_an_intersection_program_match_the_cpu_reference", |ctx| {
+    with_each_backend("spheres_from_an_intersection_program_match_the_cpu_reference", |ctx, _backend| {
         let got = program_model::spheres(ctx, SIZE)?;
         let share = compare(&got, |pixel| {
             let (origin, dir) = ortho_ray(pixel, UVec2::splat(SIZE));
@@ -135,7 +135,7 @@ fn spheres_from_an_intersection_program_match_the_cpu_reference() -> anyhow::Res
 
 #[test]
 fn an_any_hit_program_cuts_holes_where_the_pattern_is_clear() -> anyhow::Result<()> {
-    with_context("an_any_hit_program_cuts_holes_where_the_pattern_is_clear", |ctx| {
+    with_each_backend("an_any_hit_program_cuts_holes_where_the_pattern_is_clear", |ctx, _backend| {
         // The unit triangle, scaled and moved: any-hit works in object space,
         // where barycentrics are (x, y).
         let got = program_model::cutout(ctx, SIZE)?;
@@ -154,7 +154,7 @@ fn an_any_hit_program_cuts_holes_where_the_pattern_is_clear() -> anyhow::Result<
 
 #[test]
 fn callables_chosen_by_instance_custom_index_colour_each_instance() -> anyhow::Result<()> {
-    with_context("callables_chosen_by_instance_custom_index_colour_each_instance", |ctx| {
+    with_each_backend("callables_chosen_by_instance_custom_index_colour_each_instance", |ctx, _backend| {
         // A quad instanced three times side by side, custom indices 0, 1, 2.
         let got = program_model::callables(ctx, SIZE)?;
         let share = compare(&got, |pixel| {
@@ -199,7 +199,7 @@ fn check_shadows(got: &[u32]) -> anyhow::Result<()> {
 
 #[test]
 fn shadow_rays_of_a_second_ray_type_darken_the_occluded_ground() -> anyhow::Result<()> {
-    with_context("shadow_rays_of_a_second_ray_type_darken_the_occluded_ground", |ctx| {
+    with_each_backend("shadow_rays_of_a_second_ray_type_darken_the_occluded_ground", |ctx, _backend| {
         check_shadows(&program_model::shadows(ctx, SIZE)?)
     })
 }
@@ -223,7 +223,7 @@ fn a_pipeline_linked_from_libraries_renders_like_the_monolithic_one() -> anyhow:
 
 #[test]
 fn instances_sharing_a_hit_program_read_their_own_sbt_records() -> anyhow::Result<()> {
-    with_context("instances_sharing_a_hit_program_read_their_own_sbt_records", |ctx| {
+    with_each_backend("instances_sharing_a_hit_program_read_their_own_sbt_records", |ctx, _backend| {
         let got = program_model::sbt_data(ctx, SIZE)?;
         let share = compare(&got, |pixel| {
             let (o, _) = ortho_ray(pixel, UVec2::splat(SIZE));
@@ -252,7 +252,7 @@ fn instances_sharing_a_hit_program_read_their_own_sbt_records() -> anyhow::Resul
 
 #[test]
 fn user_exceptions_reach_the_host_with_code_and_launch_index() -> anyhow::Result<()> {
-    with_context("user_exceptions_reach_the_host_with_code_and_launch_index", |ctx| {
+    with_each_backend("user_exceptions_reach_the_host_with_code_and_launch_index", |ctx, _backend| {
         let module = module(ctx)?;
         let raygen = ProgramGroup::raygen(&module, program_model_device::RG_THROW)?;
         let pipeline = Pipeline::<Params>::new(ctx, &[&raygen], LinkOptions::default())?;
@@ -289,7 +289,7 @@ fn user_exceptions_reach_the_host_with_code_and_launch_index() -> anyhow::Result
 #[test]
 fn sbt_records_are_updated_between_launches_without_a_new_pipeline() -> anyhow::Result<()> {
     use program_model_device::{ColorRecord, Radiance};
-    with_context("sbt_records_are_updated_between_launches_without_a_new_pipeline", |ctx| {
+    with_each_backend("sbt_records_are_updated_between_launches_without_a_new_pipeline", |ctx, _backend| {
         let gas = Gas::triangles(ctx, &program_model::QUAD, None)?;
         let scene = Ias::new(
             ctx,
@@ -331,7 +331,7 @@ fn sbt_records_are_updated_between_launches_without_a_new_pipeline() -> anyhow::
 #[test]
 fn an_exception_program_runs_where_a_user_exception_was_thrown() -> anyhow::Result<()> {
     use program_model_device::{EXCEPTION_MARKER, THROWN};
-    with_context("an_exception_program_runs_where_a_user_exception_was_thrown", |ctx| {
+    with_each_backend("an_exception_program_runs_where_a_user_exception_was_thrown", |ctx, _backend| {
         let module = module(ctx)?;
         let raygen = ProgramGroup::raygen(&module, program_model_device::RG_THROW)?;
         let handler = ProgramGroup::exception(&module, program_model_device::ON_EXCEPTION)?;

@@ -7,7 +7,7 @@ use raykit::{
     CacheLoad, Context, ContextOptions, Gas, Ias, Instance, LibraryOptions, LinkOptions, Module, Pipeline,
     PipelineCacheLocation, PipelineLibrary, ProgramGroup, Sbt, Specialization,
 };
-use raykit_tests::{temp_dir, with_context, with_context_options};
+use raykit_tests::{temp_dir, with_context, with_context_options, with_each_backend};
 
 /// The specialization scene: a quad in the middle of the image, the radiance
 /// raygen and miss, and a closest-hit whose colour is specialization constant
@@ -66,7 +66,7 @@ impl SpecScene {
 
 #[test]
 fn two_pipelines_from_one_module_specialized_differently_render_differently() -> anyhow::Result<()> {
-    with_context("two_pipelines_from_one_module_specialized_differently_render_differently", |ctx| {
+    with_each_backend("two_pipelines_from_one_module_specialized_differently_render_differently", |ctx, _backend| {
         let spec = SpecScene::new(ctx)?;
         let mut seen = Vec::new();
         for constants in [Specialization::new(), Specialization::new().set(SHADE_MODE_SPEC_ID, 1)] {
@@ -81,7 +81,7 @@ fn two_pipelines_from_one_module_specialized_differently_render_differently() ->
 
 #[test]
 fn two_async_launches_in_flight_give_correct_results() -> anyhow::Result<()> {
-    with_context("two_async_launches_in_flight_give_correct_results", |ctx| {
+    with_each_backend("two_async_launches_in_flight_give_correct_results", |ctx, _backend| {
         let spec = SpecScene::new(ctx)?;
         let pipelines = [Specialization::new(), Specialization::new().set(SHADE_MODE_SPEC_ID, 1)]
             .iter()
@@ -132,7 +132,7 @@ fn two_async_launches_in_flight_give_correct_results() -> anyhow::Result<()> {
 
 #[test]
 fn async_launches_report_their_own_user_exceptions() -> anyhow::Result<()> {
-    with_context("async_launches_report_their_own_user_exceptions", |ctx| {
+    with_each_backend("async_launches_report_their_own_user_exceptions", |ctx, _backend| {
         let module = Module::from_device_crate(ctx, "program-model-device")?;
         let throwing = ProgramGroup::raygen(&module, program_model_device::RG_THROW)?;
         let pipeline = Pipeline::<Params>::new(ctx, &[&throwing], LinkOptions::default())?;
@@ -262,7 +262,7 @@ fn the_compile_cache_can_be_turned_off() -> anyhow::Result<()> {
 
 #[test]
 fn eight_threads_create_modules_and_pipelines_and_launch_concurrently() -> anyhow::Result<()> {
-    with_context("eight_threads_create_modules_and_pipelines_and_launch_concurrently", |ctx| {
+    with_each_backend("eight_threads_create_modules_and_pipelines_and_launch_concurrently", |ctx, _backend| {
         let results: Vec<anyhow::Result<(u32, u32)>> = std::thread::scope(|scope| {
             let threads: Vec<_> = (0..8u32)
                 .map(|i| {

@@ -8,7 +8,7 @@ use raykit::stack::{self, GroupRole};
 use raykit::{
     CallDepths, CallGraph, Context, Error, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, StackSize,
 };
-use raykit_tests::{channel_distance, with_context};
+use raykit_tests::{channel_distance, with_context, with_each_backend};
 use stack_test_device::{
     layer_square, layer_z, layers_over, pack, reference, reference_unbounded, Params, LAYERS, MAX_DEPTH,
 };
@@ -212,7 +212,7 @@ fn share_like_unbounded_reference(got: &[u32], max_trace_depth: u32) -> f64 {
 
 #[test]
 fn unbounded_recursion_within_max_trace_depth_renders() -> anyhow::Result<()> {
-    with_context("unbounded_recursion_within_max_trace_depth_renders", |ctx| {
+    with_each_backend("unbounded_recursion_within_max_trace_depth_renders", |ctx, _backend| {
         // Five layers: five closest-hits deep, the miss at depth 6.
         let (result, got) = render_unbounded(ctx, LAYERS + 1)?;
         result?;
@@ -233,7 +233,7 @@ fn unbounded_recursion_within_max_trace_depth_renders() -> anyhow::Result<()> {
 
 #[test]
 fn unbounded_recursion_past_max_trace_depth_is_refused_on_the_device() -> anyhow::Result<()> {
-    with_context("unbounded_recursion_past_max_trace_depth_is_refused_on_the_device", |ctx| {
+    with_each_backend("unbounded_recursion_past_max_trace_depth_is_refused_on_the_device", |ctx, _backend| {
         let size = UVec2::splat(SIZE);
         for max_trace_depth in [3, LAYERS] {
             let (result, got) = render_unbounded(ctx, max_trace_depth)?;

@@ -760,20 +760,23 @@ fn intersect_triangle(
 
 /// A launch running on its own thread, which runs the tiles on the context's pool.
 pub(crate) struct CpuLaunch {
+    ctx: Arc<CpuContext>,
     thread: Option<std::thread::JoinHandle<Result<()>>>,
 }
 
 impl CpuLaunch {
     /// Starts `job`; the context counts it as running until it ends.
     pub(crate) fn start(job: LaunchJob) -> CpuLaunch {
+        let ctx = job.ctx.clone();
         let running = job.ctx.start_launch();
         let thread = std::thread::spawn(move || {
+            job.ctx.gate.pass();
             let result = run(&job);
             drop(job);
             drop(running);
             result
         });
-        CpuLaunch { thread: Some(thread) }
+        CpuLaunch { ctx, thread: Some(thread) }
     }
 
     /// Whether it has ended.
@@ -788,6 +791,7 @@ impl CpuLaunch {
 
     fn join(&mut self) -> Result<()> {
         let Some(thread) = self.thread.take() else { return Ok(()) };
+        self.ctx.gate.open();
         match thread.join() {
             Ok(result) => result,
             // A panic outside any program (in the backend itself) ends the launch too.

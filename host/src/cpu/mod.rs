@@ -94,9 +94,57 @@ pub(crate) struct CpuContext {
     /// The live IASes, by the address their `Traversable` carries.
     pub(crate) scenes: Mutex<HashMap<u64, LiveScene>>,
     pub(crate) pool: rayon::ThreadPool,
-    /// Launches running, which reads and writes of buffers wait for.
-    running: Mutex<usize>,
+    /// The launches running, by the epoch each got when it started; reads and
+    /// writes of buffers wait for them.
+    running: Mutex<Running>,
     finished: Condvar,
+    /// The test hook that holds launches before they start (see [`crate::gate`]).
+    pub(crate) gate: Gate,
+}
+
+/// The launches of a context running now.
+#[derive(Default)]
+struct Running {
+    /// The epoch the next launch gets.
+    next: u64,
+    /// The epochs of those running.
+    epochs: std::collections::BTreeSet<u64>,
+}
+
+/// Holds launches before they start while closed; every host wait opens it
+/// first, so a gate left closed never deadlocks (the CPU side of [`crate::gate`]).
+#[derive(Default)]
+pub(crate) struct Gate {
+    closed: Mutex<bool>,
+    opened: Condvar,
+}
+
+impl Gate {
+    /// Closes the gate: launches started from now on wait.
+    #[cfg(feature = "fault-injection")]
+    pub(crate) fn close(&self) {
+        *self.closed.lock().unwrap_or_else(|p| p.into_inner()) = true;
+    }
+
+    /// Opens the gate; held launches start.
+    pub(crate) fn open(&self) {
+        *self.closed.lock().unwrap_or_else(|p| p.into_inner()) = false;
+        self.opened.notify_all();
+    }
+
+    /// Whether the gate is closed.
+    #[cfg(feature = "fault-injection")]
+    pub(crate) fn is_closed(&self) -> bool {
+        *self.closed.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Blocks while the gate is closed.
+    pub(crate) fn pass(&self) {
+        let mut closed = self.closed.lock().unwrap_or_else(|p| p.into_inner());
+        while *closed {
+            closed = self.opened.wait(closed).unwrap_or_else(|p| p.into_inner());
+        }
+    }
 }
 
 impl std::fmt::Debug for CpuContext {
@@ -124,8 +172,9 @@ impl CpuContext {
             buffers: Default::default(),
             scenes: Mutex::new(HashMap::new()),
             pool,
-            running: Mutex::new(0),
+            running: Mutex::new(Running::default()),
             finished: Condvar::new(),
+            gate: Gate::default(),
         })
     }
 
@@ -138,18 +187,42 @@ impl CpuContext {
         self.scenes.lock().unwrap_or_else(|p| p.into_inner())
     }
 
+    fn running(&self) -> MutexGuard<'_, Running> {
+        self.running.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
     /// Counts a launch as running until the returned guard drops.
     pub(crate) fn start_launch(self: &Arc<Self>) -> RunningLaunch {
-        *self.running.lock().unwrap_or_else(|p| p.into_inner()) += 1;
-        RunningLaunch(self.clone())
+        let mut running = self.running();
+        let epoch = running.next;
+        running.next += 1;
+        running.epochs.insert(epoch);
+        RunningLaunch(self.clone(), epoch)
+    }
+
+    /// The epoch of the last launch started (all launches before it have
+    /// smaller ones).
+    pub(crate) fn last_epoch(&self) -> u64 {
+        self.running().next
+    }
+
+    /// Blocks until every launch started before `epoch` has ended.
+    pub(crate) fn wait_for(&self, epoch: u64) {
+        self.gate.open();
+        let mut running = self.running();
+        while running.epochs.first().is_some_and(|first| *first < epoch) {
+            running = self.finished.wait(running).unwrap_or_else(|p| p.into_inner());
+        }
+    }
+
+    /// Whether a launch started before `epoch` is running.
+    pub(crate) fn is_running_before(&self, epoch: u64) -> bool {
+        self.running().epochs.first().is_some_and(|first| *first < epoch)
     }
 
     /// Blocks until no launch of this context runs.
     pub(crate) fn wait_idle(&self) {
-        let mut running = self.running.lock().unwrap_or_else(|p| p.into_inner());
-        while *running > 0 {
-            running = self.finished.wait(running).unwrap_or_else(|p| p.into_inner());
-        }
+        self.wait_for(u64::MAX);
     }
 }
 
@@ -161,12 +234,11 @@ impl Drop for CpuContext {
 }
 
 /// A launch counted as running (see [`CpuContext::start_launch`]).
-pub(crate) struct RunningLaunch(Arc<CpuContext>);
+pub(crate) struct RunningLaunch(Arc<CpuContext>, u64);
 
 impl Drop for RunningLaunch {
     fn drop(&mut self) {
-        let mut running = self.0.running.lock().unwrap_or_else(|p| p.into_inner());
-        *running -= 1;
+        self.0.running().epochs.remove(&self.1);
         self.0.finished.notify_all();
     }
 }

@@ -3,14 +3,14 @@
 //!
 //! The camera is orthographic: the ray of pixel `(x, y)` starts at
 //! `(px, py, 10)` and goes along -z, so a CPU reference only needs 2-D tests.
-//! Intersection and the custom-index closest-hit are raw `spirv_std` entry points
-//! (raykit's macros cover raygen, miss and closest-hit so far).
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
 use raykit_device::math::sqrt;
-use raykit_device::spirv_std::spirv;
-use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, RayType, Raygen, Traversable};
+use raykit_device::{
+    closest_hit, intersection, miss, raygen, Buffer, ClosestHit, Intersection, LaunchParams, Miss, RayType, Raygen,
+    Traversable,
+};
 
 /// Launch params.
 #[repr(C)]
@@ -128,37 +128,21 @@ fn ch_bary(ctx: &mut ClosestHit, #[payload] color: &mut Vec3) {
     *color = barycentric_color(ctx.barycentrics());
 }
 
-/// Entry name of [`is_sphere`].
-pub const IS_SPHERE: &str = "__intersection__sphere";
-
 /// Intersection program: the sphere of [`sphere`] inside each AABB, in object space.
-#[spirv(intersection(entry_point_name = "__intersection__sphere"))]
-pub fn is_sphere(
-    #[spirv(object_ray_origin)] origin: Vec3,
-    #[spirv(object_ray_direction)] direction: Vec3,
-    #[spirv(ray_tmin)] t_min: f32,
-    #[spirv(ray_tmax)] t_max: f32,
-    #[spirv(primitive_id)] primitive: u32,
-    #[spirv(hit_attribute)] attribute: &mut Vec2,
-) {
-    let (center, radius) = sphere(primitive);
-    let t = hit_sphere(origin, direction, center, radius, t_min, t_max);
+#[intersection]
+fn is_sphere(ctx: &mut Intersection, #[attributes] attribute: &mut Vec2) {
+    let (center, radius) = sphere(ctx.primitive_index());
+    let t =
+        hit_sphere(ctx.object_ray_origin(), ctx.object_ray_direction(), center, radius, ctx.ray_tmin(), ctx.ray_tmax());
     if t >= 0.0 {
         *attribute = Vec2::new(0.0, 0.0);
-        #[cfg(target_arch = "spirv")]
-        // SAFETY: called from an intersection program, the only stage that may report.
-        unsafe {
-            raykit_device::spirv_std::arch::report_intersection(t, 0);
-        }
+        ctx.report_intersection(t, 0);
     }
 }
 
-/// Entry name of [`ch_custom_index`].
-pub const CH_CUSTOM_INDEX: &str = "__closesthit__custom_index";
-
 /// Closest-hit that writes the instance's custom index into the red channel
 /// (as `index / 255`) and 1 into blue.
-#[spirv(closest_hit(entry_point_name = "__closesthit__custom_index"))]
-pub fn ch_custom_index(#[spirv(instance_custom_index)] index: u32, #[spirv(incoming_ray_payload)] color: &mut Vec3) {
-    *color = Vec3::new(index as f32 / 255.0, 0.0, 1.0);
+#[closest_hit(ray = Radiance)]
+fn ch_custom_index(ctx: &mut ClosestHit, #[payload] color: &mut Vec3) {
+    *color = Vec3::new(ctx.instance_custom_index() as f32 / 255.0, 0.0, 1.0);
 }
