@@ -115,7 +115,11 @@ fn create_instance(validation: bool) -> Result<SharedInstance> {
         info = info.push_next(&mut messenger_info);
     }
     // SAFETY: the create info and everything it points to live across the call.
-    let instance = unsafe { entry.create_instance(&info, None) }.map_err(Error::vk("vkCreateInstance"))?;
+    let instance = unsafe { entry.create_instance(&info, None) }.map_err(|result| match result {
+        // The loader found no driver at all: no device to report.
+        vk::Result::ERROR_INCOMPATIBLE_DRIVER => Error::NoRayTracingDevice { devices: Vec::new() },
+        other => Error::Vulkan { call: "vkCreateInstance", result: other },
+    })?;
     let messenger = if debug_utils {
         let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
         // SAFETY: the create info is valid; its user data lives forever.

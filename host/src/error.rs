@@ -160,7 +160,7 @@ pub enum Error {
     LoaderMissing(String),
 
     /// No physical device supports Vulkan ray-tracing pipelines.
-    #[error("no Vulkan device with ray-tracing pipelines and the features raykit needs; devices seen:{}{}\nOn a machine without a GPU, install Mesa ≥ 25 lavapipe (Debian bookworm: `mesa-vulkan-drivers` from bookworm-backports) — `cargo xtask test` does this when run as root", list_devices(.devices), robustness_hint(.devices))]
+    #[error("no Vulkan device with ray-tracing pipelines and the features raykit needs; devices seen:{}{}\nOn a machine without a GPU, install Mesa ≥ 25 lavapipe (Debian bookworm: `mesa-vulkan-drivers` from bookworm-backports) — `cargo xtask test` does this when run as root; or run the programs on the CPU backend (`ContextOptions::backend`, `RAYKIT_BACKEND=cpu`)", list_devices(.devices), robustness_hint(.devices))]
     NoRayTracingDevice {
         /// Each device seen, with what it lacks.
         devices: Vec<DeviceReport>,

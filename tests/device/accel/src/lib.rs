@@ -122,6 +122,26 @@ fn ch_record(_ctx: &mut ClosestHit, #[record] data: &ColorData, #[payload] color
     *color = data.color;
 }
 
+/// Colours a hit like [`ch_record`], after an `assert!` that it is not on
+/// primitive `refused` (a specialization constant; none by default), which it
+/// first announces with `println!` when it runs on the CPU backend.
+#[closest_hit(ray = Radiance)]
+fn ch_checked(
+    ctx: &mut ClosestHit,
+    #[record] data: &ColorData,
+    #[payload] color: &mut Vec3,
+    #[spec_constant(id = 7, default = 4294967295)] refused: u32,
+) {
+    let primitive = ctx.primitive_index();
+    #[cfg(not(target_arch = "spirv"))]
+    if primitive == refused {
+        let index = ctx.launch_index();
+        println!("ch_checked: primitive {primitive} hit at launch index ({}, {})", index.x, index.y);
+    }
+    assert!(primitive != refused, "the ray hit the refused primitive");
+    *color = data.color;
+}
+
 /// Colours a triangle hit by its barycentrics.
 #[closest_hit(ray = Radiance)]
 fn ch_bary(ctx: &mut ClosestHit, #[payload] color: &mut Vec3) {
