@@ -16,6 +16,9 @@
 //! ash, per launch; each loop is one function (`raykit_loop`, `ash_loop`) for
 //! callgrind's `--toggle-collect`.
 //!
+//! `cpu` — the CPU backend against the Vulkan device, primary rays and the path
+//! tracer (16 spp), with the same Rust programs (see `cpu.rs`).
+//!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
 //!   `$RAYKIT_SPIRV_DIR`); suites that trace need them, `accel` does not.
@@ -32,6 +35,7 @@
 
 mod accel;
 mod ash_baseline;
+mod cpu;
 mod launch;
 mod pipeline;
 mod shaders;
@@ -46,7 +50,8 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 9] = ["accel", "stack", "pipeline", "primary", "path", "launch", "launch-loop", "shaders", "soak"];
+const SUITES: [&str; 10] =
+    ["accel", "stack", "pipeline", "primary", "path", "launch", "launch-loop", "shaders", "soak", "cpu"];
 
 struct Args {
     suites: Vec<String>,
@@ -117,7 +122,7 @@ fn main() -> anyhow::Result<()> {
         device_name_contains: args.device.clone(),
         ..Default::default()
     })?;
-    let device = ctx.device_name().to_owned();
+    let device = ctx.device_name().into_owned();
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let mut report = serde_json::json!({ "device": device, "suites": {} });
     let mut markdown = format!("# raykit benchmarks on {device}\n\n");
@@ -145,6 +150,13 @@ fn main() -> anyhow::Result<()> {
             markdown.push_str("## soak\n\n");
             markdown.push_str(&table);
             report["suites"]["soak"] = soak::json(&samples);
+        } else if suite == "cpu" {
+            let rows = cpu::run(&ctx, &args.trace)?;
+            let table = cpu::markdown(&rows);
+            println!("## cpu\n\n{table}");
+            markdown.push_str("## cpu\n\n");
+            markdown.push_str(&table);
+            report["suites"]["cpu"] = cpu::json(&rows);
         } else if suite == "pipeline" {
             let rows = pipeline::run(args.device.as_deref(), args.reps)?;
             let table = pipeline::markdown(&rows, &device);

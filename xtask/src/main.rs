@@ -64,6 +64,10 @@ enum Cmd {
         /// Paths per pixel of the path tracer.
         #[arg(long, default_value_t = 16)]
         spp: u32,
+        /// Where the device programs run: `vulkan` (a GPU, or lavapipe) or `cpu`
+        /// (natively on this machine's CPUs, with no Vulkan driver needed).
+        #[arg(long, default_value = "vulkan", value_parser = ["vulkan", "cpu"])]
+        backend: String,
     },
     /// Check formatting, clippy, rustdoc, doctests and committed binaries (each must pass).
     Lint,
@@ -127,9 +131,11 @@ fn main() -> anyhow::Result<()> {
             }
             shaders::build_all(&root, force)?;
         }
-        Cmd::Demo { example, output, size, spp } => {
+        Cmd::Demo { example, output, size, spp, backend } => {
             setup::ensure_toolchain()?;
-            setup::ensure_vulkan(false)?;
+            if backend == "vulkan" {
+                setup::ensure_vulkan(false)?;
+            }
             shaders::build_all(&root, false)?;
             let output = output.unwrap_or_else(|| PathBuf::from(format!("target/demo/{example}.png")));
             let output = if output.is_absolute() { output } else { root.join(output) };
@@ -138,7 +144,8 @@ fn main() -> anyhow::Result<()> {
             }
             let mut cmd = cargo();
             cmd.args(["run", "--release", "--quiet", "-p", &example, "--"])
-                .env("RAYKIT_SPIRV_DIR", shaders::spirv_dir(&root));
+                .env("RAYKIT_SPIRV_DIR", shaders::spirv_dir(&root))
+                .env("RAYKIT_BACKEND", &backend);
             match example.as_str() {
                 "path_tracer" => {
                     let (width, height) = size.split_once('x').context("--size takes WIDTHxHEIGHT, e.g. 512x512")?;

@@ -46,6 +46,11 @@ struct Cli {
     /// Use the first ray-tracing device whose name contains this.
     #[arg(long)]
     device: Option<String>,
+    /// Where the device programs run: `vulkan` (a GPU, or lavapipe) or `cpu`
+    /// (the Rust programs natively on this machine's CPUs). Default: the
+    /// `RAYKIT_BACKEND` environment variable, else `vulkan`.
+    #[arg(long, value_parser = ["vulkan", "cpu"], conflicts_with_all = ["glsl", "wgsl", "watch"])]
+    backend: Option<String>,
     /// After rendering, watch `examples/path_tracer/device` and render again
     /// after each change (hot reload), until interrupted.
     #[arg(long, conflicts_with_all = ["glsl", "wgsl"])]
@@ -56,8 +61,11 @@ fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     anyhow::ensure!(cli.width > 0 && cli.height > 0, "--width and --height must be at least 1");
     anyhow::ensure!(cli.spp > 0 && cli.spp_per_launch > 0, "--spp and --spp-per-launch must be at least 1");
+    let backend =
+        cli.backend.as_deref().map(|b| if b == "cpu" { raykit::Backend::Cpu } else { raykit::Backend::Vulkan });
     let ctx = raykit::Context::new(raykit::ContextOptions {
         device_name_contains: cli.device.clone(),
+        backend,
         ..Default::default()
     })?;
     let programs = match (cli.glsl, cli.wgsl) {

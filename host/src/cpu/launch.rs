@@ -465,7 +465,8 @@ impl<'f> Traversal<'f> {
     fn run(&self) {
         let origin = Vec3A::from(self.ray.origin);
         let direction = Vec3A::from(self.ray.direction);
-        if !(self.ray.t_min <= self.ray.t_max) {
+        // An empty or NaN interval hits nothing.
+        if self.ray.t_min.partial_cmp(&self.ray.t_max).is_none_or(|o| o == std::cmp::Ordering::Greater) {
             return;
         }
         let bvh = &self.scene.bvh;
@@ -629,7 +630,7 @@ impl<'f> Traversal<'f> {
         let Some(candidate) = self.candidate.get() else {
             fault("report_intersection outside an intersection program".to_owned());
         };
-        if !(t >= self.ray.t_min && t <= self.t_max.get()) {
+        if !(self.ray.t_min..=self.t_max.get()).contains(&t) {
             return false;
         }
         let target = self.attribute_target.get();

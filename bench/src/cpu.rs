@@ -1,0 +1,178 @@
+//! The `cpu` suite: the CPU backend against the Vulkan device in use (lavapipe on
+//! a machine without a GPU), side by side in one run, with the same Rust device
+//! programs, scenes and host code.
+//!
+//! * primary rays: the `primary` suite's mesh (`--triangles`, default 1,000,000)
+//!   at `--primary-size` (default 1920x1080), optixTriangle's programs;
+//! * the path tracer: the Cornell box at `--path-size` (default 512) with 16
+//!   paths per pixel in one launch (`--spp N` for another count).
+//!
+//! Both backends are timed by the wall clock of the whole launch (submission and
+//! wait included), interleaved after one warm-up launch each; the ratio is the
+//! median of per-repetition ratios of Mrays/s, CPU over Vulkan.
+
+use std::time::Instant;
+
+use path_tracer::{Programs as PathPrograms, Renderer, Scene};
+use raykit::{Backend, Context, ContextOptions};
+
+use crate::stats::Summary;
+use crate::trace::{primary_pipeline, primary_scene, Language, Options};
+
+/// One measurement: a backend on one workload.
+pub struct Row {
+    workload: String,
+    backend: String,
+    reps: usize,
+    rays: u64,
+    seconds: Summary,
+    mrays: Summary,
+    /// Per-repetition ratio of the CPU backend's Mrays/s to Vulkan's.
+    cpu_over_vulkan: Summary,
+}
+
+/// Runs `launch` on each of `backends` once, then `reps` rounds in alternating
+/// order; returns per backend the (seconds, rays) of each round.
+fn pair(
+    reps: usize,
+    mut vulkan: impl FnMut() -> anyhow::Result<(f64, u64)>,
+    mut cpu: impl FnMut() -> anyhow::Result<(f64, u64)>,
+) -> anyhow::Result<[Vec<(f64, u64)>; 2]> {
+    vulkan()?;
+    cpu()?;
+    let (mut v, mut c) = (Vec::new(), Vec::new());
+    for rep in 0..reps {
+        if rep % 2 == 0 {
+            v.push(vulkan()?);
+            c.push(cpu()?);
+        } else {
+            c.push(cpu()?);
+            v.push(vulkan()?);
+        }
+    }
+    Ok([v, c])
+}
+
+fn rows(workload: &str, names: [&str; 2], results: &[Vec<(f64, u64)>; 2]) -> Vec<Row> {
+    let mrays = |r: &[(f64, u64)]| -> Vec<f64> { r.iter().map(|(s, n)| *n as f64 / s / 1e6).collect() };
+    let (v, c) = (mrays(&results[0]), mrays(&results[1]));
+    let ratio: Vec<f64> = c.iter().zip(&v).map(|(c, v)| c / v).collect();
+    names
+        .iter()
+        .zip(results)
+        .map(|(name, r)| Row {
+            workload: workload.to_owned(),
+            backend: (*name).to_owned(),
+            reps: r.len(),
+            rays: r.first().map_or(0, |x| x.1),
+            seconds: Summary::of(&r.iter().map(|x| x.0).collect::<Vec<_>>()),
+            mrays: Summary::of(&mrays(r)),
+            cpu_over_vulkan: Summary::of(&ratio),
+        })
+        .collect()
+}
+
+/// The `cpu` suite on the Vulkan context `vulkan` and a CPU context made here.
+pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
+    let cpu = Context::new(ContextOptions { backend: Some(Backend::Cpu), ..Default::default() })?;
+    let names = [format!("Vulkan ({})", vulkan.device_name()), format!("CPU backend ({})", cpu.device_name())];
+    let names = [names[0].as_str(), names[1].as_str()];
+    let mut out = Vec::new();
+
+    // Primary rays.
+    let (width, height) = opts.primary_size;
+    let dims = [width, height, 1];
+    let rays = u64::from(width) * u64::from(height);
+    let built = Instant::now();
+    let scene_v = primary_scene(vulkan, opts.triangles, opts.primary_size)?;
+    let vulkan_build = built.elapsed().as_secs_f64();
+    let built = Instant::now();
+    let scene_c = primary_scene(&cpu, opts.triangles, opts.primary_size)?;
+    let cpu_build = built.elapsed().as_secs_f64();
+    eprintln!("cpu: {} triangles built in {vulkan_build:.2} s (Vulkan) and {cpu_build:.2} s (CPU)", opts.triangles);
+    let pv = primary_pipeline(vulkan, Language::Rust)?;
+    let pc = primary_pipeline(&cpu, Language::Rust)?;
+    let results = pair(
+        opts.reps,
+        || {
+            let start = Instant::now();
+            pv.pipeline.launch(&pv.sbt, &scene_v.params, dims)?;
+            Ok((start.elapsed().as_secs_f64(), rays))
+        },
+        || {
+            let start = Instant::now();
+            pc.pipeline.launch(&pc.sbt, &scene_c.params, dims)?;
+            Ok((start.elapsed().as_secs_f64(), rays))
+        },
+    )?;
+    // Both backends drew the same picture (barycentric colours, within rounding).
+    let (a, b) = (scene_v.image.read()?, scene_c.image.read()?);
+    let differing = a.iter().zip(&b).filter(|(x, y)| channel_distance(**x, **y) > 2).count();
+    anyhow::ensure!(differing <= a.len() / 1000, "{differing} primary-ray pixels differ between the backends");
+    let workload = format!("primary: {} triangles, {width}x{height}, 1 ray/pixel", opts.triangles);
+    out.extend(rows(&workload, names, &results));
+
+    // The path tracer.
+    let size = opts.path_size;
+    let spp = if opts.spp == 1 { 16 } else { opts.spp };
+    let (scene_v, scene_c) = (Scene::new(vulkan)?, Scene::new(&cpu)?);
+    let mut rv = Renderer::new(vulkan, &PathPrograms::rust(vulkan)?, &scene_v, size, size)?;
+    let mut rc = Renderer::new(&cpu, &PathPrograms::rust(&cpu)?, &scene_c, size, size)?;
+    let launch = |r: &mut Renderer| -> anyhow::Result<(f64, u64)> {
+        r.reset();
+        let start = Instant::now();
+        r.launch(spp)?;
+        let seconds = start.elapsed().as_secs_f64();
+        Ok((seconds, r.rays()?))
+    };
+    let results = pair(opts.reps, || launch(&mut rv), || launch(&mut rc))?;
+    // The same paths: the programs and their random numbers are the same.
+    let (nv, nc) = (results[0][0].1, results[1][0].1);
+    anyhow::ensure!(nv.abs_diff(nc) * 100 <= nv, "the path tracer traced {nv} rays on Vulkan and {nc} on the CPU");
+    let workload = format!("path tracer: Cornell box, {size}x{size}, {spp} spp");
+    out.extend(rows(&workload, names, &results));
+    Ok(out)
+}
+
+fn channel_distance(a: u32, b: u32) -> u8 {
+    a.to_le_bytes().iter().zip(b.to_le_bytes()).map(|(x, y)| x.abs_diff(y)).max().unwrap_or(0)
+}
+
+/// The rows as a Markdown table.
+pub fn markdown(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "Same Rust device programs, scenes and host code on both backends; wall clock of whole launches, alternating after one warm-up each; median (± half the interquartile range); `CPU / Vulkan` is the median of per-repetition ratios of Mrays/s.\n\n",
+    );
+    s.push_str("| workload | backend | reps | rays/launch | ms/launch | Mrays/s | CPU / Vulkan (min–max) |\n");
+    s.push_str("|---|---|---:|---:|---:|---:|---:|\n");
+    for r in rows {
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {:.1} ± {:.1}% | {:.2} | {:.2} ({:.2}–{:.2}) |\n",
+            r.workload,
+            r.backend,
+            r.reps,
+            r.rays,
+            r.seconds.median * 1e3,
+            r.seconds.spread_percent(),
+            r.mrays.median,
+            r.cpu_over_vulkan.median,
+            r.cpu_over_vulkan.min,
+            r.cpu_over_vulkan.max,
+        ));
+    }
+    s
+}
+
+/// The rows as JSON.
+pub fn json(rows: &[Row]) -> serde_json::Value {
+    serde_json::Value::Array(
+        rows.iter()
+            .map(|r| {
+                serde_json::json!({
+                    "workload": r.workload, "backend": r.backend, "reps": r.reps, "rays_per_launch": r.rays,
+                    "seconds": r.seconds.json(), "mrays_per_s": r.mrays.json(), "cpu_over_vulkan": r.cpu_over_vulkan.json(),
+                })
+            })
+            .collect(),
+    )
+}
