@@ -12,12 +12,12 @@
 //! asynchronous), specialization constants, user exceptions and the exception
 //! program. Device programs can then be debugged as ordinary Rust: breakpoints,
 //! `println!`, `assert!`, sanitizers. A panic in a program ends its launch with
-//! [`Error::ProgramPanicked`](crate::Error::ProgramPanicked), naming the
+//! [`Error::ProgramPanicked`], naming the
 //! program and the launch index.
 //!
 //! What differs from Vulkan:
 //! * SPIR-V modules (GLSL, WGSL, SPIR-V files) cannot run: they are refused with
-//!   [`Error::NotOnCpuBackend`](crate::Error::NotOnCpuBackend) saying why.
+//!   [`Error::NotOnCpuBackend`] saying why.
 //! * Traversal follows Vulkan's rules (ray flags, instance masks and flags,
 //!   geometry flags, SBT offset, stride and miss-index arithmetic, the `t`
 //!   interval, any-hit and intersection programs), on BVHs from
@@ -27,7 +27,7 @@
 //!   (see `cargo xtask bench cpu`). Refit rebuilds the tree; compaction keeps it.
 //! * The trace depth is checked on every trace, for every ray type: a trace past
 //!   the pipeline's `max_trace_depth` is not made and the launch returns
-//!   [`Error::RecursionTooDeep`](crate::Error::RecursionTooDeep).
+//!   [`Error::RecursionTooDeep`].
 //! * A launch runs in parallel over tiles of its grid on a thread pool of the
 //!   context ([rayon](https://crates.io/crates/rayon)); each invocation computes
 //!   the same values whatever the number of threads, and user exceptions are
