@@ -557,8 +557,11 @@ impl<'f> Traversal<'f> {
                 else {
                     return;
                 };
-                // Facing is decided in object space, where the instance's flip applies.
-                let mut front = det < 0.0;
+                // Facing is decided in object space, where the instance's flip
+                // applies: a triangle whose vertices run counter-clockwise as seen
+                // from the ray's origin is front-facing (a positive determinant
+                // here), as Vulkan drivers decide.
+                let mut front = det > 0.0;
                 if instance.flags.contains(InstanceFlags::FLIP_TRIANGLE_FACING) {
                     front = !front;
                 }

@@ -8,8 +8,8 @@
 use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
 use raykit_device::math::sqrt;
 use raykit_device::{
-    closest_hit, intersection, miss, raygen, Buffer, ClosestHit, Intersection, LaunchParams, Miss, RayType, Raygen,
-    Traversable,
+    any_hit, closest_hit, intersection, miss, raygen, AnyHit, Buffer, ClosestHit, Intersection, LaunchParams, Miss,
+    RayFlags, RayType, Raygen, Traversable,
 };
 
 /// Launch params.
@@ -165,4 +165,94 @@ fn is_sphere(ctx: &mut Intersection, #[attributes] attribute: &mut Vec2) {
 #[closest_hit(ray = Radiance)]
 fn ch_custom_index(ctx: &mut ClosestHit, #[payload] color: &mut Vec3) {
     *color = Vec3::new(ctx.instance_custom_index() as f32 / 255.0, 0.0, 1.0);
+}
+
+/// The ray types of the traversal-rules test: one per set of ray flags (and
+/// one with another cull mask); all share the SBT placement of [`Radiance`].
+macro_rules! rule_rays {
+    ($($(#[$doc:meta])* $name:ident = $flags:expr, $mask:expr;)*) => {$(
+        $(#[$doc])*
+        pub struct $name;
+        impl RayType for $name {
+            type Payload = Vec3;
+            const FLAGS: RayFlags = $flags;
+            const CULL_MASK: u32 = $mask;
+        }
+    )*};
+}
+rule_rays! {
+    /// No flags, every instance visible.
+    Plain = RayFlags::NONE, 0xff;
+    /// Back-facing triangles culled.
+    CullBack = RayFlags::CULL_BACK_FACING_TRIANGLES, 0xff;
+    /// Front-facing triangles culled.
+    CullFront = RayFlags::CULL_FRONT_FACING_TRIANGLES, 0xff;
+    /// Every candidate opaque (no any-hit).
+    AllOpaque = RayFlags::OPAQUE, 0xff;
+    /// Every candidate non-opaque (any-hit everywhere).
+    NoneOpaque = RayFlags::NO_OPAQUE, 0xff;
+    /// Opaque candidates culled.
+    CullOpaque = RayFlags::CULL_OPAQUE, 0xff;
+    /// Non-opaque candidates culled.
+    CullNoOpaque = RayFlags::CULL_NO_OPAQUE, 0xff;
+    /// A shadow ray: the first accepted hit ends it, no closest-hit runs.
+    Shadow = RayFlags::from_bits_retain(
+        RayFlags::TERMINATE_ON_FIRST_HIT.bits() | RayFlags::SKIP_CLOSEST_HIT_SHADER.bits()
+    ), 0xff;
+    /// Only instances with mask bit 1.
+    MaskTwo = RayFlags::NONE, 0x02;
+    /// Triangles skipped.
+    NoTriangles = RayFlags::SKIP_TRIANGLES, 0xff;
+}
+
+/// How many ray types [`rg_rules`] chooses from.
+pub const RULE_MODES: u32 = 10;
+
+/// Traces one ray along -z per pixel with the ray type `mode` selects (a
+/// specialization constant: 0 [`Plain`] … 9 [`NoTriangles`]); the payload
+/// starts green, which a shadow ray that hits keeps.
+#[raygen]
+fn rg_rules(
+    ctx: &mut Raygen,
+    #[params] params: &Params,
+    #[payload] color: &mut Vec3,
+    #[spec_constant(id = 8, default = 0)] mode: u32,
+) {
+    let index: UVec3 = ctx.launch_index();
+    let p = pixel_position(index.truncate(), params);
+    let (origin, direction) = (Vec3::new(p.x, p.y, CAMERA_Z), Vec3::new(0.0, 0.0, -1.0));
+    *color = Vec3::new(0.0, 1.0, 0.0);
+    let scene = params.scene;
+    match mode {
+        0 => ctx.trace_from::<Plain>(scene, origin, direction, color),
+        1 => ctx.trace_from::<CullBack>(scene, origin, direction, color),
+        2 => ctx.trace_from::<CullFront>(scene, origin, direction, color),
+        3 => ctx.trace_from::<AllOpaque>(scene, origin, direction, color),
+        4 => ctx.trace_from::<NoneOpaque>(scene, origin, direction, color),
+        5 => ctx.trace_from::<CullOpaque>(scene, origin, direction, color),
+        6 => ctx.trace_from::<CullNoOpaque>(scene, origin, direction, color),
+        7 => ctx.trace_from::<Shadow>(scene, origin, direction, color),
+        8 => ctx.trace_from::<MaskTwo>(scene, origin, direction, color),
+        _ => ctx.trace_from::<NoTriangles>(scene, origin, direction, color),
+    }
+    let pixel = ctx.launch_linear_index();
+    ctx.store(params.image, pixel, pack_unorm(*color));
+}
+
+/// Writes what was hit: red 1 for a front face and 0.5 for a back face, green
+/// the instance index + 1 and blue the primitive index + 1, in sixteenths.
+#[closest_hit(ray = Plain)]
+fn ch_rules(ctx: &mut ClosestHit, #[payload] color: &mut Vec3) {
+    let red = if ctx.is_front_face_hit() { 1.0 } else { 0.5 };
+    let green = (ctx.instance_index() + 1) as f32 / 16.0;
+    let blue = (ctx.primitive_index() + 1) as f32 / 16.0;
+    *color = Vec3::new(red, green, blue);
+}
+
+/// Rejects every candidate on primitive 1 of instance 2; accepts the others.
+#[any_hit(ray = Plain)]
+fn ah_rules(ctx: &mut AnyHit, #[payload] _color: &mut Vec3) {
+    if ctx.primitive_index() == 1 && ctx.instance_index() == 2 {
+        ctx.ignore_intersection();
+    }
 }
