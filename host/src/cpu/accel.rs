@@ -29,8 +29,8 @@ pub(crate) struct Triangle {
 /// One geometry of a GAS.
 #[derive(Debug)]
 pub(crate) enum Geometry {
-    /// Triangles, with the geometry's transform applied.
-    Triangles { triangles: Vec<Triangle>, flags: GeometryFlags },
+    /// Triangles (kept, with the geometry's transform applied, in the leaves).
+    Triangles { count: usize, flags: GeometryFlags },
     /// Boxes for an intersection program.
     Aabbs { boxes: Vec<BvhAabb>, flags: GeometryFlags },
 }
@@ -46,31 +46,30 @@ impl Geometry {
     pub(crate) fn opaque(&self) -> bool {
         self.flags().contains(GeometryFlags::OPAQUE)
     }
+}
 
-    fn len(&self) -> usize {
-        match self {
-            Geometry::Triangles { triangles, .. } => triangles.len(),
-            Geometry::Aabbs { boxes, .. } => boxes.len(),
-        }
-    }
+/// The bounds of a triangle.
+fn triangle_bounds(t: &Triangle) -> BvhAabb {
+    let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
+    BvhAabb::new(a.min(b).min(c), a.max(b).max(c))
+}
 
-    fn bounds(&self, primitive: usize) -> BvhAabb {
-        match self {
-            Geometry::Triangles { triangles, .. } => {
-                let t = triangles[primitive];
-                let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
-                BvhAabb::new(a.min(b).min(c), a.max(b).max(c))
-            }
-            Geometry::Aabbs { boxes, .. } => boxes[primitive],
-        }
-    }
+/// One primitive in the order the tree's leaves name them: traversal reads
+/// what it tests from one place.
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct Leaf {
+    /// The triangle, for triangle geometries (zeros for AABBs).
+    pub(crate) triangle: Triangle,
+    pub(crate) geometry: u32,
+    pub(crate) primitive: u32,
 }
 
 /// A built GAS: its geometries and the tree over their primitives.
 pub(crate) struct GasData {
     pub(crate) geometries: Vec<Geometry>,
-    /// `(geometry, primitive)` of each primitive the tree's indices name.
-    pub(crate) primitives: Vec<(u32, u32)>,
+    /// The primitives in leaf order: entry `i` is what the tree's
+    /// `primitive_indices[i]` names.
+    pub(crate) leaves: Vec<Leaf>,
     pub(crate) bvh: CwBvh,
     /// Bounds of everything, in object space.
     pub(crate) bounds: BvhAabb,
@@ -80,7 +79,7 @@ impl std::fmt::Debug for GasData {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("GasData")
             .field("geometries", &self.geometries.len())
-            .field("primitives", &self.primitives.len())
+            .field("primitives", &self.leaves.len())
             .field("nodes", &self.bvh.nodes.len())
             .finish()
     }
@@ -96,12 +95,19 @@ fn build_params() -> BvhBuildParams {
 impl GasData {
     /// Builds the geometries of validated `inputs` and their tree.
     pub(crate) fn build(inputs: &[BuildInput<'_>]) -> GasData {
-        let geometries: Vec<Geometry> = inputs.iter().map(geometry).collect();
+        let built: Vec<(Geometry, Vec<Triangle>)> = inputs.iter().map(geometry).collect();
         let mut primitives = Vec::new();
         let mut boxes = Vec::new();
-        for (g, geometry) in geometries.iter().enumerate() {
-            for p in 0..geometry.len() {
-                let b = geometry.bounds(p);
+        for (g, (geometry, triangles)) in built.iter().enumerate() {
+            let count = match geometry {
+                Geometry::Triangles { count, .. } => *count,
+                Geometry::Aabbs { boxes, .. } => boxes.len(),
+            };
+            for p in 0..count {
+                let b = match geometry {
+                    Geometry::Triangles { .. } => triangle_bounds(&triangles[p]),
+                    Geometry::Aabbs { boxes, .. } => boxes[p],
+                };
                 // Degenerate (and inactive, NaN) primitives are never hit: leave them out.
                 if b.min.is_finite() && b.max.is_finite() && b.min.cmple(b.max).all() {
                     primitives.push((g as u32, p as u32));
@@ -111,7 +117,20 @@ impl GasData {
         }
         let bounds = boxes.iter().fold(BvhAabb::empty(), |all, b| all.union(b));
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(), &mut Duration::default());
-        GasData { geometries, primitives, bvh, bounds }
+        let leaves = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let (geometry, primitive) = primitives[i as usize];
+                let triangle = match &built[geometry as usize] {
+                    (Geometry::Triangles { .. }, triangles) => triangles[primitive as usize],
+                    (Geometry::Aabbs { .. }, _) => Triangle { v0: Vec3A::ZERO, e1: Vec3A::ZERO, e2: Vec3A::ZERO },
+                };
+                Leaf { triangle, geometry, primitive }
+            })
+            .collect();
+        let geometries = built.into_iter().map(|(g, _)| g).collect();
+        GasData { geometries, leaves, bvh, bounds }
     }
 
     /// Bytes the structure takes on the host.
@@ -121,16 +140,17 @@ impl GasData {
             .geometries
             .iter()
             .map(|g| match g {
-                Geometry::Triangles { triangles, .. } => std::mem::size_of_val(&triangles[..]),
+                Geometry::Triangles { .. } => 0,
                 Geometry::Aabbs { boxes, .. } => std::mem::size_of_val(&boxes[..]),
             })
             .sum();
-        (nodes + geometry + std::mem::size_of_val(&self.primitives[..])) as u64
+        (nodes + geometry + std::mem::size_of_val(&self.leaves[..])) as u64
     }
 }
 
-/// One geometry from its build input, with the geometry transform applied.
-fn geometry(input: &BuildInput<'_>) -> Geometry {
+/// One geometry from its build input, and its triangles with the geometry
+/// transform applied (none for AABBs).
+fn geometry(input: &BuildInput<'_>) -> (Geometry, Vec<Triangle>) {
     match input {
         BuildInput::Triangles(t) => {
             let transform = t.transform.unwrap_or(Affine3A::IDENTITY);
@@ -152,7 +172,7 @@ fn geometry(input: &BuildInput<'_>) -> Geometry {
                     Triangle { v0: a, e1: b - a, e2: c - a }
                 })
                 .collect();
-            Geometry::Triangles { triangles, flags: t.flags }
+            (Geometry::Triangles { count, flags: t.flags }, triangles)
         }
         BuildInput::Aabbs(a) => {
             let boxes = (0..a.count)
@@ -161,7 +181,7 @@ fn geometry(input: &BuildInput<'_>) -> Geometry {
                     BvhAabb::new(Vec3A::from(b.min), Vec3A::from(b.max))
                 })
                 .collect();
-            Geometry::Aabbs { boxes, flags: a.flags }
+            (Geometry::Aabbs { boxes, flags: a.flags }, Vec::new())
         }
     }
 }

@@ -16,7 +16,6 @@
 //! geometry index × stride + ray offset`.
 
 use std::cell::{Cell, RefCell};
-use std::collections::HashMap;
 use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -28,7 +27,7 @@ use raykit_device::exception::{ExceptionDetails, EXCEPTION_CAPACITY, TRACE_DEPTH
 use raykit_device::stage::HitBuiltins;
 use raykit_device::{Matrix4x3, Ray, Traversable, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE};
 
-use super::accel::{Geometry, SceneData, SceneInstance};
+use super::accel::{Geometry, Leaf, SceneData, SceneInstance};
 use super::buffers::{read_words, write_words, Words};
 use super::program::{Aligned, PipelineData, Program, SbtData, ATTRIBUTE_BYTES};
 use super::{CpuContext, TILE};
@@ -58,8 +57,9 @@ pub(crate) struct LaunchJob {
     pub(crate) dims: [u32; 3],
     /// The buffer table when the launch started, by slot.
     pub(crate) buffers: Vec<Option<Words>>,
-    /// The live IASes when the launch started, by address.
-    pub(crate) scenes: HashMap<u64, Arc<SceneData>>,
+    /// The live IASes when the launch started, with their addresses (a few:
+    /// searched in order, faster than hashing on every trace).
+    pub(crate) scenes: Vec<(u64, Arc<SceneData>)>,
 }
 
 impl LaunchJob {
@@ -68,7 +68,7 @@ impl LaunchJob {
     pub(crate) fn new(pipeline: Arc<PipelineData>, sbt: Arc<SbtData>, params: &[u8], dims: [u32; 3]) -> LaunchJob {
         let ctx = pipeline.ctx.clone();
         let buffers = ctx.buffers.snapshot();
-        let scenes = ctx.scenes().iter().map(|(a, s)| (*a, s.data.clone())).collect();
+        let scenes = ctx.scenes().iter().map(|(a, s)| (*a, s.data.clone())).collect::<Vec<_>>();
         LaunchJob { ctx, pipeline, sbt, params: Aligned::new(params, 0), dims, buffers, scenes }
     }
 }
@@ -307,7 +307,7 @@ impl Runtime for Frame<'_, '_> {
             return;
         }
         let address = scene.device_address();
-        let Some(scene) = job.scenes.get(&address) else {
+        let Some((_, scene)) = job.scenes.iter().find(|(a, _)| *a == address) else {
             fault(format!("a trace into traversable {address:#x}, which is no live IAS of this Context"));
         };
         let traversal = Traversal::new(self, scene, ray, call, depth, &payload);
@@ -504,8 +504,8 @@ impl<'f> Traversal<'f> {
         let mut node;
         use glam::UVec2;
         obvhs::traverse!(bvh, node, state, node.intersect_ray(&ray, state.oct_inv4), {
-            let (geometry, primitive) = gas.primitives[bvh.primitive_indices[state.primitive_id as usize] as usize];
-            self.primitive(index, instance, geometry, primitive, o, d, &ray);
+            let leaf = &gas.leaves[state.primitive_id as usize];
+            self.primitive(index, instance, leaf, o, d, &ray);
             if self.terminated.get() {
                 break;
             }
@@ -519,12 +519,12 @@ impl<'f> Traversal<'f> {
         &self,
         index: u32,
         instance: &SceneInstance,
-        geometry: u32,
-        primitive: u32,
+        leaf: &Leaf,
         origin: Vec3A,
         direction: Vec3A,
         ray: &BvhRay,
     ) {
+        let (geometry, primitive) = (leaf.geometry, leaf.primitive);
         let geo = &instance.gas.geometries[geometry as usize];
         let flags = self.flags();
         let mut opaque = geo.opaque();
@@ -548,12 +548,12 @@ impl<'f> Traversal<'f> {
             + u64::from(self.call.sbt_offset);
         let candidate = Candidate { instance: index, geometry, primitive, record, opaque };
         match geo {
-            Geometry::Triangles { triangles, .. } => {
+            Geometry::Triangles { .. } => {
                 if flags & ray_flags::SKIP_TRIANGLES != 0 {
                     return;
                 }
-                let tri = triangles[primitive as usize];
-                let Some((t, u, v, det)) = intersect_triangle(&tri, origin, direction, ray.tmin, self.t_max.get())
+                let Some((t, u, v, det)) =
+                    intersect_triangle(&leaf.triangle, origin, direction, ray.tmin, self.t_max.get())
                 else {
                     return;
                 };
