@@ -205,7 +205,7 @@ rule_rays! {
     NoTriangles = RayFlags::SKIP_TRIANGLES, 0xff;
 }
 
-/// How many ray types [`rg_rules`] chooses from.
+/// How many ray types [`RG_RULES`] chooses from.
 pub const RULE_MODES: u32 = 10;
 
 /// Traces one ray along -z per pixel with the ray type `mode` selects (a
