@@ -164,3 +164,31 @@ fn the_cpu_backend_runs_without_any_vulkan_driver() -> anyhow::Result<()> {
     )?;
     Ok(())
 }
+
+#[test]
+fn every_pixel_is_the_same_whatever_the_number_of_threads() -> anyhow::Result<()> {
+    use path_tracer::{Programs, Renderer, Scene};
+    let render = |threads: usize| -> anyhow::Result<path_tracer::Image> {
+        let ctx = Context::new(ContextOptions {
+            backend: Some(Backend::Cpu),
+            cpu_threads: Some(threads),
+            ..Default::default()
+        })?;
+        let scene = Scene::new(&ctx)?;
+        let mut renderer = Renderer::new(&ctx, &Programs::rust(&ctx)?, &scene, 48, 40)?;
+        renderer.launch(2)?;
+        renderer.launch(2)?;
+        Ok(renderer.image()?)
+    };
+    let one = render(1)?;
+    for threads in [2, 3, 5] {
+        let many = render(threads)?;
+        anyhow::ensure!(one.rays == many.rays, "{} rays on 1 thread, {} on {threads}", one.rays, many.rays);
+        let bits = |i: &path_tracer::Image| -> Vec<[u32; 3]> {
+            i.radiance.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
+        };
+        anyhow::ensure!(bits(&one) == bits(&many), "the picture on {threads} threads differs from the one on 1");
+    }
+    anyhow::ensure!(one.radiance.iter().any(|c| c.max_element() > 0.0), "the picture is black");
+    Ok(())
+}
