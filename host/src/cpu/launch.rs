@@ -115,10 +115,18 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                 let z = (tile / (u64::from(tiles_x) * u64::from(tiles_y))) as u32;
                 let rest = tile % (u64::from(tiles_x) * u64::from(tiles_y));
                 let (ty, tx) = ((rest / u64::from(tiles_x)) as u32, (rest % u64::from(tiles_x)) as u32);
+                // One state for the tile's invocations, its lists reused.
+                let mut state = InvocationState {
+                    job,
+                    launch_index: UVec3::ZERO,
+                    running: RefCell::new(Vec::with_capacity(8)),
+                    exceptions: RefCell::new(Vec::new()),
+                };
                 for y in ty * TILE..((ty + 1) * TILE).min(h) {
                     for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                        let index = UVec3::new(x, y, z);
-                        invoke(job, index, &mut outcome);
+                        state.launch_index = UVec3::new(x, y, z);
+                        state.running.get_mut().clear();
+                        invoke(&state, &mut outcome);
                         if outcome.failure.is_some() {
                             stop.store(true, Ordering::Relaxed);
                             return outcome;
@@ -169,17 +177,12 @@ struct InvocationState<'j> {
     exceptions: RefCell<Vec<UserException>>,
 }
 
-/// Runs the raygen program at `index`.
-fn invoke(job: &LaunchJob, index: UVec3, outcome: &mut Outcome) {
-    let state = InvocationState {
-        job,
-        launch_index: index,
-        running: RefCell::new(Vec::new()),
-        exceptions: RefCell::new(Vec::new()),
-    };
+/// Runs the raygen program at `state.launch_index`.
+fn invoke(state: &InvocationState<'_>, outcome: &mut Outcome) {
+    let (job, index) = (state.job, state.launch_index);
     let Some(record) = job.sbt.regions[0].first() else { return };
     let Some(raygen) = job.pipeline.groups[record.group].general else { return };
-    let frame = Frame { state: &state, depth: 0, traversal: None };
+    let frame = Frame { state, depth: 0, traversal: None };
     let result = catch_unwind(AssertUnwindSafe(|| {
         let mut inv = frame.invocation();
         inv.record = record.data.ptr();
