@@ -127,6 +127,8 @@ enum Role {
     CallableData(Type),
     /// Hit attributes: written by intersection, read by any-hit and closest-hit.
     Attributes(Type),
+    /// The bindless texture table (`&raykit_device::TextureTable`).
+    Textures(Type),
     /// A specialization constant (`u32`), set per pipeline by the host.
     SpecConstant {
         id: u32,
@@ -245,9 +247,18 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
                 role_attr = Some(("spec_constant".to_owned(), attr.span()));
                 continue;
             }
-            let known = ["params", "record", "payload", "trace_payload", "call_data", "callable_data", "attributes"]
-                .iter()
-                .find(|k| path.is_ident(k));
+            let known = [
+                "params",
+                "record",
+                "payload",
+                "trace_payload",
+                "call_data",
+                "callable_data",
+                "attributes",
+                "textures",
+            ]
+            .iter()
+            .find(|k| path.is_ident(k));
             match known {
                 Some(k) => {
                     if role_attr.is_some() {
@@ -274,6 +285,7 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
             }
             Some("params") => referent(ty, false, "#[params]").map(Role::Params),
             Some("record") => referent(ty, false, "#[record]").map(Role::Record),
+            Some("textures") => referent(ty, false, "#[textures]").map(Role::Textures),
             Some("trace_payload") => referent(ty, true, "#[trace_payload]").map(Role::TracePayload),
             Some("call_data") => referent(ty, true, "#[call_data]").map(Role::CallData),
             Some("callable_data") => referent(ty, true, "#[callable_data]").map(Role::CallableData),
@@ -311,6 +323,7 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
         ("#[record]", count(|r| matches!(r, Role::Record(_)))),
         ("#[callable_data]", count(|r| matches!(r, Role::CallableData(_)))),
         ("#[attributes]", count(|r| matches!(r, Role::Attributes(_)))),
+        ("#[textures]", count(|r| matches!(r, Role::Textures(_)))),
     ] {
         if n > 1 {
             push_error(syn::Error::new(func.sig.inputs.span(), format!("at most one {what} parameter")));
@@ -522,6 +535,12 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                     #[spirv(shader_record_buffer)] #name: &::raykit_device::spirv_std::TypedBuffer<#ty>
                 });
                 call_args.push(quote!(::core::ops::Deref::deref(#name)));
+            }
+            Role::Textures(ty) => {
+                let (set, binding) =
+                    (unsuffixed(raykit_abi::BUFFER_TABLE_SET), unsuffixed(raykit_abi::TEXTURE_TABLE_BINDING));
+                wrapper_params.push(quote! { #[spirv(descriptor_set = #set, binding = #binding)] #name: &#ty });
+                call_args.push(quote!(#name));
             }
             Role::SpecConstant { id, default } => {
                 let (id, default) = (unsuffixed(*id), unsuffixed(*default));

@@ -1,0 +1,101 @@
+//! Sampled textures reached through launch params and SBT records, as buffers
+//! are: a [`Texture2D`] handle is a slot of the bindless texture table
+//! ([`TextureTable`], set [`crate::BUFFER_TABLE_SET`], binding
+//! [`TEXTURE_TABLE_BINDING`](raykit_abi::TEXTURE_TABLE_BINDING)): combined image
+//! samplers, each with the filter and address modes the host chose for it.
+//!
+//! A program that samples declares the table with a `#[textures]` parameter and
+//! samples it with an explicit level of detail ([`SampleTexture::sample_lod`]):
+//! ray-tracing stages have no derivatives, so the program picks the mip level
+//! (for example from the ray's footprint), in every stage alike.
+//!
+//! ```
+//! use raykit_device::glam::{Vec2, Vec3, Vec4};
+//! use raykit_device::{closest_hit, ClosestHit, RayType, SampleTexture, Texture2D, TextureTable};
+//!
+//! /// The hit group's record: the surface's texture.
+//! #[repr(C)]
+//! #[derive(Copy, Clone, bytemuck::Pod, bytemuck::Zeroable)]
+//! pub struct Material { pub albedo: Texture2D }
+//!
+//! pub struct Radiance;
+//! impl RayType for Radiance { type Payload = Vec3; }
+//!
+//! #[closest_hit(ray = Radiance)]
+//! fn ch(ctx: &mut ClosestHit, #[record] m: &Material, #[textures] textures: &TextureTable, #[payload] c: &mut Vec3) {
+//!     let uv: Vec2 = ctx.barycentrics();
+//!     let texel: Vec4 = textures.sample_lod(m.albedo, uv, 0.0);
+//!     *c = texel.truncate();
+//! }
+//! ```
+//!
+//! Host side, `raykit::Texture::handle` gives the handle; every launch checks
+//! the handles in its params and in records that derive
+//! [`SbtRecordData`](macro@crate::SbtRecordData) against the live textures, as it
+//! checks buffer handles. The null handle (zero) and the slot of a dropped texture
+//! sample as zero (`nullDescriptor`).
+
+use spirv_std::glam::{Vec2, Vec4};
+
+/// The image type of every texture: 2D, sampled, float components (formats
+/// RGBA8 sRGB and linear, RGBA16F, RGBA32F all sample as `f32`).
+pub type Image2d = spirv_std::Image!(2D, type = f32, sampled);
+
+/// The bindless texture table every `#[textures]` parameter names. Part of
+/// raykit's ABI with the host.
+pub type TextureTable = spirv_std::RuntimeArray<spirv_std::image::SampledImage<Image2d>>;
+
+/// A handle to a 2D texture in the bindless texture table: its slot in the low
+/// 12 bits, a generation the host checks above them.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Texture2D {
+    index: u32,
+}
+
+impl Texture2D {
+    /// The null handle: samples as zero.
+    pub const NULL: Texture2D = Texture2D { index: 0 };
+
+    /// A handle with value `index`. Host-side code should use
+    /// `raykit::Texture::handle`, which launches check.
+    pub const fn from_raw(index: u32) -> Self {
+        Texture2D { index }
+    }
+
+    /// The slot of the texture table this handle names (its value modulo the
+    /// table's size).
+    pub const fn table_index(self) -> u32 {
+        self.index & (raykit_abi::TEXTURE_TABLE_SLOTS - 1)
+    }
+
+    /// The handle's value as the host stored it.
+    pub const fn raw(self) -> u32 {
+        self.index
+    }
+}
+
+/// Sampling the texture table.
+pub trait SampleTexture {
+    /// Samples `texture` at `uv` (0..1 across the texture, `(0, 0)` at the
+    /// first texel of the first row) at mip level `lod` (0 = full size;
+    /// fractions blend two levels when the texture's mip filter is linear),
+    /// with the texture's filter and address modes. Returns RGBA, linear
+    /// (sRGB textures are decoded by the sampler).
+    fn sample_lod(&self, texture: Texture2D, uv: Vec2, lod: f32) -> Vec4;
+}
+
+impl SampleTexture for TextureTable {
+    #[allow(unused_variables)]
+    fn sample_lod(&self, texture: Texture2D, uv: Vec2, lod: f32) -> Vec4 {
+        #[cfg(target_arch = "spirv")]
+        {
+            // SAFETY: `table_index` is below the table's size, and every slot
+            // holds a texture or a null descriptor (raykit fills the table so).
+            let image = unsafe { self.index(texture.table_index() as usize) };
+            image.sample_by_lod(uv, lod)
+        }
+        #[cfg(not(target_arch = "spirv"))]
+        unreachable!("textures are only reachable on the device")
+    }
+}
