@@ -4,11 +4,12 @@
 //! `Camera`, with the `u, v, w` frame the device programs turn into rays), and
 //! writers for the pictures they produce ([`image_io`]): RGBA8 pixels to PNG,
 //! linear radiance to OpenEXR (through the `exr` crate) and PFM; and
-//! importance-sampled equirectangular [`EnvironmentMap`]s.
+//! importance-sampled equirectangular [`EnvironmentMap`]s; and glTF 2.0 scenes ([`gltf::GltfScene`]).
 #![deny(missing_docs)]
 
 pub mod camera;
 pub mod environment;
+pub mod gltf;
 pub mod image_io;
 
 pub use camera::Camera;

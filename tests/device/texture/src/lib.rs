@@ -218,7 +218,7 @@ fn sample_texture(
     call.result = textures.sample_lod(call.texture, call.uv, call.lod);
 }
 
-/// Launch params of [`rg_environment`]: sample `count` directions from an
+/// Launch params of the `rg_environment` raygen: sample one direction per launch index from an
 /// environment map's tables.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]

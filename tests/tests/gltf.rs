@@ -1,0 +1,197 @@
+//! glTF scenes against a CPU reference of their primary hits.
+//!
+//! The generated file (`raykit_tests::gltf_fixture`: two meshes, three textured
+//! materials, a node hierarchy, an alpha-masked leaf with holes) is loaded, its
+//! structure checked against what the generator wrote, and rendered: per pixel,
+//! the primary hit's material index and texture coordinates. The CPU reference
+//! traces the same triangles, placed by the same world transforms, with the
+//! same alpha test (the leaf texture's texel, nearest, repeat). Pixels whose
+//! answer a ray 0.02 pixel away would change (an edge, a hole's border) are
+//! not compared; every other pixel must have the same material exactly and the
+//! same texture coordinates within 10⁻³.
+
+use gltf_pathtracer::{GpuScene, Renderer};
+use raykit::glam::{Vec2, Vec3};
+use raykit_scene::gltf::{AlphaMode, GltfError, GltfScene};
+use raykit_scene::Camera;
+use raykit_tests::gltf_fixture::{self, Broken};
+use raykit_tests::with_context;
+
+const SIZE: u32 = 64;
+
+fn camera() -> Camera {
+    Camera { eye: Vec3::new(0.0, 0.0, 5.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_degrees: 40.0 }
+}
+
+/// The camera ray through `(x, y)` in pixels (the device's mapping).
+fn ray(x: f32, y: f32) -> (Vec3, Vec3) {
+    let (u, v, w) = camera().uvw(1.0);
+    let d = 2.0 * Vec2::new(x, y) / SIZE as f32 - 1.0;
+    (camera().eye, (d.x * u - d.y * v + w).normalize())
+}
+
+/// The CPU reference's primary hit: material, uv, whether an alpha test decided
+/// it within 0.02 texel of a texel border, and whether the ray passed through a
+/// hole of a masked surface before it.
+fn cpu_hit(scene: &GltfScene, origin: Vec3, dir: Vec3) -> Option<(usize, Vec2, bool, bool)> {
+    let mut best: Option<(f32, usize, Vec2, bool)> = None;
+    let mut nearest_hole = f32::MAX;
+    for inst in &scene.instances {
+        for p in &scene.meshes[inst.mesh].primitives {
+            let material = &scene.materials[p.material];
+            for t in p.indices.chunks_exact(3) {
+                let world = |i: u32| inst.transform.transform_point3(p.positions[i as usize]);
+                let tri = [world(t[0]), world(t[1]), world(t[2])];
+                let t_max = best.map_or(1e16, |b| b.0);
+                let Some((dist, b)) = raykit_tests::ray_triangle(origin, dir, tri, 1e-4, t_max) else { continue };
+                let uvs = [t[0], t[1], t[2]].map(|i| p.uvs[i as usize]);
+                let uv = uvs[0] * (1.0 - b.x - b.y) + uvs[1] * b.x + uvs[2] * b.y;
+                let mut near_edge = false;
+                if let AlphaMode::Mask(cutoff) = material.alpha {
+                    let img = &scene.images[material.base_color_texture.unwrap()];
+                    let (tx, ty) = (uv.x * img.width as f32, uv.y * img.height as f32);
+                    let frac = |c: f32| (c - c.round()).abs();
+                    near_edge = frac(tx) < 0.02 || frac(ty) < 0.02;
+                    let (ix, iy) = (
+                        (tx.floor() as i64).rem_euclid(img.width as i64),
+                        (ty.floor() as i64).rem_euclid(img.height as i64),
+                    );
+                    let alpha = img.rgba8[((iy * img.width as i64 + ix) * 4 + 3) as usize] as f32 / 255.0;
+                    if alpha * material.base_color.w < cutoff {
+                        if near_edge {
+                            // The device may take this hit; the answer is ambiguous.
+                            best = best.map(|b| (b.0, b.1, b.2, true));
+                        }
+                        nearest_hole = nearest_hole.min(dist);
+                        continue;
+                    }
+                }
+                best = Some((dist, p.material, uv, near_edge));
+            }
+        }
+    }
+    best.map(|(t, m, uv, edge)| (m, uv, edge, nearest_hole < t))
+}
+
+#[test]
+fn the_gltf_loader_reads_the_hierarchy_materials_and_meshes() -> anyhow::Result<()> {
+    let dir = raykit_tests::temp_dir("gltf_loader")?;
+    let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
+    anyhow::ensure!(scene.meshes.len() == 2 && scene.meshes[1].primitives.len() == 2);
+    anyhow::ensure!(scene.materials.len() == 4, "three materials and the default");
+    let names: Vec<_> = scene.materials.iter().map(|m| m.name.clone().unwrap_or_default()).collect();
+    anyhow::ensure!(names[..3] == ["checker", "gradient", "leaf"], "{names:?}");
+    anyhow::ensure!(scene.materials[2].alpha == AlphaMode::Mask(0.5));
+    anyhow::ensure!(scene.materials[1].base_color.y == 0.8 && scene.materials[1].roughness == 0.2);
+    anyhow::ensure!(
+        scene.images.len() == 3
+            && scene.images
+                == gltf_fixture::images().map(|i| raykit_scene::gltf::Image {
+                    width: i.width(),
+                    height: i.height(),
+                    rgba8: i.into_raw(),
+                })
+    );
+    let meshes: Vec<usize> = scene.instances.iter().map(|i| i.mesh).collect();
+    anyhow::ensure!(meshes == [0, 1, 0], "{meshes:?}");
+    for (inst, want) in scene.instances.iter().zip(gltf_fixture::expected_transforms()) {
+        anyhow::ensure!(inst.transform.abs_diff_eq(want, 1e-5), "node {}: {} vs {want}", inst.node, inst.transform);
+    }
+    let leaf = &scene.meshes[1].primitives[1];
+    anyhow::ensure!(leaf.indices == [0, 1, 2, 0, 2, 3] && leaf.uvs == gltf_fixture::LEAF_UV);
+    anyhow::ensure!(scene.meshes[0].primitives[0].normals == [Vec3::Z; 4]);
+    Ok(())
+}
+
+#[test]
+fn primary_hits_match_the_cpu_reference() -> anyhow::Result<()> {
+    let dir = raykit_tests::temp_dir("gltf_primary")?;
+    let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
+    with_context("primary_hits_match_the_cpu_reference", |ctx| {
+        let gpu = GpuScene::new(ctx, &scene)?;
+        anyhow::ensure!(gpu.records.len() == 4, "board, plant (2 primitives), backdrop");
+        let renderer = Renderer::new(ctx, &gpu)?;
+        let got = renderer.primary_hits(ctx, &gpu, &camera(), SIZE, SIZE)?;
+        let (mut compared, mut skipped, mut failures) = (0, 0, Vec::new());
+        let mut per_material = [0usize; 4];
+        let mut holes = 0;
+        for y in 0..SIZE {
+            for x in 0..SIZE {
+                let at = |dx: f32, dy: f32| {
+                    let (o, d) = ray(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy);
+                    cpu_hit(&scene, o, d)
+                };
+                let centre = at(0.0, 0.0);
+                let ambiguous = centre.is_some_and(|c| c.2)
+                    || [(0.02, 0.0), (-0.02, 0.0), (0.0, 0.02), (0.0, -0.02)]
+                        .iter()
+                        .any(|&(dx, dy)| at(dx, dy).map(|h| h.0) != centre.map(|h| h.0));
+                if ambiguous {
+                    skipped += 1;
+                    continue;
+                }
+                compared += 1;
+                let g = got[(y * SIZE + x) as usize];
+                let ok = match centre {
+                    None => g.x == -1.0,
+                    Some((m, uv, _, _)) => {
+                        per_material[m] += 1;
+                        g.x == m as f32 && (Vec2::new(g.y, g.z) - uv).abs().max_element() < 1e-3
+                    }
+                };
+                // The plant's quad seen through a hole of the leaf in front of it.
+                if centre.is_some_and(|c| c.0 == 1 && c.3) {
+                    holes += 1;
+                }
+                if !ok && failures.len() < 20 {
+                    failures.push(format!("pixel ({x}, {y}): device {g}, reference {centre:?}"));
+                }
+            }
+        }
+        anyhow::ensure!(failures.is_empty(), "primary hits off the reference:\n{}", failures.join("\n"));
+        anyhow::ensure!(skipped * 10 < compared, "{skipped} ambiguous pixels of {}", compared + skipped);
+        anyhow::ensure!(per_material[..3].iter().all(|&n| n >= 20), "pixels per material: {per_material:?}");
+        anyhow::ensure!(holes > 0, "no pixel sees the plant through the leaf's holes");
+        eprintln!(
+            "compared {compared} pixels ({skipped} ambiguous skipped): per material {per_material:?}, {holes} through holes"
+        );
+        Ok(())
+    })
+}
+
+#[test]
+fn bad_gltf_files_are_typed_errors() -> anyhow::Result<()> {
+    let dir = raykit_tests::temp_dir("gltf_bad")?;
+    let load = |broken| {
+        GltfScene::load(&gltf_fixture::write(&dir.0.join(format!("{broken:?}")), broken)?)
+            .map_err(anyhow::Error::from)
+            .map(|_| ())
+    };
+    let err = |broken| -> anyhow::Result<GltfError> {
+        let path = gltf_fixture::write(&dir.0.join(format!("{broken:?}")), broken)?;
+        match GltfScene::load(&path) {
+            Ok(_) => anyhow::bail!("{broken:?}: loaded"),
+            Err(e) => Ok(e),
+        }
+    };
+    load(Broken::Nothing)?;
+    match err(Broken::MissingBuffer)? {
+        e @ GltfError::MissingBuffer { buffer: 0, .. } => {
+            anyhow::ensure!(e.to_string().contains("scene.bin") && e.to_string().contains("beside the .gltf"), "{e}")
+        }
+        e => anyhow::bail!("missing buffer: {e}"),
+    }
+    match err(Broken::Lines)? {
+        e @ GltfError::NotTriangles { mesh: 0, primitive: 0, .. } => {
+            anyhow::ensure!(e.to_string().contains("Lines") && e.to_string().contains("triangulate"), "{e}")
+        }
+        e => anyhow::bail!("lines: {e}"),
+    }
+    match err(Broken::IndexOutOfRange)? {
+        e @ GltfError::IndexOutOfRange { mesh: 1, primitive: 1, index: 9, at: 5, vertices: 4 } => {
+            anyhow::ensure!(e.to_string().contains("re-export"), "{e}")
+        }
+        e => anyhow::bail!("index out of range: {e}"),
+    }
+    Ok(())
+}
