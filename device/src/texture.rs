@@ -90,10 +90,42 @@ impl SampleTexture for TextureTable {
     fn sample_lod(&self, texture: Texture2D, uv: Vec2, lod: f32) -> Vec4 {
         #[cfg(target_arch = "spirv")]
         {
-            // SAFETY: `table_index` is below the table's size, and every slot
-            // holds a texture or a null descriptor (raykit fills the table so).
-            let image = unsafe { self.index(texture.table_index() as usize) };
-            image.sample_by_lod(uv, lod)
+            let index = texture.table_index();
+            let mut result = Vec4::ZERO;
+            // The handle may differ between invocations (it comes from records or
+            // payloads), so the access is decorated `NonUniform` as glslang decorates
+            // `textures[nonuniformEXT(i)]`, and the capabilities that decoration needs
+            // are declared here: rust-gpu 0.11 drops `NonUniform` decorations (those
+            // spirv-std's `RuntimeArray::index` and `sample_by_lod` emit included)
+            // from modules without `ShaderNonUniform`, and drivers may then sample one
+            // invocation's texture for all (lavapipe does, in hit programs).
+            // SAFETY: `index` is below the table's size, and every slot holds a
+            // texture or a null descriptor (raykit fills the table so); the pointer
+            // operand is only a type witness.
+            unsafe {
+                core::arch::asm! {
+                    "OpCapability ShaderNonUniform",
+                    "OpCapability SampledImageArrayNonUniformIndexing",
+                    "OpDecorate %index NonUniform",
+                    "OpDecorate %ptr NonUniform",
+                    "OpDecorate %image NonUniform",
+                    "OpDecorate %sample NonUniform",
+                    "%index = OpLoad _ {index}",
+                    "%ptr = OpAccessChain typeof*{element} {table} %index",
+                    "%image = OpLoad _ %ptr",
+                    "%coord = OpLoad _ {uv}",
+                    "%lod = OpLoad _ {lod}",
+                    "%sample = OpImageSampleExplicitLod typeof*{result} %image %coord Lod %lod",
+                    "OpStore {result} %sample",
+                    index = in(reg) &index,
+                    table = in(reg) self,
+                    element = in(reg) &core::ptr::null::<spirv_std::image::SampledImage<Image2d>>(),
+                    uv = in(reg) &uv,
+                    lod = in(reg) &lod,
+                    result = in(reg) &mut result,
+                }
+            }
+            result
         }
         #[cfg(not(target_arch = "spirv"))]
         unreachable!("textures are only reachable on the device")

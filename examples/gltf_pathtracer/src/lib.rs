@@ -123,6 +123,7 @@ impl GpuScene {
                         normals: b.normals.handle(),
                         material: p.material as u32,
                         base_color,
+                        base_color_factor: material.base_color.truncate(),
                         coverage: b.coverage.handle(),
                         coverage_width,
                         coverage_height,
@@ -178,7 +179,8 @@ impl Renderer {
     }
 
     /// Per pixel of a `width × height` image seen by `camera`: the primary hit's
-    /// material index (−1 for a miss), texture coordinates and distance.
+    /// material index (−1 for a miss), texture coordinates and distance; and its
+    /// base colour (factor × texture, linear RGB; 0 for a miss).
     pub fn primary_hits(
         &self,
         ctx: &Context,
@@ -186,13 +188,14 @@ impl Renderer {
         camera: &Camera,
         width: u32,
         height: u32,
-    ) -> anyhow::Result<Vec<Vec4>> {
+    ) -> anyhow::Result<(Vec<Vec4>, Vec<Vec4>)> {
         let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
         let (u, v, w) = camera.uvw(width as f32 / height as f32);
         let params = Params {
             out: out.handle(),
             size: UVec2::new(width, height),
-            _pad: 0,
+            color: color.handle(),
             cam_eye: camera.eye,
             cam_u: u,
             cam_v: v,
@@ -200,6 +203,6 @@ impl Renderer {
             scene: scene.ias.handle(),
         };
         self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
-        Ok(out.read()?)
+        Ok((out.read()?, color.read()?))
     }
 }

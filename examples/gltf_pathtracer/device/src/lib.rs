@@ -9,10 +9,12 @@
 //! material index and texture coordinates ([`PrimaryHit`]).
 #![cfg_attr(target_arch = "spirv", no_std)]
 
+pub mod bsdf;
+
 use raykit_device::glam::{UVec2, Vec2, Vec3, Vec4};
 use raykit_device::{
     any_hit, closest_hit, miss, raygen, AnyHit, Buffer, ClosestHit, LaunchParams, Miss, Ray, RayType, Raygen,
-    SbtRecordData, Texture2D, Traversable,
+    SampleTexture, SbtRecordData, Texture2D, TextureTable, Traversable,
 };
 
 /// Launch params.
@@ -23,8 +25,8 @@ pub struct Params {
     pub out: Buffer<Vec4>,
     /// Image size.
     pub size: UVec2,
-    /// Padding.
-    pub _pad: u32,
+    /// Per pixel: the primary hit's base colour (linear RGB, factor × texture) and 1.
+    pub color: Buffer<Vec4>,
     /// Camera position.
     pub cam_eye: Vec3,
     /// Camera right, scaled to half the image-plane width.
@@ -51,6 +53,8 @@ pub struct GeometryRecord {
     pub material: u32,
     /// Base-colour texture (the null handle for none).
     pub base_color: Texture2D,
+    /// Base-colour factor (linear RGB).
+    pub base_color_factor: Vec3,
     /// A masked material's coverage: one bit per texel of its base-colour texture
     /// (alpha × the factor's alpha ≥ the cutoff), row-major, 32 texels per word.
     pub coverage: Buffer<u32>,
@@ -72,6 +76,8 @@ pub struct PrimaryHit {
     pub material: u32,
     /// Shading normal (world space, unnormalised interpolation normalised).
     pub normal: Vec3,
+    /// Base colour (linear RGB, factor × texture).
+    pub color: Vec3,
 }
 
 /// Primary rays.
@@ -113,6 +119,7 @@ fn rg(ctx: &mut Raygen, #[params] p: &Params, #[payload] hit: &mut PrimaryHit) {
     let material = if hit.t < 0.0 { -1.0 } else { hit.material as f32 };
     let pixel = ctx.launch_linear_index();
     ctx.store(p.out, pixel, Vec4::new(material, hit.uv.x, hit.uv.y, hit.t));
+    ctx.store(p.color, pixel, hit.color.extend(1.0));
 }
 
 #[miss(ray = Primary)]
@@ -121,7 +128,12 @@ fn ms(_ctx: &mut Miss, #[payload] hit: &mut PrimaryHit) {
 }
 
 #[closest_hit(ray = Primary)]
-fn ch(ctx: &mut ClosestHit, #[record] g: &GeometryRecord, #[payload] hit: &mut PrimaryHit) {
+fn ch(
+    ctx: &mut ClosestHit,
+    #[record] g: &GeometryRecord,
+    #[textures] textures: &TextureTable,
+    #[payload] hit: &mut PrimaryHit,
+) {
     let primitive = ctx.primitive_index();
     let (indices, uvs, normals) = (g.indices, g.uvs, g.normals);
     let uv = interpolate2(triangle_uvs(|i| ctx.load(indices, i), |v| ctx.load(uvs, v), primitive), ctx.barycentrics());
@@ -134,6 +146,8 @@ fn ch(ctx: &mut ClosestHit, #[record] g: &GeometryRecord, #[payload] hit: &mut P
     hit.uv = uv;
     hit.t = ctx.hit_t();
     hit.material = g.material;
+    let texel = if g.base_color == Texture2D::NULL { Vec4::ONE } else { textures.sample_lod(g.base_color, uv, 0.0) };
+    hit.color = texel.truncate() * g.base_color_factor;
 }
 
 #[any_hit(ray = Primary)]
@@ -148,9 +162,8 @@ fn ah_mask(
         triangle_uvs(|i| ctx.load(indices, i), |v| ctx.load(uvs, v), ctx.primitive_index()),
         *barycentrics,
     );
-    // A lookup in the coverage bits rather than a texture sample: on lavapipe (Mesa 25.0) texture
-    // samples in any-hit programs return zero for some invocations when only part of the rays
-    // reach the any-hit program.
+    // A lookup in the coverage bits rather than a filtered texture sample: exact (nearest,
+    // repeat), and cheaper in the program that runs most often.
     let texel = texel_index(uv, g.coverage_width, g.coverage_height);
     let word = ctx.load(g.coverage, texel / 32);
     if (word >> (texel % 32)) & 1 == 0 {
