@@ -216,3 +216,42 @@ fn bad_gltf_files_are_typed_errors() -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+#[test]
+fn the_path_tracer_conserves_energy_in_a_white_furnace() -> anyhow::Result<()> {
+    use gltf_pathtracer::PathTracer;
+    use raykit_scene::EnvironmentMap;
+    let dir = raykit_tests::temp_dir("gltf_furnace")?;
+    let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
+    with_context("the_path_tracer_conserves_energy_in_a_white_furnace", |ctx| {
+        // A uniform white environment and surfaces that emit nothing and reflect at
+        // most what they receive: no pixel can be brighter than 1 on average.
+        let env = EnvironmentMap::new(16, 8, vec![Vec3::ONE; 16 * 8])?;
+        let gpu = GpuScene::new(ctx, &scene)?;
+        let (size, spp) = (32u32, 32u32);
+        let mut tracer = PathTracer::new(ctx, &gpu, &env, &camera(), size, size)?;
+        for _ in 0..spp / 8 {
+            tracer.launch(8)?;
+        }
+        let (radiance, rays) = tracer.image()?;
+        anyhow::ensure!(radiance.iter().all(|c| c.is_finite() && c.min_element() >= 0.0), "NaN or negative radiance");
+        let lum: Vec<f64> = radiance.iter().map(|c| ((c.x + c.y + c.z) / 3.0) as f64).collect();
+        let n = lum.len() as f64;
+        let mean = lum.iter().sum::<f64>() / n;
+        // The spread of pixel means holds the scene's variation as well as the noise:
+        // a conservative standard error of the image mean.
+        let se = (lum.iter().map(|l| (l - mean) * (l - mean)).sum::<f64>() / (n - 1.0) / n).sqrt();
+        anyhow::ensure!(mean <= 1.0 + 5.0 * se, "image mean {mean} ± {se} is over the environment's 1");
+        anyhow::ensure!(mean > 0.3, "image mean {mean}: the surfaces reflect too little");
+        anyhow::ensure!(rays >= (size * size * spp) as u64, "{rays} rays");
+        eprintln!("white furnace: image mean {mean:.4} ± {se:.4}, {rays} rays");
+
+        // Looking away from the scene, every path misses at once and sees the environment.
+        let away = Camera { eye: Vec3::new(0.0, 0.0, 5.0), look_at: Vec3::new(0.0, 0.0, 10.0), ..camera() };
+        let mut tracer = PathTracer::new(ctx, &gpu, &env, &away, 8, 8)?;
+        tracer.launch(4)?;
+        let (radiance, _) = tracer.image()?;
+        anyhow::ensure!(radiance.iter().all(|c| (*c - Vec3::ONE).abs().max_element() < 1e-6), "{}", radiance[0]);
+        Ok(())
+    })
+}

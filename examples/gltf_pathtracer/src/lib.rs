@@ -11,14 +11,14 @@
 
 use std::collections::HashMap;
 
-use gltf_pathtracer_device::{GeometryRecord, Params, Primary};
+use gltf_pathtracer_device::{GeometryRecord, Params, Primary, TraceParams};
 use raykit::glam::{Affine3A, UVec2, Vec2, Vec3, Vec4};
 use raykit::{
     AddressMode, Context, DeviceBuffer, Filter, Gas, GeometryFlags, Ias, Instance, LinkOptions, Mipmaps, Module,
     Pipeline, ProgramGroup, SamplerOptions, Sbt, Texture, TextureFormat, Triangles,
 };
 use raykit_scene::gltf::{AlphaMode, GltfScene};
-use raykit_scene::Camera;
+use raykit_scene::{Camera, EnvironmentMap};
 
 pub use gltf_pathtracer_device as device;
 
@@ -112,10 +112,13 @@ impl GpuScene {
                     normals: ctx.buffer_from(&p.normals)?,
                     coverage: ctx.buffer_from(&coverage)?,
                 };
-                let base_color = match material.base_color_texture {
-                    Some(i) => texture(i, true)?,
-                    None => raykit::Texture2D::NULL,
+                let mut optional = |image: Option<usize>, srgb: bool| match image {
+                    Some(i) => texture(i, srgb),
+                    None => Ok(raykit::Texture2D::NULL),
                 };
+                let base_color = optional(material.base_color_texture, true)?;
+                let metallic_roughness = optional(material.metallic_roughness_texture, false)?;
+                let emissive_texture = optional(material.emissive_texture, true)?;
                 records.push((
                     GeometryRecord {
                         indices: b.indices.handle(),
@@ -124,6 +127,11 @@ impl GpuScene {
                         material: p.material as u32,
                         base_color,
                         base_color_factor: material.base_color.truncate(),
+                        metallic_roughness,
+                        metallic: material.metallic,
+                        roughness: material.roughness,
+                        emissive_texture,
+                        emissive: material.emissive,
                         coverage: b.coverage.handle(),
                         coverage_width,
                         coverage_height,
@@ -153,6 +161,171 @@ impl GpuScene {
     }
 }
 
+/// The SBT of `pipeline` for `scene`: raygen, the primary miss program, one hit
+/// record per (instance, primitive) with the opaque or the masked hit group.
+fn scene_sbt<P: raykit::LaunchParams>(
+    pipeline: &Pipeline<P>,
+    groups: &[ProgramGroup; 4],
+    scene: &GpuScene,
+) -> raykit::Result<Sbt> {
+    let [raygen, miss, opaque, masked] = groups;
+    let mut sbt = Sbt::builder(pipeline).raygen(raygen, ()).miss_for::<Primary, _>(miss, ());
+    for (i, (record, is_masked)) in scene.records.iter().zip(&scene.masked).enumerate() {
+        sbt = sbt.hit_at(i, if *is_masked { masked } else { opaque }, *record);
+    }
+    sbt.build()
+}
+
+/// The program groups: `raygen`, the miss program, the opaque and the masked hit groups.
+fn groups(module: &Module, raygen: raykit::EntryPoint) -> raykit::Result<[ProgramGroup; 4]> {
+    use gltf_pathtracer_device::{AH_MASK, CH, MS};
+    Ok([
+        ProgramGroup::raygen(module, raygen)?,
+        ProgramGroup::miss(module, MS)?,
+        ProgramGroup::hit_group(module).closest_hit(CH).build()?,
+        ProgramGroup::hit_group(module).closest_hit(CH).any_hit(AH_MASK).build()?,
+    ])
+}
+
+/// The path tracer for one scene, environment and image size: progressive
+/// launches into an accumulation buffer (see `gltf_pathtracer_device::rg_path`).
+pub struct PathTracer {
+    pipeline: Pipeline<TraceParams>,
+    sbt: Sbt,
+    accum: DeviceBuffer<Vec4>,
+    _env: Texture,
+    _env_cdf: DeviceBuffer<f32>,
+    params: TraceParams,
+    samples_done: u32,
+}
+
+impl std::fmt::Debug for PathTracer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PathTracer").field("size", &self.params.size).field("samples", &self.samples_done).finish()
+    }
+}
+
+impl PathTracer {
+    /// Links the path tracer for `scene` lit by `env`, seen by `camera` at `width × height`.
+    pub fn new(
+        ctx: &Context,
+        scene: &GpuScene,
+        env: &EnvironmentMap,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+    ) -> anyhow::Result<PathTracer> {
+        let module = Module::from_device_crate(ctx, "gltf-pathtracer-device")?;
+        let groups = groups(&module, gltf_pathtracer_device::RG_PATH)?;
+        let refs: Vec<&ProgramGroup> = groups.iter().collect();
+        let pipeline = Pipeline::<TraceParams>::new(ctx, &refs, LinkOptions { max_trace_depth: 1 })?;
+        let sbt = scene_sbt(&pipeline, &groups, scene)?;
+        let texels: Vec<f32> = env.radiance.iter().flat_map(|c| [c.x, c.y, c.z, 1.0]).collect();
+        let env_texture = Texture::new(
+            ctx,
+            TextureFormat::Rgba32Float,
+            env.width,
+            env.height,
+            bytemuck::cast_slice(&texels),
+            Mipmaps::One,
+            SamplerOptions { filter: Filter::Nearest, ..SamplerOptions::default() },
+        )?;
+        let env_cdf = ctx.buffer_from(&env.cdf)?;
+        let accum = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let (u, v, w) = camera.uvw(width as f32 / height as f32);
+        let params = TraceParams {
+            accum: accum.handle(),
+            env_cdf: env_cdf.handle(),
+            size: UVec2::new(width, height),
+            env: env_texture.handle(),
+            env_width: env.width,
+            env_height: env.height,
+            subframe: 0,
+            samples: 1,
+            max_depth: 1024,
+            cam_eye: camera.eye,
+            cam_u: u,
+            cam_v: v,
+            cam_w: w,
+            scene: scene.ias.handle(),
+        };
+        Ok(PathTracer { pipeline, sbt, accum, _env: env_texture, _env_cdf: env_cdf, params, samples_done: 0 })
+    }
+
+    /// Sets the safety cap on bounces (Russian roulette ends paths; 1024 by default).
+    pub fn set_max_depth(&mut self, max_depth: u32) {
+        self.params.max_depth = max_depth.max(1);
+    }
+
+    /// One launch adding `samples` paths per pixel.
+    pub fn launch(&mut self, samples: u32) -> anyhow::Result<()> {
+        let params = TraceParams { subframe: self.params.subframe, samples, ..self.params };
+        let size = self.params.size;
+        self.pipeline.launch(&self.sbt, &params, [size.x, size.y, 1])?;
+        self.params.subframe += 1;
+        self.samples_done += samples;
+        Ok(())
+    }
+
+    /// Paths per pixel so far.
+    pub fn samples_done(&self) -> u32 {
+        self.samples_done
+    }
+
+    /// Mean radiance per pixel so far, and the rays traced.
+    pub fn image(&self) -> anyhow::Result<(Vec<Vec3>, u64)> {
+        let accum = self.accum.read()?;
+        let n = self.samples_done.max(1) as f32;
+        let rays = accum.iter().map(|a| a.w as f64).sum::<f64>() as u64;
+        Ok((accum.iter().map(|a| a.truncate() / n).collect(), rays))
+    }
+}
+
+/// A procedural sky as an environment map: a blue gradient above a grey ground
+/// and a small bright sun.
+pub fn default_sky(width: u32, height: u32) -> anyhow::Result<EnvironmentMap> {
+    let mut radiance = Vec::with_capacity((width * height) as usize);
+    let sun = Vec3::new(0.4, 0.8, 0.45).normalize();
+    for y in 0..height {
+        for x in 0..width {
+            let uv = Vec2::new((x as f32 + 0.5) / width as f32, (y as f32 + 0.5) / height as f32);
+            let d = raykit::device::environment::equirect_direction(uv);
+            let sky = if d.y > 0.0 {
+                Vec3::new(0.5, 0.7, 1.0).lerp(Vec3::new(0.15, 0.3, 0.8), d.y)
+            } else {
+                Vec3::splat(0.25)
+            };
+            radiance.push(if d.dot(sun) > 0.995 { Vec3::new(400.0, 380.0, 340.0) } else { sky });
+        }
+    }
+    Ok(EnvironmentMap::new(width, height, radiance)?)
+}
+
+/// A camera looking at the scene's bounds from +z (and a little above).
+pub fn framing_camera(scene: &GltfScene) -> Camera {
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for inst in &scene.instances {
+        for p in &scene.meshes[inst.mesh].primitives {
+            for &v in &p.positions {
+                let w = inst.transform.transform_point3(v);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        }
+    }
+    if lo.x > hi.x {
+        (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(1.0));
+    }
+    let centre = (lo + hi) * 0.5;
+    let radius = ((hi - lo).length() * 0.5).max(1e-3);
+    Camera {
+        eye: centre + Vec3::new(0.0, 0.3, 1.0).normalize() * radius * 2.8,
+        look_at: centre,
+        up: Vec3::Y,
+        fov_y_degrees: 40.0,
+    }
+}
+
 /// The glTF renderer's pipeline and SBT for one scene.
 pub struct Renderer {
     pipeline: Pipeline<Params>,
@@ -162,19 +335,11 @@ pub struct Renderer {
 impl Renderer {
     /// Links the programs and lays out one hit record per (instance, primitive) of `scene`.
     pub fn new(ctx: &Context, scene: &GpuScene) -> anyhow::Result<Renderer> {
-        use gltf_pathtracer_device::{AH_MASK, CH, MS, RG};
         let module = Module::from_device_crate(ctx, "gltf-pathtracer-device")?;
-        let raygen = ProgramGroup::raygen(&module, RG)?;
-        let miss = ProgramGroup::miss(&module, MS)?;
-        let opaque = ProgramGroup::hit_group(&module).closest_hit(CH).build()?;
-        let masked = ProgramGroup::hit_group(&module).closest_hit(CH).any_hit(AH_MASK).build()?;
-        let pipeline =
-            Pipeline::<Params>::new(ctx, &[&raygen, &miss, &opaque, &masked], LinkOptions { max_trace_depth: 1 })?;
-        let mut sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss_for::<Primary, _>(&miss, ());
-        for (i, (record, is_masked)) in scene.records.iter().zip(&scene.masked).enumerate() {
-            sbt = sbt.hit_at(i, if *is_masked { &masked } else { &opaque }, *record);
-        }
-        let sbt = sbt.build()?;
+        let groups = groups(&module, gltf_pathtracer_device::RG)?;
+        let refs: Vec<&ProgramGroup> = groups.iter().collect();
+        let pipeline = Pipeline::<Params>::new(ctx, &refs, LinkOptions { max_trace_depth: 1 })?;
+        let sbt = scene_sbt(&pipeline, &groups, scene)?;
         Ok(Renderer { pipeline, sbt })
     }
 

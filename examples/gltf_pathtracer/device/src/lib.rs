@@ -55,6 +55,16 @@ pub struct GeometryRecord {
     pub base_color: Texture2D,
     /// Base-colour factor (linear RGB).
     pub base_color_factor: Vec3,
+    /// Metallic (blue) and roughness (green) texture, linear (the null handle for none).
+    pub metallic_roughness: Texture2D,
+    /// Metallic factor.
+    pub metallic: f32,
+    /// Roughness factor.
+    pub roughness: f32,
+    /// Emissive texture, sRGB (the null handle for none).
+    pub emissive_texture: Texture2D,
+    /// Emissive factor (linear RGB).
+    pub emissive: Vec3,
     /// A masked material's coverage: one bit per texel of its base-colour texture
     /// (alpha × the factor's alpha ≥ the cutoff), row-major, 32 texels per word.
     pub coverage: Buffer<u32>,
@@ -78,6 +88,12 @@ pub struct PrimaryHit {
     pub normal: Vec3,
     /// Base colour (linear RGB, factor × texture).
     pub color: Vec3,
+    /// Metallic (factor × texture).
+    pub metallic: f32,
+    /// Emitted radiance (factor × texture).
+    pub emission: Vec3,
+    /// Roughness (factor × texture).
+    pub roughness: f32,
 }
 
 /// Primary rays.
@@ -146,8 +162,12 @@ fn ch(
     hit.uv = uv;
     hit.t = ctx.hit_t();
     hit.material = g.material;
-    let texel = if g.base_color == Texture2D::NULL { Vec4::ONE } else { textures.sample_lod(g.base_color, uv, 0.0) };
-    hit.color = texel.truncate() * g.base_color_factor;
+    let sample = |t: Texture2D| if t == Texture2D::NULL { Vec4::ONE } else { textures.sample_lod(t, uv, 0.0) };
+    hit.color = sample(g.base_color).truncate() * g.base_color_factor;
+    let mr = sample(g.metallic_roughness);
+    hit.metallic = mr.z * g.metallic;
+    hit.roughness = mr.y * g.roughness;
+    hit.emission = sample(g.emissive_texture).truncate() * g.emissive;
 }
 
 #[any_hit(ray = Primary)]
@@ -169,4 +189,145 @@ fn ah_mask(
     if (word >> (texel % 32)) & 1 == 0 {
         ctx.ignore_intersection();
     }
+}
+
+/// Shadow rays: the first hit ends them (any-hit programs of masked materials
+/// still run) and closest-hit is skipped, so the payload's `t` stays as the
+/// caller set it unless the miss program runs (`t = -1`: the light is visible).
+pub struct Shadow;
+impl RayType for Shadow {
+    type Payload = PrimaryHit;
+    const FLAGS: raykit_device::RayFlags =
+        raykit_device::RayFlags::TERMINATE_ON_FIRST_HIT.union(raykit_device::RayFlags::SKIP_CLOSEST_HIT_SHADER);
+}
+
+/// Launch params of the path tracer (the `rg_path` raygen, [`RG_PATH`]).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
+pub struct TraceParams {
+    /// Per pixel: the sum of the radiance samples so far (xyz) and of the rays traced (w).
+    pub accum: Buffer<Vec4>,
+    /// The environment map's CDFs (`raykit_scene::EnvironmentMap::cdf`).
+    pub env_cdf: Buffer<f32>,
+    /// Image size.
+    pub size: UVec2,
+    /// The environment map (equirectangular, linear radiance).
+    pub env: Texture2D,
+    /// The environment map's width.
+    pub env_width: u32,
+    /// The environment map's height.
+    pub env_height: u32,
+    /// Index of this launch in the progressive sequence (seeds the random numbers).
+    pub subframe: u32,
+    /// Paths per pixel traced by this launch.
+    pub samples: u32,
+    /// Safety cap on bounces (Russian roulette ends paths).
+    pub max_depth: u32,
+    /// Camera position.
+    pub cam_eye: Vec3,
+    /// Camera right, scaled to half the image-plane width.
+    pub cam_u: Vec3,
+    /// Camera up, scaled to half the image-plane height.
+    pub cam_v: Vec3,
+    /// Camera forward, to the image-plane centre.
+    pub cam_w: Vec3,
+    /// The scene.
+    pub scene: Traversable,
+}
+
+/// Offset of secondary rays from the surface.
+pub const RAY_OFFSET: f32 = 1e-3;
+
+/// The path tracer: per path, next-event estimation of the environment map and
+/// BSDF sampling, weighted by the power heuristic, and Russian roulette.
+#[raygen]
+fn rg_path(
+    ctx: &mut Raygen,
+    #[params] p: &TraceParams,
+    #[textures] textures: &TextureTable,
+    #[payload] hit: &mut PrimaryHit,
+    #[payload] shadow: &mut PrimaryHit,
+) {
+    use raykit_device::environment::{environment_pdf, equirect_uv, sample_environment};
+    use raykit_device::sampling::{power_heuristic, Onb, Pcg};
+    let index = ctx.launch_index().truncate();
+    let pixel = ctx.launch_linear_index();
+    let (cdf, env) = (p.env_cdf, p.env);
+    let (ew, eh) = (p.env_width, p.env_height);
+    let mut sum = Vec3::ZERO;
+    let mut rays = 0u32;
+    let mut sample = 0;
+    while sample < p.samples {
+        let mut rng = Pcg::new(pixel, p.subframe.wrapping_mul(4096).wrapping_add(sample));
+        let jitter = rng.next_vec2();
+        let d = 2.0 * (index.as_vec2() + jitter) / p.size.as_vec2() - 1.0;
+        let mut origin = p.cam_eye;
+        let mut dir = (d.x * p.cam_u - d.y * p.cam_v + p.cam_w).normalize();
+        let mut throughput = Vec3::ONE;
+        let mut radiance = Vec3::ZERO;
+        let mut bsdf_pdf = 0.0f32;
+        let mut depth = 0;
+        while depth < p.max_depth {
+            *hit = PrimaryHit { t: -1.0, ..Default::default() };
+            ctx.trace::<Primary>(p.scene, Ray::new(origin, dir).with_interval(1e-4, 1e16), hit);
+            rays += 1;
+            if hit.t < 0.0 {
+                let light = textures.sample_lod(env, equirect_uv(dir), 0.0).truncate();
+                let weight = if depth == 0 {
+                    1.0
+                } else {
+                    power_heuristic(bsdf_pdf, environment_pdf(ew, eh, |k| ctx.load(cdf, k), dir))
+                };
+                radiance += throughput * light * weight;
+                break;
+            }
+            radiance += throughput * hit.emission;
+            let n = if hit.normal.dot(dir) > 0.0 { -hit.normal } else { hit.normal };
+            let position = origin + hit.t * dir + n * RAY_OFFSET;
+            let frame = Onb::new(n);
+            let v = frame.to_local(-dir);
+            let material = bsdf::SurfaceMaterial {
+                base_color: hit.color,
+                metallic: hit.metallic.clamp(0.0, 1.0),
+                roughness: hit.roughness.clamp(0.0, 1.0),
+            };
+            // Next-event estimation: a direction of the environment map.
+            let (u1, u2) = (rng.next_f32(), rng.next_f32());
+            let s = sample_environment(ew, eh, |k| ctx.load(cdf, k), u1, u2);
+            let l = frame.to_local(s.direction);
+            let f = bsdf::eval(&material, v, l);
+            if s.pdf > 0.0 && f != Vec3::ZERO {
+                shadow.t = 1.0;
+                ctx.trace::<Shadow>(p.scene, Ray::new(position, s.direction).with_interval(0.0, 1e16), shadow);
+                rays += 1;
+                if shadow.t < 0.0 {
+                    let light = textures.sample_lod(env, s.uv, 0.0).truncate();
+                    let weight = power_heuristic(s.pdf, bsdf::pdf(&material, v, l));
+                    radiance += throughput * f * light * (weight / s.pdf);
+                }
+            }
+            // The next direction, from the BSDF.
+            let (u0, u1, u2) = (rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let next = bsdf::sample(&material, v, u0, u1, u2);
+            if next.pdf <= 0.0 || next.weight == Vec3::ZERO {
+                break;
+            }
+            throughput *= next.weight;
+            bsdf_pdf = next.pdf;
+            origin = position;
+            dir = frame.to_world(next.l).normalize();
+            depth += 1;
+            if depth >= 3 {
+                let q = throughput.max_element().min(0.95);
+                if rng.next_f32() >= q {
+                    break;
+                }
+                throughput /= q;
+            }
+        }
+        sum += radiance;
+        sample += 1;
+    }
+    let previous = if p.subframe == 0 { Vec4::ZERO } else { ctx.load(p.accum, pixel) };
+    ctx.store(p.accum, pixel, previous + sum.extend(rays as f32));
 }
