@@ -33,6 +33,7 @@
 mod accel;
 mod ash_baseline;
 mod launch;
+mod materials;
 mod pipeline;
 mod shaders;
 mod soak;
@@ -46,7 +47,8 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 9] = ["accel", "stack", "pipeline", "primary", "path", "launch", "launch-loop", "shaders", "soak"];
+const SUITES: [&str; 10] =
+    ["accel", "stack", "pipeline", "primary", "path", "launch", "launch-loop", "shaders", "soak", "materials"];
 
 struct Args {
     suites: Vec<String>,

@@ -255,3 +255,48 @@ fn the_path_tracer_conserves_energy_in_a_white_furnace() -> anyhow::Result<()> {
         Ok(())
     })
 }
+
+#[test]
+fn both_material_modes_shade_as_the_shared_material_code() -> anyhow::Result<()> {
+    use gltf_pathtracer::device::materials::color_of;
+    use gltf_pathtracer::{MaterialMode, MaterialRenderer};
+    let dir = raykit_tests::temp_dir("gltf_materials")?;
+    let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
+    with_context("both_material_modes_shade_as_the_shared_material_code", |ctx| {
+        let gpu = GpuScene::new(ctx, &scene)?;
+        let mut images = Vec::new();
+        for mode in [MaterialMode::Callables, MaterialMode::Inlined] {
+            let renderer = MaterialRenderer::new(ctx, &gpu, mode)?;
+            let (out, colors) = renderer.render(ctx, &gpu, &camera(), SIZE, SIZE)?;
+            let mut slots = std::collections::BTreeSet::new();
+            for (o, c) in out.iter().zip(&colors) {
+                anyhow::ensure!(o.x >= 0.0, "{mode:?}: a pixel missed the backdrop");
+                let slot = o.x as u32;
+                slots.insert(slot);
+                let want = color_of(slot, Vec2::new(o.y, o.z));
+                anyhow::ensure!(
+                    (c.truncate() - want).abs().max_element() < 1e-4,
+                    "{mode:?}: material {slot} at uv ({}, {}): {} vs the host's {want}",
+                    o.y,
+                    o.z,
+                    c.truncate()
+                );
+            }
+            anyhow::ensure!(slots.len() == 3, "{mode:?}: materials seen {slots:?}");
+            eprintln!("{mode:?}: pipeline linked in {:?}", renderer.link_time);
+            images.push(colors);
+        }
+        // A grid of 12 quads with 12 glTF materials uses all eight procedural ones.
+        let grid = GltfScene::load(&gltf_pathtracer::demo_scene::write_grid(&dir.0.join("grid"), 12)?)?;
+        anyhow::ensure!(grid.instances.len() == 12 && grid.materials.len() == 13);
+        let grid_gpu = GpuScene::new(ctx, &grid)?;
+        let renderer = MaterialRenderer::new(ctx, &grid_gpu, MaterialMode::Callables)?;
+        let front = Camera { eye: Vec3::new(0.0, 0.0, 3.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_degrees: 60.0 };
+        let (out, _) = renderer.render(ctx, &grid_gpu, &front, 32, 32)?;
+        let seen: std::collections::BTreeSet<u32> = out.iter().filter(|o| o.x >= 0.0).map(|o| o.x as u32).collect();
+        anyhow::ensure!(seen.len() == 8, "grid materials seen {seen:?}");
+        let worst = images[0].iter().zip(&images[1]).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0, f32::max);
+        anyhow::ensure!(worst < 1e-5, "the two modes differ by {worst}");
+        Ok(())
+    })
+}

@@ -22,6 +22,8 @@ use raykit_scene::{Camera, EnvironmentMap};
 
 pub use gltf_pathtracer_device as device;
 
+pub mod demo_scene;
+
 /// A primitive's device buffers.
 struct PrimitiveBuffers {
     indices: DeviceBuffer<u32>,
@@ -125,6 +127,7 @@ impl GpuScene {
                         uvs: b.uvs.handle(),
                         normals: b.normals.handle(),
                         material: p.material as u32,
+                        callable: 0,
                         base_color,
                         base_color_factor: material.base_color.truncate(),
                         metallic_roughness,
@@ -347,6 +350,132 @@ impl Renderer {
     /// material index (−1 for a miss), texture coordinates and distance; and its
     /// base colour (factor × texture, linear RGB; 0 for a miss).
     pub fn primary_hits(
+        &self,
+        ctx: &Context,
+        scene: &GpuScene,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+    ) -> anyhow::Result<(Vec<Vec4>, Vec<Vec4>)> {
+        let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let (u, v, w) = camera.uvw(width as f32 / height as f32);
+        let params = Params {
+            out: out.handle(),
+            size: UVec2::new(width, height),
+            color: color.handle(),
+            cam_eye: camera.eye,
+            cam_u: u,
+            cam_v: v,
+            cam_w: w,
+            scene: scene.ias.handle(),
+        };
+        self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
+        Ok((out.read()?, color.read()?))
+    }
+}
+
+/// How materials become programs (see `gltf_pathtracer_device::materials`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum MaterialMode {
+    /// One closest-hit calls the material's direct callable, by the index in its record.
+    Callables,
+    /// One closest-hit per material, the material inlined, in its own hit group.
+    Inlined,
+}
+
+/// Primary hits shaded by the eight procedural materials, a primitive of glTF
+/// material `m` with procedural material `m % 8`, in either [`MaterialMode`]
+/// (opaque: no any-hit programs).
+pub struct MaterialRenderer {
+    pipeline: Pipeline<Params>,
+    sbt: Sbt,
+    /// How long linking the pipeline took.
+    pub link_time: std::time::Duration,
+}
+
+impl MaterialRenderer {
+    /// Links the programs of `mode` for `scene`.
+    pub fn new(ctx: &Context, scene: &GpuScene, mode: MaterialMode) -> anyhow::Result<MaterialRenderer> {
+        use gltf_pathtracer_device::materials::MATERIAL_COUNT;
+        use gltf_pathtracer_device::{CH_CALLABLES, MATERIAL_CALLABLES, MATERIAL_CLOSEST_HITS, MS, RG};
+        let module = Module::from_device_crate(ctx, "gltf-pathtracer-device")?;
+        let raygen = ProgramGroup::raygen(&module, RG)?;
+        let miss = ProgramGroup::miss(&module, MS)?;
+        let (hits, callables) = match mode {
+            MaterialMode::Callables => (
+                vec![ProgramGroup::hit_group(&module).closest_hit(CH_CALLABLES).build()?],
+                MATERIAL_CALLABLES
+                    .iter()
+                    .map(|&c| ProgramGroup::callable(&module, c))
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
+            MaterialMode::Inlined => (
+                MATERIAL_CLOSEST_HITS
+                    .iter()
+                    .map(|&c| ProgramGroup::hit_group(&module).closest_hit(c).build())
+                    .collect::<Result<Vec<_>, _>>()?,
+                Vec::new(),
+            ),
+        };
+        let mut all = vec![&raygen, &miss];
+        all.extend(hits.iter());
+        all.extend(callables.iter());
+        let started = std::time::Instant::now();
+        let pipeline = Pipeline::<Params>::new(ctx, &all, LinkOptions { max_trace_depth: 1 })?;
+        let link_time = started.elapsed();
+        let mut sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss_for::<Primary, _>(&miss, ());
+        for (i, record) in scene.records.iter().enumerate() {
+            let slot = record.material % MATERIAL_COUNT;
+            let record = GeometryRecord { material: slot, callable: slot, ..*record };
+            let group = match mode {
+                MaterialMode::Callables => &hits[0],
+                MaterialMode::Inlined => &hits[slot as usize],
+            };
+            sbt = sbt.hit_at(i, group, record);
+        }
+        for c in &callables {
+            sbt = sbt.callable(c, ());
+        }
+        let sbt = sbt.build()?;
+        Ok(MaterialRenderer { pipeline, sbt, link_time })
+    }
+
+    /// One launch of `width × height` primary rays, timed by GPU timestamps when
+    /// `timer` is given, by the wall clock around the launch otherwise.
+    pub fn time_launch(
+        &self,
+        ctx: &Context,
+        scene: &GpuScene,
+        camera: &Camera,
+        (width, height): (u32, u32),
+        timer: Option<&raykit::LaunchTimer>,
+    ) -> anyhow::Result<std::time::Duration> {
+        let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let (u, v, w) = camera.uvw(width as f32 / height as f32);
+        let params = Params {
+            out: out.handle(),
+            size: UVec2::new(width, height),
+            color: color.handle(),
+            cam_eye: camera.eye,
+            cam_u: u,
+            cam_v: v,
+            cam_w: w,
+            scene: scene.ias.handle(),
+        };
+        Ok(match timer {
+            Some(timer) => self.pipeline.launch_timed(&self.sbt, &params, [width, height, 1], timer)?,
+            None => {
+                let started = std::time::Instant::now();
+                self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
+                started.elapsed()
+            }
+        })
+    }
+
+    /// Per pixel: the material slot (−1 for a miss), texture coordinates, distance; and the colour.
+    pub fn render(
         &self,
         ctx: &Context,
         scene: &GpuScene,

@@ -1,5 +1,5 @@
 //! `cargo run --release -p gltf_pathtracer -- --scene FILE.gltf [--env FILE.exr] [--width W] [--height H]
-//! [--spp N] [--max-depth N] [-o FILE.png]`: path-traces a glTF scene lit by an environment map (an
+//! [--spp N] [--max-depth N] [--materials callables|inlined] [-o FILE.png]`: path-traces a glTF scene lit by an environment map (an
 //! OpenEXR equirectangular map, or a procedural sky), progressively with a progress bar, to a tonemapped
 //! PNG and the linear radiance as OpenEXR beside it.
 //!
@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use clap::Parser;
-use gltf_pathtracer::{default_sky, framing_camera, GpuScene, PathTracer};
+use gltf_pathtracer::{default_sky, framing_camera, GpuScene, MaterialMode, MaterialRenderer, PathTracer};
 use indicatif::{ProgressBar, ProgressStyle};
 use raykit::glam::Vec3;
 use raykit_scene::gltf::GltfScene;
@@ -41,6 +41,10 @@ struct Cli {
     /// Safety cap on bounces (Russian roulette ends paths).
     #[arg(long, default_value_t = 1024)]
     max_depth: u32,
+    /// Instead of path tracing, render the eight procedural materials (glTF material `m` shaded by
+    /// material `m % 8`) at the primary hits, as direct callables or inlined closest-hit programs.
+    #[arg(long, value_parser = ["callables", "inlined"])]
+    materials: Option<String>,
     /// The tonemapped PNG; the linear radiance goes to the same path with `.exr`.
     #[arg(long, short, default_value = "gltf.png")]
     output: PathBuf,
@@ -72,6 +76,15 @@ fn main() -> anyhow::Result<()> {
     let ctx = raykit::Context::new(raykit::ContextOptions::default())?;
     let gpu = GpuScene::new(&ctx, &scene)?;
     let camera = framing_camera(&scene);
+    if let Some(mode) = &cli.materials {
+        let mode = if mode == "callables" { MaterialMode::Callables } else { MaterialMode::Inlined };
+        let renderer = MaterialRenderer::new(&ctx, &gpu, mode)?;
+        let (_, colors) = renderer.render(&ctx, &gpu, &camera, cli.width, cli.height)?;
+        let pixels: Vec<u32> = colors.iter().map(|c| raykit::device::color::pack_srgb8(c.truncate())).collect();
+        raykit_scene::write_png_rgba8(&cli.output, cli.width, cli.height, &pixels)?;
+        println!("{mode:?}: linked in {:?}, wrote {}", renderer.link_time, cli.output.display());
+        return Ok(());
+    }
     let mut tracer = PathTracer::new(&ctx, &gpu, &env, &camera, cli.width, cli.height)?;
     tracer.set_max_depth(cli.max_depth);
     let bar = ProgressBar::new(cli.spp as u64);

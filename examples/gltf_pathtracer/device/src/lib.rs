@@ -10,11 +10,12 @@
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 pub mod bsdf;
+pub mod materials;
 
 use raykit_device::glam::{UVec2, Vec2, Vec3, Vec4};
 use raykit_device::{
-    any_hit, closest_hit, miss, raygen, AnyHit, Buffer, ClosestHit, LaunchParams, Miss, Ray, RayType, Raygen,
-    SampleTexture, SbtRecordData, Texture2D, TextureTable, Traversable,
+    any_hit, closest_hit, direct_callable, miss, raygen, AnyHit, Buffer, ClosestHit, DirectCallable, LaunchParams,
+    Miss, Ray, RayType, Raygen, SampleTexture, SbtRecordData, Texture2D, TextureTable, Traversable,
 };
 
 /// Launch params.
@@ -51,6 +52,9 @@ pub struct GeometryRecord {
     pub normals: Buffer<Vec3>,
     /// The material's index in the scene.
     pub material: u32,
+    /// The callable `ch_callables` calls for this geometry's material (an index
+    /// into the SBT's callable region).
+    pub callable: u32,
     /// Base-colour texture (the null handle for none).
     pub base_color: Texture2D,
     /// Base-colour factor (linear RGB).
@@ -330,4 +334,63 @@ fn rg_path(
     }
     let previous = if p.subframe == 0 { Vec4::ZERO } else { ctx.load(p.accum, pixel) };
     ctx.store(p.accum, pixel, previous + sum.extend(rays as f32));
+}
+
+/// The primary hit of `g` at this closest-hit: texture coordinates, distance,
+/// material (the colour is the caller's).
+fn primary_surface(ctx: &ClosestHit, g: &GeometryRecord, hit: &mut PrimaryHit) {
+    let (indices, uvs) = (g.indices, g.uvs);
+    hit.uv = interpolate2(
+        triangle_uvs(|i| ctx.load(indices, i), |v| ctx.load(uvs, v), ctx.primitive_index()),
+        ctx.barycentrics(),
+    );
+    hit.t = ctx.hit_t();
+    hit.material = g.material;
+}
+
+/// Callables mode: one closest-hit calls the material's callable from its record.
+#[closest_hit(ray = Primary)]
+fn ch_callables(
+    ctx: &mut ClosestHit,
+    #[record] g: &GeometryRecord,
+    #[payload] hit: &mut PrimaryHit,
+    #[call_data] call: &mut materials::ShadeCall,
+) {
+    primary_surface(ctx, g, hit);
+    *call = materials::ShadeCall { uv: hit.uv, ..Default::default() };
+    ctx.call(g.callable, call);
+    hit.color = call.color;
+}
+
+macro_rules! material_programs {
+    ($($material:ident => $callable:ident $CALLABLE:ident, $inlined:ident $INLINED:ident;)*) => {
+        $(
+            #[direct_callable]
+            fn $callable(_ctx: &mut DirectCallable, #[callable_data] call: &mut materials::ShadeCall) {
+                call.color = materials::shade::<materials::$material>(call.uv);
+            }
+
+            #[closest_hit(ray = Primary)]
+            fn $inlined(ctx: &mut ClosestHit, #[record] g: &GeometryRecord, #[payload] hit: &mut PrimaryHit) {
+                primary_surface(ctx, g, hit);
+                hit.color = materials::shade::<materials::$material>(hit.uv);
+            }
+        )*
+
+        /// Callables mode: the material callables, in material order.
+        pub const MATERIAL_CALLABLES: [raykit_device::EntryPoint; materials::MATERIAL_COUNT as usize] = [$($CALLABLE),*];
+        /// Inlined mode: the closest-hit of each material, in material order.
+        pub const MATERIAL_CLOSEST_HITS: [raykit_device::EntryPoint; materials::MATERIAL_COUNT as usize] = [$($INLINED),*];
+    };
+}
+
+material_programs! {
+    Checks => mat_checks MAT_CHECKS, ch_mat_checks CH_MAT_CHECKS;
+    Stripes => mat_stripes MAT_STRIPES, ch_mat_stripes CH_MAT_STRIPES;
+    Gradient => mat_gradient MAT_GRADIENT, ch_mat_gradient CH_MAT_GRADIENT;
+    Rings => mat_rings MAT_RINGS, ch_mat_rings CH_MAT_RINGS;
+    Dots => mat_dots MAT_DOTS, ch_mat_dots CH_MAT_DOTS;
+    Bands => mat_bands MAT_BANDS, ch_mat_bands CH_MAT_BANDS;
+    Waves => mat_waves MAT_WAVES, ch_mat_waves CH_MAT_WAVES;
+    Grid => mat_grid MAT_GRID, ch_mat_grid CH_MAT_GRID;
 }
