@@ -37,6 +37,7 @@ mod accel;
 mod ash_baseline;
 mod cpu;
 mod launch;
+mod materials;
 mod pipeline;
 mod shaders;
 mod soak;
@@ -50,8 +51,8 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 10] =
-    ["accel", "stack", "pipeline", "primary", "path", "launch", "launch-loop", "shaders", "soak", "cpu"];
+const SUITES: [&str; 11] =
+    ["accel", "stack", "pipeline", "primary", "path", "launch", "launch-loop", "shaders", "soak", "cpu", "materials"];
 
 struct Args {
     suites: Vec<String>,

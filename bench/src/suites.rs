@@ -60,6 +60,7 @@ pub fn run(suite: &str, ctx: &Context, opts: &Options, out: &Path) -> anyhow::Re
             (crate::launch::markdown(&rows), crate::launch::json(&rows))
         }
         "shaders" => crate::shaders::markdown(&crate::shaders::sizes()?, out),
+        "materials" => crate::materials::run(ctx, timer.as_ref(), opts)?,
         other => anyhow::bail!("unknown suite {other}"),
     })
 }

@@ -123,6 +123,9 @@ pub trait Runtime {
     fn ignore_intersection(&self) -> !;
     /// Accepts the candidate hit and ends the traversal; does not return.
     fn terminate_ray(&self) -> !;
+    /// Samples texture handle `texture` at `uv` and mip level `lod`
+    /// (`OpImageSampleExplicitLod`).
+    fn sample_texture(&self, texture: u32, uv: Vec2, lod: f32) -> spirv_std::glam::Vec4;
 }
 
 /// Runs `f` with a zeroed scratch of `T::WORDS` words, for reading or writing

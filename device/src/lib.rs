@@ -62,16 +62,20 @@
 #![cfg_attr(target_arch = "spirv", feature(asm_experimental_arch))]
 #![deny(missing_docs)]
 
+pub mod color;
 #[cfg(not(target_arch = "spirv"))]
 pub mod cpu;
 pub mod entry;
+pub mod environment;
 pub mod exception;
 pub mod handles;
 pub mod math;
 pub mod params;
 pub mod ray;
 pub mod record;
+pub mod sampling;
 pub mod stage;
+pub mod texture;
 
 pub use bytemuck;
 pub use entry::{EntryPoint, ProgramKind, ProgramPrefix, RayTypeInfo};
@@ -94,13 +98,14 @@ pub use stage::{
     AnyHit, ClosestHit, ContinuationCallable, DirectCallable, Exception, Intersection, Miss, Raygen,
     HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE,
 };
+pub use texture::{SampleTexture, Texture2D, TextureTable};
 
 /// The bindless storage-buffer table every program sees at descriptor set
 /// [`BUFFER_TABLE_SET`], binding [`BUFFER_TABLE_BINDING`]. [`Buffer`] handles in launch params index it. Part of raykit's ABI
 /// with the host; user code never names it.
 pub type BufferTable = spirv_std::RuntimeArray<spirv_std::TypedBuffer<[u32]>>;
 
-pub use raykit_abi::{BUFFER_TABLE_BINDING, BUFFER_TABLE_SET};
+pub use raykit_abi::{BUFFER_TABLE_BINDING, BUFFER_TABLE_SET, TEXTURE_TABLE_BINDING};
 
 #[doc(hidden)]
 pub mod __private {

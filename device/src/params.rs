@@ -74,6 +74,10 @@ impl DeviceField for crate::Traversable {
     const SHAPE: Shape = Shape::Traversable;
 }
 
+impl DeviceField for crate::Texture2D {
+    const SHAPE: Shape = Shape::Texture;
+}
+
 impl<T: 'static> DeviceField for crate::Buffer<T> {
     const SHAPE: Shape = Shape::Buffer;
 }

@@ -22,7 +22,10 @@ use std::sync::Mutex;
 
 use ash::vk;
 
+use std::mem::ManuallyDrop;
+
 use crate::error::{Error, Result};
+use crate::texture_table::TextureTable;
 
 /// The table's size.
 const SLOTS: u32 = raykit_abi::BUFFER_TABLE_SLOTS;
@@ -48,6 +51,8 @@ pub(crate) struct BufferTable {
     /// The generation of the live buffer in each slot, 0 when none (cleared when
     /// the buffer is dropped, before its slot waits for its pending work).
     live: Vec<AtomicU32>,
+    /// The texture table, binding 1 of the same set (see [`crate::texture_table`]).
+    pub(crate) textures: ManuallyDrop<TextureTable>,
 }
 
 /// Bits of a handle that name the slot; the bits above carry the generation.
@@ -86,12 +91,15 @@ impl BufferTable {
     pub(crate) fn new(device: &ash::Device) -> Result<Self> {
         let capacity = SLOTS;
 
-        let bindings = [vk::DescriptorSetLayoutBinding::default()
-            .binding(raykit_abi::BUFFER_TABLE_BINDING)
-            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-            .descriptor_count(capacity)
-            .stage_flags(RT_STAGES)];
-        let flags = [vk::DescriptorBindingFlags::PARTIALLY_BOUND | vk::DescriptorBindingFlags::UPDATE_AFTER_BIND];
+        let bindings = [
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(raykit_abi::BUFFER_TABLE_BINDING)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(capacity)
+                .stage_flags(RT_STAGES),
+            crate::texture_table::layout_binding(),
+        ];
+        let flags = [vk::DescriptorBindingFlags::PARTIALLY_BOUND | vk::DescriptorBindingFlags::UPDATE_AFTER_BIND; 2];
         let mut binding_flags = vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&flags);
         let layout_info = vk::DescriptorSetLayoutCreateInfo::default()
             .flags(vk::DescriptorSetLayoutCreateFlags::UPDATE_AFTER_BIND_POOL)
@@ -100,7 +108,10 @@ impl BufferTable {
         // SAFETY: valid create info; the needed features were enabled.
         let layout = unsafe { device.create_descriptor_set_layout(&layout_info, None) }
             .map_err(Error::vk("vkCreateDescriptorSetLayout"))?;
-        let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: capacity }];
+        let sizes = [
+            vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: capacity },
+            crate::texture_table::pool_size(),
+        ];
         let pool_info = vk::DescriptorPoolCreateInfo::default()
             .flags(vk::DescriptorPoolCreateFlags::UPDATE_AFTER_BIND)
             .max_sets(1)
@@ -131,7 +142,19 @@ impl BufferTable {
         // Slot 0 stays null; the others are used lowest first.
         let free = (1..capacity).rev().collect();
         let live = (0..capacity).map(|_| AtomicU32::new(0)).collect();
-        let table = BufferTable { layout, pool, set, capacity, free: Mutex::new(free), live };
+        let textures = match TextureTable::new(device, set) {
+            Ok(t) => t,
+            Err(e) => {
+                // SAFETY: both objects are unused.
+                unsafe {
+                    device.destroy_descriptor_pool(pool, None);
+                    device.destroy_descriptor_set_layout(layout, None);
+                }
+                return Err(e);
+            }
+        };
+        let textures = ManuallyDrop::new(textures);
+        let table = BufferTable { layout, pool, set, capacity, free: Mutex::new(free), live, textures };
         // Every slot starts as a null descriptor, slot 0 and never-used slots alike: a
         // partially bound array's unwritten descriptors are undefined to access, null
         // ones read zero (`nullDescriptor`), which is what `Buffer<T>` promises.
@@ -215,9 +238,10 @@ impl BufferTable {
 
     /// # Safety
     /// The device must be idle and no other object may use the table.
-    pub(crate) unsafe fn destroy(self, device: &ash::Device) {
+    pub(crate) unsafe fn destroy(mut self, device: &ash::Device) {
         // SAFETY: per the contract above.
         unsafe {
+            ManuallyDrop::take(&mut self.textures).destroy(device);
             device.destroy_descriptor_pool(self.pool, None);
             device.destroy_descriptor_set_layout(self.layout, None);
         }

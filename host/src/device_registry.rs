@@ -387,6 +387,8 @@ impl Features {
                 .runtime_descriptor_array(true)
                 .descriptor_binding_partially_bound(true)
                 .descriptor_binding_storage_buffer_update_after_bind(true)
+                .descriptor_binding_sampled_image_update_after_bind(true)
+                .shader_sampled_image_array_non_uniform_indexing(true)
                 .descriptor_indexing(true)
                 .timeline_semaphore(true),
             robustness2: vk::PhysicalDeviceRobustness2FeaturesEXT::default()
@@ -400,7 +402,7 @@ impl Features {
 
     /// Names of required features `self` lacks.
     fn missing(&self) -> Vec<String> {
-        let checks: [(&str, vk::Bool32); 13] = [
+        let checks: [(&str, vk::Bool32); 15] = [
             ("robustBufferAccess2", self.robustness2.robust_buffer_access2),
             ("nullDescriptor", self.robustness2.null_descriptor),
             ("timelineSemaphore", self.v12.timeline_semaphore),
@@ -415,6 +417,11 @@ impl Features {
                 "descriptorBindingStorageBufferUpdateAfterBind",
                 self.v12.descriptor_binding_storage_buffer_update_after_bind,
             ),
+            (
+                "descriptorBindingSampledImageUpdateAfterBind",
+                self.v12.descriptor_binding_sampled_image_update_after_bind,
+            ),
+            ("shaderSampledImageArrayNonUniformIndexing", self.v12.shader_sampled_image_array_non_uniform_indexing),
             ("shaderInt64", self.base.shader_int64),
             ("robustBufferAccess", self.base.robust_buffer_access),
         ];

@@ -527,7 +527,7 @@ pub enum Error {
     },
 
     /// A program declares a descriptor binding raykit's pipeline layout does not have.
-    #[error("`{program}` declares {found} at set {set}, binding {binding}, {reason}. raykit's pipeline layout binds its buffer table (storage buffers) at set 0, binding 0 and, for params over the push-constant budget, the params uniform buffer at set 1, binding 0: reach buffers through `Buffer<T>` handles and the scene through a `Traversable` (a u64 turned into an acceleration structure) in the params")]
+    #[error("`{program}` declares {found} at set {set}, binding {binding}, {reason}. raykit's pipeline layout binds its buffer table (storage buffers) at set 0, binding 0, its texture table (combined image samplers, declared with a #[textures] parameter) at set 0, binding 1 and, for params over the push-constant budget, the params uniform buffer at set 1, binding 0: reach buffers through `Buffer<T>` handles, textures through `Texture2D` handles and the scene through a `Traversable` (a u64 turned into an acceleration structure) in the params")]
     DescriptorBinding {
         /// The program.
         program: String,
@@ -601,6 +601,56 @@ pub enum Error {
     BufferTableFull {
         /// Its size.
         capacity: u32,
+    },
+
+    /// The texture table has no free slot.
+    #[error("the texture table is full ({capacity} live textures); drop textures no longer needed, or pack several images into one (an atlas)")]
+    TextureTableFull {
+        /// Its size.
+        capacity: u32,
+    },
+
+    /// A texture of that size cannot be made.
+    #[error("texture of {width}×{height}: {problem}; {fix}")]
+    TextureSize {
+        /// Width asked for.
+        width: u32,
+        /// Height asked for.
+        height: u32,
+        /// What is wrong.
+        problem: String,
+        /// How to fix it.
+        fix: &'static str,
+    },
+
+    /// The texel data given for a texture does not fit it.
+    #[error("texture data of mip level {level} ({width}×{height} {format:?}): {got} bytes given, {expected} expected; {fix}")]
+    TextureData {
+        /// The mip level.
+        level: u32,
+        /// That level's width.
+        width: u32,
+        /// That level's height.
+        height: u32,
+        /// The format.
+        format: crate::TextureFormat,
+        /// Bytes the level needs.
+        expected: usize,
+        /// Bytes given.
+        got: usize,
+        /// How to fix it.
+        fix: &'static str,
+    },
+
+    /// A texture format or source image raykit or the device cannot use.
+    #[error("texture format {format}: {problem}; {fix}")]
+    TextureFormat {
+        /// The format (raykit's, or the source image's).
+        format: String,
+        /// What is wrong.
+        problem: String,
+        /// How to fix it.
+        fix: &'static str,
     },
 
     /// A buffer of that size cannot be made.

@@ -1,4 +1,5 @@
-//! Checked handles: every launch checks the [`Buffer`](raykit_device::Buffer) and
+//! Checked handles: every launch checks the [`Buffer`](raykit_device::Buffer),
+//! [`Texture2D`](raykit_device::Texture2D) and
 //! [`Traversable`](raykit_device::Traversable) fields of its params (found through
 //! [`LaunchParams::LAYOUT`](raykit_device::LaunchParams::LAYOUT)) against the
 //! objects alive in the launching context, and refuses a dropped, foreign or stale
@@ -40,6 +41,7 @@ use crate::sbt::SbtRegion;
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 enum HandleKind {
     Buffer,
+    Texture,
     Traversable,
 }
 
@@ -82,6 +84,7 @@ fn collect(fields: &[FieldLayout], base: u32, prefix: &str, out: &mut Vec<Handle
 fn collect_shape(shape: &Shape, offset: u32, name: String, out: &mut Vec<HandleField>) {
     match shape {
         Shape::Buffer => out.push(HandleField { offset, kind: HandleKind::Buffer, name }),
+        Shape::Texture => out.push(HandleField { offset, kind: HandleKind::Texture, name }),
         Shape::Traversable => out.push(HandleField { offset, kind: HandleKind::Traversable, name }),
         Shape::Struct(inner) => collect(inner.fields, offset, &name, out),
         Shape::Array { stride, len, element } => {
@@ -166,6 +169,7 @@ pub(crate) fn check_handles(
     params: &[u8],
     record: Option<(SbtRegion, usize)>,
     buffer_is_live: impl Fn(u32) -> bool,
+    texture_is_live: impl Fn(u32) -> bool,
     mut traversable: impl FnMut(u64) -> TraversableState,
 ) -> Result<()> {
     let (buffer_fix, tlas_fix) = match record {
@@ -192,6 +196,23 @@ pub(crate) fn check_handles(
                             "buffer handle {handle:#x} names no live DeviceBuffer of this Context (its buffer was dropped, its slot reused, or it belongs to another Context)"
                         ),
                         fix: buffer_fix,
+                    });
+                }
+            }
+            HandleKind::Texture => {
+                let Some(bytes) = read(field.offset, 4) else { continue };
+                let handle = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
+                if !texture_is_live(handle) {
+                    return Err(Error::InvalidHandle {
+                        record,
+                        field: field.name.clone(),
+                        problem: format!(
+                            "texture handle {handle:#x} names no live Texture of this Context (its texture was dropped, its slot reused, or it belongs to another Context)"
+                        ),
+                        fix: match record {
+                            None => "put the handle() of a Texture of this Context, alive until the launch is submitted, in the params",
+                            Some(_) => "put the handle() of a Texture of this Context, alive until the launch is submitted, in the record (Sbt::update)",
+                        },
                     });
                 }
             }
@@ -245,6 +266,7 @@ impl ContextInner {
             params,
             record,
             |handle| self.buffer_table.is_live(handle),
+            |handle| self.buffer_table.textures.is_live(handle),
             |address| {
                 let map = tlas.get_or_insert_with(|| self.traversables.lock());
                 map.get(&address).map_or(TraversableState::Unknown, LiveIas::state)

@@ -22,6 +22,8 @@ pub mod pipeline;
 pub mod program_group;
 pub mod sbt;
 pub mod stack;
+pub mod texture;
+mod texture_table;
 pub mod timeline;
 pub mod validate;
 pub mod wgsl;
@@ -47,13 +49,16 @@ pub use program_group::{EntryName, GroupKind, HitGroupBuilder, ProgramGroup};
 pub use raykit_spirv::{BlockMember, BlockType, InterfaceSizes, LayoutError, ParamsBlock, ParamsDelivery};
 pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
 pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
+pub use texture::{AddressMode, Filter, MipLevel, Mipmaps, SamplerOptions, Texture, TextureFormat};
 pub use wgsl::WgslError;
 
 pub use ash;
 pub use bytemuck;
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
-pub use raykit_device::{self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, SbtRecordData, Traversable};
+pub use raykit_device::{
+    self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, SbtRecordData, Texture2D, Traversable,
+};
 /// raykit's SPIR-V reflection and params layout check, for build tooling and tests.
 pub use raykit_spirv as spirv;
 

@@ -47,6 +47,10 @@ pub(crate) enum Retired {
     DescriptorPool(vk::DescriptorPool),
     /// A query pool.
     QueryPool(vk::QueryPool),
+    /// A texture's image, view, sampler and memory.
+    Image(vk::Image, vk::ImageView, vk::Sampler, Option<Allocation>),
+    /// A slot of the bindless texture table.
+    TextureSlot(u32),
 }
 
 /// The timeline's mutable state, behind its lock.
@@ -211,6 +215,15 @@ impl ContextInner {
                 Retired::DescriptorSetLayout(layout) => device.destroy_descriptor_set_layout(layout, None),
                 Retired::DescriptorPool(pool) => device.destroy_descriptor_pool(pool, None),
                 Retired::QueryPool(pool) => device.destroy_query_pool(pool, None),
+                Retired::Image(image, view, sampler, allocation) => {
+                    device.destroy_sampler(sampler, None);
+                    device.destroy_image_view(view, None);
+                    device.destroy_image(image, None);
+                    if let Some(allocation) = allocation {
+                        let _ = self.allocator().free(allocation);
+                    }
+                }
+                Retired::TextureSlot(slot) => self.buffer_table.textures.remove(device, self.buffer_table.set, slot),
             }
         }
     }

@@ -10,6 +10,8 @@
 //! test fails when `RAYKIT_REQUIRE_DEVICE=1` (CI and `cargo xtask test`), and
 //! otherwise prints a loud SKIPPED line.
 
+pub mod gltf_fixture;
+
 use raykit::{Backend, Context, ContextOptions, Error, PipelineCacheLocation};
 
 /// Runs `test` with a fresh context; checks the validation log afterwards. The

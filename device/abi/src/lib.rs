@@ -29,6 +29,14 @@ pub const BUFFER_TABLE_BINDING: u32 = 0;
 /// outside the table.
 pub const BUFFER_TABLE_SLOTS: u32 = 4096;
 
+/// Binding of the bindless sampled-texture table (combined image samplers) in
+/// [`BUFFER_TABLE_SET`], beside the buffer table. `Texture2D` handles index it.
+pub const TEXTURE_TABLE_BINDING: u32 = 1;
+
+/// Number of slots of the bindless texture table. Device programs mask a
+/// `Texture2D` handle with `TEXTURE_TABLE_SLOTS - 1`, as buffer handles.
+pub const TEXTURE_TABLE_SLOTS: u32 = 4096;
+
 /// Descriptor set of the params uniform buffer (for params over
 /// [`PUSH_CONSTANT_BUDGET`] bytes).
 pub const PARAMS_SET: u32 = 1;

@@ -30,6 +30,9 @@ pub enum Shape {
     /// A `Buffer<T>` handle (a `u32`): the host checks it names a live buffer of
     /// the launching context at every launch.
     Buffer,
+    /// A `Texture2D` handle (a `u32`): the host checks it names a live texture of
+    /// the launching context at every launch.
+    Texture,
     /// A `Traversable` (a `u64` device address): the host checks it names a live,
     /// up-to-date instance acceleration structure of the launching context.
     Traversable,

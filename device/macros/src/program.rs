@@ -127,6 +127,8 @@ enum Role {
     CallableData(Type),
     /// Hit attributes: written by intersection, read by any-hit and closest-hit.
     Attributes(Type),
+    /// The bindless texture table (`&raykit_device::TextureTable`).
+    Textures(Type),
     /// A specialization constant (`u32`), set per pipeline by the host.
     SpecConstant {
         id: u32,
@@ -255,9 +257,18 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
                 role_attr = Some(("spec_constant".to_owned(), attr.span()));
                 continue;
             }
-            let known = ["params", "record", "payload", "trace_payload", "call_data", "callable_data", "attributes"]
-                .iter()
-                .find(|k| path.is_ident(k));
+            let known = [
+                "params",
+                "record",
+                "payload",
+                "trace_payload",
+                "call_data",
+                "callable_data",
+                "attributes",
+                "textures",
+            ]
+            .iter()
+            .find(|k| path.is_ident(k));
             match known {
                 Some(k) => {
                     if role_attr.is_some() {
@@ -284,6 +295,7 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
             }
             Some("params") => referent(ty, false, "#[params]").map(Role::Params),
             Some("record") => referent(ty, false, "#[record]").map(Role::Record),
+            Some("textures") => referent(ty, false, "#[textures]").map(Role::Textures),
             Some("trace_payload") => referent(ty, true, "#[trace_payload]").map(Role::TracePayload),
             Some("call_data") => referent(ty, true, "#[call_data]").map(Role::CallData),
             Some("callable_data") => referent(ty, true, "#[callable_data]").map(Role::CallableData),
@@ -321,6 +333,7 @@ fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
         ("#[record]", count(|r| matches!(r, Role::Record(_)))),
         ("#[callable_data]", count(|r| matches!(r, Role::CallableData(_)))),
         ("#[attributes]", count(|r| matches!(r, Role::Attributes(_)))),
+        ("#[textures]", count(|r| matches!(r, Role::Textures(_)))),
     ] {
         if n > 1 {
             push_error(syn::Error::new(func.sig.inputs.span(), format!("at most one {what} parameter")));
@@ -533,6 +546,12 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 });
                 call_args.push(quote!(::core::ops::Deref::deref(#name)));
             }
+            Role::Textures(ty) => {
+                let (set, binding) =
+                    (unsuffixed(raykit_abi::BUFFER_TABLE_SET), unsuffixed(raykit_abi::TEXTURE_TABLE_BINDING));
+                wrapper_params.push(quote! { #[spirv(descriptor_set = #set, binding = #binding)] #name: &#ty });
+                call_args.push(quote!(#name));
+            }
             Role::SpecConstant { id, default } => {
                 let (id, default) = (unsuffixed(*id), unsuffixed(*default));
                 wrapper_params.push(quote! { #[spirv(spec_constant(id = #id, default = #default))] #name: u32 });
@@ -672,6 +691,13 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
             }
             Role::SpecConstant { id, default } => {
                 cpu_lets.push(quote! { let #name: u32 = __inv.spec_constant(#id, #default); });
+                cpu_args.push(quote!(#name));
+            }
+            Role::Textures(_) => {
+                cpu_lets.push(quote! {
+                    let #storage = ::raykit_device::TextureTable::__cpu(__inv.runtime);
+                    let #name = &#storage;
+                });
                 cpu_args.push(quote!(#name));
             }
             Role::TracePayload(ty) | Role::CallData(ty) => {

@@ -14,7 +14,6 @@
 //! programs (`glsl/`), and [`Programs::wgsl`] a WGSL twin (`wgsl/`, compiled by
 //! naga at build time), used by the tests and the benchmarks.
 
-use std::io::Write as _;
 use std::path::Path;
 
 use path_tracer_device::math::{tonemap, CameraFrame};
@@ -24,19 +23,23 @@ use raykit::glam::{UVec2, Vec3, Vec4};
 use raykit::{
     Context, DeviceBuffer, Gas, GeometryFlags, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Triangles,
 };
+pub use raykit_scene::Camera;
 
 pub use path_tracer_device as device;
+
+/// optixPathTracer's camera.
+pub const CAMERA: Camera = Camera {
+    eye: scene::CAMERA_EYE,
+    look_at: scene::CAMERA_LOOK_AT,
+    up: scene::CAMERA_UP,
+    fov_y_degrees: scene::CAMERA_FOV_Y,
+};
 
 /// The camera basis of optixPathTracer's camera for an image of `aspect` =
 /// width / height (sutil's `Camera::UVWFrame`).
 pub fn camera_frame(aspect: f32) -> CameraFrame {
-    let w = scene::CAMERA_LOOK_AT - scene::CAMERA_EYE;
-    let w_len = w.length();
-    let u = w.cross(scene::CAMERA_UP).normalize();
-    let v = u.cross(w).normalize();
-    let v_len = w_len * (0.5 * scene::CAMERA_FOV_Y.to_radians()).tan();
-    let u_len = v_len * aspect;
-    CameraFrame { eye: scene::CAMERA_EYE, u: u * u_len, v: v * v_len, w }
+    let (u, v, w) = CAMERA.uvw(aspect);
+    CameraFrame { eye: CAMERA.eye, u, v, w }
 }
 
 /// The unit geometric normal of each triangle of [`VERTICES`].
@@ -215,6 +218,14 @@ impl Renderer {
         Ok(())
     }
 
+    /// Sets the safety cap on path length (bounces; the default is
+    /// [`scene::MAX_DEPTH`], past which Russian roulette almost surely ended the
+    /// path). A small cap biases the picture dark. Starts sampling over.
+    pub fn set_max_depth(&mut self, max_depth: u32) {
+        self.params.max_depth = max_depth.max(1);
+        self.reset();
+    }
+
     /// Image size.
     pub fn size(&self) -> UVec2 {
         self.params.size
@@ -305,25 +316,16 @@ impl Image {
 
     /// Writes the tonemapped image as PNG.
     pub fn write_png(&self, path: &Path, exposure: f32) -> anyhow::Result<()> {
-        let bytes: Vec<u8> = self.tonemapped(exposure).iter().flat_map(|p| p.to_le_bytes()).collect();
-        image::save_buffer(path, &bytes, self.width, self.height, image::ExtendedColorType::Rgba8)?;
-        Ok(())
+        Ok(raykit_scene::write_png_rgba8(path, self.width, self.height, &self.tonemapped(exposure))?)
     }
 
-    /// Writes the linear radiance as a PFM file (little-endian RGB floats, rows
-    /// bottom to top, as the format wants).
+    /// Writes the linear radiance as a PFM file.
     pub fn write_pfm(&self, path: &Path) -> anyhow::Result<()> {
-        let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
-        write!(out, "PF\n{} {}\n-1.0\n", self.width, self.height)?;
-        for row in (0..self.height as usize).rev() {
-            let start = row * self.width as usize;
-            for c in &self.radiance[start..start + self.width as usize] {
-                for v in [c.x, c.y, c.z] {
-                    out.write_all(&v.to_le_bytes())?;
-                }
-            }
-        }
-        out.flush()?;
-        Ok(())
+        Ok(raykit_scene::write_pfm(path, self.width, self.height, &self.radiance)?)
+    }
+
+    /// Writes the linear radiance as an OpenEXR file (32-bit float RGB).
+    pub fn write_exr(&self, path: &Path) -> anyhow::Result<()> {
+        Ok(raykit_scene::write_exr(path, self.width, self.height, &self.radiance)?)
     }
 }

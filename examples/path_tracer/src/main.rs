@@ -1,4 +1,4 @@
-//! `cargo run --release -p path_tracer -- [--width W] [--height H] [--spp N] [--output FILE.png] [--watch]`:
+//! `cargo run --release -p path_tracer -- [--width W] [--height H] [--spp N] [--max-depth N] [--exr] [--output FILE.png] [--watch]`:
 //! renders optixPathTracer's Cornell box progressively, with a progress bar, to a
 //! tonemapped PNG and the linear radiance as PFM next to it. With `--watch` it then
 //! keeps running: each save of the device crate's sources rebuilds it, swaps the
@@ -34,6 +34,13 @@ struct Cli {
     /// The tonemapped PNG; the linear radiance goes to the same path with `.pfm`.
     #[arg(long, short, default_value = "path_tracer.png")]
     output: PathBuf,
+    /// Safety cap on path length in bounces (Russian roulette ends paths; a
+    /// small cap darkens the picture).
+    #[arg(long, default_value_t = path_tracer::device::scene::MAX_DEPTH)]
+    max_depth: u32,
+    /// Also write the linear radiance as OpenEXR, to the output path with `.exr`.
+    #[arg(long)]
+    exr: bool,
     /// Exposure applied before the tonemap.
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
@@ -75,6 +82,8 @@ fn main() -> anyhow::Result<()> {
     };
     let scene = Scene::new(&ctx)?;
     let mut renderer = Renderer::new(&ctx, &programs, &scene, cli.width, cli.height)?;
+    anyhow::ensure!(cli.max_depth > 0, "--max-depth must be at least 1");
+    renderer.set_max_depth(cli.max_depth);
 
     render(&cli, &ctx, &mut renderer)?;
     if cli.watch {
@@ -108,6 +117,9 @@ fn render(cli: &Cli, ctx: &raykit::Context, renderer: &mut Renderer) -> anyhow::
     image.write_png(&cli.output, cli.exposure)?;
     let pfm = cli.output.with_extension("pfm");
     image.write_pfm(&pfm)?;
+    if cli.exr {
+        image.write_exr(&cli.output.with_extension("exr"))?;
+    }
     println!(
         "rendered {}x{} at {} spp on {} in {seconds:.2} s ({} rays, {:.2} Mrays/s, {} programs) to {} and {}",
         cli.width,

@@ -250,7 +250,5 @@ pub fn render(ctx: &Context, name: &str, size: u32) -> anyhow::Result<Vec<u32>> 
 
 /// Writes RGBA8 pixels of a `size²` image to a PNG file.
 pub fn write_png(path: &std::path::Path, size: u32, pixels: &[u32]) -> anyhow::Result<()> {
-    let bytes: Vec<u8> = pixels.iter().flat_map(|p| p.to_le_bytes()).collect();
-    image::save_buffer(path, &bytes, size, size, image::ExtendedColorType::Rgba8)?;
-    Ok(())
+    Ok(raykit_scene::write_png_rgba8(path, size, size, pixels)?)
 }

@@ -13,49 +13,19 @@ pub const VERTICES: [Vec3; 3] = [Vec3::new(-0.5, -0.5, 0.0), Vec3::new(0.5, -0.5
 /// The miss program's background colour, as in optixTriangle.
 pub const BG_COLOR: Vec3 = Vec3::new(0.3, 0.1, 0.2);
 
-/// A pinhole camera (sutil's `Camera`).
-#[derive(Copy, Clone, Debug)]
-pub struct Camera {
-    /// Position.
-    pub eye: Vec3,
-    /// Point looked at.
-    pub look_at: Vec3,
-    /// Up direction.
-    pub up: Vec3,
-    /// Vertical field of view in degrees.
-    pub fov_y_degrees: f32,
-}
+pub use raykit_scene::Camera;
 
-impl Camera {
-    /// optixTriangle's camera.
-    pub const OPTIX_TRIANGLE: Camera = Camera {
-        eye: Vec3::new(0.0, 0.0, 2.0),
-        look_at: Vec3::ZERO,
-        up: Vec3::new(0.0, 1.0, 0.0),
-        fov_y_degrees: 45.0,
-    };
-
-    /// The `(u, v, w)` basis of sutil's `Camera::UVWFrame` for an image of `aspect`
-    /// = width / height: `w` from eye to the look-at point, `u` and `v` scaled to
-    /// half the image plane.
-    pub fn uvw(&self, aspect: f32) -> (Vec3, Vec3, Vec3) {
-        let w = self.look_at - self.eye;
-        let w_len = w.length();
-        let u = w.cross(self.up).normalize();
-        let v = u.cross(w).normalize();
-        let v_len = w_len * (0.5 * self.fov_y_degrees.to_radians()).tan();
-        let u_len = v_len * aspect;
-        (u * u_len, v * v_len, w)
-    }
-}
+/// optixTriangle's camera: at `(0, 0, 2)` looking at the origin, 45° vertical field of view.
+pub const OPTIX_TRIANGLE_CAMERA: Camera =
+    Camera { eye: Vec3::new(0.0, 0.0, 2.0), look_at: Vec3::ZERO, up: Vec3::new(0.0, 1.0, 0.0), fov_y_degrees: 45.0 };
 
 /// The launch params for a `width × height` image written to `image`.
 pub fn params(width: u32, height: u32, image: raykit::Buffer<u32>, scene: raykit::Traversable) -> Params {
-    let (u, v, w) = Camera::OPTIX_TRIANGLE.uvw(width as f32 / height as f32);
+    let (u, v, w) = OPTIX_TRIANGLE_CAMERA.uvw(width as f32 / height as f32);
     Params {
         image,
         size: UVec2::new(width, height),
-        cam_eye: Camera::OPTIX_TRIANGLE.eye,
+        cam_eye: OPTIX_TRIANGLE_CAMERA.eye,
         cam_u: u,
         cam_v: v,
         cam_w: w,
@@ -135,9 +105,7 @@ pub fn render_with(ctx: &Context, programs: &Programs, width: u32, height: u32) 
 
 /// Writes RGBA8 pixels to a PNG file.
 pub fn write_png(path: &std::path::Path, width: u32, height: u32, pixels: &[u32]) -> anyhow::Result<()> {
-    let bytes: Vec<u8> = pixels.iter().flat_map(|p| p.to_le_bytes()).collect();
-    image::save_buffer(path, &bytes, width, height, image::ExtendedColorType::Rgba8)?;
-    Ok(())
+    Ok(raykit_scene::write_png_rgba8(path, width, height, pixels)?)
 }
 
 /// The README's examples, compiled as this crate's doctests (they use both

@@ -16,6 +16,8 @@ pub enum DescriptorKind {
     UniformBuffer,
     /// An acceleration structure.
     AccelerationStructure,
+    /// A combined image sampler (`OpTypeSampledImage`).
+    CombinedImageSampler,
     /// An image, sampler or anything else in `UniformConstant`.
     Other,
 }
@@ -26,6 +28,7 @@ impl std::fmt::Display for DescriptorKind {
             DescriptorKind::StorageBuffer => "a storage buffer",
             DescriptorKind::UniformBuffer => "a uniform buffer",
             DescriptorKind::AccelerationStructure => "an acceleration structure",
+            DescriptorKind::CombinedImageSampler => "a combined image sampler",
             DescriptorKind::Other => "an image or sampler",
         })
     }
@@ -126,6 +129,9 @@ pub fn reflect_bindings(module: &Module) -> HashMap<String, Vec<DescriptorBindin
             StorageClass::Uniform => DescriptorKind::UniformBuffer,
             _ if defs.get(&ty).is_some_and(|d| d.class.opcode == Op::TypeAccelerationStructureKHR) => {
                 DescriptorKind::AccelerationStructure
+            }
+            _ if defs.get(&ty).is_some_and(|d| d.class.opcode == Op::TypeSampledImage) => {
+                DescriptorKind::CombinedImageSampler
             }
             _ => DescriptorKind::Other,
         };

@@ -734,7 +734,7 @@ fn compare(
                 }
             }
             // Handles are structs on some targets: only where they are and their size matter.
-            (Shape::Plain | Shape::Numeric(_) | Shape::Buffer | Shape::Traversable, _) => {
+            (Shape::Plain | Shape::Numeric(_) | Shape::Buffer | Shape::Texture | Shape::Traversable, _) => {
                 if member.size > field.size {
                     return Err(mismatch(format!("offset {}, size {}", member.offset, member.size)));
                 }

@@ -385,6 +385,13 @@ impl Runtime for Frame<'_, '_> {
     fn terminate_ray(&self) -> ! {
         resume_unwind(Box::new(AnyHitEnd::Terminate))
     }
+
+    fn sample_texture(&self, _texture: u32, _uv: glam::Vec2, _lod: f32) -> glam::Vec4 {
+        // No texture exists on the CPU backend (`Texture::new` refuses it), so
+        // every handle is the null one or a foreign one: as the device's null
+        // descriptor, it reads zero.
+        glam::Vec4::ZERO
+    }
 }
 
 /// Hit attributes: `ATTRIBUTE_BYTES`, aligned to 16.

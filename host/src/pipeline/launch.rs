@@ -196,10 +196,12 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 let traversable = |address| {
                     scenes.get(&address).map_or(crate::handles::TraversableState::Unknown, |s| s.check.state())
                 };
-                crate::handles::check_handles(&data.handle_fields, params_bytes, None, live, traversable)?;
+                // The CPU backend has no textures: only the null handle is one.
+                let texture = |handle| handle == 0;
+                crate::handles::check_handles(&data.handle_fields, params_bytes, None, live, texture, traversable)?;
                 for record in &sbt.checked {
                     let region = Some((record.region, record.index));
-                    crate::handles::check_handles(&record.fields, &record.data, region, live, traversable)?;
+                    crate::handles::check_handles(&record.fields, &record.data, region, live, texture, traversable)?;
                 }
                 drop(scenes);
                 let job = crate::cpu::launch::LaunchJob::new(data.clone(), records.clone(), params_bytes, dims);

@@ -172,7 +172,8 @@ impl TraceReach {
 }
 
 /// Refuses a descriptor binding that raykit's pipeline layout does not have:
-/// the buffer table (storage buffers) at set 0, binding 0, and the params uniform
+/// the buffer table (storage buffers) at set 0, binding 0, the texture table
+/// (combined image samplers) at set 0, binding 1, and the params uniform
 /// buffer at set 1, binding 0 when `delivery` says the params go there.
 fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDelivery) -> Result<()> {
     let (table_set, table_binding) = (raykit_abi::BUFFER_TABLE_SET, raykit_abi::BUFFER_TABLE_BINDING);
@@ -183,6 +184,12 @@ fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDel
             }
             "where raykit binds its buffer table (storage buffers)".to_owned()
         }
+        (s, b) if (s, b) == (table_set, raykit_abi::TEXTURE_TABLE_BINDING) => {
+            if binding.kind == DescriptorKind::CombinedImageSampler {
+                return Ok(());
+            }
+            "where raykit binds its texture table (combined image samplers)".to_owned()
+        }
         (s, b) if s == raykit_abi::PARAMS_SET && b == raykit_abi::PARAMS_BINDING => match delivery {
             ParamsDelivery::UniformBuffer { .. } if binding.kind == DescriptorKind::UniformBuffer => return Ok(()),
             ParamsDelivery::UniformBuffer { .. } => "where raykit binds the params uniform buffer".to_owned(),
@@ -190,7 +197,8 @@ fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDel
                 "but this pipeline's params travel as push constants, so set 1 is not bound".to_owned()
             }
         },
-        (s, _) if s == table_set || s == raykit_abi::PARAMS_SET => format!("but set {s} has only binding 0"),
+        (s, _) if s == table_set => format!("but set {s} has only bindings 0 (buffers) and 1 (textures)"),
+        (s, _) if s == raykit_abi::PARAMS_SET => format!("but set {s} has only binding 0"),
         (s, _) => format!("but raykit's pipeline layout has no set {s}"),
     };
     Err(Error::DescriptorBinding {

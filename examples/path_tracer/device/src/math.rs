@@ -1,84 +1,33 @@
 //! The path tracer's math, shared by the device programs and the host (the CPU
-//! reference of the tests): optixPathTracer's random numbers (`tea`, `lcg`), the
-//! orthonormal basis and cosine-weighted hemisphere sampling, the Lambertian BRDF,
-//! the area light, the camera ray, and one path's state machine ([`PathState`]).
+//! reference of the tests): the Lambertian BRDF, the area light, the camera ray,
+//! and one path's state machine ([`PathState`]). Random numbers (optixPathTracer's
+//! `tea` seeds and `lcg` stream), the orthonormal basis and cosine-weighted
+//! hemisphere sampling come from [`raykit_device::sampling`], the sRGB transfer
+//! from [`raykit_device::color`].
 //!
 //! Everything here compiles for SPIR-V (rust-gpu) and for the host. Integer
 //! arithmetic wraps explicitly, so the host's debug builds compute the same bits
 //! as the device.
 
+pub use raykit_device::color::linear_to_srgb;
 use raykit_device::glam::{UVec2, Vec3};
-pub use raykit_device::math::{powf, sin_cos, sqrt};
-
-/// π.
-pub const PI: f32 = core::f32::consts::PI;
+pub use raykit_device::sampling::{cosine_sample_hemisphere, tea4, Lcg, Onb, PI};
 
 /// `t_min` of every ray and the gap left before the light on shadow rays
 /// (optixPathTracer's 0.01, in the scene's millimetres).
 pub const RAY_EPSILON: f32 = 0.01;
 
-/// Bounces after which Russian roulette may end a path.
+/// Bounces after which Russian roulette may end a path. Roulette alone ends
+/// paths (an unbiased estimate); [`crate::scene::MAX_DEPTH`] is only a safety cap.
 pub const ROULETTE_AFTER: u32 = 2;
 
 /// The largest survival probability of Russian roulette.
 pub const ROULETTE_MAX_SURVIVAL: f32 = 0.95;
 
-/// The Tiny Encryption Algorithm with 4 rounds (sutil's `tea<4>`): a seed from
-/// two integers (pixel index and launch index).
-pub fn tea4(val0: u32, val1: u32) -> u32 {
-    let (mut v0, mut v1, mut s0) = (val0, val1, 0u32);
-    let mut n = 0;
-    while n < 4 {
-        s0 = s0.wrapping_add(0x9e37_79b9);
-        v0 = v0.wrapping_add(
-            (v1 << 4).wrapping_add(0xa341_316c) ^ v1.wrapping_add(s0) ^ (v1 >> 5).wrapping_add(0xc801_3ea4),
-        );
-        v1 = v1.wrapping_add(
-            (v0 << 4).wrapping_add(0xad90_777d) ^ v0.wrapping_add(s0) ^ (v0 >> 5).wrapping_add(0x7e95_761e),
-        );
-        n += 1;
-    }
-    v0
-}
-
-/// sutil's linear congruential generator: advances `state`, returns 24 bits.
-pub fn lcg(state: &mut u32) -> u32 {
-    *state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-    *state & 0x00ff_ffff
-}
-
-/// A uniform random number in `[0, 1)` (sutil's `rnd`).
-pub fn rnd(state: &mut u32) -> f32 {
-    lcg(state) as f32 / 16_777_216.0
-}
-
-/// The seed of pixel `pixel` (linear index) in launch `subframe`
-/// (optixPathTracer: `tea<4>(idx.y * w + idx.x, subframe_index)`).
-pub fn pixel_seed(pixel: u32, subframe: u32) -> u32 {
-    tea4(pixel, subframe)
-}
-
-/// A cosine-weighted direction on the hemisphere around +z from two uniform
-/// numbers (optixPathTracer's `cosine_sample_hemisphere`): pdf `cos θ / π`.
-pub fn cosine_sample_hemisphere(u1: f32, u2: f32) -> Vec3 {
-    let r = sqrt(u1);
-    let (s, c) = sin_cos(2.0 * PI * u2);
-    let x = r * c;
-    let y = r * s;
-    Vec3::new(x, y, sqrt((1.0 - x * x - y * y).max(0.0)))
-}
-
-/// `p` (in the frame where `normal` is +z) turned into world space, with
-/// optixPathTracer's orthonormal basis (`Onb`).
-pub fn onb_to_world(normal: Vec3, p: Vec3) -> Vec3 {
-    let binormal = if normal.x.abs() > normal.z.abs() {
-        Vec3::new(-normal.y, normal.x, 0.0)
-    } else {
-        Vec3::new(0.0, -normal.z, normal.y)
-    };
-    let binormal = binormal.normalize();
-    let tangent = binormal.cross(normal);
-    p.x * tangent + p.y * binormal + p.z * normal
+/// The random stream of pixel `pixel` (linear index) in launch `subframe`
+/// (optixPathTracer: `tea<4>(idx.y * w + idx.x, subframe_index)` seeding `lcg`).
+pub fn pixel_seed(pixel: u32, subframe: u32) -> Lcg {
+    Lcg::new(tea4(pixel, subframe))
 }
 
 /// The Lambertian BRDF, `albedo / π`.
@@ -214,9 +163,9 @@ pub struct PathState {
 
 impl PathState {
     /// The camera ray of pixel `index`, jittered with two numbers from `seed`.
-    pub fn camera(camera: &CameraFrame, index: UVec2, dims: UVec2, seed: &mut u32) -> PathState {
-        let jx = rnd(seed);
-        let jy = rnd(seed);
+    pub fn camera(camera: &CameraFrame, index: UVec2, dims: UVec2, seed: &mut Lcg) -> PathState {
+        let jx = seed.next_f32();
+        let jy = seed.next_f32();
         PathState {
             origin: camera.eye,
             direction: camera.direction(index, dims, jx, jy),
@@ -231,7 +180,7 @@ impl PathState {
     /// samples the light (next-event estimation, returned as a shadow ray to
     /// trace), picks the next direction (cosine-weighted) and plays Russian
     /// roulette. Uses five numbers from `seed` per hit.
-    pub fn shade(&mut self, hit: &HitInfo, light: &Light, seed: &mut u32, max_depth: u32) -> ShadowRay {
+    pub fn shade(&mut self, hit: &HitInfo, light: &Light, seed: &mut Lcg, max_depth: u32) -> ShadowRay {
         let mut shadow = ShadowRay { origin: Vec3::ZERO, direction: Vec3::Z, t_max: 0.0, contribution: Vec3::ZERO };
         if hit.t < 0.0 {
             self.done = true;
@@ -246,7 +195,7 @@ impl PathState {
         }
 
         // Next-event estimation: one point on the light.
-        let light_point = light.point(rnd(seed), rnd(seed));
+        let light_point = light.point(seed.next_f32(), seed.next_f32());
         let to_light = light_point - p;
         let distance = to_light.length();
         let l = to_light / distance;
@@ -262,13 +211,13 @@ impl PathState {
         }
 
         // Bounce: cosine-weighted sampling makes BRDF · cos / pdf = albedo.
-        let local = cosine_sample_hemisphere(rnd(seed), rnd(seed));
+        let local = cosine_sample_hemisphere(seed.next_f32(), seed.next_f32());
         self.origin = p;
-        self.direction = onb_to_world(n, local);
+        self.direction = Onb::new(n).to_world(local);
         self.throughput *= hit.albedo;
         self.depth += 1;
 
-        let survive = rnd(seed);
+        let survive = seed.next_f32();
         if self.depth >= max_depth {
             self.done = true;
         } else if self.depth > ROULETTE_AFTER {
@@ -280,15 +229,6 @@ impl PathState {
             }
         }
         shadow
-    }
-}
-
-/// Linear → sRGB transfer of one channel in `[0, 1]`.
-pub fn linear_to_srgb(c: f32) -> f32 {
-    if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * powf(c, 1.0 / 2.4) - 0.055
     }
 }
 
@@ -308,27 +248,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn tea_and_lcg_are_deterministic_and_spread() {
-        assert_eq!(tea4(12, 3), tea4(12, 3));
-        assert_ne!(tea4(12, 3), tea4(13, 3));
-        assert_ne!(tea4(12, 3), tea4(12, 4));
-        let mut s = 1u32;
-        assert_eq!(lcg(&mut s), (1_664_525u32 + 1_013_904_223) & 0x00ff_ffff);
+    fn pixel_streams_are_deterministic_and_spread() {
+        assert_eq!(pixel_seed(12, 3), pixel_seed(12, 3));
+        assert_ne!(pixel_seed(12, 3), pixel_seed(13, 3));
+        assert_ne!(pixel_seed(12, 3), pixel_seed(12, 4));
         let mut seed = pixel_seed(5, 0);
-        let mean = (0..10_000).map(|_| rnd(&mut seed) as f64).sum::<f64>() / 10_000.0;
+        let mean = (0..10_000).map(|_| seed.next_f32() as f64).sum::<f64>() / 10_000.0;
         assert!((mean - 0.5).abs() < 0.02, "{mean}");
-    }
-
-    #[test]
-    fn cosine_samples_lie_on_the_upper_unit_hemisphere() {
-        let mut seed = pixel_seed(7, 3);
-        for _ in 0..1000 {
-            let d = cosine_sample_hemisphere(rnd(&mut seed), rnd(&mut seed));
-            assert!((d.length() - 1.0).abs() < 1e-4 && d.z >= 0.0, "{d:?}");
-            let n = Vec3::new(0.3, -0.5, 0.8).normalize();
-            let w = onb_to_world(n, d);
-            assert!(w.dot(n) >= -1e-5 && (w.length() - 1.0).abs() < 1e-4);
-        }
     }
 
     #[test]
@@ -342,7 +268,7 @@ mod tests {
             done: false,
         };
         let light = Light { corner: Vec3::Y, v1: Vec3::X, v2: Vec3::Z, emission: Vec3::ONE };
-        let mut seed = 1;
+        let mut seed = Lcg::new(1);
         let shadow = state.shade(&HitInfo::MISS, &light, &mut seed, 8);
         assert!(state.done && state.radiance == Vec3::ZERO && shadow.contribution == Vec3::ZERO);
     }

@@ -50,10 +50,7 @@ pub fn ortho_ray(index: UVec2, size: UVec2) -> (Vec3, Vec3) {
 }
 
 /// Quantises a colour to RGBA8 (no sRGB: tests compare exact values).
-pub fn pack(c: Vec3) -> u32 {
-    let q = |v: f32| -> u32 { (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u32 };
-    q(c.x) | (q(c.y) << 8) | (q(c.z) << 16) | (255 << 24)
-}
+pub use raykit_device::color::pack_unorm8 as pack;
 
 /// The nearest `t ≥ t_min` where the ray meets the sphere `(centre, radius)`.
 pub fn ray_sphere(origin: Vec3, dir: Vec3, sphere: Vec4, t_min: f32) -> Option<f32> {

@@ -9,7 +9,6 @@
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
-use raykit_device::math::powf;
 use raykit_device::{closest_hit, miss, raygen, Buffer, ClosestHit, LaunchParams, Miss, RayType, Raygen, Traversable};
 
 /// Launch params, as in optixTriangle's `Params`: output image, its size, the camera
@@ -64,21 +63,9 @@ pub fn camera_ray(index: UVec2, dims: UVec2, params: &Params) -> (Vec3, Vec3) {
     (params.cam_eye, direction)
 }
 
-/// Linear → sRGB transfer function of one channel in `[0, 1]`.
-pub fn linear_to_srgb(c: f32) -> f32 {
-    if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * powf(c, 1.0 / 2.4) - 0.055
-    }
-}
-
 /// sutil's `make_color`: clamp, sRGB-encode, quantise to 8 bits, pack as RGBA8
 /// (red in the lowest byte, alpha 255).
-pub fn make_color(c: Vec3) -> u32 {
-    let q = |v: f32| -> u32 { (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0 + 0.5) as u32 };
-    q(c.x) | (q(c.y) << 8) | (q(c.z) << 16) | (255 << 24)
-}
+pub use raykit_device::color::pack_srgb8 as make_color;
 
 /// The closest-hit colour: `(1 - u - v, u, v)` from the barycentrics.
 pub fn barycentric_color(b: Vec2) -> Vec3 {

@@ -1,0 +1,396 @@
+//! The glTF renderer's device programs and the types the host shares with them.
+//!
+//! Each glTF primitive is one geometry of its mesh's GAS, and each (instance,
+//! primitive) pair has a hit record ([`GeometryRecord`]) with its vertex
+//! buffers, its material's index and base-colour texture. Closest-hit
+//! interpolates the texture coordinates and the shading normal; any-hit, in the
+//! hit groups of alpha-masked materials, ignores hits where the base colour's
+//! alpha is below the cutoff (through a coverage bitmask of the texture). Raygen writes, per pixel, the primary hit's
+//! material index and texture coordinates ([`PrimaryHit`]).
+#![cfg_attr(target_arch = "spirv", no_std)]
+
+pub mod bsdf;
+pub mod materials;
+
+use raykit_device::glam::{UVec2, Vec2, Vec3, Vec4};
+use raykit_device::{
+    any_hit, closest_hit, direct_callable, miss, raygen, AnyHit, Buffer, ClosestHit, DirectCallable, LaunchParams,
+    Miss, Ray, RayType, Raygen, SampleTexture, SbtRecordData, Texture2D, TextureTable, Traversable,
+};
+
+/// Launch params.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
+pub struct Params {
+    /// Per pixel: material index (as f32, −1 for a miss), u, v, hit distance.
+    pub out: Buffer<Vec4>,
+    /// Image size.
+    pub size: UVec2,
+    /// Per pixel: the primary hit's base colour (linear RGB, factor × texture) and 1.
+    pub color: Buffer<Vec4>,
+    /// Camera position.
+    pub cam_eye: Vec3,
+    /// Camera right, scaled to half the image-plane width.
+    pub cam_u: Vec3,
+    /// Camera up, scaled to half the image-plane height.
+    pub cam_v: Vec3,
+    /// Camera forward, to the image-plane centre.
+    pub cam_w: Vec3,
+    /// The scene.
+    pub scene: Traversable,
+}
+
+/// The hit record of one primitive of one instance.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Zeroable, SbtRecordData)]
+pub struct GeometryRecord {
+    /// Three vertex indices per triangle.
+    pub indices: Buffer<u32>,
+    /// Texture coordinates per vertex.
+    pub uvs: Buffer<Vec2>,
+    /// Normals per vertex (object space).
+    pub normals: Buffer<Vec3>,
+    /// The material's index in the scene.
+    pub material: u32,
+    /// The callable `ch_callables` calls for this geometry's material (an index
+    /// into the SBT's callable region).
+    pub callable: u32,
+    /// Base-colour texture (the null handle for none).
+    pub base_color: Texture2D,
+    /// Base-colour factor (linear RGB).
+    pub base_color_factor: Vec3,
+    /// Metallic (blue) and roughness (green) texture, linear (the null handle for none).
+    pub metallic_roughness: Texture2D,
+    /// Metallic factor.
+    pub metallic: f32,
+    /// Roughness factor.
+    pub roughness: f32,
+    /// Emissive texture, sRGB (the null handle for none).
+    pub emissive_texture: Texture2D,
+    /// Emissive factor (linear RGB).
+    pub emissive: Vec3,
+    /// A masked material's coverage: one bit per texel of its base-colour texture
+    /// (alpha × the factor's alpha ≥ the cutoff), row-major, 32 texels per word.
+    pub coverage: Buffer<u32>,
+    /// The coverage's width in texels.
+    pub coverage_width: u32,
+    /// The coverage's height in texels.
+    pub coverage_height: u32,
+}
+
+/// What closest-hit reports to raygen.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct PrimaryHit {
+    /// Texture coordinates.
+    pub uv: Vec2,
+    /// Hit distance; negative for a miss.
+    pub t: f32,
+    /// The material's index.
+    pub material: u32,
+    /// Shading normal (world space, unnormalised interpolation normalised).
+    pub normal: Vec3,
+    /// Base colour (linear RGB, factor × texture).
+    pub color: Vec3,
+    /// Metallic (factor × texture).
+    pub metallic: f32,
+    /// Emitted radiance (factor × texture).
+    pub emission: Vec3,
+    /// Roughness (factor × texture).
+    pub roughness: f32,
+}
+
+/// Primary rays.
+pub struct Primary;
+impl RayType for Primary {
+    type Payload = PrimaryHit;
+}
+
+/// The texture coordinates at barycentrics `b` of a triangle with vertex coordinates `t`.
+pub fn interpolate2(t: [Vec2; 3], b: Vec2) -> Vec2 {
+    t[0] * (1.0 - b.x - b.y) + t[1] * b.x + t[2] * b.y
+}
+
+/// The texel index (nearest, repeat) of texture coordinates `uv` in a `width × height` texture.
+pub fn texel_index(uv: Vec2, width: u32, height: u32) -> u32 {
+    let wrap = |c: f32, n: u32| {
+        let x = c * n as f32;
+        let t = x as i32;
+        let t = if (t as f32) > x { t - 1 } else { t };
+        let m = t % n as i32;
+        (if m < 0 { m + n as i32 } else { m }) as u32
+    };
+    wrap(uv.y, height) * width + wrap(uv.x, width)
+}
+
+/// The vertex attributes of triangle `primitive` of `record`'s geometry, read with `load`.
+fn triangle_uvs(load_index: impl Fn(u32) -> u32, load_uv: impl Fn(u32) -> Vec2, primitive: u32) -> [Vec2; 3] {
+    let base = primitive * 3;
+    [load_uv(load_index(base)), load_uv(load_index(base + 1)), load_uv(load_index(base + 2))]
+}
+
+#[raygen]
+fn rg(ctx: &mut Raygen, #[params] p: &Params, #[payload] hit: &mut PrimaryHit) {
+    let index = ctx.launch_index().truncate();
+    let d = 2.0 * (index.as_vec2() + 0.5) / p.size.as_vec2() - 1.0;
+    let direction = (d.x * p.cam_u - d.y * p.cam_v + p.cam_w).normalize();
+    *hit = PrimaryHit { t: -1.0, ..Default::default() };
+    ctx.trace::<Primary>(p.scene, Ray::new(p.cam_eye, direction).with_interval(1e-4, 1e16), hit);
+    let material = if hit.t < 0.0 { -1.0 } else { hit.material as f32 };
+    let pixel = ctx.launch_linear_index();
+    ctx.store(p.out, pixel, Vec4::new(material, hit.uv.x, hit.uv.y, hit.t));
+    ctx.store(p.color, pixel, hit.color.extend(1.0));
+}
+
+#[miss(ray = Primary)]
+fn ms(_ctx: &mut Miss, #[payload] hit: &mut PrimaryHit) {
+    hit.t = -1.0;
+}
+
+#[closest_hit(ray = Primary)]
+fn ch(
+    ctx: &mut ClosestHit,
+    #[record] g: &GeometryRecord,
+    #[textures] textures: &TextureTable,
+    #[payload] hit: &mut PrimaryHit,
+) {
+    let primitive = ctx.primitive_index();
+    let (indices, uvs, normals) = (g.indices, g.uvs, g.normals);
+    let uv = interpolate2(triangle_uvs(|i| ctx.load(indices, i), |v| ctx.load(uvs, v), primitive), ctx.barycentrics());
+    let base = primitive * 3;
+    let b = ctx.barycentrics();
+    let n = ctx.load(normals, ctx.load(indices, base)) * (1.0 - b.x - b.y)
+        + ctx.load(normals, ctx.load(indices, base + 1)) * b.x
+        + ctx.load(normals, ctx.load(indices, base + 2)) * b.y;
+    hit.normal = raykit_device::sampling::transform_normal_to_world(&ctx.world_to_object(), n);
+    hit.uv = uv;
+    hit.t = ctx.hit_t();
+    hit.material = g.material;
+    let sample = |t: Texture2D| if t == Texture2D::NULL { Vec4::ONE } else { textures.sample_lod(t, uv, 0.0) };
+    hit.color = sample(g.base_color).truncate() * g.base_color_factor;
+    let mr = sample(g.metallic_roughness);
+    hit.metallic = mr.z * g.metallic;
+    hit.roughness = mr.y * g.roughness;
+    hit.emission = sample(g.emissive_texture).truncate() * g.emissive;
+}
+
+#[any_hit(ray = Primary)]
+fn ah_mask(
+    ctx: &mut AnyHit,
+    #[record] g: &GeometryRecord,
+    #[attributes] barycentrics: &Vec2,
+    #[payload] _hit: &mut PrimaryHit,
+) {
+    let (indices, uvs) = (g.indices, g.uvs);
+    let uv = interpolate2(
+        triangle_uvs(|i| ctx.load(indices, i), |v| ctx.load(uvs, v), ctx.primitive_index()),
+        *barycentrics,
+    );
+    // A lookup in the coverage bits rather than a filtered texture sample: exact (nearest,
+    // repeat), and cheaper in the program that runs most often.
+    let texel = texel_index(uv, g.coverage_width, g.coverage_height);
+    let word = ctx.load(g.coverage, texel / 32);
+    if (word >> (texel % 32)) & 1 == 0 {
+        ctx.ignore_intersection();
+    }
+}
+
+/// Shadow rays: the first hit ends them (any-hit programs of masked materials
+/// still run) and closest-hit is skipped, so the payload's `t` stays as the
+/// caller set it unless the miss program runs (`t = -1`: the light is visible).
+pub struct Shadow;
+impl RayType for Shadow {
+    type Payload = PrimaryHit;
+    const FLAGS: raykit_device::RayFlags =
+        raykit_device::RayFlags::TERMINATE_ON_FIRST_HIT.union(raykit_device::RayFlags::SKIP_CLOSEST_HIT_SHADER);
+}
+
+/// Launch params of the path tracer (the `rg_path` raygen, [`RG_PATH`]).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
+pub struct TraceParams {
+    /// Per pixel: the sum of the radiance samples so far (xyz) and of the rays traced (w).
+    pub accum: Buffer<Vec4>,
+    /// The environment map's CDFs (`raykit_scene::EnvironmentMap::cdf`).
+    pub env_cdf: Buffer<f32>,
+    /// Image size.
+    pub size: UVec2,
+    /// The environment map (equirectangular, linear radiance).
+    pub env: Texture2D,
+    /// The environment map's width.
+    pub env_width: u32,
+    /// The environment map's height.
+    pub env_height: u32,
+    /// Index of this launch in the progressive sequence (seeds the random numbers).
+    pub subframe: u32,
+    /// Paths per pixel traced by this launch.
+    pub samples: u32,
+    /// Safety cap on bounces (Russian roulette ends paths).
+    pub max_depth: u32,
+    /// Camera position.
+    pub cam_eye: Vec3,
+    /// Camera right, scaled to half the image-plane width.
+    pub cam_u: Vec3,
+    /// Camera up, scaled to half the image-plane height.
+    pub cam_v: Vec3,
+    /// Camera forward, to the image-plane centre.
+    pub cam_w: Vec3,
+    /// The scene.
+    pub scene: Traversable,
+}
+
+/// Offset of secondary rays from the surface.
+pub const RAY_OFFSET: f32 = 1e-3;
+
+/// The path tracer: per path, next-event estimation of the environment map and
+/// BSDF sampling, weighted by the power heuristic, and Russian roulette.
+#[raygen]
+fn rg_path(
+    ctx: &mut Raygen,
+    #[params] p: &TraceParams,
+    #[textures] textures: &TextureTable,
+    #[payload] hit: &mut PrimaryHit,
+    #[payload] shadow: &mut PrimaryHit,
+) {
+    use raykit_device::environment::{environment_pdf, equirect_uv, sample_environment};
+    use raykit_device::sampling::{power_heuristic, Onb, Pcg};
+    let index = ctx.launch_index().truncate();
+    let pixel = ctx.launch_linear_index();
+    let (cdf, env) = (p.env_cdf, p.env);
+    let (ew, eh) = (p.env_width, p.env_height);
+    let mut sum = Vec3::ZERO;
+    let mut rays = 0u32;
+    let mut sample = 0;
+    while sample < p.samples {
+        let mut rng = Pcg::new(pixel, p.subframe.wrapping_mul(4096).wrapping_add(sample));
+        let jitter = rng.next_vec2();
+        let d = 2.0 * (index.as_vec2() + jitter) / p.size.as_vec2() - 1.0;
+        let mut origin = p.cam_eye;
+        let mut dir = (d.x * p.cam_u - d.y * p.cam_v + p.cam_w).normalize();
+        let mut throughput = Vec3::ONE;
+        let mut radiance = Vec3::ZERO;
+        let mut bsdf_pdf = 0.0f32;
+        let mut depth = 0;
+        while depth < p.max_depth {
+            *hit = PrimaryHit { t: -1.0, ..Default::default() };
+            ctx.trace::<Primary>(p.scene, Ray::new(origin, dir).with_interval(1e-4, 1e16), hit);
+            rays += 1;
+            if hit.t < 0.0 {
+                let light = textures.sample_lod(env, equirect_uv(dir), 0.0).truncate();
+                let weight = if depth == 0 {
+                    1.0
+                } else {
+                    power_heuristic(bsdf_pdf, environment_pdf(ew, eh, |k| ctx.load(cdf, k), dir))
+                };
+                radiance += throughput * light * weight;
+                break;
+            }
+            radiance += throughput * hit.emission;
+            let n = if hit.normal.dot(dir) > 0.0 { -hit.normal } else { hit.normal };
+            let position = origin + hit.t * dir + n * RAY_OFFSET;
+            let frame = Onb::new(n);
+            let v = frame.to_local(-dir);
+            let material = bsdf::SurfaceMaterial {
+                base_color: hit.color,
+                metallic: hit.metallic.clamp(0.0, 1.0),
+                roughness: hit.roughness.clamp(0.0, 1.0),
+            };
+            // Next-event estimation: a direction of the environment map.
+            let (u1, u2) = (rng.next_f32(), rng.next_f32());
+            let s = sample_environment(ew, eh, |k| ctx.load(cdf, k), u1, u2);
+            let l = frame.to_local(s.direction);
+            let f = bsdf::eval(&material, v, l);
+            if s.pdf > 0.0 && f != Vec3::ZERO {
+                shadow.t = 1.0;
+                ctx.trace::<Shadow>(p.scene, Ray::new(position, s.direction).with_interval(0.0, 1e16), shadow);
+                rays += 1;
+                if shadow.t < 0.0 {
+                    let light = textures.sample_lod(env, s.uv, 0.0).truncate();
+                    let weight = power_heuristic(s.pdf, bsdf::pdf(&material, v, l));
+                    radiance += throughput * f * light * (weight / s.pdf);
+                }
+            }
+            // The next direction, from the BSDF.
+            let (u0, u1, u2) = (rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let next = bsdf::sample(&material, v, u0, u1, u2);
+            if next.pdf <= 0.0 || next.weight == Vec3::ZERO {
+                break;
+            }
+            throughput *= next.weight;
+            bsdf_pdf = next.pdf;
+            origin = position;
+            dir = frame.to_world(next.l).normalize();
+            depth += 1;
+            if depth >= 3 {
+                let q = throughput.max_element().min(0.95);
+                if rng.next_f32() >= q {
+                    break;
+                }
+                throughput /= q;
+            }
+        }
+        sum += radiance;
+        sample += 1;
+    }
+    let previous = if p.subframe == 0 { Vec4::ZERO } else { ctx.load(p.accum, pixel) };
+    ctx.store(p.accum, pixel, previous + sum.extend(rays as f32));
+}
+
+/// The primary hit of `g` at this closest-hit: texture coordinates, distance,
+/// material (the colour is the caller's).
+fn primary_surface(ctx: &ClosestHit, g: &GeometryRecord, hit: &mut PrimaryHit) {
+    let (indices, uvs) = (g.indices, g.uvs);
+    hit.uv = interpolate2(
+        triangle_uvs(|i| ctx.load(indices, i), |v| ctx.load(uvs, v), ctx.primitive_index()),
+        ctx.barycentrics(),
+    );
+    hit.t = ctx.hit_t();
+    hit.material = g.material;
+}
+
+/// Callables mode: one closest-hit calls the material's callable from its record.
+#[closest_hit(ray = Primary)]
+fn ch_callables(
+    ctx: &mut ClosestHit,
+    #[record] g: &GeometryRecord,
+    #[payload] hit: &mut PrimaryHit,
+    #[call_data] call: &mut materials::ShadeCall,
+) {
+    primary_surface(ctx, g, hit);
+    *call = materials::ShadeCall { uv: hit.uv, ..Default::default() };
+    ctx.call(g.callable, call);
+    hit.color = call.color;
+}
+
+macro_rules! material_programs {
+    ($($material:ident => $callable:ident $CALLABLE:ident, $inlined:ident $INLINED:ident;)*) => {
+        $(
+            #[direct_callable]
+            fn $callable(_ctx: &mut DirectCallable, #[callable_data] call: &mut materials::ShadeCall) {
+                call.color = materials::shade::<materials::$material>(call.uv);
+            }
+
+            #[closest_hit(ray = Primary)]
+            fn $inlined(ctx: &mut ClosestHit, #[record] g: &GeometryRecord, #[payload] hit: &mut PrimaryHit) {
+                primary_surface(ctx, g, hit);
+                hit.color = materials::shade::<materials::$material>(hit.uv);
+            }
+        )*
+
+        /// Callables mode: the material callables, in material order.
+        pub const MATERIAL_CALLABLES: [raykit_device::EntryPoint; materials::MATERIAL_COUNT as usize] = [$($CALLABLE),*];
+        /// Inlined mode: the closest-hit of each material, in material order.
+        pub const MATERIAL_CLOSEST_HITS: [raykit_device::EntryPoint; materials::MATERIAL_COUNT as usize] = [$($INLINED),*];
+    };
+}
+
+material_programs! {
+    Checks => mat_checks MAT_CHECKS, ch_mat_checks CH_MAT_CHECKS;
+    Stripes => mat_stripes MAT_STRIPES, ch_mat_stripes CH_MAT_STRIPES;
+    Gradient => mat_gradient MAT_GRADIENT, ch_mat_gradient CH_MAT_GRADIENT;
+    Rings => mat_rings MAT_RINGS, ch_mat_rings CH_MAT_RINGS;
+    Dots => mat_dots MAT_DOTS, ch_mat_dots CH_MAT_DOTS;
+    Bands => mat_bands MAT_BANDS, ch_mat_bands CH_MAT_BANDS;
+    Waves => mat_waves MAT_WAVES, ch_mat_waves CH_MAT_WAVES;
+    Grid => mat_grid MAT_GRID, ch_mat_grid CH_MAT_GRID;
+}

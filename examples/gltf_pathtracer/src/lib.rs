@@ -1,0 +1,502 @@
+//! glTF scenes on raykit: the host half.
+//!
+//! [`GpuScene::new`] turns a [`GltfScene`] into acceleration structures and
+//! records: one GAS per mesh with a geometry per primitive (opaque unless its
+//! material is alpha-masked), one IAS instance per mesh node with its world
+//! transform, vertex buffers per primitive, a texture per (image, colour space)
+//! the materials use. [`Renderer`] links the programs of `gltf-pathtracer-device`
+//! and lays out one hit record per (instance, primitive), reached through each
+//! instance's SBT offset; [`Renderer::primary_hits`] renders each pixel's
+//! primary hit (material index and texture coordinates).
+
+use std::collections::HashMap;
+
+use gltf_pathtracer_device::{GeometryRecord, Params, Primary, TraceParams};
+use raykit::glam::{Affine3A, UVec2, Vec2, Vec3, Vec4};
+use raykit::{
+    AddressMode, Context, DeviceBuffer, Filter, Gas, GeometryFlags, Ias, Instance, LinkOptions, Mipmaps, Module,
+    Pipeline, ProgramGroup, SamplerOptions, Sbt, Texture, TextureFormat, Triangles,
+};
+use raykit_scene::gltf::{AlphaMode, GltfScene};
+use raykit_scene::{Camera, EnvironmentMap};
+
+pub use gltf_pathtracer_device as device;
+
+pub mod demo_scene;
+
+/// A primitive's device buffers.
+struct PrimitiveBuffers {
+    indices: DeviceBuffer<u32>,
+    uvs: DeviceBuffer<Vec2>,
+    normals: DeviceBuffer<Vec3>,
+    coverage: DeviceBuffer<u32>,
+}
+
+/// The coverage bits of a masked material: per texel of its base-colour image, whether
+/// alpha × `factor` reaches `cutoff` (one texel of `factor` alone without an image).
+fn coverage_bits(scene: &GltfScene, image: Option<usize>, factor: f32, cutoff: f32) -> (Vec<u32>, u32, u32) {
+    let Some(img) = image.map(|i| &scene.images[i]) else {
+        return (vec![if factor >= cutoff { u32::MAX } else { 0 }], 1, 1);
+    };
+    let texels = (img.width * img.height) as usize;
+    let mut bits = vec![0u32; texels.div_ceil(32)];
+    for t in 0..texels {
+        if img.rgba8[t * 4 + 3] as f32 / 255.0 * factor >= cutoff {
+            bits[t / 32] |= 1 << (t % 32);
+        }
+    }
+    (bits, img.width, img.height)
+}
+
+/// A glTF scene on the device.
+pub struct GpuScene {
+    /// The TLAS.
+    pub ias: Ias,
+    /// The hit record of each (instance, primitive), in SBT order.
+    pub records: Vec<GeometryRecord>,
+    /// Whether each record's material is alpha-masked.
+    pub masked: Vec<bool>,
+    _buffers: Vec<PrimitiveBuffers>,
+    _textures: HashMap<(usize, bool), Texture>,
+}
+
+impl std::fmt::Debug for GpuScene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuScene").field("records", &self.records.len()).finish()
+    }
+}
+
+/// How the renderer samples material textures: nearest texel, no mip levels, repeat (alpha masks cut
+/// exactly along texel edges).
+pub const MATERIAL_SAMPLER: SamplerOptions = SamplerOptions {
+    filter: Filter::Nearest,
+    mip_filter: Filter::Nearest,
+    address_u: AddressMode::Repeat,
+    address_v: AddressMode::Repeat,
+};
+
+impl GpuScene {
+    /// Uploads `scene`.
+    pub fn new(ctx: &Context, scene: &GltfScene) -> anyhow::Result<GpuScene> {
+        let mut textures = HashMap::new();
+        let mut texture = |image: usize, srgb: bool| -> anyhow::Result<raykit::Texture2D> {
+            if let Some(t) = textures.get(&(image, srgb)) {
+                return Ok(Texture::handle(t));
+            }
+            let img = &scene.images[image];
+            let format = if srgb { TextureFormat::Rgba8Srgb } else { TextureFormat::Rgba8Unorm };
+            let t = Texture::new(ctx, format, img.width, img.height, &img.rgba8, Mipmaps::One, MATERIAL_SAMPLER)?;
+            let handle = t.handle();
+            textures.insert((image, srgb), t);
+            Ok(handle)
+        };
+        let mut gases = Vec::new();
+        let mut buffers = Vec::new();
+        // Per mesh: the records of its primitives (without the instance).
+        let mut mesh_records: Vec<Vec<(GeometryRecord, bool)>> = Vec::new();
+        for mesh in &scene.meshes {
+            let mut builder = Gas::builder();
+            let mut records = Vec::new();
+            for p in &mesh.primitives {
+                let material = &scene.materials[p.material];
+                let masked = matches!(material.alpha, AlphaMode::Mask(_));
+                let flags = if masked { GeometryFlags::NONE } else { GeometryFlags::OPAQUE };
+                builder = builder.triangles(Triangles::new(&p.positions).indices_u32(&p.indices).flags(flags));
+                let (coverage, coverage_width, coverage_height) = match material.alpha {
+                    AlphaMode::Mask(cutoff) => {
+                        coverage_bits(scene, material.base_color_texture, material.base_color.w, cutoff)
+                    }
+                    _ => (vec![u32::MAX], 1, 1),
+                };
+                let b = PrimitiveBuffers {
+                    indices: ctx.buffer_from(&p.indices)?,
+                    uvs: ctx.buffer_from(&p.uvs)?,
+                    normals: ctx.buffer_from(&p.normals)?,
+                    coverage: ctx.buffer_from(&coverage)?,
+                };
+                let mut optional = |image: Option<usize>, srgb: bool| match image {
+                    Some(i) => texture(i, srgb),
+                    None => Ok(raykit::Texture2D::NULL),
+                };
+                let base_color = optional(material.base_color_texture, true)?;
+                let metallic_roughness = optional(material.metallic_roughness_texture, false)?;
+                let emissive_texture = optional(material.emissive_texture, true)?;
+                records.push((
+                    GeometryRecord {
+                        indices: b.indices.handle(),
+                        uvs: b.uvs.handle(),
+                        normals: b.normals.handle(),
+                        material: p.material as u32,
+                        callable: 0,
+                        base_color,
+                        base_color_factor: material.base_color.truncate(),
+                        metallic_roughness,
+                        metallic: material.metallic,
+                        roughness: material.roughness,
+                        emissive_texture,
+                        emissive: material.emissive,
+                        coverage: b.coverage.handle(),
+                        coverage_width,
+                        coverage_height,
+                    },
+                    masked,
+                ));
+                buffers.push(b);
+            }
+            gases.push(builder.build(ctx)?);
+            mesh_records.push(records);
+        }
+        let mut instances = Vec::new();
+        let mut records = Vec::new();
+        let mut masked = Vec::new();
+        for (i, inst) in scene.instances.iter().enumerate() {
+            let offset = records.len() as u32;
+            let transform = Affine3A::from_mat4(inst.transform);
+            instances
+                .push(Instance::new(&gases[inst.mesh]).transform(transform).custom_index(i as u32).sbt_offset(offset));
+            for &(r, m) in &mesh_records[inst.mesh] {
+                records.push(r);
+                masked.push(m);
+            }
+        }
+        let ias = Ias::new(ctx, &instances)?;
+        Ok(GpuScene { ias, records, masked, _buffers: buffers, _textures: textures })
+    }
+}
+
+/// The SBT of `pipeline` for `scene`: raygen, the primary miss program, one hit
+/// record per (instance, primitive) with the opaque or the masked hit group.
+fn scene_sbt<P: raykit::LaunchParams>(
+    pipeline: &Pipeline<P>,
+    groups: &[ProgramGroup; 4],
+    scene: &GpuScene,
+) -> raykit::Result<Sbt> {
+    let [raygen, miss, opaque, masked] = groups;
+    let mut sbt = Sbt::builder(pipeline).raygen(raygen, ()).miss_for::<Primary, _>(miss, ());
+    for (i, (record, is_masked)) in scene.records.iter().zip(&scene.masked).enumerate() {
+        sbt = sbt.hit_at(i, if *is_masked { masked } else { opaque }, *record);
+    }
+    sbt.build()
+}
+
+/// The program groups: `raygen`, the miss program, the opaque and the masked hit groups.
+fn groups(module: &Module, raygen: raykit::EntryPoint) -> raykit::Result<[ProgramGroup; 4]> {
+    use gltf_pathtracer_device::{AH_MASK, CH, MS};
+    Ok([
+        ProgramGroup::raygen(module, raygen)?,
+        ProgramGroup::miss(module, MS)?,
+        ProgramGroup::hit_group(module).closest_hit(CH).build()?,
+        ProgramGroup::hit_group(module).closest_hit(CH).any_hit(AH_MASK).build()?,
+    ])
+}
+
+/// The path tracer for one scene, environment and image size: progressive
+/// launches into an accumulation buffer (see `gltf_pathtracer_device::rg_path`).
+pub struct PathTracer {
+    pipeline: Pipeline<TraceParams>,
+    sbt: Sbt,
+    accum: DeviceBuffer<Vec4>,
+    _env: Texture,
+    _env_cdf: DeviceBuffer<f32>,
+    params: TraceParams,
+    samples_done: u32,
+}
+
+impl std::fmt::Debug for PathTracer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PathTracer").field("size", &self.params.size).field("samples", &self.samples_done).finish()
+    }
+}
+
+impl PathTracer {
+    /// Links the path tracer for `scene` lit by `env`, seen by `camera` at `width × height`.
+    pub fn new(
+        ctx: &Context,
+        scene: &GpuScene,
+        env: &EnvironmentMap,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+    ) -> anyhow::Result<PathTracer> {
+        let module = Module::from_device_crate(ctx, "gltf-pathtracer-device")?;
+        let groups = groups(&module, gltf_pathtracer_device::RG_PATH)?;
+        let refs: Vec<&ProgramGroup> = groups.iter().collect();
+        let pipeline = Pipeline::<TraceParams>::new(ctx, &refs, LinkOptions { max_trace_depth: 1 })?;
+        let sbt = scene_sbt(&pipeline, &groups, scene)?;
+        let texels: Vec<f32> = env.radiance.iter().flat_map(|c| [c.x, c.y, c.z, 1.0]).collect();
+        let env_texture = Texture::new(
+            ctx,
+            TextureFormat::Rgba32Float,
+            env.width,
+            env.height,
+            bytemuck::cast_slice(&texels),
+            Mipmaps::One,
+            SamplerOptions { filter: Filter::Nearest, ..SamplerOptions::default() },
+        )?;
+        let env_cdf = ctx.buffer_from(&env.cdf)?;
+        let accum = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let (u, v, w) = camera.uvw(width as f32 / height as f32);
+        let params = TraceParams {
+            accum: accum.handle(),
+            env_cdf: env_cdf.handle(),
+            size: UVec2::new(width, height),
+            env: env_texture.handle(),
+            env_width: env.width,
+            env_height: env.height,
+            subframe: 0,
+            samples: 1,
+            max_depth: 1024,
+            cam_eye: camera.eye,
+            cam_u: u,
+            cam_v: v,
+            cam_w: w,
+            scene: scene.ias.handle(),
+        };
+        Ok(PathTracer { pipeline, sbt, accum, _env: env_texture, _env_cdf: env_cdf, params, samples_done: 0 })
+    }
+
+    /// Sets the safety cap on bounces (Russian roulette ends paths; 1024 by default).
+    pub fn set_max_depth(&mut self, max_depth: u32) {
+        self.params.max_depth = max_depth.max(1);
+    }
+
+    /// One launch adding `samples` paths per pixel.
+    pub fn launch(&mut self, samples: u32) -> anyhow::Result<()> {
+        let params = TraceParams { subframe: self.params.subframe, samples, ..self.params };
+        let size = self.params.size;
+        self.pipeline.launch(&self.sbt, &params, [size.x, size.y, 1])?;
+        self.params.subframe += 1;
+        self.samples_done += samples;
+        Ok(())
+    }
+
+    /// Paths per pixel so far.
+    pub fn samples_done(&self) -> u32 {
+        self.samples_done
+    }
+
+    /// Mean radiance per pixel so far, and the rays traced.
+    pub fn image(&self) -> anyhow::Result<(Vec<Vec3>, u64)> {
+        let accum = self.accum.read()?;
+        let n = self.samples_done.max(1) as f32;
+        let rays = accum.iter().map(|a| a.w as f64).sum::<f64>() as u64;
+        Ok((accum.iter().map(|a| a.truncate() / n).collect(), rays))
+    }
+}
+
+/// A procedural sky as an environment map: a blue gradient above a grey ground
+/// and a small bright sun.
+pub fn default_sky(width: u32, height: u32) -> anyhow::Result<EnvironmentMap> {
+    let mut radiance = Vec::with_capacity((width * height) as usize);
+    let sun = Vec3::new(0.4, 0.8, 0.45).normalize();
+    for y in 0..height {
+        for x in 0..width {
+            let uv = Vec2::new((x as f32 + 0.5) / width as f32, (y as f32 + 0.5) / height as f32);
+            let d = raykit::device::environment::equirect_direction(uv);
+            let sky = if d.y > 0.0 {
+                Vec3::new(0.5, 0.7, 1.0).lerp(Vec3::new(0.15, 0.3, 0.8), d.y)
+            } else {
+                Vec3::splat(0.25)
+            };
+            radiance.push(if d.dot(sun) > 0.995 { Vec3::new(400.0, 380.0, 340.0) } else { sky });
+        }
+    }
+    Ok(EnvironmentMap::new(width, height, radiance)?)
+}
+
+/// A camera looking at the scene's bounds from +z (and a little above).
+pub fn framing_camera(scene: &GltfScene) -> Camera {
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for inst in &scene.instances {
+        for p in &scene.meshes[inst.mesh].primitives {
+            for &v in &p.positions {
+                let w = inst.transform.transform_point3(v);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        }
+    }
+    if lo.x > hi.x {
+        (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(1.0));
+    }
+    let centre = (lo + hi) * 0.5;
+    let radius = ((hi - lo).length() * 0.5).max(1e-3);
+    Camera {
+        eye: centre + Vec3::new(0.0, 0.3, 1.0).normalize() * radius * 2.8,
+        look_at: centre,
+        up: Vec3::Y,
+        fov_y_degrees: 40.0,
+    }
+}
+
+/// The glTF renderer's pipeline and SBT for one scene.
+pub struct Renderer {
+    pipeline: Pipeline<Params>,
+    sbt: Sbt,
+}
+
+impl Renderer {
+    /// Links the programs and lays out one hit record per (instance, primitive) of `scene`.
+    pub fn new(ctx: &Context, scene: &GpuScene) -> anyhow::Result<Renderer> {
+        let module = Module::from_device_crate(ctx, "gltf-pathtracer-device")?;
+        let groups = groups(&module, gltf_pathtracer_device::RG)?;
+        let refs: Vec<&ProgramGroup> = groups.iter().collect();
+        let pipeline = Pipeline::<Params>::new(ctx, &refs, LinkOptions { max_trace_depth: 1 })?;
+        let sbt = scene_sbt(&pipeline, &groups, scene)?;
+        Ok(Renderer { pipeline, sbt })
+    }
+
+    /// Per pixel of a `width × height` image seen by `camera`: the primary hit's
+    /// material index (−1 for a miss), texture coordinates and distance; and its
+    /// base colour (factor × texture, linear RGB; 0 for a miss).
+    pub fn primary_hits(
+        &self,
+        ctx: &Context,
+        scene: &GpuScene,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+    ) -> anyhow::Result<(Vec<Vec4>, Vec<Vec4>)> {
+        let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let (u, v, w) = camera.uvw(width as f32 / height as f32);
+        let params = Params {
+            out: out.handle(),
+            size: UVec2::new(width, height),
+            color: color.handle(),
+            cam_eye: camera.eye,
+            cam_u: u,
+            cam_v: v,
+            cam_w: w,
+            scene: scene.ias.handle(),
+        };
+        self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
+        Ok((out.read()?, color.read()?))
+    }
+}
+
+/// How materials become programs (see `gltf_pathtracer_device::materials`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum MaterialMode {
+    /// One closest-hit calls the material's direct callable, by the index in its record.
+    Callables,
+    /// One closest-hit per material, the material inlined, in its own hit group.
+    Inlined,
+}
+
+/// Primary hits shaded by the eight procedural materials, a primitive of glTF
+/// material `m` with procedural material `m % 8`, in either [`MaterialMode`]
+/// (opaque: no any-hit programs).
+pub struct MaterialRenderer {
+    pipeline: Pipeline<Params>,
+    sbt: Sbt,
+    /// How long linking the pipeline took.
+    pub link_time: std::time::Duration,
+}
+
+impl MaterialRenderer {
+    /// Links the programs of `mode` for `scene`.
+    pub fn new(ctx: &Context, scene: &GpuScene, mode: MaterialMode) -> anyhow::Result<MaterialRenderer> {
+        use gltf_pathtracer_device::materials::MATERIAL_COUNT;
+        use gltf_pathtracer_device::{CH_CALLABLES, MATERIAL_CALLABLES, MATERIAL_CLOSEST_HITS, MS, RG};
+        let module = Module::from_device_crate(ctx, "gltf-pathtracer-device")?;
+        let raygen = ProgramGroup::raygen(&module, RG)?;
+        let miss = ProgramGroup::miss(&module, MS)?;
+        let (hits, callables) = match mode {
+            MaterialMode::Callables => (
+                vec![ProgramGroup::hit_group(&module).closest_hit(CH_CALLABLES).build()?],
+                MATERIAL_CALLABLES
+                    .iter()
+                    .map(|&c| ProgramGroup::callable(&module, c))
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
+            MaterialMode::Inlined => (
+                MATERIAL_CLOSEST_HITS
+                    .iter()
+                    .map(|&c| ProgramGroup::hit_group(&module).closest_hit(c).build())
+                    .collect::<Result<Vec<_>, _>>()?,
+                Vec::new(),
+            ),
+        };
+        let mut all = vec![&raygen, &miss];
+        all.extend(hits.iter());
+        all.extend(callables.iter());
+        let started = std::time::Instant::now();
+        let pipeline = Pipeline::<Params>::new(ctx, &all, LinkOptions { max_trace_depth: 1 })?;
+        let link_time = started.elapsed();
+        let mut sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss_for::<Primary, _>(&miss, ());
+        for (i, record) in scene.records.iter().enumerate() {
+            let slot = record.material % MATERIAL_COUNT;
+            let record = GeometryRecord { material: slot, callable: slot, ..*record };
+            let group = match mode {
+                MaterialMode::Callables => &hits[0],
+                MaterialMode::Inlined => &hits[slot as usize],
+            };
+            sbt = sbt.hit_at(i, group, record);
+        }
+        for c in &callables {
+            sbt = sbt.callable(c, ());
+        }
+        let sbt = sbt.build()?;
+        Ok(MaterialRenderer { pipeline, sbt, link_time })
+    }
+
+    /// One launch of `width × height` primary rays, timed by GPU timestamps when
+    /// `timer` is given, by the wall clock around the launch otherwise.
+    pub fn time_launch(
+        &self,
+        ctx: &Context,
+        scene: &GpuScene,
+        camera: &Camera,
+        (width, height): (u32, u32),
+        timer: Option<&raykit::LaunchTimer>,
+    ) -> anyhow::Result<std::time::Duration> {
+        let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let (u, v, w) = camera.uvw(width as f32 / height as f32);
+        let params = Params {
+            out: out.handle(),
+            size: UVec2::new(width, height),
+            color: color.handle(),
+            cam_eye: camera.eye,
+            cam_u: u,
+            cam_v: v,
+            cam_w: w,
+            scene: scene.ias.handle(),
+        };
+        Ok(match timer {
+            Some(timer) => self.pipeline.launch_timed(&self.sbt, &params, [width, height, 1], timer)?,
+            None => {
+                let started = std::time::Instant::now();
+                self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
+                started.elapsed()
+            }
+        })
+    }
+
+    /// Per pixel: the material slot (−1 for a miss), texture coordinates, distance; and the colour.
+    pub fn render(
+        &self,
+        ctx: &Context,
+        scene: &GpuScene,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+    ) -> anyhow::Result<(Vec<Vec4>, Vec<Vec4>)> {
+        let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let (u, v, w) = camera.uvw(width as f32 / height as f32);
+        let params = Params {
+            out: out.handle(),
+            size: UVec2::new(width, height),
+            color: color.handle(),
+            cam_eye: camera.eye,
+            cam_u: u,
+            cam_v: v,
+            cam_w: w,
+            scene: scene.ias.handle(),
+        };
+        self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
+        Ok((out.read()?, color.read()?))
+    }
+}

@@ -1,0 +1,677 @@
+//! Sampled 2D textures, reached by device programs through [`Texture2D`]
+//! handles in launch params and SBT records, as buffers are through
+//! `Buffer<T>` handles (see [`raykit_device::texture`]).
+//!
+//! A [`Texture`] is a Vulkan image (optimal tiling, `SAMPLED | TRANSFER_DST`) in
+//! one of four [`TextureFormat`]s, with a full or partial mip chain
+//! ([`Mipmaps::Generate`] builds it on the host with a 2×2 box filter, in linear
+//! light for sRGB textures; [`Texture::from_levels`] takes supplied levels), and its
+//! own sampler ([`SamplerOptions`]: filter, mip filter, address modes). It takes
+//! a slot of the context's bindless texture table (set 0, binding 1, combined
+//! image samplers); every launch checks the texture handles of its params and
+//! records as it checks buffer handles, so a dropped texture's handle is refused
+//! with [`Error::InvalidHandle`]. See
+//! [`VkImageCreateInfo`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkImageCreateInfo.html)
+//! and [`VkSamplerCreateInfo`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkSamplerCreateInfo.html).
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+use raykit_device::Texture2D;
+
+use crate::context::{Context, ContextInner};
+use crate::error::{Error, Result};
+use crate::memory::RawBuffer;
+use crate::timeline::Retired;
+
+/// The texel formats of textures. All sample as four `f32` components.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum TextureFormat {
+    /// 8-bit RGBA, sRGB-encoded colour (alpha linear); the sampler decodes to linear.
+    Rgba8Srgb,
+    /// 8-bit RGBA, linear (unsigned normalised).
+    Rgba8Unorm,
+    /// 16-bit float RGBA (IEEE half precision, little-endian).
+    Rgba16Float,
+    /// 32-bit float RGBA (little-endian).
+    Rgba32Float,
+}
+
+impl TextureFormat {
+    /// Every format.
+    pub const ALL: [TextureFormat; 4] =
+        [TextureFormat::Rgba8Srgb, TextureFormat::Rgba8Unorm, TextureFormat::Rgba16Float, TextureFormat::Rgba32Float];
+
+    /// Bytes of one texel.
+    pub const fn bytes_per_texel(self) -> usize {
+        match self {
+            TextureFormat::Rgba8Srgb | TextureFormat::Rgba8Unorm => 4,
+            TextureFormat::Rgba16Float => 8,
+            TextureFormat::Rgba32Float => 16,
+        }
+    }
+
+    /// The Vulkan format.
+    pub const fn vk_format(self) -> vk::Format {
+        match self {
+            TextureFormat::Rgba8Srgb => vk::Format::R8G8B8A8_SRGB,
+            TextureFormat::Rgba8Unorm => vk::Format::R8G8B8A8_UNORM,
+            TextureFormat::Rgba16Float => vk::Format::R16G16B16A16_SFLOAT,
+            TextureFormat::Rgba32Float => vk::Format::R32G32B32A32_SFLOAT,
+        }
+    }
+
+    /// The linear value of the texel in `bytes` (what a sampler reads for it: sRGB
+    /// colour decoded, 8-bit values over 255).
+    pub fn decode(self, bytes: &[u8]) -> [f32; 4] {
+        let mut out = [0.0; 4];
+        for (c, v) in out.iter_mut().enumerate() {
+            *v = match self {
+                TextureFormat::Rgba8Srgb if c < 3 => raykit_device::color::srgb_to_linear(bytes[c] as f32 / 255.0),
+                TextureFormat::Rgba8Srgb | TextureFormat::Rgba8Unorm => bytes[c] as f32 / 255.0,
+                TextureFormat::Rgba16Float => half::f16::from_le_bytes([bytes[2 * c], bytes[2 * c + 1]]).to_f32(),
+                TextureFormat::Rgba32Float => {
+                    f32::from_le_bytes([bytes[4 * c], bytes[4 * c + 1], bytes[4 * c + 2], bytes[4 * c + 3]])
+                }
+            };
+        }
+        out
+    }
+
+    /// The texel of linear value `value` (sRGB-encoded for [`TextureFormat::Rgba8Srgb`],
+    /// rounded to the nearest representable value), appended to `out`.
+    pub fn encode(self, value: [f32; 4], out: &mut Vec<u8>) {
+        let unorm = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+        for (c, v) in value.into_iter().enumerate() {
+            match self {
+                TextureFormat::Rgba8Srgb if c < 3 => out.push(unorm(raykit_device::color::linear_to_srgb(v))),
+                TextureFormat::Rgba8Srgb | TextureFormat::Rgba8Unorm => out.push(unorm(v)),
+                TextureFormat::Rgba16Float => out.extend_from_slice(&half::f16::from_f32(v).to_le_bytes()),
+                TextureFormat::Rgba32Float => out.extend_from_slice(&v.to_le_bytes()),
+            }
+        }
+    }
+}
+
+/// A texel filter.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Filter {
+    /// The nearest texel (or mip level).
+    Nearest,
+    /// Linear interpolation between texels (or between two mip levels).
+    #[default]
+    Linear,
+}
+
+/// What happens to texture coordinates outside `[0, 1]`.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub enum AddressMode {
+    /// Tiles the texture.
+    #[default]
+    Repeat,
+    /// Repeats the edge texels.
+    ClampToEdge,
+    /// Tiles the texture, mirrored every other tile.
+    MirroredRepeat,
+}
+
+/// How a texture is sampled.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct SamplerOptions {
+    /// Filter within a mip level (magnification and minification).
+    pub filter: Filter,
+    /// Filter between mip levels.
+    pub mip_filter: Filter,
+    /// Address mode of `u` (across a row).
+    pub address_u: AddressMode,
+    /// Address mode of `v` (down the rows).
+    pub address_v: AddressMode,
+}
+
+/// Which mip levels a texture gets from one image.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Mipmaps {
+    /// Only the given level.
+    One,
+    /// The full chain down to 1×1, generated on the host (see [`generate_mips`]).
+    #[default]
+    Generate,
+}
+
+/// One mip level's texels, row-major, row 0 first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MipLevel {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// `width × height × bytes_per_texel` bytes.
+    pub data: Vec<u8>,
+}
+
+/// The size of mip level `level` of a `width × height` texture: halved per level, at least 1.
+pub fn mip_size(width: u32, height: u32, level: u32) -> (u32, u32) {
+    ((width >> level).max(1), (height >> level).max(1))
+}
+
+/// The number of levels of a full mip chain of a `width × height` texture.
+pub fn full_mip_count(width: u32, height: u32) -> u32 {
+    32 - width.max(height).max(1).leading_zeros()
+}
+
+/// The full mip chain of a `width × height` texture of `format` whose level 0
+/// is `base`, level 0 included. Each texel of level `l + 1` is the mean of the
+/// 2×2 texels of level `l` it covers (clamped at an odd edge), in linear values
+/// ([`TextureFormat::decode`]), encoded back with [`TextureFormat::encode`].
+pub fn generate_mips(format: TextureFormat, width: u32, height: u32, base: &[u8]) -> Result<Vec<MipLevel>> {
+    check_level(format, 0, width, height, base.len())?;
+    let bpt = format.bytes_per_texel();
+    let mut levels = vec![MipLevel { width, height, data: base.to_vec() }];
+    for level in 1..full_mip_count(width, height) {
+        let prev = &levels[level as usize - 1];
+        let (w, h) = mip_size(width, height, level);
+        let texel = |x: u32, y: u32| {
+            let (x, y) = (x.min(prev.width - 1), y.min(prev.height - 1));
+            let i = (y * prev.width + x) as usize * bpt;
+            format.decode(&prev.data[i..i + bpt])
+        };
+        let mut data = Vec::with_capacity(w as usize * h as usize * bpt);
+        for y in 0..h {
+            for x in 0..w {
+                let mut sum = [0.0f32; 4];
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let t = texel(2 * x + dx, 2 * y + dy);
+                    for c in 0..4 {
+                        sum[c] += t[c] * 0.25;
+                    }
+                }
+                format.encode(sum, &mut data);
+            }
+        }
+        levels.push(MipLevel { width: w, height: h, data });
+    }
+    Ok(levels)
+}
+
+fn check_level(format: TextureFormat, level: u32, width: u32, height: u32, got: usize) -> Result<()> {
+    let expected = width as usize * height as usize * format.bytes_per_texel();
+    if got != expected {
+        return Err(Error::TextureData {
+            level,
+            width,
+            height,
+            format,
+            expected,
+            got,
+            fix: "give width × height × bytes_per_texel() bytes per level, rows packed without padding",
+        });
+    }
+    Ok(())
+}
+
+/// A 2D texture in device memory with its sampler, at a slot of the context's
+/// texture table. Dropping it frees the slot once no pending work can sample it.
+pub struct Texture {
+    ctx: Arc<ContextInner>,
+    image: vk::Image,
+    view: vk::ImageView,
+    sampler: vk::Sampler,
+    allocation: Option<Allocation>,
+    /// The table slot, 0 while none is taken.
+    slot: u32,
+    handle: u32,
+    format: TextureFormat,
+    width: u32,
+    height: u32,
+    levels: u32,
+    options: SamplerOptions,
+}
+
+impl std::fmt::Debug for Texture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Texture")
+            .field("format", &self.format)
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("levels", &self.levels)
+            .field("sampler", &self.options)
+            .field("handle", &format_args!("{:#x}", self.handle))
+            .finish()
+    }
+}
+
+impl Texture {
+    /// A texture of `format` from level 0's texels (`width × height`, row-major),
+    /// with the mip levels `mips` asks for.
+    pub fn new(
+        ctx: &Context,
+        format: TextureFormat,
+        width: u32,
+        height: u32,
+        data: &[u8],
+        mips: Mipmaps,
+        sampler: SamplerOptions,
+    ) -> Result<Texture> {
+        check_size(ctx, width, height)?;
+        let levels = match mips {
+            Mipmaps::One => {
+                check_level(format, 0, width, height, data.len())?;
+                vec![MipLevel { width, height, data: data.to_vec() }]
+            }
+            Mipmaps::Generate => generate_mips(format, width, height, data)?,
+        };
+        Self::from_levels(ctx, format, &levels, sampler)
+    }
+
+    /// A texture from supplied mip levels: level 0 first, each level the size
+    /// [`mip_size`] gives (a partial chain is fine; at most [`full_mip_count`] levels).
+    pub fn from_levels(
+        ctx: &Context,
+        format: TextureFormat,
+        levels: &[MipLevel],
+        sampler: SamplerOptions,
+    ) -> Result<Texture> {
+        let Some(base) = levels.first() else {
+            return Err(Error::TextureSize {
+                width: 0,
+                height: 0,
+                problem: "no mip level given".to_owned(),
+                fix: "give at least level 0",
+            });
+        };
+        let (width, height) = (base.width, base.height);
+        check_size(ctx, width, height)?;
+        let max = full_mip_count(width, height);
+        if levels.len() as u32 > max {
+            return Err(Error::TextureSize {
+                width,
+                height,
+                problem: format!("{} mip levels given, a {width}×{height} texture has at most {max}", levels.len()),
+                fix: "give the levels from full size down to at most 1×1",
+            });
+        }
+        for (i, level) in levels.iter().enumerate() {
+            let (w, h) = mip_size(width, height, i as u32);
+            if (level.width, level.height) != (w, h) {
+                return Err(Error::TextureSize {
+                    width: level.width,
+                    height: level.height,
+                    problem: format!("mip level {i} of a {width}×{height} texture must be {w}×{h}"),
+                    fix: "halve the size per level (rounding down, at least 1)",
+                });
+            }
+            check_level(format, i as u32, w, h, level.data.len())?;
+        }
+        check_format(ctx, format, sampler)?;
+        create(ctx, format, levels, sampler)
+    }
+
+    /// A texture from an image of the `image` crate: 8-bit images (grey, grey +
+    /// alpha, RGB, RGBA) become [`TextureFormat::Rgba8Srgb`] when `srgb` (colour
+    /// pictures) or [`TextureFormat::Rgba8Unorm`] (data such as normal or
+    /// roughness maps); 32-bit float images become [`TextureFormat::Rgba32Float`].
+    /// Missing channels are filled as the `image` crate's `to_rgba*` do.
+    pub fn from_image(
+        ctx: &Context,
+        image: &image::DynamicImage,
+        srgb: bool,
+        mips: Mipmaps,
+        sampler: SamplerOptions,
+    ) -> Result<Texture> {
+        use image::DynamicImage as D;
+        let (w, h) = (image.width(), image.height());
+        match image {
+            D::ImageLuma8(_) | D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => {
+                let format = if srgb { TextureFormat::Rgba8Srgb } else { TextureFormat::Rgba8Unorm };
+                Self::new(ctx, format, w, h, image.to_rgba8().as_raw(), mips, sampler)
+            }
+            D::ImageRgb32F(_) | D::ImageRgba32F(_) => {
+                let rgba = image.to_rgba32f();
+                Self::new(ctx, TextureFormat::Rgba32Float, w, h, bytemuck::cast_slice(rgba.as_raw()), mips, sampler)
+            }
+            other => Err(Error::TextureFormat {
+                format: format!("{:?}", other.color()),
+                problem: "16-bit integer images have no texture format here (RGBA8 sRGB or linear, RGBA16F, RGBA32F)"
+                    .to_owned(),
+                fix: "convert the image first: to_rgba8() for colour, to_rgba32f() to keep the precision",
+            }),
+        }
+    }
+
+    /// The handle device programs sample through.
+    pub fn handle(&self) -> Texture2D {
+        Texture2D::from_raw(self.handle)
+    }
+
+    /// The format.
+    pub fn format(&self) -> TextureFormat {
+        self.format
+    }
+
+    /// Width and height of level 0.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// Number of mip levels.
+    pub fn mip_levels(&self) -> u32 {
+        self.levels
+    }
+
+    /// The sampler's options.
+    pub fn sampler_options(&self) -> SamplerOptions {
+        self.options
+    }
+}
+
+/// The device's filtering precision: `(subTexelPrecisionBits, mipmapPrecisionBits)`,
+/// the bits of the weights with which it blends texels and mip levels (what a CPU
+/// reference of sampling must allow for).
+pub fn filter_precision_bits(ctx: &Context) -> (u32, u32) {
+    // Vulkan's minimum (4, 4) where there is no Vulkan device.
+    ctx.as_vulkan().map_or((4, 4), |inner| {
+        let limits = &inner.shared.properties.limits;
+        (limits.sub_texel_precision_bits, limits.mipmap_precision_bits)
+    })
+}
+
+/// The largest width and height of a texture on the device (`maxImageDimension2D`).
+/// 0 on the CPU backend, which has no textures.
+pub fn max_texture_size(ctx: &Context) -> u32 {
+    ctx.as_vulkan().map_or(0, |inner| inner.shared.properties.limits.max_image_dimension2_d)
+}
+
+fn check_size(ctx: &Context, width: u32, height: u32) -> Result<()> {
+    let max = max_texture_size(ctx);
+    if width == 0 || height == 0 {
+        return Err(Error::TextureSize {
+            width,
+            height,
+            problem: "a texture needs at least one texel in each direction".to_owned(),
+            fix: "give a width and height of at least 1",
+        });
+    }
+    if width > max || height > max {
+        return Err(Error::TextureSize {
+            width,
+            height,
+            problem: format!("the device's maxImageDimension2D is {max}"),
+            fix: "downscale the image, or split it into tiles of at most maxImageDimension2D texels",
+        });
+    }
+    Ok(())
+}
+
+/// Refuses a format (and filter) the device cannot sample.
+fn check_format(ctx: &Context, format: TextureFormat, sampler: SamplerOptions) -> Result<()> {
+    let inner = vulkan_for_textures(ctx)?;
+    // SAFETY: the physical device belongs to this instance.
+    let props =
+        unsafe { inner.instance.get_physical_device_format_properties(inner.shared.physical, format.vk_format()) };
+    let features = props.optimal_tiling_features;
+    let needed = vk::FormatFeatureFlags::SAMPLED_IMAGE | vk::FormatFeatureFlags::TRANSFER_DST;
+    if !features.contains(needed) {
+        return Err(Error::TextureFormat {
+            format: format!("{format:?}"),
+            problem: format!("the device cannot sample it (optimal-tiling features {features:?})"),
+            fix: "use another TextureFormat (RGBA8 formats are sampled by every Vulkan device)",
+        });
+    }
+    let linear = sampler.filter == Filter::Linear || sampler.mip_filter == Filter::Linear;
+    if linear && !features.contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR) {
+        return Err(Error::TextureFormat {
+            format: format!("{format:?}"),
+            problem: "the device cannot filter it linearly".to_owned(),
+            fix: "use Filter::Nearest for this format, or Rgba16Float, which every Vulkan device filters",
+        });
+    }
+    Ok(())
+}
+
+fn vk_filter(f: Filter) -> vk::Filter {
+    match f {
+        Filter::Nearest => vk::Filter::NEAREST,
+        Filter::Linear => vk::Filter::LINEAR,
+    }
+}
+
+fn vk_address(a: AddressMode) -> vk::SamplerAddressMode {
+    match a {
+        AddressMode::Repeat => vk::SamplerAddressMode::REPEAT,
+        AddressMode::ClampToEdge => vk::SamplerAddressMode::CLAMP_TO_EDGE,
+        AddressMode::MirroredRepeat => vk::SamplerAddressMode::MIRRORED_REPEAT,
+    }
+}
+
+/// Creates the image, uploads `levels`, makes the view and sampler and takes a table slot.
+/// The Vulkan context textures are made on; the CPU backend has none yet.
+fn vulkan_for_textures(ctx: &Context) -> Result<&std::sync::Arc<crate::context::ContextInner>> {
+    ctx.as_vulkan().ok_or(Error::NotOnCpuBackend {
+        what: "a texture",
+        why: "the CPU backend does not sample images yet (programs that sample the null handle read zero)",
+        fix: "make textures on a Context of Backend::Vulkan",
+    })
+}
+
+fn create(ctx: &Context, format: TextureFormat, levels: &[MipLevel], options: SamplerOptions) -> Result<Texture> {
+    let inner = vulkan_for_textures(ctx)?;
+    inner.check_device("a texture creation")?;
+    let device = &inner.device;
+    let (width, height) = (levels[0].width, levels[0].height);
+    let level_count = levels.len() as u32;
+    // Wrapped at once: an early return frees whatever exists (null handles are no-ops).
+    let mut texture = Texture {
+        ctx: inner.clone(),
+        image: vk::Image::null(),
+        view: vk::ImageView::null(),
+        sampler: vk::Sampler::null(),
+        allocation: None,
+        slot: 0,
+        handle: 0,
+        format,
+        width,
+        height,
+        levels: level_count,
+        options,
+    };
+    let info = vk::ImageCreateInfo::default()
+        .image_type(vk::ImageType::TYPE_2D)
+        .format(format.vk_format())
+        .extent(vk::Extent3D { width, height, depth: 1 })
+        .mip_levels(level_count)
+        .array_layers(1)
+        .samples(vk::SampleCountFlags::TYPE_1)
+        .tiling(vk::ImageTiling::OPTIMAL)
+        .usage(vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)
+        .sharing_mode(vk::SharingMode::EXCLUSIVE)
+        .initial_layout(vk::ImageLayout::UNDEFINED);
+    // SAFETY: valid create info (size and format checked against the device).
+    texture.image = unsafe { device.create_image(&info, None) }.map_err(Error::vk("vkCreateImage"))?;
+    inner.set_name(texture.image, "texture");
+    // SAFETY: a live image of this device.
+    let requirements = unsafe { device.get_image_memory_requirements(texture.image) };
+    let allocation = inner
+        .allocator()
+        .allocate(&AllocationCreateDesc {
+            name: "texture",
+            requirements,
+            location: MemoryLocation::GpuOnly,
+            linear: false,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        })
+        .map_err(|source| Error::Allocation { what: "a texture", source })?;
+    // SAFETY: the allocation satisfies the image's requirements; the image is unbound.
+    let bound = unsafe { device.bind_image_memory(texture.image, allocation.memory(), allocation.offset()) };
+    texture.allocation = Some(allocation);
+    bound.map_err(Error::vk("vkBindImageMemory"))?;
+
+    // Staging: each level at a 16-byte aligned offset (a multiple of every texel size).
+    let mut offsets = Vec::with_capacity(levels.len());
+    let mut total = 0u64;
+    for level in levels {
+        offsets.push(total);
+        total = (total + level.data.len() as u64).next_multiple_of(16);
+    }
+    let mut staging = RawBuffer::new(
+        inner,
+        "texture staging buffer",
+        total,
+        vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::CpuToGpu,
+        16,
+    )?;
+    let mapped = staging.mapped_mut().ok_or(Error::Allocation {
+        what: "a texture staging buffer",
+        source: gpu_allocator::AllocationError::FailedToMap("not host-visible".to_owned()),
+    })?;
+    for (level, &offset) in levels.iter().zip(&offsets) {
+        mapped[offset as usize..offset as usize + level.data.len()].copy_from_slice(&level.data);
+    }
+    let range = vk::ImageSubresourceRange {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        base_mip_level: 0,
+        level_count,
+        base_array_layer: 0,
+        layer_count: 1,
+    };
+    let regions: Vec<vk::BufferImageCopy> = levels
+        .iter()
+        .zip(&offsets)
+        .enumerate()
+        .map(|(i, (level, &offset))| vk::BufferImageCopy {
+            buffer_offset: offset,
+            buffer_row_length: 0,
+            buffer_image_height: 0,
+            image_subresource: vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: i as u32,
+                base_array_layer: 0,
+                layer_count: 1,
+            },
+            image_offset: vk::Offset3D::default(),
+            image_extent: vk::Extent3D { width: level.width, height: level.height, depth: 1 },
+        })
+        .collect();
+    let image = texture.image;
+    let src = staging.buffer;
+    let mut submission = inner.submit("a texture upload", |cmd| {
+        let to_transfer = vk::ImageMemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::empty())
+            .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+            .old_layout(vk::ImageLayout::UNDEFINED)
+            .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(image)
+            .subresource_range(range);
+        let to_shader = vk::ImageMemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::SHADER_READ)
+            .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+            .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(image)
+            .subresource_range(range);
+        // SAFETY: the image and staging buffer are alive until the submission has
+        // finished (it is waited on below); the regions lie inside both.
+        unsafe {
+            device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[to_transfer],
+            );
+            device.cmd_copy_buffer_to_image(cmd, src, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &regions);
+            device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[to_shader],
+            );
+        }
+    })?;
+    submission.wait()?;
+    drop(staging);
+
+    let view_info = vk::ImageViewCreateInfo::default()
+        .image(texture.image)
+        .view_type(vk::ImageViewType::TYPE_2D)
+        .format(format.vk_format())
+        .subresource_range(range);
+    // SAFETY: a live, bound image with this format and range.
+    texture.view = unsafe { device.create_image_view(&view_info, None) }.map_err(Error::vk("vkCreateImageView"))?;
+    let sampler_info = vk::SamplerCreateInfo::default()
+        .mag_filter(vk_filter(options.filter))
+        .min_filter(vk_filter(options.filter))
+        .mipmap_mode(match options.mip_filter {
+            Filter::Nearest => vk::SamplerMipmapMode::NEAREST,
+            Filter::Linear => vk::SamplerMipmapMode::LINEAR,
+        })
+        .address_mode_u(vk_address(options.address_u))
+        .address_mode_v(vk_address(options.address_v))
+        .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+        .min_lod(0.0)
+        .max_lod(level_count as f32);
+    // SAFETY: valid create info; filters are supported for the format (checked).
+    texture.sampler = unsafe { device.create_sampler(&sampler_info, None) }.map_err(Error::vk("vkCreateSampler"))?;
+    let table = &inner.buffer_table;
+    let (slot, handle) = table.textures.insert(device, table.set, texture.view, texture.sampler)?;
+    texture.slot = slot;
+    texture.handle = handle;
+    Ok(texture)
+}
+
+impl Drop for Texture {
+    fn drop(&mut self) {
+        if self.slot != 0 {
+            // Launches refuse its handle from now on; the slot is emptied and reused
+            // once no pending work can sample it.
+            self.ctx.buffer_table.textures.kill(self.slot);
+            self.ctx.retire(Retired::TextureSlot(self.slot));
+        }
+        self.ctx.retire(Retired::Image(self.image, self.view, self.sampler, self.allocation.take()));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mip_chains_halve_down_to_one_texel() {
+        assert_eq!(full_mip_count(16, 8), 5);
+        assert_eq!(full_mip_count(1, 1), 1);
+        assert_eq!(full_mip_count(5, 3), 3);
+        assert_eq!(mip_size(5, 3, 1), (2, 1));
+        assert_eq!(mip_size(5, 3, 2), (1, 1));
+    }
+
+    #[test]
+    fn generated_mips_average_in_linear_light() {
+        // sRGB 2×1: black and white average to linear 0.5, which encodes as 188.
+        let base = [0, 0, 0, 255, 255, 255, 255, 255];
+        let levels = generate_mips(TextureFormat::Rgba8Srgb, 2, 1, &base).unwrap();
+        assert_eq!(levels.len(), 2);
+        assert_eq!(levels[1].data, [188, 188, 188, 255]);
+        let levels = generate_mips(TextureFormat::Rgba8Unorm, 2, 1, &base).unwrap();
+        assert_eq!(levels[1].data, [128, 128, 128, 255]);
+        // Float formats round-trip their values.
+        for format in [TextureFormat::Rgba16Float, TextureFormat::Rgba32Float] {
+            let mut bytes = Vec::new();
+            format.encode([0.25, 2.0, -1.0, 1.0], &mut bytes);
+            assert_eq!(format.decode(&bytes), [0.25, 2.0, -1.0, 1.0]);
+        }
+        let err = generate_mips(TextureFormat::Rgba32Float, 2, 2, &[0; 16]).unwrap_err();
+        assert!(matches!(err, Error::TextureData { expected: 64, got: 16, .. }), "{err}");
+    }
+}

@@ -1,0 +1,302 @@
+//! glTF scenes against a CPU reference of their primary hits.
+//!
+//! The generated file (`raykit_tests::gltf_fixture`: two meshes, three textured
+//! materials, a node hierarchy, an alpha-masked leaf with holes) is loaded, its
+//! structure checked against what the generator wrote, and rendered: per pixel,
+//! the primary hit's material index and texture coordinates. The CPU reference
+//! traces the same triangles, placed by the same world transforms, with the
+//! same alpha test (the leaf texture's texel, nearest, repeat). Pixels whose
+//! answer a ray 0.02 pixel away would change (an edge, a hole's border) are
+//! not compared; every other pixel must have the same material exactly, the
+//! same texture coordinates within 10⁻³ and, away from texel edges, the same
+//! base colour (the texel closest-hit sampled, in linear light, times the
+//! material's factor) within 2/255.
+
+use gltf_pathtracer::{GpuScene, Renderer};
+use raykit::glam::{Vec2, Vec3};
+use raykit_scene::gltf::{AlphaMode, GltfError, GltfScene};
+use raykit_scene::Camera;
+use raykit_tests::gltf_fixture::{self, Broken};
+use raykit_tests::with_context;
+
+const SIZE: u32 = 64;
+
+fn camera() -> Camera {
+    Camera { eye: Vec3::new(0.0, 0.0, 5.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_degrees: 40.0 }
+}
+
+/// The camera ray through `(x, y)` in pixels (the device's mapping).
+fn ray(x: f32, y: f32) -> (Vec3, Vec3) {
+    let (u, v, w) = camera().uvw(1.0);
+    let d = 2.0 * Vec2::new(x, y) / SIZE as f32 - 1.0;
+    (camera().eye, (d.x * u - d.y * v + w).normalize())
+}
+
+/// The CPU reference's primary hit: material, uv, whether an alpha test decided
+/// it within 0.02 texel of a texel border, and whether the ray passed through a
+/// hole of a masked surface before it.
+fn cpu_hit(scene: &GltfScene, origin: Vec3, dir: Vec3) -> Option<(usize, Vec2, bool, bool)> {
+    let mut best: Option<(f32, usize, Vec2, bool)> = None;
+    let mut nearest_hole = f32::MAX;
+    for inst in &scene.instances {
+        for p in &scene.meshes[inst.mesh].primitives {
+            let material = &scene.materials[p.material];
+            for t in p.indices.chunks_exact(3) {
+                let world = |i: u32| inst.transform.transform_point3(p.positions[i as usize]);
+                let tri = [world(t[0]), world(t[1]), world(t[2])];
+                let t_max = best.map_or(1e16, |b| b.0);
+                let Some((dist, b)) = raykit_tests::ray_triangle(origin, dir, tri, 1e-4, t_max) else { continue };
+                let uvs = [t[0], t[1], t[2]].map(|i| p.uvs[i as usize]);
+                let uv = uvs[0] * (1.0 - b.x - b.y) + uvs[1] * b.x + uvs[2] * b.y;
+                let mut near_edge = false;
+                if let AlphaMode::Mask(cutoff) = material.alpha {
+                    let img = &scene.images[material.base_color_texture.unwrap()];
+                    let (tx, ty) = (uv.x * img.width as f32, uv.y * img.height as f32);
+                    let frac = |c: f32| (c - c.round()).abs();
+                    near_edge = frac(tx) < 0.02 || frac(ty) < 0.02;
+                    let (ix, iy) = (
+                        (tx.floor() as i64).rem_euclid(img.width as i64),
+                        (ty.floor() as i64).rem_euclid(img.height as i64),
+                    );
+                    let alpha = img.rgba8[((iy * img.width as i64 + ix) * 4 + 3) as usize] as f32 / 255.0;
+                    if alpha * material.base_color.w < cutoff {
+                        if near_edge {
+                            // The device may take this hit; the answer is ambiguous.
+                            best = best.map(|b| (b.0, b.1, b.2, true));
+                        }
+                        nearest_hole = nearest_hole.min(dist);
+                        continue;
+                    }
+                }
+                best = Some((dist, p.material, uv, near_edge));
+            }
+        }
+    }
+    best.map(|(t, m, uv, edge)| (m, uv, edge, nearest_hole < t))
+}
+
+#[test]
+fn the_gltf_loader_reads_the_hierarchy_materials_and_meshes() -> anyhow::Result<()> {
+    let dir = raykit_tests::temp_dir("gltf_loader")?;
+    let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
+    anyhow::ensure!(scene.meshes.len() == 2 && scene.meshes[1].primitives.len() == 2);
+    anyhow::ensure!(scene.materials.len() == 4, "three materials and the default");
+    let names: Vec<_> = scene.materials.iter().map(|m| m.name.clone().unwrap_or_default()).collect();
+    anyhow::ensure!(names[..3] == ["checker", "gradient", "leaf"], "{names:?}");
+    anyhow::ensure!(scene.materials[2].alpha == AlphaMode::Mask(0.5));
+    anyhow::ensure!(scene.materials[1].base_color.y == 0.8 && scene.materials[1].roughness == 0.2);
+    anyhow::ensure!(
+        scene.images.len() == 3
+            && scene.images
+                == gltf_fixture::images().map(|i| raykit_scene::gltf::Image {
+                    width: i.width(),
+                    height: i.height(),
+                    rgba8: i.into_raw(),
+                })
+    );
+    let meshes: Vec<usize> = scene.instances.iter().map(|i| i.mesh).collect();
+    anyhow::ensure!(meshes == [0, 1, 0], "{meshes:?}");
+    for (inst, want) in scene.instances.iter().zip(gltf_fixture::expected_transforms()) {
+        anyhow::ensure!(inst.transform.abs_diff_eq(want, 1e-5), "node {}: {} vs {want}", inst.node, inst.transform);
+    }
+    let leaf = &scene.meshes[1].primitives[1];
+    anyhow::ensure!(leaf.indices == [0, 1, 2, 0, 2, 3] && leaf.uvs == gltf_fixture::LEAF_UV);
+    anyhow::ensure!(scene.meshes[0].primitives[0].normals == [Vec3::Z; 4]);
+    Ok(())
+}
+
+#[test]
+fn primary_hits_match_the_cpu_reference() -> anyhow::Result<()> {
+    let dir = raykit_tests::temp_dir("gltf_primary")?;
+    let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
+    with_context("primary_hits_match_the_cpu_reference", |ctx| {
+        let gpu = GpuScene::new(ctx, &scene)?;
+        anyhow::ensure!(gpu.records.len() == 4, "board, plant (2 primitives), backdrop");
+        let renderer = Renderer::new(ctx, &gpu)?;
+        let (got, colors) = renderer.primary_hits(ctx, &gpu, &camera(), SIZE, SIZE)?;
+        let (mut compared, mut skipped, mut failures) = (0, 0, Vec::new());
+        let mut per_material = [0usize; 4];
+        let mut holes = 0;
+        for y in 0..SIZE {
+            for x in 0..SIZE {
+                let at = |dx: f32, dy: f32| {
+                    let (o, d) = ray(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy);
+                    cpu_hit(&scene, o, d)
+                };
+                let centre = at(0.0, 0.0);
+                let ambiguous = centre.is_some_and(|c| c.2)
+                    || [(0.02, 0.0), (-0.02, 0.0), (0.0, 0.02), (0.0, -0.02)]
+                        .iter()
+                        .any(|&(dx, dy)| at(dx, dy).map(|h| h.0) != centre.map(|h| h.0));
+                if ambiguous {
+                    skipped += 1;
+                    continue;
+                }
+                compared += 1;
+                let g = got[(y * SIZE + x) as usize];
+                let ok = match centre {
+                    None => g.x == -1.0,
+                    Some((m, uv, _, _)) => {
+                        per_material[m] += 1;
+                        // The base colour closest-hit sampled: the texel (nearest, repeat) in linear
+                        // light times the factor, within the sRGB decode's 8-bit rounding.
+                        let material = &scene.materials[m];
+                        let img = &scene.images[material.base_color_texture.unwrap()];
+                        let (w, h) = (img.width as i64, img.height as i64);
+                        let (tx, ty) = (uv.x * w as f32, uv.y * h as f32);
+                        let on_edge = (tx - tx.round()).abs() < 0.02 || (ty - ty.round()).abs() < 0.02;
+                        let (ix, iy) = ((tx.floor() as i64).rem_euclid(w), (ty.floor() as i64).rem_euclid(h));
+                        let at = ((iy * w + ix) * 4) as usize;
+                        let texel = Vec3::from_array(std::array::from_fn(|c| {
+                            raykit::device::color::srgb_to_linear(img.rgba8[at + c] as f32 / 255.0)
+                        }));
+                        let want = texel * material.base_color.truncate();
+                        let color = colors[(y * SIZE + x) as usize].truncate();
+                        g.x == m as f32
+                            && (Vec2::new(g.y, g.z) - uv).abs().max_element() < 1e-3
+                            && (on_edge || (color - want).abs().max_element() < 2.0 / 255.0)
+                    }
+                };
+                // The plant's quad seen through a hole of the leaf in front of it.
+                if centre.is_some_and(|c| c.0 == 1 && c.3) {
+                    holes += 1;
+                }
+                if !ok && failures.len() < 20 {
+                    failures.push(format!(
+                        "pixel ({x}, {y}): device {g}, colour {}, reference {centre:?}",
+                        colors[(y * SIZE + x) as usize]
+                    ));
+                }
+            }
+        }
+        anyhow::ensure!(failures.is_empty(), "primary hits off the reference:\n{}", failures.join("\n"));
+        anyhow::ensure!(skipped * 10 < compared, "{skipped} ambiguous pixels of {}", compared + skipped);
+        anyhow::ensure!(per_material[..3].iter().all(|&n| n >= 20), "pixels per material: {per_material:?}");
+        anyhow::ensure!(holes > 0, "no pixel sees the plant through the leaf's holes");
+        eprintln!(
+            "compared {compared} pixels ({skipped} ambiguous skipped): per material {per_material:?}, {holes} through holes"
+        );
+        Ok(())
+    })
+}
+
+#[test]
+fn bad_gltf_files_are_typed_errors() -> anyhow::Result<()> {
+    let dir = raykit_tests::temp_dir("gltf_bad")?;
+    let load = |broken| {
+        GltfScene::load(&gltf_fixture::write(&dir.0.join(format!("{broken:?}")), broken)?)
+            .map_err(anyhow::Error::from)
+            .map(|_| ())
+    };
+    let err = |broken| -> anyhow::Result<GltfError> {
+        let path = gltf_fixture::write(&dir.0.join(format!("{broken:?}")), broken)?;
+        match GltfScene::load(&path) {
+            Ok(_) => anyhow::bail!("{broken:?}: loaded"),
+            Err(e) => Ok(e),
+        }
+    };
+    load(Broken::Nothing)?;
+    match err(Broken::MissingBuffer)? {
+        e @ GltfError::MissingBuffer { buffer: 0, .. } => {
+            anyhow::ensure!(e.to_string().contains("scene.bin") && e.to_string().contains("beside the .gltf"), "{e}")
+        }
+        e => anyhow::bail!("missing buffer: {e}"),
+    }
+    match err(Broken::Lines)? {
+        e @ GltfError::NotTriangles { mesh: 0, primitive: 0, .. } => {
+            anyhow::ensure!(e.to_string().contains("Lines") && e.to_string().contains("triangulate"), "{e}")
+        }
+        e => anyhow::bail!("lines: {e}"),
+    }
+    match err(Broken::IndexOutOfRange)? {
+        e @ GltfError::IndexOutOfRange { mesh: 1, primitive: 1, index: 9, at: 5, vertices: 4 } => {
+            anyhow::ensure!(e.to_string().contains("re-export"), "{e}")
+        }
+        e => anyhow::bail!("index out of range: {e}"),
+    }
+    Ok(())
+}
+
+#[test]
+fn the_path_tracer_conserves_energy_in_a_white_furnace() -> anyhow::Result<()> {
+    use gltf_pathtracer::PathTracer;
+    use raykit_scene::EnvironmentMap;
+    let dir = raykit_tests::temp_dir("gltf_furnace")?;
+    let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
+    with_context("the_path_tracer_conserves_energy_in_a_white_furnace", |ctx| {
+        // A uniform white environment and surfaces that emit nothing and reflect at
+        // most what they receive: no pixel can be brighter than 1 on average.
+        let env = EnvironmentMap::new(16, 8, vec![Vec3::ONE; 16 * 8])?;
+        let gpu = GpuScene::new(ctx, &scene)?;
+        let (size, spp) = (32u32, 32u32);
+        let mut tracer = PathTracer::new(ctx, &gpu, &env, &camera(), size, size)?;
+        for _ in 0..spp / 8 {
+            tracer.launch(8)?;
+        }
+        let (radiance, rays) = tracer.image()?;
+        anyhow::ensure!(radiance.iter().all(|c| c.is_finite() && c.min_element() >= 0.0), "NaN or negative radiance");
+        let lum: Vec<f64> = radiance.iter().map(|c| ((c.x + c.y + c.z) / 3.0) as f64).collect();
+        let n = lum.len() as f64;
+        let mean = lum.iter().sum::<f64>() / n;
+        // The spread of pixel means holds the scene's variation as well as the noise:
+        // a conservative standard error of the image mean.
+        let se = (lum.iter().map(|l| (l - mean) * (l - mean)).sum::<f64>() / (n - 1.0) / n).sqrt();
+        anyhow::ensure!(mean <= 1.0 + 5.0 * se, "image mean {mean} ± {se} is over the environment's 1");
+        anyhow::ensure!(mean > 0.3, "image mean {mean}: the surfaces reflect too little");
+        anyhow::ensure!(rays >= (size * size * spp) as u64, "{rays} rays");
+        eprintln!("white furnace: image mean {mean:.4} ± {se:.4}, {rays} rays");
+
+        // Looking away from the scene, every path misses at once and sees the environment.
+        let away = Camera { eye: Vec3::new(0.0, 0.0, 5.0), look_at: Vec3::new(0.0, 0.0, 10.0), ..camera() };
+        let mut tracer = PathTracer::new(ctx, &gpu, &env, &away, 8, 8)?;
+        tracer.launch(4)?;
+        let (radiance, _) = tracer.image()?;
+        anyhow::ensure!(radiance.iter().all(|c| (*c - Vec3::ONE).abs().max_element() < 1e-6), "{}", radiance[0]);
+        Ok(())
+    })
+}
+
+#[test]
+fn both_material_modes_shade_as_the_shared_material_code() -> anyhow::Result<()> {
+    use gltf_pathtracer::device::materials::color_of;
+    use gltf_pathtracer::{MaterialMode, MaterialRenderer};
+    let dir = raykit_tests::temp_dir("gltf_materials")?;
+    let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
+    with_context("both_material_modes_shade_as_the_shared_material_code", |ctx| {
+        let gpu = GpuScene::new(ctx, &scene)?;
+        let mut images = Vec::new();
+        for mode in [MaterialMode::Callables, MaterialMode::Inlined] {
+            let renderer = MaterialRenderer::new(ctx, &gpu, mode)?;
+            let (out, colors) = renderer.render(ctx, &gpu, &camera(), SIZE, SIZE)?;
+            let mut slots = std::collections::BTreeSet::new();
+            for (o, c) in out.iter().zip(&colors) {
+                anyhow::ensure!(o.x >= 0.0, "{mode:?}: a pixel missed the backdrop");
+                let slot = o.x as u32;
+                slots.insert(slot);
+                let want = color_of(slot, Vec2::new(o.y, o.z));
+                anyhow::ensure!(
+                    (c.truncate() - want).abs().max_element() < 1e-4,
+                    "{mode:?}: material {slot} at uv ({}, {}): {} vs the host's {want}",
+                    o.y,
+                    o.z,
+                    c.truncate()
+                );
+            }
+            anyhow::ensure!(slots.len() == 3, "{mode:?}: materials seen {slots:?}");
+            eprintln!("{mode:?}: pipeline linked in {:?}", renderer.link_time);
+            images.push(colors);
+        }
+        // A grid of 12 quads with 12 glTF materials uses all eight procedural ones.
+        let grid = GltfScene::load(&gltf_pathtracer::demo_scene::write_grid(&dir.0.join("grid"), 12)?)?;
+        anyhow::ensure!(grid.instances.len() == 12 && grid.materials.len() == 13);
+        let grid_gpu = GpuScene::new(ctx, &grid)?;
+        let renderer = MaterialRenderer::new(ctx, &grid_gpu, MaterialMode::Callables)?;
+        let front = Camera { eye: Vec3::new(0.0, 0.0, 3.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_degrees: 60.0 };
+        let (out, _) = renderer.render(ctx, &grid_gpu, &front, 32, 32)?;
+        let seen: std::collections::BTreeSet<u32> = out.iter().filter(|o| o.x >= 0.0).map(|o| o.x as u32).collect();
+        anyhow::ensure!(seen.len() == 8, "grid materials seen {seen:?}");
+        let worst = images[0].iter().zip(&images[1]).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0, f32::max);
+        anyhow::ensure!(worst < 1e-5, "the two modes differ by {worst}");
+        Ok(())
+    })
+}
