@@ -118,8 +118,12 @@ pub struct Material {
     pub metallic_roughness_texture: Option<usize>,
     /// Tangent-space normal map, linear.
     pub normal_texture: Option<usize>,
+    /// The normal map's `scale` (multiplies the map's x and y; 1 when the file gives none).
+    pub normal_scale: f32,
     /// Emissive factor (linear RGB).
     pub emissive: Vec3,
+    /// `KHR_materials_emissive_strength`'s multiplier of the emission (1 without the extension).
+    pub emissive_strength: f32,
     /// Emissive texture (sRGB).
     pub emissive_texture: Option<usize>,
     /// Alpha mode.
@@ -138,7 +142,9 @@ impl Default for Material {
             roughness: 1.0,
             metallic_roughness_texture: None,
             normal_texture: None,
+            normal_scale: 1.0,
             emissive: Vec3::ZERO,
+            emissive_strength: 1.0,
             emissive_texture: None,
             alpha: AlphaMode::Opaque,
         }
@@ -246,7 +252,9 @@ impl GltfScene {
                     roughness: pbr.roughness_factor(),
                     metallic_roughness_texture: pbr.metallic_roughness_texture().map(|t| texture_image(t.texture())),
                     normal_texture: m.normal_texture().map(|t| texture_image(t.texture())),
+                    normal_scale: m.normal_texture().map_or(1.0, |t| t.scale()),
                     emissive: Vec3::from_array(m.emissive_factor()),
+                    emissive_strength: m.emissive_strength().unwrap_or(1.0),
                     emissive_texture: m.emissive_texture().map(|t| texture_image(t.texture())),
                     alpha: match m.alpha_mode() {
                         gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,

@@ -162,3 +162,137 @@ pub fn write(dir: &Path, broken: Broken) -> anyhow::Result<PathBuf> {
     std::fs::write(&path, json)?;
     Ok(path)
 }
+
+/// One quad of [`write_quads`]: its corners (counter-clockwise seen from `normal`),
+/// texture coordinates [`QUAD_UV`], a tangent per vertex when given, a material index.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Quad {
+    /// The corners, in [`QUAD`]'s order.
+    pub corners: [Vec3; 4],
+    /// The normal of every vertex.
+    pub normal: Vec3,
+    /// The tangent (xyz, w the bitangent sign) of every vertex, if the file has tangents.
+    pub tangent: Option<raykit::glam::Vec4>,
+    /// The material's index in `materials`.
+    pub material: usize,
+}
+
+/// Writes `scene.gltf` and `scene.bin` into `dir`: one mesh and one node per quad, the
+/// `materials`, `textures` and `images` given as glTF JSON arrays (images' files and
+/// their pixels in `files`); returns the `.gltf` path.
+pub fn write_quads(
+    dir: &Path,
+    quads: &[Quad],
+    materials: &str,
+    textures: &str,
+    images: &str,
+    files: &[(&str, image::RgbaImage)],
+) -> anyhow::Result<PathBuf> {
+    std::fs::create_dir_all(dir)?;
+    let mut bin: Vec<u8> = Vec::new();
+    let (mut views, mut accessors, mut meshes, mut nodes) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut push = |bytes: &[u8], target: u32, accessor: String| {
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        views.push(format!(
+            r#"{{"buffer":0,"byteOffset":{},"byteLength":{},"target":{target}}}"#,
+            bin.len(),
+            bytes.len()
+        ));
+        bin.extend_from_slice(bytes);
+        accessors.push(accessor.replace("VIEW", &(views.len() - 1).to_string()));
+        accessors.len() - 1
+    };
+    for (i, q) in quads.iter().enumerate() {
+        let (lo, hi) = q.corners.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+        let pos = push(
+            bytemuck::cast_slice(&q.corners),
+            34962,
+            format!(
+                r#"{{"bufferView":VIEW,"componentType":5126,"count":4,"type":"VEC3","min":[{},{},{}],"max":[{},{},{}]}}"#,
+                lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+            ),
+        );
+        let vec = |t: &str| format!(r#"{{"bufferView":VIEW,"componentType":5126,"count":4,"type":"{t}"}}"#);
+        let nrm = push(bytemuck::cast_slice(&[q.normal; 4]), 34962, vec("VEC3"));
+        let uv = push(bytemuck::cast_slice(&QUAD_UV), 34962, vec("VEC2"));
+        let idx = push(
+            bytemuck::cast_slice(&[0u32, 1, 2, 0, 2, 3]),
+            34963,
+            r#"{"bufferView":VIEW,"componentType":5125,"count":6,"type":"SCALAR"}"#.to_owned(),
+        );
+        let tangent = match q.tangent {
+            Some(t) => format!(r#", "TANGENT": {}"#, push(bytemuck::cast_slice(&[t; 4]), 34962, vec("VEC4"))),
+            None => String::new(),
+        };
+        meshes.push(format!(
+            r#"{{"primitives": [{{"attributes": {{"POSITION": {pos}, "NORMAL": {nrm}, "TEXCOORD_0": {uv}{tangent}}}, "indices": {idx}, "material": {}}}]}}"#,
+            q.material
+        ));
+        nodes.push(format!(r#"{{"mesh": {i}}}"#));
+    }
+    let roots: Vec<String> = (0..quads.len()).map(|i| i.to_string()).collect();
+    let json = format!(
+        r#"{{
+  "asset": {{"version": "2.0", "generator": "raykit tests"}},
+  "extensionsUsed": ["KHR_materials_emissive_strength"],
+  "scene": 0,
+  "scenes": [{{"nodes": [{roots}]}}],
+  "nodes": [{nodes}],
+  "meshes": [{meshes}],
+  "materials": {materials},{textures}
+  "accessors": [{accessors}],
+  "bufferViews": [{views}],
+  "buffers": [{{"uri": "scene.bin", "byteLength": {len}}}]
+}}
+"#,
+        roots = roots.join(","),
+        textures = if files.is_empty() {
+            String::new()
+        } else {
+            format!("\n  \"textures\": {textures},\n  \"images\": {images},")
+        },
+        nodes = nodes.join(","),
+        meshes = meshes.join(","),
+        accessors = accessors.join(","),
+        views = views.join(","),
+        len = bin.len(),
+    );
+    std::fs::write(dir.join("scene.bin"), &bin)?;
+    for (name, img) in files {
+        img.save(dir.join(name))?;
+    }
+    let path = dir.join("scene.gltf");
+    std::fs::write(&path, json)?;
+    Ok(path)
+}
+
+/// A small emissive quad (0.5 × 0.5, 1 above the floor, facing down; emissive factor
+/// `(1, 0.9, 0.8)` at `KHR_materials_emissive_strength` 20, black base colour) over a
+/// diffuse 4 × 4 floor (base colour 0.8, metallic 0, roughness 1) at y = 0.
+pub fn write_emissive_quad(dir: &Path) -> anyhow::Result<PathBuf> {
+    let floor = Quad {
+        corners: [
+            Vec3::new(-2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, -2.0),
+            Vec3::new(-2.0, 0.0, -2.0),
+        ],
+        normal: Vec3::Y,
+        tangent: None,
+        material: 0,
+    };
+    let h = 0.25;
+    let light = Quad {
+        corners: [Vec3::new(-h, 1.0, -h), Vec3::new(h, 1.0, -h), Vec3::new(h, 1.0, h), Vec3::new(-h, 1.0, h)],
+        normal: -Vec3::Y,
+        tangent: None,
+        material: 1,
+    };
+    let materials = r#"[
+    {"name": "floor", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+    {"name": "light", "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0}, "emissiveFactor": [1.0, 0.9, 0.8], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 20.0}}}
+  ]"#;
+    write_quads(dir, &[floor, light], materials, "[]", "[]", &[])
+}

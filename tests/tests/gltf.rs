@@ -300,3 +300,111 @@ fn both_material_modes_shade_as_the_shared_material_code() -> anyhow::Result<()>
         Ok(())
     })
 }
+
+/// Per pixel, the estimates of `batches` independent batches of `spp` paths each.
+fn batch_images(tracer: &mut gltf_pathtracer::PathTracer, batches: usize, spp: u32) -> anyhow::Result<Vec<Vec<f64>>> {
+    let mut previous: Option<Vec<f64>> = None;
+    let mut out = Vec::new();
+    for _ in 0..batches {
+        tracer.launch(spp)?;
+        let (radiance, _) = tracer.image()?;
+        anyhow::ensure!(radiance.iter().all(|c| c.is_finite() && c.min_element() >= 0.0), "NaN or negative radiance");
+        let n = tracer.samples_done() as f64;
+        let sums: Vec<f64> = radiance.iter().map(|c| ((c.x + c.y + c.z) / 3.0) as f64 * n).collect();
+        let batch = match &previous {
+            Some(p) => sums.iter().zip(p).map(|(s, p)| (s - p) / spp as f64).collect(),
+            None => sums.iter().map(|s| s / spp as f64).collect(),
+        };
+        out.push(batch);
+        previous = Some(sums);
+    }
+    Ok(out)
+}
+
+#[test]
+fn emissive_triangles_as_lights_match_bsdf_sampling_with_less_noise() -> anyhow::Result<()> {
+    use gltf_pathtracer::PathTracer;
+    use raykit_scene::EnvironmentMap;
+    let dir = raykit_tests::temp_dir("gltf_emissive")?;
+    let scene = GltfScene::load(&gltf_fixture::write_emissive_quad(&dir.0)?)?;
+    anyhow::ensure!(scene.materials[1].emissive_strength == 20.0, "{:?}", scene.materials[1]);
+    with_context("emissive_triangles_as_lights_match_bsdf_sampling_with_less_noise", |ctx| {
+        let env = EnvironmentMap::new(16, 8, vec![Vec3::splat(0.1); 16 * 8])?;
+        let gpu = GpuScene::new(ctx, &scene)?;
+        anyhow::ensure!(gpu.light_table.len() == 2, "{} light triangles", gpu.light_table.len());
+        let cam = Camera {
+            eye: Vec3::new(0.0, 3.0, 1.5),
+            look_at: Vec3::new(0.0, 0.0, 0.0),
+            up: Vec3::Y,
+            fov_y_degrees: 40.0,
+        };
+        let (size, batches, spp) = (32u32, 32usize, 16u32);
+        let mut images = Vec::new();
+        for light_sampling in [true, false] {
+            let mut tracer = PathTracer::new(ctx, &gpu, &env, &cam, size, size)?;
+            tracer.set_light_sampling(light_sampling);
+            tracer.set_max_depth(8);
+            images.push(batch_images(&mut tracer, batches, spp)?);
+        }
+        // Per pixel: the mean over batches and the sample variance of one batch.
+        let k = batches as f64;
+        let stats = |b: &Vec<Vec<f64>>, pixel: usize| {
+            let mean = b.iter().map(|img| img[pixel]).sum::<f64>() / k;
+            let var = b.iter().map(|img| (img[pixel] - mean).powi(2)).sum::<f64>() / (k - 1.0);
+            (mean, var)
+        };
+        let pixels = (size * size) as usize;
+        let (mut var_mis, mut var_bsdf) = (0.0, 0.0);
+        for pixel in 0..pixels {
+            var_mis += stats(&images[0], pixel).1 / pixels as f64;
+            var_bsdf += stats(&images[1], pixel).1 / pixels as f64;
+        }
+        // 4 × 4 blocks: the block's mean per batch, compared between the estimators
+        // by their standard errors (from the spread of the batches).
+        let block = 4u32;
+        let mut worst: f64 = 0.0;
+        let mut lit_blocks = 0;
+        for by in 0..size / block {
+            for bx in 0..size / block {
+                let per_batch = |b: &Vec<Vec<f64>>| -> Vec<f64> {
+                    b.iter()
+                        .map(|img| {
+                            let mut s = 0.0;
+                            for y in by * block..(by + 1) * block {
+                                for x in bx * block..(bx + 1) * block {
+                                    s += img[(y * size + x) as usize];
+                                }
+                            }
+                            s / (block * block) as f64
+                        })
+                        .collect()
+                };
+                let mean_se = |v: Vec<f64>| {
+                    let m = v.iter().sum::<f64>() / k;
+                    (m, (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt())
+                };
+                let (a, sa) = mean_se(per_batch(&images[0]));
+                let (b, sb) = mean_se(per_batch(&images[1]));
+                if a > 0.2 {
+                    lit_blocks += 1;
+                }
+                let z = (a - b).abs() / (sa * sa + sb * sb).sqrt().max(1e-9);
+                worst = worst.max(z);
+                anyhow::ensure!(
+                    z < 4.5,
+                    "block ({bx}, {by}): MIS {a:.4} ± {sa:.4}, BSDF only {b:.4} ± {sb:.4} (z = {z:.2})"
+                );
+            }
+        }
+        let mean = |b: &Vec<Vec<f64>>| b.iter().flatten().sum::<f64>() / (k * pixels as f64);
+        eprintln!(
+            "emissive quad: image mean MIS {:.4}, BSDF only {:.4}; worst block z {worst:.2}; mean per-pixel variance of a {spp}-path batch: MIS {var_mis:.5}, BSDF only {var_bsdf:.5} (ratio {:.1})",
+            mean(&images[0]),
+            mean(&images[1]),
+            var_bsdf / var_mis
+        );
+        anyhow::ensure!(lit_blocks >= 8, "{lit_blocks} blocks lit: the light does not reach the floor");
+        anyhow::ensure!(var_mis * 2.0 < var_bsdf, "MIS variance {var_mis} is not below half of BSDF-only {var_bsdf}");
+        Ok(())
+    })
+}

@@ -48,6 +48,43 @@ fn coverage_bits(scene: &GltfScene, image: Option<usize>, factor: f32, cutoff: f
     (bits, img.width, img.height)
 }
 
+/// The mean of an sRGB image's texels, in linear light.
+fn linear_mean(image: &raykit_scene::gltf::Image) -> Vec3 {
+    let decode = |c: u8| raykit::device::color::srgb_to_linear(c as f32 / 255.0) as f64;
+    let mut sum = [0.0f64; 3];
+    for texel in image.rgba8.chunks_exact(4) {
+        for (s, &c) in sum.iter_mut().zip(texel) {
+            *s += decode(c);
+        }
+    }
+    let n = (image.rgba8.len() / 4).max(1) as f64;
+    Vec3::new((sum[0] / n) as f32, (sum[1] / n) as f32, (sum[2] / n) as f32)
+}
+
+/// The emissive triangles of a scene, for light sampling (see
+/// `gltf_pathtracer_device::LIGHT_STRIDE` for the layout).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LightTable {
+    /// [`gltf_pathtracer_device::LIGHT_STRIDE`] `Vec4`s per triangle.
+    pub lights: Vec<Vec4>,
+    /// Per triangle: the raw emissive texture handle.
+    pub textures: Vec<u32>,
+    /// The CDF of the triangles' power.
+    pub cdf: Vec<f32>,
+}
+
+impl LightTable {
+    /// The number of light triangles.
+    pub fn len(&self) -> usize {
+        self.cdf.len()
+    }
+
+    /// Whether the scene has no emissive triangles.
+    pub fn is_empty(&self) -> bool {
+        self.cdf.is_empty()
+    }
+}
+
 /// A glTF scene on the device.
 pub struct GpuScene {
     /// The TLAS.
@@ -56,6 +93,15 @@ pub struct GpuScene {
     pub records: Vec<GeometryRecord>,
     /// Whether each record's material is alpha-masked.
     pub masked: Vec<bool>,
+    /// The emissive triangles: every triangle of every (instance, primitive) whose
+    /// material's emissive factor × strength is not black, in world space, picked in
+    /// proportion to its power (area × the mean of the emitted radiance's channels, the
+    /// radiance being the factor × strength × the emissive texture's mean; the texture
+    /// itself is sampled at the point picked).
+    pub light_table: LightTable,
+    lights: DeviceBuffer<Vec4>,
+    light_textures: DeviceBuffer<u32>,
+    light_cdf: DeviceBuffer<f32>,
     _buffers: Vec<PrimitiveBuffers>,
     _textures: HashMap<(usize, bool), Texture>,
 }
@@ -127,6 +173,7 @@ impl GpuScene {
                         uvs: b.uvs.handle(),
                         normals: b.normals.handle(),
                         material: p.material as u32,
+                        light_offset: gltf_pathtracer_device::NO_LIGHT,
                         callable: 0,
                         base_color,
                         base_color_factor: material.base_color.truncate(),
@@ -134,7 +181,7 @@ impl GpuScene {
                         metallic: material.metallic,
                         roughness: material.roughness,
                         emissive_texture,
-                        emissive: material.emissive,
+                        emissive: material.emissive * material.emissive_strength,
                         coverage: b.coverage.handle(),
                         coverage_width,
                         coverage_height,
@@ -149,18 +196,73 @@ impl GpuScene {
         let mut instances = Vec::new();
         let mut records = Vec::new();
         let mut masked = Vec::new();
+        let mut table = LightTable::default();
+        let mut power = Vec::new();
         for (i, inst) in scene.instances.iter().enumerate() {
             let offset = records.len() as u32;
             let transform = Affine3A::from_mat4(inst.transform);
             instances
                 .push(Instance::new(&gases[inst.mesh]).transform(transform).custom_index(i as u32).sbt_offset(offset));
-            for &(r, m) in &mesh_records[inst.mesh] {
+            for (&(mut r, m), p) in mesh_records[inst.mesh].iter().zip(&scene.meshes[inst.mesh].primitives) {
+                let material = &scene.materials[p.material];
+                let emitted = material.emissive * material.emissive_strength;
+                if emitted.max_element() > 0.0 {
+                    r.light_offset = power.len() as u32;
+                    let mean = material.emissive_texture.map_or(Vec3::ONE, |t| linear_mean(&scene.images[t]));
+                    for t in p.indices.chunks_exact(3) {
+                        let [a, b, c] =
+                            [t[0], t[1], t[2]].map(|k| inst.transform.transform_point3(p.positions[k as usize]));
+                        let [ua, ub, uc] = [t[0], t[1], t[2]].map(|k| p.uvs[k as usize]);
+                        let area = 0.5 * (b - a).cross(c - a).length();
+                        power.push(area as f64 * (emitted * mean).element_sum() as f64 / 3.0);
+                        table.lights.extend([
+                            a.extend(0.0),
+                            b.extend(area),
+                            c.extend(0.0),
+                            emitted.extend(0.0),
+                            Vec4::new(ua.x, ua.y, ub.x, ub.y),
+                            Vec4::new(uc.x, uc.y, 0.0, 0.0),
+                        ]);
+                        table.textures.push(r.emissive_texture.raw());
+                    }
+                }
                 records.push(r);
                 masked.push(m);
             }
         }
+        let total: f64 = power.iter().sum();
+        if total > 0.0 && total.is_finite() {
+            let mut running = 0.0;
+            for (k, w) in power.iter().enumerate() {
+                running += w;
+                table.cdf.push((running / total) as f32);
+                table.lights[k * gltf_pathtracer_device::LIGHT_STRIDE as usize].w = (w / total) as f32;
+            }
+            if let Some(last) = table.cdf.last_mut() {
+                *last = 1.0;
+            }
+        } else {
+            // Nothing emits measurably: no light sampling (emission is still found by the BSDF).
+            table = LightTable::default();
+            records.iter_mut().for_each(|r| r.light_offset = gltf_pathtracer_device::NO_LIGHT);
+        }
+        // Buffers of at least one element (an empty table is not sampled: `light_count` is 0).
+        let or_one = |v: &[Vec4]| if v.is_empty() { vec![Vec4::ZERO] } else { v.to_vec() };
+        let lights = ctx.buffer_from(&or_one(&table.lights))?;
+        let light_textures = ctx.buffer_from(if table.textures.is_empty() { &[0u32][..] } else { &table.textures })?;
+        let light_cdf = ctx.buffer_from(if table.cdf.is_empty() { &[1.0f32][..] } else { &table.cdf })?;
         let ias = Ias::new(ctx, &instances)?;
-        Ok(GpuScene { ias, records, masked, _buffers: buffers, _textures: textures })
+        Ok(GpuScene {
+            ias,
+            records,
+            masked,
+            light_table: table,
+            lights,
+            light_textures,
+            light_cdf,
+            _buffers: buffers,
+            _textures: textures,
+        })
     }
 }
 
@@ -200,6 +302,7 @@ pub struct PathTracer {
     _env_cdf: DeviceBuffer<f32>,
     params: TraceParams,
     samples_done: u32,
+    light_count: u32,
 }
 
 impl std::fmt::Debug for PathTracer {
@@ -251,13 +354,33 @@ impl PathTracer {
             cam_v: v,
             cam_w: w,
             scene: scene.ias.handle(),
+            lights: scene.lights.handle(),
+            light_textures: scene.light_textures.handle(),
+            light_cdf: scene.light_cdf.handle(),
+            light_count: scene.light_table.len() as u32,
         };
-        Ok(PathTracer { pipeline, sbt, accum, _env: env_texture, _env_cdf: env_cdf, params, samples_done: 0 })
+        Ok(PathTracer {
+            pipeline,
+            sbt,
+            accum,
+            _env: env_texture,
+            _env_cdf: env_cdf,
+            params,
+            samples_done: 0,
+            light_count: scene.light_table.len() as u32,
+        })
     }
 
     /// Sets the safety cap on bounces (Russian roulette ends paths; 1024 by default).
     pub fn set_max_depth(&mut self, max_depth: u32) {
         self.params.max_depth = max_depth.max(1);
+    }
+
+    /// Whether paths sample the emissive triangles (next-event estimation, weighted
+    /// by multiple importance sampling against the BSDF; on by default). Off, emissive
+    /// surfaces are found by BSDF sampling alone: the same image, noisier.
+    pub fn set_light_sampling(&mut self, on: bool) {
+        self.params.light_count = if on { self.light_count } else { 0 };
     }
 
     /// One launch adding `samples` paths per pixel.

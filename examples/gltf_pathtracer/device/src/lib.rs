@@ -52,6 +52,9 @@ pub struct GeometryRecord {
     pub normals: Buffer<Vec3>,
     /// The material's index in the scene.
     pub material: u32,
+    /// The index in the light buffer of this geometry's first triangle when its
+    /// material emits (triangle `k` is light `light_offset + k`), [`NO_LIGHT`] otherwise.
+    pub light_offset: u32,
     /// The callable `ch_callables` calls for this geometry's material (an index
     /// into the SBT's callable region).
     pub callable: u32,
@@ -98,6 +101,84 @@ pub struct PrimaryHit {
     pub emission: Vec3,
     /// Roughness (factor × texture).
     pub roughness: f32,
+    /// The hit triangle's index in the light buffer, [`NO_LIGHT`] when it does not emit.
+    pub light: u32,
+}
+
+/// [`GeometryRecord::light_offset`] and [`PrimaryHit::light`] of surfaces that emit nothing.
+pub const NO_LIGHT: u32 = u32::MAX;
+
+/// `Vec4`s per triangle of the light buffer ([`TraceParams::lights`]): vertex 0 (world
+/// space) and the probability of picking the triangle; vertex 1 and the area; vertex 2
+/// and 0; the emitted radiance (factor × strength, linear RGB) and 0; texture
+/// coordinates of vertices 0 and 1; of vertex 2 and 0, 0.
+pub const LIGHT_STRIDE: u32 = 6;
+
+/// A point sampled on an emissive triangle.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct LightSample {
+    /// The point (world space).
+    pub position: Vec3,
+    /// The triangle's unit geometric normal.
+    pub normal: Vec3,
+    /// Texture coordinates at the point.
+    pub uv: Vec2,
+    /// The triangle's emitted radiance factor (linear RGB, without the texture).
+    pub radiance: Vec3,
+    /// The triangle's emissive texture.
+    pub texture: Texture2D,
+    /// The pdf per unit area of the point: the triangle's probability over its area.
+    pub pdf_area: f32,
+}
+
+/// Picks a light triangle with probability proportional to its power (`u0` through
+/// the CDF `cdf` of `count` entries), then a point uniformly on it (`u1`, `u2`).
+/// `light(k)` reads `Vec4` `k` of the light buffer, `texture(i)` light `i`'s texture.
+pub fn sample_light(
+    count: u32,
+    cdf: impl Fn(u32) -> f32,
+    light: impl Fn(u32) -> Vec4,
+    texture: impl Fn(u32) -> Texture2D,
+    u0: f32,
+    u1: f32,
+    u2: f32,
+) -> LightSample {
+    // The first entry whose CDF exceeds u0.
+    let (mut lo, mut hi) = (0u32, count - 1);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if cdf(mid) > u0 {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    let base = lo * LIGHT_STRIDE;
+    let (a, b, c) = (light(base), light(base + 1), light(base + 2));
+    let (radiance, uv01, uv2) = (light(base + 3), light(base + 4), light(base + 5));
+    let r = raykit_device::math::sqrt(u1);
+    let (b1, b2) = (r * (1.0 - u2), r * u2);
+    let position = a.truncate() * (1.0 - b1 - b2) + b.truncate() * b1 + c.truncate() * b2;
+    let normal = (b.truncate() - a.truncate()).cross(c.truncate() - a.truncate()).normalize_or_zero();
+    let uv =
+        Vec2::new(uv01.x, uv01.y) * (1.0 - b1 - b2) + Vec2::new(uv01.z, uv01.w) * b1 + Vec2::new(uv2.x, uv2.y) * b2;
+    let pdf_area = if b.w > 0.0 { a.w / b.w } else { 0.0 };
+    LightSample { position, normal, uv, radiance: radiance.truncate(), texture: texture(lo), pdf_area }
+}
+
+/// The pdf per steradian with which [`sample_light`] picks a point of light triangle
+/// `index` at distance `distance` along unit direction `dir` (0 for a triangle seen
+/// edge-on or of no area).
+pub fn light_pdf(light: impl Fn(u32) -> Vec4, index: u32, dir: Vec3, distance: f32) -> f32 {
+    let base = index * LIGHT_STRIDE;
+    let (a, b, c) = (light(base), light(base + 1), light(base + 2));
+    let normal = (b.truncate() - a.truncate()).cross(c.truncate() - a.truncate()).normalize_or_zero();
+    let cos = normal.dot(dir).abs();
+    if b.w > 0.0 && cos > 0.0 {
+        a.w / b.w * distance * distance / cos
+    } else {
+        0.0
+    }
 }
 
 /// Primary rays.
@@ -172,6 +253,7 @@ fn ch(
     hit.metallic = mr.z * g.metallic;
     hit.roughness = mr.y * g.roughness;
     hit.emission = sample(g.emissive_texture).truncate() * g.emissive;
+    hit.light = if g.light_offset == NO_LIGHT { NO_LIGHT } else { g.light_offset + primitive };
 }
 
 #[any_hit(ray = Primary)]
@@ -237,13 +319,24 @@ pub struct TraceParams {
     pub cam_w: Vec3,
     /// The scene.
     pub scene: Traversable,
+    /// The emissive triangles, [`LIGHT_STRIDE`] `Vec4`s each (see there).
+    pub lights: Buffer<Vec4>,
+    /// Per light triangle: its emissive texture (the null handle for none).
+    pub light_textures: Buffer<u32>,
+    /// The lights' CDF in power: entry `i` is the probability of picking a light `≤ i`.
+    pub light_cdf: Buffer<f32>,
+    /// The number of light triangles sampled; 0 turns light sampling off (emissive
+    /// surfaces are then found by BSDF sampling alone).
+    pub light_count: u32,
 }
 
 /// Offset of secondary rays from the surface.
 pub const RAY_OFFSET: f32 = 1e-3;
 
-/// The path tracer: per path, next-event estimation of the environment map and
-/// BSDF sampling, weighted by the power heuristic, and Russian roulette.
+/// The path tracer: per path, next-event estimation of the environment map and of
+/// the emissive triangles (area sampling, proportional to power), and BSDF sampling,
+/// weighted by the power heuristic; Russian roulette. Emissive triangles emit from
+/// both sides.
 #[raygen]
 fn rg_path(
     ctx: &mut Raygen,
@@ -258,6 +351,7 @@ fn rg_path(
     let pixel = ctx.launch_linear_index();
     let (cdf, env) = (p.env_cdf, p.env);
     let (ew, eh) = (p.env_width, p.env_height);
+    let (lights, light_textures, light_cdf) = (p.lights, p.light_textures, p.light_cdf);
     let mut sum = Vec3::ZERO;
     let mut rays = 0u32;
     let mut sample = 0;
@@ -285,7 +379,12 @@ fn rg_path(
                 radiance += throughput * light * weight;
                 break;
             }
-            radiance += throughput * hit.emission;
+            let emission_weight = if depth == 0 || p.light_count == 0 || hit.light == NO_LIGHT {
+                1.0
+            } else {
+                power_heuristic(bsdf_pdf, light_pdf(|k| ctx.load(lights, k), hit.light, dir, hit.t))
+            };
+            radiance += throughput * hit.emission * emission_weight;
             let n = if hit.normal.dot(dir) > 0.0 { -hit.normal } else { hit.normal };
             let position = origin + hit.t * dir + n * RAY_OFFSET;
             let frame = Onb::new(n);
@@ -308,6 +407,41 @@ fn rg_path(
                     let light = textures.sample_lod(env, s.uv, 0.0).truncate();
                     let weight = power_heuristic(s.pdf, bsdf::pdf(&material, v, l));
                     radiance += throughput * f * light * (weight / s.pdf);
+                }
+            }
+            // Next-event estimation: a point of an emissive triangle.
+            if p.light_count > 0 {
+                let (u0, u1, u2) = (rng.next_f32(), rng.next_f32(), rng.next_f32());
+                let s = sample_light(
+                    p.light_count,
+                    |k| ctx.load(light_cdf, k),
+                    |k| ctx.load(lights, k),
+                    |k| Texture2D::from_raw(ctx.load(light_textures, k)),
+                    u0,
+                    u1,
+                    u2,
+                );
+                let to_light = s.position - position;
+                let distance = to_light.length();
+                let wi = to_light / distance;
+                let cos_light = s.normal.dot(wi).abs();
+                let l = frame.to_local(wi);
+                let f = bsdf::eval(&material, v, l);
+                if s.pdf_area > 0.0 && cos_light > 0.0 && distance > 0.0 && f != Vec3::ZERO {
+                    let pdf = s.pdf_area * distance * distance / cos_light;
+                    shadow.t = 1.0;
+                    let ray = Ray::new(position, wi).with_interval(0.0, distance * (1.0 - 1e-3));
+                    ctx.trace::<Shadow>(p.scene, ray, shadow);
+                    rays += 1;
+                    if shadow.t < 0.0 {
+                        let texture = if s.texture == Texture2D::NULL {
+                            Vec3::ONE
+                        } else {
+                            textures.sample_lod(s.texture, s.uv, 0.0).truncate()
+                        };
+                        let weight = power_heuristic(pdf, bsdf::pdf(&material, v, l));
+                        radiance += throughput * f * s.radiance * texture * (weight / pdf);
+                    }
                 }
             }
             // The next direction, from the BSDF.
