@@ -408,3 +408,74 @@ fn emissive_triangles_as_lights_match_bsdf_sampling_with_less_noise() -> anyhow:
         Ok(())
     })
 }
+
+#[test]
+fn normal_maps_tilt_the_shading_normal_as_the_tangent_frame_says() -> anyhow::Result<()> {
+    use gltf_fixture::Quad;
+    use raykit::glam::Vec4;
+    let dir = raykit_tests::temp_dir("gltf_normal_map")?;
+    // A constant normal map: tangent-space (x, y, z) = texel × 2 − 1, x and y scaled by 0.5.
+    let texel = [191u8, 160, 230];
+    let map = image::RgbaImage::from_pixel(2, 2, image::Rgba([texel[0], texel[1], texel[2], 255]));
+    let quad = |x0: f32, sign: f32, material: usize| Quad {
+        corners: [
+            Vec3::new(x0, -0.5, 0.0),
+            Vec3::new(x0 + 1.0, -0.5, 0.0),
+            Vec3::new(x0 + 1.0, 0.5, 0.0),
+            Vec3::new(x0, 0.5, 0.0),
+        ],
+        normal: Vec3::Z,
+        tangent: Some(Vec4::new(1.0, 0.0, 0.0, sign)),
+        material,
+    };
+    let materials = r#"[{"name": "bumpy", "normalTexture": {"index": 0, "scale": 0.5}}, {"name": "flat"}]"#;
+    let path = gltf_fixture::write_quads(
+        &dir.0,
+        &[quad(-1.6, 1.0, 0), quad(-0.5, -1.0, 0), quad(0.6, 1.0, 1)],
+        materials,
+        r#"[{"source": 0}]"#,
+        r#"[{"uri": "normal.png"}]"#,
+        &[("normal.png", map)],
+    )?;
+    let scene = GltfScene::load(&path)?;
+    anyhow::ensure!(scene.materials[0].normal_scale == 0.5 && scene.materials[0].normal_texture == Some(0));
+    with_context("normal_maps_tilt_the_shading_normal_as_the_tangent_frame_says", |ctx| {
+        let gpu = GpuScene::new(ctx, &scene)?;
+        let renderer = Renderer::new(ctx, &gpu)?;
+        let (out, _, normals) = renderer.primary_hits_with_normals(ctx, &gpu, &camera(), SIZE, SIZE)?;
+        // The CPU reference: T = +x, B = sign × (N × T) = sign × +y, N = +z.
+        let m = Vec3::from_array(texel.map(|c| c as f32 / 255.0 * 2.0 - 1.0));
+        let want = |sign: f32| Vec3::new(m.x * 0.5, sign * m.y * 0.5, m.z).normalize();
+        let mut counts = [0usize; 3];
+        let mut worst: f32 = 0.0;
+        for y in 0..SIZE {
+            for x in 0..SIZE {
+                let (o, d) = ray(x as f32 + 0.5, y as f32 + 0.5);
+                let p = o + d * (-o.z / d.z);
+                let which = if p.y.abs() > 0.48 {
+                    continue;
+                } else if (-1.58..-0.62).contains(&p.x) {
+                    0
+                } else if (-0.48..0.48).contains(&p.x) {
+                    1
+                } else if (0.62..1.58).contains(&p.x) {
+                    2
+                } else {
+                    continue;
+                };
+                let expected = [want(1.0), want(-1.0), Vec3::Z][which];
+                let i = (y * SIZE + x) as usize;
+                anyhow::ensure!(out[i].x >= 0.0, "pixel ({x}, {y}) missed quad {which}");
+                let got = normals[i].truncate();
+                let err = (got - expected).length();
+                worst = worst.max(err);
+                anyhow::ensure!(err < 1e-3, "pixel ({x}, {y}) on quad {which}: normal {got}, reference {expected}");
+                counts[which] += 1;
+            }
+        }
+        anyhow::ensure!(counts.iter().all(|&n| n >= 50), "pixels per quad {counts:?}");
+        let tilt = want(1.0).dot(Vec3::Z).acos().to_degrees();
+        eprintln!("normal map: {counts:?} pixels per quad, tilt {tilt:.2}°, worst error {worst:.2e}");
+        Ok(())
+    })
+}

@@ -29,6 +29,7 @@ struct PrimitiveBuffers {
     indices: DeviceBuffer<u32>,
     uvs: DeviceBuffer<Vec2>,
     normals: DeviceBuffer<Vec3>,
+    tangents: DeviceBuffer<Vec4>,
     coverage: DeviceBuffer<u32>,
 }
 
@@ -158,6 +159,8 @@ impl GpuScene {
                     indices: ctx.buffer_from(&p.indices)?,
                     uvs: ctx.buffer_from(&p.uvs)?,
                     normals: ctx.buffer_from(&p.normals)?,
+                    // One zero tangent when the file has none (a normal map is then not applied).
+                    tangents: ctx.buffer_from(if p.tangents.is_empty() { &[Vec4::ZERO][..] } else { &p.tangents })?,
                     coverage: ctx.buffer_from(&coverage)?,
                 };
                 let mut optional = |image: Option<usize>, srgb: bool| match image {
@@ -167,11 +170,20 @@ impl GpuScene {
                 let base_color = optional(material.base_color_texture, true)?;
                 let metallic_roughness = optional(material.metallic_roughness_texture, false)?;
                 let emissive_texture = optional(material.emissive_texture, true)?;
+                // Normal maps need the file's tangents (none are generated).
+                let normal_texture = if p.tangents.is_empty() {
+                    raykit::Texture2D::NULL
+                } else {
+                    optional(material.normal_texture, false)?
+                };
                 records.push((
                     GeometryRecord {
                         indices: b.indices.handle(),
                         uvs: b.uvs.handle(),
                         normals: b.normals.handle(),
+                        tangents: b.tangents.handle(),
+                        normal_texture,
+                        normal_scale: material.normal_scale,
                         material: p.material as u32,
                         light_offset: gltf_pathtracer_device::NO_LIGHT,
                         callable: 0,
@@ -480,8 +492,23 @@ impl Renderer {
         width: u32,
         height: u32,
     ) -> anyhow::Result<(Vec<Vec4>, Vec<Vec4>)> {
+        let (out, color, _) = self.primary_hits_with_normals(ctx, scene, camera, width, height)?;
+        Ok((out, color))
+    }
+
+    /// [`Renderer::primary_hits`], and per pixel the primary hit's shading normal (world
+    /// space, after the normal map; 0 for a miss).
+    pub fn primary_hits_with_normals(
+        &self,
+        ctx: &Context,
+        scene: &GpuScene,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+    ) -> anyhow::Result<(Vec<Vec4>, Vec<Vec4>, Vec<Vec4>)> {
         let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
         let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let normal = ctx.buffer::<Vec4>(width as usize * height as usize)?;
         let (u, v, w) = camera.uvw(width as f32 / height as f32);
         let params = Params {
             out: out.handle(),
@@ -492,9 +519,11 @@ impl Renderer {
             cam_v: v,
             cam_w: w,
             scene: scene.ias.handle(),
+            normal: normal.handle(),
+            _pad: 0,
         };
         self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
-        Ok((out.read()?, color.read()?))
+        Ok((out.read()?, color.read()?, normal.read()?))
     }
 }
 
@@ -576,6 +605,7 @@ impl MaterialRenderer {
     ) -> anyhow::Result<std::time::Duration> {
         let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
         let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let normal = ctx.buffer::<Vec4>(width as usize * height as usize)?;
         let (u, v, w) = camera.uvw(width as f32 / height as f32);
         let params = Params {
             out: out.handle(),
@@ -586,6 +616,8 @@ impl MaterialRenderer {
             cam_v: v,
             cam_w: w,
             scene: scene.ias.handle(),
+            normal: normal.handle(),
+            _pad: 0,
         };
         Ok(match timer {
             Some(timer) => self.pipeline.launch_timed(&self.sbt, &params, [width, height, 1], timer)?,
@@ -608,6 +640,7 @@ impl MaterialRenderer {
     ) -> anyhow::Result<(Vec<Vec4>, Vec<Vec4>)> {
         let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
         let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        let normal = ctx.buffer::<Vec4>(width as usize * height as usize)?;
         let (u, v, w) = camera.uvw(width as f32 / height as f32);
         let params = Params {
             out: out.handle(),
@@ -618,6 +651,8 @@ impl MaterialRenderer {
             cam_v: v,
             cam_w: w,
             scene: scene.ias.handle(),
+            normal: normal.handle(),
+            _pad: 0,
         };
         self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
         Ok((out.read()?, color.read()?))

@@ -38,6 +38,30 @@ pub struct Params {
     pub cam_w: Vec3,
     /// The scene.
     pub scene: Traversable,
+    /// Per pixel: the primary hit's shading normal (world space, after the normal map) and 0.
+    pub normal: Buffer<Vec4>,
+    /// Padding (launch params have none implicit).
+    pub _pad: u32,
+}
+
+/// The shading normal from a normal-map texel `texel` (RGB in 0..1, glTF's tangent
+/// space: x along the tangent, y along the bitangent `sign × n × t`, z along the
+/// normal), scaled by `scale` in x and y, given the unit normal `n` and the tangent
+/// `t` (world space; orthogonalised against `n` here). `n` when the tangent is
+/// degenerate.
+pub fn perturb_normal(n: Vec3, t: Vec3, sign: f32, texel: Vec3, scale: f32) -> Vec3 {
+    let t = (t - n * n.dot(t)).normalize_or_zero();
+    if t == Vec3::ZERO {
+        return n;
+    }
+    let b = n.cross(t) * if sign < 0.0 { -1.0 } else { 1.0 };
+    let m = texel * 2.0 - Vec3::ONE;
+    let perturbed = (t * (m.x * scale) + b * (m.y * scale) + n * m.z).normalize_or_zero();
+    if perturbed == Vec3::ZERO {
+        n
+    } else {
+        perturbed
+    }
 }
 
 /// The hit record of one primitive of one instance.
@@ -50,6 +74,13 @@ pub struct GeometryRecord {
     pub uvs: Buffer<Vec2>,
     /// Normals per vertex (object space).
     pub normals: Buffer<Vec3>,
+    /// Tangents per vertex (object space xyz, w the bitangent sign); read only with a normal map.
+    pub tangents: Buffer<Vec4>,
+    /// Tangent-space normal map, linear (the null handle for none, or when the
+    /// primitive has no tangents).
+    pub normal_texture: Texture2D,
+    /// The normal map's scale (multiplies its x and y).
+    pub normal_scale: f32,
     /// The material's index in the scene.
     pub material: u32,
     /// The index in the light buffer of this geometry's first triangle when its
@@ -221,6 +252,7 @@ fn rg(ctx: &mut Raygen, #[params] p: &Params, #[payload] hit: &mut PrimaryHit) {
     let pixel = ctx.launch_linear_index();
     ctx.store(p.out, pixel, Vec4::new(material, hit.uv.x, hit.uv.y, hit.t));
     ctx.store(p.color, pixel, hit.color.extend(1.0));
+    ctx.store(p.normal, pixel, hit.normal.extend(0.0));
 }
 
 #[miss(ray = Primary)]
@@ -244,6 +276,16 @@ fn ch(
         + ctx.load(normals, ctx.load(indices, base + 1)) * b.x
         + ctx.load(normals, ctx.load(indices, base + 2)) * b.y;
     hit.normal = raykit_device::sampling::transform_normal_to_world(&ctx.world_to_object(), n);
+    if g.normal_texture != Texture2D::NULL {
+        let tangents = g.tangents;
+        let t = ctx.load(tangents, ctx.load(indices, base)) * (1.0 - b.x - b.y)
+            + ctx.load(tangents, ctx.load(indices, base + 1)) * b.x
+            + ctx.load(tangents, ctx.load(indices, base + 2)) * b.y;
+        let m = ctx.object_to_world();
+        let t_world = m.x_axis * t.x + m.y_axis * t.y + m.z_axis * t.z;
+        let texel = textures.sample_lod(g.normal_texture, uv, 0.0).truncate();
+        hit.normal = perturb_normal(hit.normal, t_world, t.w, texel, g.normal_scale);
+    }
     hit.uv = uv;
     hit.t = ctx.hit_t();
     hit.material = g.material;
