@@ -95,7 +95,8 @@ pub struct GpuScene {
     /// Whether each record's material is alpha-masked.
     pub masked: Vec<bool>,
     /// The emissive triangles: every triangle of every (instance, primitive) whose
-    /// material's emissive factor × strength is not black, in world space, picked in
+    /// material's emissive factor × strength is not black and which is not alpha-masked
+    /// (masked emitters are found by BSDF sampling alone), in world space, picked in
     /// proportion to its power (area × the mean of the emitted radiance's channels, the
     /// radiance being the factor × strength × the emissive texture's mean; the texture
     /// itself is sampled at the point picked).
@@ -218,7 +219,9 @@ impl GpuScene {
             for (&(mut r, m), p) in mesh_records[inst.mesh].iter().zip(&scene.meshes[inst.mesh].primitives) {
                 let material = &scene.materials[p.material];
                 let emitted = material.emissive * material.emissive_strength;
-                if emitted.max_element() > 0.0 {
+                // Alpha-masked emitters are left to BSDF sampling: a point picked on the triangle
+                // may lie in a hole.
+                if emitted.max_element() > 0.0 && !m {
                     r.light_offset = power.len() as u32;
                     let mean = material.emissive_texture.map_or(Vec3::ONE, |t| linear_mean(&scene.images[t]));
                     for t in p.indices.chunks_exact(3) {

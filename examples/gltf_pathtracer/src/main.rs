@@ -1,5 +1,5 @@
 //! `cargo run --release -p gltf_pathtracer -- --scene FILE.gltf [--env FILE.exr] [--width W] [--height H]
-//! [--spp N] [--max-depth N] [--materials callables|inlined] [-o FILE.png]`: path-traces a glTF scene lit by an environment map (an
+//! [--spp N] [--max-depth N] [--no-light-sampling] [--materials callables|inlined] [-o FILE.png]`: path-traces a glTF scene lit by its emissive triangles and an environment map (an
 //! OpenEXR equirectangular map, or a procedural sky), progressively with a progress bar, to a tonemapped
 //! PNG and the linear radiance as OpenEXR beside it.
 //!
@@ -41,6 +41,9 @@ struct Cli {
     /// Safety cap on bounces (Russian roulette ends paths).
     #[arg(long, default_value_t = 1024)]
     max_depth: u32,
+    /// Find emissive surfaces by BSDF sampling alone (no light sampling of emissive triangles).
+    #[arg(long)]
+    no_light_sampling: bool,
     /// Instead of path tracing, render the eight procedural materials (glTF material `m` shaded by
     /// material `m % 8`) at the primary hits, as direct callables or inlined closest-hit programs.
     #[arg(long, value_parser = ["callables", "inlined"])]
@@ -87,6 +90,7 @@ fn main() -> anyhow::Result<()> {
     }
     let mut tracer = PathTracer::new(&ctx, &gpu, &env, &camera, cli.width, cli.height)?;
     tracer.set_max_depth(cli.max_depth);
+    tracer.set_light_sampling(!cli.no_light_sampling);
     let bar = ProgressBar::new(cli.spp as u64);
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} spp  {msg}")
