@@ -31,9 +31,9 @@ pub struct Row {
     cpu_over_vulkan: Summary,
 }
 
-/// Runs `launch` on each of `backends` once, then `reps` rounds in alternating
-/// order; returns per backend the (seconds, rays) of each round.
-fn pair(
+/// Runs `vulkan` and `cpu` once each to warm up, then `reps` rounds in
+/// alternating order; returns per backend the (seconds, rays) of each round.
+fn interleave(
     reps: usize,
     mut vulkan: impl FnMut() -> anyhow::Result<(f64, u64)>,
     mut cpu: impl FnMut() -> anyhow::Result<(f64, u64)>,
@@ -42,13 +42,9 @@ fn pair(
     cpu()?;
     let (mut v, mut c) = (Vec::new(), Vec::new());
     for rep in 0..reps {
-        if rep % 2 == 0 {
-            v.push(vulkan()?);
-            c.push(cpu()?);
-        } else {
-            c.push(cpu()?);
-            v.push(vulkan()?);
-        }
+        let (a, b) = crate::launch::pair(rep, &mut vulkan, &mut cpu)?;
+        v.push(a);
+        c.push(b);
     }
     Ok([v, c])
 }
@@ -92,7 +88,7 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
     eprintln!("cpu: {} triangles built in {vulkan_build:.2} s (Vulkan) and {cpu_build:.2} s (CPU)", opts.triangles);
     let pv = primary_pipeline(vulkan, Language::Rust)?;
     let pc = primary_pipeline(&cpu, Language::Rust)?;
-    let results = pair(
+    let results = interleave(
         opts.reps,
         || {
             let start = Instant::now();
@@ -125,7 +121,7 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
         let seconds = start.elapsed().as_secs_f64();
         Ok((seconds, r.rays()?))
     };
-    let results = pair(opts.reps, || launch(&mut rv), || launch(&mut rc))?;
+    let results = interleave(opts.reps, || launch(&mut rv), || launch(&mut rc))?;
     // The same paths: the programs and their random numbers are the same.
     let (nv, nc) = (results[0][0].1, results[1][0].1);
     anyhow::ensure!(nv.abs_diff(nc) * 100 <= nv, "the path tracer traced {nv} rays on Vulkan and {nc} on the CPU");

@@ -373,12 +373,13 @@ fn raykit_create(ctx: &Context, bytes: &[u8]) -> anyhow::Result<f64> {
     Ok(start.elapsed().as_secs_f64())
 }
 
-/// One raykit sample and one ash sample, in the order `rep` picks.
-fn pair(
+/// One sample of each side, in the order `rep` picks (the first side first on
+/// even repetitions).
+pub(crate) fn pair<T>(
     rep: usize,
-    raykit: impl FnOnce() -> anyhow::Result<f64>,
-    ash: impl FnOnce() -> anyhow::Result<f64>,
-) -> anyhow::Result<(f64, f64)> {
+    raykit: impl FnOnce() -> anyhow::Result<T>,
+    ash: impl FnOnce() -> anyhow::Result<T>,
+) -> anyhow::Result<(T, T)> {
     Ok(if rep.is_multiple_of(2) {
         let r = raykit()?;
         (r, ash()?)

@@ -47,28 +47,19 @@ pub type Image2d = spirv_std::Image!(2D, type = f32, sampled);
 pub type TextureTable = spirv_std::RuntimeArray<spirv_std::image::SampledImage<Image2d>>;
 
 /// What a `#[textures]` parameter names when the program runs on raykit's CPU
-/// backend: its runtime, which samples for it.
+/// backend: the runtime of the program call, which samples for it. Programs
+/// write `&TextureTable` on both targets (the lifetime is elided here).
 #[cfg(not(target_arch = "spirv"))]
-pub struct TextureTable {
-    /// The runtime of the program call the table was made for (see [`TextureTable::__cpu`]).
-    runtime: *const dyn crate::cpu::Runtime,
+pub struct TextureTable<'a> {
+    runtime: &'a dyn crate::cpu::Runtime,
 }
 
 #[cfg(not(target_arch = "spirv"))]
-impl TextureTable {
-    /// The table of a program call running on `runtime`; the macros make one
-    /// for each call and lend it to the program for that call only.
+impl<'a> TextureTable<'a> {
+    /// The table of a program call running on `runtime` (the macros make one
+    /// for each call).
     #[doc(hidden)]
-    pub fn __cpu(runtime: &dyn crate::cpu::Runtime) -> TextureTable {
-        // SAFETY (of the later dereference): the table is borrowed by the
-        // program for the call `runtime` is borrowed for, and never outlives it.
-        let runtime: *const (dyn crate::cpu::Runtime + '_) = runtime;
-        // SAFETY: only the lifetime bound of the trait object changes.
-        let runtime = unsafe {
-            core::mem::transmute::<*const (dyn crate::cpu::Runtime + '_), *const (dyn crate::cpu::Runtime + 'static)>(
-                runtime,
-            )
-        };
+    pub fn __cpu(runtime: &'a dyn crate::cpu::Runtime) -> TextureTable<'a> {
         TextureTable { runtime }
     }
 }
@@ -113,10 +104,16 @@ pub trait SampleTexture {
     fn sample_lod(&self, texture: Texture2D, uv: Vec2, lod: f32) -> Vec4;
 }
 
-impl SampleTexture for TextureTable {
-    #[allow(unused_variables)]
+#[cfg(not(target_arch = "spirv"))]
+impl SampleTexture for TextureTable<'_> {
     fn sample_lod(&self, texture: Texture2D, uv: Vec2, lod: f32) -> Vec4 {
-        #[cfg(target_arch = "spirv")]
+        self.runtime.sample_texture(texture.raw(), uv, lod)
+    }
+}
+
+#[cfg(target_arch = "spirv")]
+impl SampleTexture for TextureTable {
+    fn sample_lod(&self, texture: Texture2D, uv: Vec2, lod: f32) -> Vec4 {
         {
             let index = texture.table_index();
             let mut result = Vec4::ZERO;
@@ -154,11 +151,6 @@ impl SampleTexture for TextureTable {
                 }
             }
             result
-        }
-        #[cfg(not(target_arch = "spirv"))]
-        // SAFETY: see `TextureTable::__cpu`: the runtime outlives the table.
-        unsafe {
-            (*self.runtime).sample_texture(texture.raw(), uv, lod)
         }
     }
 }

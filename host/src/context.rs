@@ -508,23 +508,23 @@ impl Context {
 impl Context {
     /// The `ash` instance.
     pub fn raw_instance(&self) -> Option<&ash::Instance> {
-        self.vulkan("").ok().map(|inner| &inner.instance)
+        self.as_vulkan().map(|inner| &inner.instance)
     }
     /// The `ash` device.
     pub fn raw_device(&self) -> Option<&ash::Device> {
-        self.vulkan("").ok().map(|inner| &inner.device)
+        self.as_vulkan().map(|inner| &inner.device)
     }
     /// The `VK_KHR_ray_tracing_pipeline` functions of the device.
     pub fn raw_ray_tracing(&self) -> Option<&ash::khr::ray_tracing_pipeline::Device> {
-        self.vulkan("").ok().map(|inner| &inner.rt)
+        self.as_vulkan().map(|inner| &inner.rt)
     }
     /// The bindless buffer table's descriptor set (set 0 of every raykit pipeline layout).
     pub fn raw_buffer_table_set(&self) -> Option<vk::DescriptorSet> {
-        self.vulkan("").ok().map(|inner| inner.buffer_table.set)
+        self.as_vulkan().map(|inner| inner.buffer_table.set)
     }
     /// The bindless buffer table's descriptor set layout.
     pub fn raw_buffer_table_layout(&self) -> Option<vk::DescriptorSetLayout> {
-        self.vulkan("").ok().map(|inner| inner.buffer_table.layout)
+        self.as_vulkan().map(|inner| inner.buffer_table.layout)
     }
 }
 

@@ -467,6 +467,43 @@ pub fn framing_camera(scene: &GltfScene) -> Camera {
     }
 }
 
+/// The output buffers of one primary-hit launch (`out`, `color`, `normal`, one
+/// `Vec4` per pixel) and the params that name them.
+struct PrimaryTarget {
+    out: raykit::DeviceBuffer<Vec4>,
+    color: raykit::DeviceBuffer<Vec4>,
+    normal: raykit::DeviceBuffer<Vec4>,
+    params: Params,
+}
+
+impl PrimaryTarget {
+    /// Buffers for a `width × height` image of `scene` seen by `camera`.
+    fn new(ctx: &Context, scene: &GpuScene, camera: &Camera, width: u32, height: u32) -> anyhow::Result<Self> {
+        let pixels = width as usize * height as usize;
+        let (out, color, normal) =
+            (ctx.buffer::<Vec4>(pixels)?, ctx.buffer::<Vec4>(pixels)?, ctx.buffer::<Vec4>(pixels)?);
+        let (u, v, w) = camera.uvw(width as f32 / height as f32);
+        let params = Params {
+            out: out.handle(),
+            size: UVec2::new(width, height),
+            color: color.handle(),
+            cam_eye: camera.eye,
+            cam_u: u,
+            cam_v: v,
+            cam_w: w,
+            scene: scene.ias.handle(),
+            normal: normal.handle(),
+            _pad: 0,
+        };
+        Ok(PrimaryTarget { out, color, normal, params })
+    }
+
+    /// What the launch wrote: `out`, `color` and `normal`.
+    fn read(&self) -> anyhow::Result<(Vec<Vec4>, Vec<Vec4>, Vec<Vec4>)> {
+        Ok((self.out.read()?, self.color.read()?, self.normal.read()?))
+    }
+}
+
 /// The glTF renderer's pipeline and SBT for one scene.
 pub struct Renderer {
     pipeline: Pipeline<Params>,
@@ -509,24 +546,9 @@ impl Renderer {
         width: u32,
         height: u32,
     ) -> anyhow::Result<(Vec<Vec4>, Vec<Vec4>, Vec<Vec4>)> {
-        let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
-        let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
-        let normal = ctx.buffer::<Vec4>(width as usize * height as usize)?;
-        let (u, v, w) = camera.uvw(width as f32 / height as f32);
-        let params = Params {
-            out: out.handle(),
-            size: UVec2::new(width, height),
-            color: color.handle(),
-            cam_eye: camera.eye,
-            cam_u: u,
-            cam_v: v,
-            cam_w: w,
-            scene: scene.ias.handle(),
-            normal: normal.handle(),
-            _pad: 0,
-        };
-        self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
-        Ok((out.read()?, color.read()?, normal.read()?))
+        let target = PrimaryTarget::new(ctx, scene, camera, width, height)?;
+        self.pipeline.launch(&self.sbt, &target.params, [width, height, 1])?;
+        target.read()
     }
 }
 
@@ -606,27 +628,13 @@ impl MaterialRenderer {
         (width, height): (u32, u32),
         timer: Option<&raykit::LaunchTimer>,
     ) -> anyhow::Result<std::time::Duration> {
-        let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
-        let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
-        let normal = ctx.buffer::<Vec4>(width as usize * height as usize)?;
-        let (u, v, w) = camera.uvw(width as f32 / height as f32);
-        let params = Params {
-            out: out.handle(),
-            size: UVec2::new(width, height),
-            color: color.handle(),
-            cam_eye: camera.eye,
-            cam_u: u,
-            cam_v: v,
-            cam_w: w,
-            scene: scene.ias.handle(),
-            normal: normal.handle(),
-            _pad: 0,
-        };
+        // Kept alive for the launch: the params name its buffers.
+        let target = PrimaryTarget::new(ctx, scene, camera, width, height)?;
         Ok(match timer {
-            Some(timer) => self.pipeline.launch_timed(&self.sbt, &params, [width, height, 1], timer)?,
+            Some(timer) => self.pipeline.launch_timed(&self.sbt, &target.params, [width, height, 1], timer)?,
             None => {
                 let started = std::time::Instant::now();
-                self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
+                self.pipeline.launch(&self.sbt, &target.params, [width, height, 1])?;
                 started.elapsed()
             }
         })
@@ -641,23 +649,9 @@ impl MaterialRenderer {
         width: u32,
         height: u32,
     ) -> anyhow::Result<(Vec<Vec4>, Vec<Vec4>)> {
-        let out = ctx.buffer::<Vec4>(width as usize * height as usize)?;
-        let color = ctx.buffer::<Vec4>(width as usize * height as usize)?;
-        let normal = ctx.buffer::<Vec4>(width as usize * height as usize)?;
-        let (u, v, w) = camera.uvw(width as f32 / height as f32);
-        let params = Params {
-            out: out.handle(),
-            size: UVec2::new(width, height),
-            color: color.handle(),
-            cam_eye: camera.eye,
-            cam_u: u,
-            cam_v: v,
-            cam_w: w,
-            scene: scene.ias.handle(),
-            normal: normal.handle(),
-            _pad: 0,
-        };
-        self.pipeline.launch(&self.sbt, &params, [width, height, 1])?;
-        Ok((out.read()?, color.read()?))
+        let target = PrimaryTarget::new(ctx, scene, camera, width, height)?;
+        self.pipeline.launch(&self.sbt, &target.params, [width, height, 1])?;
+        let (out, color, _) = target.read()?;
+        Ok((out, color))
     }
 }

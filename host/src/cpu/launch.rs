@@ -33,6 +33,7 @@ use super::program::{Aligned, PipelineData, Program, SbtData, ATTRIBUTE_BYTES};
 use super::{CpuContext, TILE};
 use crate::accel::InstanceFlags;
 use crate::error::{Error, Result, UserException};
+use crate::handles::{check_handles, TraversableState};
 
 /// `SpvRayFlags…KHR` bits.
 mod ray_flags {
@@ -157,11 +158,7 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
     if exceptions.is_empty() {
         return Ok(());
     }
-    let linear = |e: &UserException| {
-        let [x, y, z] = e.launch_index;
-        u64::from(x) + u64::from(w) * (u64::from(y) + u64::from(h) * u64::from(z))
-    };
-    exceptions.sort_by_key(linear);
+    exceptions.sort_by_key(|e| linear_index(job.dims, e.launch_index));
     let total = u32::try_from(exceptions.len()).unwrap_or(u32::MAX);
     exceptions.truncate(EXCEPTION_CAPACITY as usize);
     Err(crate::pipeline::exceptions_error(total, exceptions, job.pipeline.max_trace_depth))
@@ -195,10 +192,13 @@ fn invoke(state: &InvocationState<'_>, outcome: &mut Outcome) {
             Ok(fault) => Failure::Fault { program, problem: fault.0 },
             Err(payload) => Failure::Panicked { program, message: panic_message(payload.as_ref()) },
         };
-        let [w, h, _] = job.dims;
-        let linear = u64::from(index.x) + u64::from(w) * (u64::from(index.y) + u64::from(h) * u64::from(index.z));
-        outcome.failure = Some((linear, index.to_array(), failure));
+        outcome.failure = Some((linear_index(job.dims, index.to_array()), index.to_array(), failure));
     }
+}
+
+/// The position of `index` in launch order: `x + width × (y + height × z)`.
+fn linear_index([w, h, _]: [u32; 3], [x, y, z]: [u32; 3]) -> u64 {
+    u64::from(x) + u64::from(w) * (u64::from(y) + u64::from(h) * u64::from(z))
 }
 
 /// The message of a panic payload (`panic!`'s string, or a note that it had none).
@@ -435,8 +435,6 @@ struct Traversal<'f> {
     payload_type: TypeInfo,
     /// The candidate an intersection program runs for.
     candidate: Cell<Option<Candidate>>,
-    /// The object-space ray of the instance being traversed.
-    object_ray: Cell<(Vec3, Vec3)>,
     terminated: Cell<bool>,
 }
 
@@ -462,7 +460,6 @@ impl<'f> Traversal<'f> {
             payload: Cell::new(payload.ptr),
             payload_type: payload.ty,
             candidate: Cell::new(None),
-            object_ray: Cell::new((ray.origin, ray.direction)),
             terminated: Cell::new(false),
         }
     }
@@ -505,7 +502,6 @@ impl<'f> Traversal<'f> {
         let w2o: Affine3A = instance.world_to_object;
         let origin = w2o.transform_point3(self.ray.origin);
         let direction = w2o.transform_vector3(self.ray.direction);
-        self.object_ray.set((origin, direction));
         let gas = &instance.gas;
         let bvh = &gas.bvh;
         let (o, d) = (Vec3A::from(origin), Vec3A::from(direction));
@@ -779,6 +775,32 @@ pub(crate) struct CpuLaunch {
 }
 
 impl CpuLaunch {
+    /// Checks the handles of `params` and of the SBT's `checked` records against
+    /// the context's live objects, as Vulkan launches do (see
+    /// [`crate::handles`]), then starts the launch.
+    pub(crate) fn submit<P: raykit_device::LaunchParams>(
+        pipeline: &Arc<PipelineData>,
+        sbt: &Arc<SbtData>,
+        checked: &[crate::sbt::CheckedRecord],
+        params: &P,
+        dims: [u32; 3],
+    ) -> Result<CpuLaunch> {
+        let ctx = &pipeline.ctx;
+        let params = bytemuck::bytes_of(params);
+        let live = |handle| ctx.buffers.is_live(handle);
+        // The CPU backend has no textures: only the null handle is one.
+        let texture = |handle| handle == 0;
+        let scenes = ctx.scenes();
+        let traversable = |address| scenes.get(&address).map_or(TraversableState::Unknown, |s| s.check.state());
+        check_handles(&pipeline.handle_fields, params, None, live, texture, traversable)?;
+        for record in checked {
+            let region = Some((record.region, record.index));
+            check_handles(&record.fields, &record.data, region, live, texture, traversable)?;
+        }
+        drop(scenes);
+        Ok(CpuLaunch::start(LaunchJob::new(pipeline.clone(), sbt.clone(), params, dims)))
+    }
+
     /// Starts `job`; the context counts it as running until it ends.
     pub(crate) fn start(job: LaunchJob) -> CpuLaunch {
         let ctx = job.ctx.clone();

@@ -189,23 +189,8 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan { pipeline, .. }) if Arc::ptr_eq(pipeline, inner) => inner,
             (PipelineRepr::Cpu(data), SbtDevice::Cpu { pipeline, data: records }) if Arc::ptr_eq(pipeline, data) => {
                 check_dimensions(dims, &crate::cpu::LIMITS, crate::cpu::LAUNCH_DIMENSION_LIMITS)?;
-                let ctx = &data.ctx;
-                let params_bytes = bytemuck::bytes_of(params);
-                let live = |handle| ctx.buffers.is_live(handle);
-                let scenes = ctx.scenes();
-                let traversable = |address| {
-                    scenes.get(&address).map_or(crate::handles::TraversableState::Unknown, |s| s.check.state())
-                };
-                // The CPU backend has no textures: only the null handle is one.
-                let texture = |handle| handle == 0;
-                crate::handles::check_handles(&data.handle_fields, params_bytes, None, live, texture, traversable)?;
-                for record in &sbt.checked {
-                    let region = Some((record.region, record.index));
-                    crate::handles::check_handles(&record.fields, &record.data, region, live, texture, traversable)?;
-                }
-                drop(scenes);
-                let job = crate::cpu::launch::LaunchJob::new(data.clone(), records.clone(), params_bytes, dims);
-                return Ok(Launch { repr: LaunchRepr::Cpu(crate::cpu::launch::CpuLaunch::start(job)) });
+                let launch = crate::cpu::launch::CpuLaunch::submit(data, records, &sbt.checked, params, dims)?;
+                return Ok(Launch { repr: LaunchRepr::Cpu(launch) });
             }
             _ => return Err(Error::SbtOfAnotherPipeline),
         };
