@@ -65,6 +65,25 @@ fn case(
     })
 }
 
+/// [`case`] on each backend (`raykit_tests::with_each_backend`): the same input,
+/// the same error and message on Vulkan and on the CPU.
+fn case_on_each_backend(
+    name: &str,
+    mentions: &[&str],
+    provoke: impl Fn(&Context) -> anyhow::Result<Error>,
+    expected: impl Fn(&Error) -> bool,
+) -> anyhow::Result<()> {
+    raykit_tests::with_each_backend(name, |ctx, _| {
+        let err = provoke(ctx)?;
+        anyhow::ensure!(expected(&err), "{name}: unexpected error {err:?}");
+        let text = err.to_string();
+        for m in mentions {
+            anyhow::ensure!(text.contains(m), "{name}: the message does not mention {m:?}: {text}");
+        }
+        still_usable(ctx)
+    })
+}
+
 fn triangle_module(ctx: &Context) -> anyhow::Result<Module> {
     Ok(Module::from_device_crate(ctx, "triangle-device")?)
 }
@@ -749,6 +768,8 @@ fn launch_with_the_sbt_of_another_pipeline() -> anyhow::Result<()> {
 }
 
 // ---------------------------------------------------------------- the SBT fits the scene
+// On both backends: the CPU backend checks the scene against the SBT as Vulkan
+// launches do, from the ray types the programs were declared for.
 
 /// The triangle's GAS with a second copy of the triangle out of view (x + 10):
 /// two geometries, so an instance spans two hit records.
@@ -772,7 +793,7 @@ fn render_scene(ctx: &Context, l: &Linked, ias: &Ias, hit_records: usize) -> any
 
 #[test]
 fn instance_sbt_offset_past_the_hit_records() -> anyhow::Result<()> {
-    case(
+    case_on_each_backend(
         "instance_sbt_offset_past_the_hit_records",
         &[
             "instance 0 of the IAS in params field `handle` (SBT offset 1, 1 geometry) reaches hit record 1",
@@ -799,7 +820,7 @@ fn instance_sbt_offset_past_the_hit_records() -> anyhow::Result<()> {
 fn instance_geometries_past_the_hit_records() -> anyhow::Result<()> {
     // Instance 1's first geometry takes record 1, the last one; its second
     // geometry would read record 2.
-    case(
+    case_on_each_backend(
         "instance_geometries_past_the_hit_records",
         &["instance 1", "(SBT offset 1, 2 geometries) reaches hit record 2 = 1 + (2 - 1) × stride 1 + ray offset 0"],
         |ctx| {
@@ -829,7 +850,7 @@ fn instance_geometries_past_the_hit_records() -> anyhow::Result<()> {
 
 #[test]
 fn instance_updated_past_the_hit_records() -> anyhow::Result<()> {
-    case(
+    case_on_each_backend(
         "instance_updated_past_the_hit_records",
         &["reaches hit record 4", "the SBT has 2 hit record(s)"],
         |ctx| {
@@ -848,7 +869,7 @@ fn instance_updated_past_the_hit_records() -> anyhow::Result<()> {
 
 #[test]
 fn scene_whose_instances_fill_the_hit_records_exactly_renders() -> anyhow::Result<()> {
-    with_context("scene_whose_instances_fill_the_hit_records_exactly_renders", |ctx| {
+    raykit_tests::with_each_backend("scene_whose_instances_fill_the_hit_records_exactly_renders", |ctx, _| {
         let l = linked(ctx)?;
         let gas = two_geometry_gas(ctx)?;
         // The last instance's last geometry selects record 2 + (2 - 1) = 3, the

@@ -775,13 +775,14 @@ pub(crate) struct CpuLaunch {
 }
 
 impl CpuLaunch {
-    /// Checks the handles of `params` and of the SBT's `checked` records against
-    /// the context's live objects, as Vulkan launches do (see
-    /// [`crate::handles`]), then starts the launch.
+    /// Checks the handles of `params` and of the SBT's checked records against
+    /// the context's live objects, and the scenes of `params` against the SBT's
+    /// hit records, as Vulkan launches do (see [`crate::handles`] and
+    /// [`crate::validate::scene`]), then starts the launch.
     pub(crate) fn submit<P: raykit_device::LaunchParams>(
         pipeline: &Arc<PipelineData>,
-        sbt: &Arc<SbtData>,
-        checked: &[crate::sbt::CheckedRecord],
+        sbt: &crate::Sbt,
+        records: &Arc<SbtData>,
         params: &P,
         dims: [u32; 3],
     ) -> Result<CpuLaunch> {
@@ -793,12 +794,14 @@ impl CpuLaunch {
         let scenes = ctx.scenes();
         let traversable = |address| scenes.get(&address).map_or(TraversableState::Unknown, |s| s.check.state());
         check_handles(&pipeline.handle_fields, params, None, live, texture, traversable)?;
-        for record in checked {
+        for record in &sbt.checked {
             let region = Some((record.region, record.index));
             check_handles(&record.fields, &record.data, region, live, texture, traversable)?;
         }
+        let hit_reach = |address| scenes.get(&address).map(|s| s.check.reach.clone());
+        crate::validate::scene::check_scene(hit_reach, &pipeline.handle_fields, params, sbt, &pipeline.reach)?;
         drop(scenes);
-        Ok(CpuLaunch::start(LaunchJob::new(pipeline.clone(), sbt.clone(), params, dims)))
+        Ok(CpuLaunch::start(LaunchJob::new(pipeline.clone(), records.clone(), params, dims)))
     }
 
     /// Starts `job`; the context counts it as running until it ends.

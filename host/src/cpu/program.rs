@@ -56,6 +56,9 @@ pub(crate) struct PipelineData {
     pub(crate) exception_group: Option<usize>,
     /// Where the params' handles are, checked by every launch.
     pub(crate) handle_fields: Vec<crate::handles::HandleField>,
+    /// The SBT records its programs' traces may select, checked against the
+    /// scene by every launch (see [`crate::validate::scene`]).
+    pub(crate) reach: crate::validate::TraceReach,
 }
 
 impl PipelineData {
@@ -159,6 +162,7 @@ pub(crate) fn link<P: raykit_device::LaunchParams>(
         max_trace_depth,
         specialization: constants.values().to_vec(),
         handle_fields: crate::handles::handle_fields(&P::LAYOUT),
+        reach: crate::validate::TraceReach::of(groups.iter().copied()),
     })
 }
 

@@ -189,7 +189,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan { pipeline, .. }) if Arc::ptr_eq(pipeline, inner) => inner,
             (PipelineRepr::Cpu(data), SbtDevice::Cpu { pipeline, data: records }) if Arc::ptr_eq(pipeline, data) => {
                 check_dimensions(dims, &crate::cpu::LIMITS, crate::cpu::LAUNCH_DIMENSION_LIMITS)?;
-                let launch = crate::cpu::launch::CpuLaunch::submit(data, records, &sbt.checked, params, dims)?;
+                let launch = crate::cpu::launch::CpuLaunch::submit(data, sbt, records, params, dims)?;
                 return Ok(Launch { repr: LaunchRepr::Cpu(launch) });
             }
             _ => return Err(Error::SbtOfAnotherPipeline),
@@ -234,7 +234,8 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             for record in &sbt.checked {
                 ctx.check_handles(&record.fields, &record.data, Some((record.region, record.index)))?;
             }
-            crate::validate::scene::check_scene(ctx, &inner.handle_fields, params_bytes, sbt, &inner.reach)
+            let hit_reach = |address| ctx.traversables.hit_reach(address);
+            crate::validate::scene::check_scene(hit_reach, &inner.handle_fields, params_bytes, sbt, &inner.reach)
         };
         let SbtDevice::Vulkan { raygen, miss, hit, callable, .. } = &sbt.device else {
             return Err(Error::SbtOfAnotherPipeline);

@@ -97,7 +97,21 @@ impl TraceReach {
         };
         for group in &groups {
             for program in group.programs() {
-                let Some(info) = program.entry_info() else { continue };
+                let Some(info) = program.entry_info() else {
+                    // A program compiled for the host (the CPU backend) has no
+                    // SPIR-V to read its traces from: one of a stage that may
+                    // trace is assumed to trace the declared ray types.
+                    let may_trace = matches!(
+                        program.kind,
+                        ProgramKind::Raygen | ProgramKind::Miss | ProgramKind::ClosestHit | ProgramKind::Callable
+                    );
+                    if may_trace {
+                        for pair in &declared {
+                            select(&mut reach, *pair, &program.name.to_string_lossy());
+                        }
+                    }
+                    continue;
+                };
                 if !info.traces.traces() {
                     continue;
                 }

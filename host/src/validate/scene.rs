@@ -19,6 +19,9 @@
 //!   assumed to use those of the ray types the pipeline's miss and hit programs
 //!   were declared for (`#[closest_hit(ray = R)]`), and goes unchecked when
 //!   there are none (programs in GLSL or WGSL with a computed offset);
+//! * on the CPU backend, where there is no SPIR-V to read, every raygen, miss,
+//!   closest-hit and callable program is assumed to trace those declared ray
+//!   types, so the same launches are refused on both backends;
 //! * an instance with a mask of 0 is never hit, and selects nothing;
 //! * every ray may hit every other instance: cull masks and flags are not
 //!   taken into account;
@@ -28,7 +31,9 @@
 //! Scenes reached otherwise than through the params (a traversable stored in a
 //! buffer or an SBT record) are not seen, as for [`crate::handles`].
 
-use crate::context::ContextInner;
+use std::sync::Arc;
+
+use crate::accel::HitReach;
 use crate::error::{Error, Result};
 use crate::handles::HandleField;
 use crate::sbt::{Sbt, SbtRegion};
@@ -36,9 +41,10 @@ use crate::validate::TraceReach;
 
 /// Refuses the launch of `params` (laid out as `fields` says) with `sbt` when an
 /// instance of one of its scenes can select a hit record past the SBT's end, for
-/// the traces `reach` describes.
+/// the traces `reach` describes; `hit_reach` gives what the live IAS at an
+/// address can select (`None` for no live IAS: `check_handles` refuses those).
 pub(crate) fn check_scene(
-    ctx: &ContextInner,
+    hit_reach: impl Fn(u64) -> Option<Arc<HitReach>>,
     fields: &[HandleField],
     params: &[u8],
     sbt: &Sbt,
@@ -54,7 +60,7 @@ pub(crate) fn check_scene(
             continue;
         }
         // Not a live IAS: `check_handles` refuses it.
-        let Some(scene) = ctx.traversables.hit_reach(address) else { continue };
+        let Some(scene) = hit_reach(address) else { continue };
         for (stride, ray_offset, program) in &reach.hit_selectors {
             let Some((instance, slot)) = scene.furthest(*stride, *ray_offset) else { continue };
             if slot >= hit_records as u64 {
