@@ -53,7 +53,11 @@ impl TypeInfo {
 
 impl PartialEq for TypeInfo {
     fn eq(&self, other: &Self) -> bool {
-        self.size == other.size && self.align == other.align && self.name() == other.name()
+        // The same name function is the same type; else compare the names
+        // (one type may have several copies of the function).
+        self.size == other.size
+            && self.align == other.align
+            && (core::ptr::fn_addr_eq(self.type_name, other.type_name) || self.name() == other.name())
     }
 }
 impl Eq for TypeInfo {}

@@ -476,6 +476,14 @@ impl<'f> Traversal<'f> {
         if self.ray.t_min.partial_cmp(&self.ray.t_max).is_none_or(|o| o == std::cmp::Ordering::Greater) {
             return;
         }
+        // One instance (`Ias::single`, the common case): its GAS's tree does
+        // every box test the IAS's would, so the IAS's is skipped.
+        if let [only] = &self.scene.instances[..] {
+            if !only.gas.leaves.is_empty() {
+                self.instance(0);
+            }
+            return;
+        }
         let bvh = &self.scene.bvh;
         let mut world_ray = BvhRay::new(origin, direction, self.ray.t_min, self.t_max.get());
         let mut state = bvh.new_traversal(direction);
