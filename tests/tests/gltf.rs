@@ -1,4 +1,5 @@
-//! glTF scenes against a CPU reference of their primary hits.
+//! glTF scenes against a CPU reference of their primary hits, on both backends
+//! (`with_each_backend`: Vulkan, then the CPU backend, same references).
 //!
 //! The generated file (`raykit_tests::gltf_fixture`: two meshes, three textured
 //! materials, a node hierarchy, an alpha-masked leaf with holes) is loaded, its
@@ -17,7 +18,7 @@ use raykit::glam::{Vec2, Vec3};
 use raykit_scene::gltf::{AlphaMode, GltfError, GltfScene};
 use raykit_scene::Camera;
 use raykit_tests::gltf_fixture::{self, Broken};
-use raykit_tests::with_context;
+use raykit_tests::with_each_backend;
 
 const SIZE: u32 = 64;
 
@@ -109,7 +110,7 @@ fn the_gltf_loader_reads_the_hierarchy_materials_and_meshes() -> anyhow::Result<
 fn primary_hits_match_the_cpu_reference() -> anyhow::Result<()> {
     let dir = raykit_tests::temp_dir("gltf_primary")?;
     let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
-    with_context("primary_hits_match_the_cpu_reference", |ctx| {
+    with_each_backend("primary_hits_match_the_cpu_reference", |ctx, backend| {
         let gpu = GpuScene::new(ctx, &scene)?;
         anyhow::ensure!(gpu.records.len() == 4, "board, plant (2 primitives), backdrop");
         let renderer = Renderer::new(ctx, &gpu)?;
@@ -174,7 +175,7 @@ fn primary_hits_match_the_cpu_reference() -> anyhow::Result<()> {
         anyhow::ensure!(per_material[..3].iter().all(|&n| n >= 20), "pixels per material: {per_material:?}");
         anyhow::ensure!(holes > 0, "no pixel sees the plant through the leaf's holes");
         eprintln!(
-            "compared {compared} pixels ({skipped} ambiguous skipped): per material {per_material:?}, {holes} through holes"
+            "[{backend:?}] compared {compared} pixels ({skipped} ambiguous skipped): per material {per_material:?}, {holes} through holes"
         );
         Ok(())
     })
@@ -223,7 +224,7 @@ fn the_path_tracer_conserves_energy_in_a_white_furnace() -> anyhow::Result<()> {
     use raykit_scene::EnvironmentMap;
     let dir = raykit_tests::temp_dir("gltf_furnace")?;
     let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
-    with_context("the_path_tracer_conserves_energy_in_a_white_furnace", |ctx| {
+    with_each_backend("the_path_tracer_conserves_energy_in_a_white_furnace", |ctx, backend| {
         // A uniform white environment and surfaces that emit nothing and reflect at
         // most what they receive: no pixel can be brighter than 1 on average.
         let env = EnvironmentMap::new(16, 8, vec![Vec3::ONE; 16 * 8])?;
@@ -244,7 +245,7 @@ fn the_path_tracer_conserves_energy_in_a_white_furnace() -> anyhow::Result<()> {
         anyhow::ensure!(mean <= 1.0 + 5.0 * se, "image mean {mean} ± {se} is over the environment's 1");
         anyhow::ensure!(mean > 0.3, "image mean {mean}: the surfaces reflect too little");
         anyhow::ensure!(rays >= (size * size * spp) as u64, "{rays} rays");
-        eprintln!("white furnace: image mean {mean:.4} ± {se:.4}, {rays} rays");
+        eprintln!("[{backend:?}] white furnace: image mean {mean:.4} ± {se:.4}, {rays} rays");
 
         // Looking away from the scene, every path misses at once and sees the environment.
         let away = Camera { eye: Vec3::new(0.0, 0.0, 5.0), look_at: Vec3::new(0.0, 0.0, 10.0), ..camera() };
@@ -262,7 +263,7 @@ fn both_material_modes_shade_as_the_shared_material_code() -> anyhow::Result<()>
     use gltf_pathtracer::{MaterialMode, MaterialRenderer};
     let dir = raykit_tests::temp_dir("gltf_materials")?;
     let scene = GltfScene::load(&gltf_fixture::write(&dir.0, Broken::Nothing)?)?;
-    with_context("both_material_modes_shade_as_the_shared_material_code", |ctx| {
+    with_each_backend("both_material_modes_shade_as_the_shared_material_code", |ctx, backend| {
         let gpu = GpuScene::new(ctx, &scene)?;
         let mut images = Vec::new();
         for mode in [MaterialMode::Callables, MaterialMode::Inlined] {
@@ -283,7 +284,7 @@ fn both_material_modes_shade_as_the_shared_material_code() -> anyhow::Result<()>
                 );
             }
             anyhow::ensure!(slots.len() == 3, "{mode:?}: materials seen {slots:?}");
-            eprintln!("{mode:?}: pipeline linked in {:?}", renderer.link_time);
+            eprintln!("[{backend:?}] {mode:?}: pipeline linked in {:?}", renderer.link_time);
             images.push(colors);
         }
         // A grid of 12 quads with 12 glTF materials uses all eight procedural ones.
@@ -328,7 +329,7 @@ fn emissive_triangles_as_lights_match_bsdf_sampling_with_less_noise() -> anyhow:
     let dir = raykit_tests::temp_dir("gltf_emissive")?;
     let scene = GltfScene::load(&gltf_fixture::write_emissive_quad(&dir.0)?)?;
     anyhow::ensure!(scene.materials[1].emissive_strength == 20.0, "{:?}", scene.materials[1]);
-    with_context("emissive_triangles_as_lights_match_bsdf_sampling_with_less_noise", |ctx| {
+    with_each_backend("emissive_triangles_as_lights_match_bsdf_sampling_with_less_noise", |ctx, backend| {
         let env = EnvironmentMap::new(16, 8, vec![Vec3::splat(0.1); 16 * 8])?;
         let gpu = GpuScene::new(ctx, &scene)?;
         anyhow::ensure!(gpu.light_table.len() == 2, "{} light triangles", gpu.light_table.len());
@@ -398,7 +399,7 @@ fn emissive_triangles_as_lights_match_bsdf_sampling_with_less_noise() -> anyhow:
         }
         let mean = |b: &Vec<Vec<f64>>| b.iter().flatten().sum::<f64>() / (k * pixels as f64);
         eprintln!(
-            "emissive quad: image mean MIS {:.4}, BSDF only {:.4}; worst block z {worst:.2}; mean per-pixel variance of a {spp}-path batch: MIS {var_mis:.5}, BSDF only {var_bsdf:.5} (ratio {:.1})",
+            "[{backend:?}] emissive quad: image mean MIS {:.4}, BSDF only {:.4}; worst block z {worst:.2}; mean per-pixel variance of a {spp}-path batch: MIS {var_mis:.5}, BSDF only {var_bsdf:.5} (ratio {:.1})",
             mean(&images[0]),
             mean(&images[1]),
             var_bsdf / var_mis
@@ -439,7 +440,7 @@ fn normal_maps_tilt_the_shading_normal_as_the_tangent_frame_says() -> anyhow::Re
     )?;
     let scene = GltfScene::load(&path)?;
     anyhow::ensure!(scene.materials[0].normal_scale == 0.5 && scene.materials[0].normal_texture == Some(0));
-    with_context("normal_maps_tilt_the_shading_normal_as_the_tangent_frame_says", |ctx| {
+    with_each_backend("normal_maps_tilt_the_shading_normal_as_the_tangent_frame_says", |ctx, backend| {
         let gpu = GpuScene::new(ctx, &scene)?;
         let renderer = Renderer::new(ctx, &gpu)?;
         let (out, _, normals) = renderer.primary_hits_with_normals(ctx, &gpu, &camera(), SIZE, SIZE)?;
@@ -475,7 +476,7 @@ fn normal_maps_tilt_the_shading_normal_as_the_tangent_frame_says() -> anyhow::Re
         }
         anyhow::ensure!(counts.iter().all(|&n| n >= 50), "pixels per quad {counts:?}");
         let tilt = want(1.0).dot(Vec3::Z).acos().to_degrees();
-        eprintln!("normal map: {counts:?} pixels per quad, tilt {tilt:.2}°, worst error {worst:.2e}");
+        eprintln!("[{backend:?}] normal map: {counts:?} pixels per quad, tilt {tilt:.2}°, worst error {worst:.2e}");
         Ok(())
     })
 }
