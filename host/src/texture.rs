@@ -403,7 +403,8 @@ pub fn filter_precision_bits(ctx: &Context) -> (u32, u32) {
 /// The largest width and height of a texture on the device (`maxImageDimension2D`);
 /// 16384 on the CPU backend.
 pub fn max_texture_size(ctx: &Context) -> u32 {
-    ctx.as_vulkan().map_or(crate::cpu::textures::MAX_SIZE, |inner| inner.shared.properties.limits.max_image_dimension2_d)
+    ctx.as_vulkan()
+        .map_or(crate::cpu::textures::MAX_SIZE, |inner| inner.shared.properties.limits.max_image_dimension2_d)
 }
 
 fn check_size(ctx: &Context, width: u32, height: u32) -> Result<()> {
@@ -660,16 +661,7 @@ fn create_vulkan(
     texture.sampler = unsafe { device.create_sampler(&sampler_info, None) }.map_err(Error::vk("vkCreateSampler"))?;
     let table = &inner.buffer_table;
     let (slot, handle) = table.textures.insert(device, table.set, texture.view, texture.sampler)?;
-    Ok(Texture {
-        storage: Storage::Vulkan(texture),
-        slot,
-        handle,
-        format,
-        width,
-        height,
-        levels: level_count,
-        options,
-    })
+    Ok(Texture { storage: Storage::Vulkan(texture), slot, handle, format, width, height, levels: level_count, options })
 }
 
 impl Drop for Texture {

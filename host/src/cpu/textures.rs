@@ -266,7 +266,13 @@ impl TextureTable {
 mod tests {
     use super::*;
 
-    fn texture(format: TextureFormat, width: u32, height: u32, texels: &[[f32; 4]], options: SamplerOptions) -> CpuTexture {
+    fn texture(
+        format: TextureFormat,
+        width: u32,
+        height: u32,
+        texels: &[[f32; 4]],
+        options: SamplerOptions,
+    ) -> CpuTexture {
         let mut data = Vec::new();
         for t in texels {
             format.encode(*t, &mut data);
