@@ -2,10 +2,11 @@
 //! handles in launch params and SBT records, as buffers are through
 //! `Buffer<T>` handles (see [`raykit_device::texture`]).
 //!
-//! A [`Texture`] is an image in one of four [`TextureFormat`]s, with a full or partial mip chain
-//! ([`Mipmaps::Generate`] builds it on the host with a 2×2 box filter, in linear
-//! light for sRGB textures; [`Texture::from_levels`] takes supplied levels), and its
-//! own sampler ([`SamplerOptions`]: filter, mip filter, address modes). It takes
+//! A [`Texture`] is an image in one of four [`TextureFormat`]s, with a full or
+//! partial mip chain ([`Mipmaps::Generate`] builds it on the host with a 2×2 box
+//! filter, in linear light for sRGB textures; [`Texture::from_levels`] takes
+//! supplied levels), and its own sampler ([`SamplerOptions`]: filter, mip filter,
+//! address modes). It takes
 //! a slot of the context's bindless texture table (set 0, binding 1, combined
 //! image samplers); every launch checks the texture handles of its params and
 //! records as it checks buffer handles, so a dropped texture's handle is refused
@@ -219,6 +220,19 @@ fn check_level(format: TextureFormat, level: u32, width: u32, height: u32, got: 
 
 /// A 2D texture in device memory with its sampler, at a slot of the context's
 /// texture table. Dropping it frees the slot once no pending work can sample it.
+///
+/// ```
+/// use raykit::{Backend, Context, ContextOptions, Mipmaps, SamplerOptions, Texture, TextureFormat};
+/// // The CPU backend needs no GPU; on Vulkan the calls are the same.
+/// let ctx = Context::new(ContextOptions { backend: Some(Backend::Cpu), ..Default::default() })?;
+/// let red = [255u8, 0, 0, 255].repeat(4 * 4);
+/// let options = SamplerOptions::default();
+/// let texture = Texture::new(&ctx, TextureFormat::Rgba8Srgb, 4, 4, &red, Mipmaps::Generate, options)?;
+/// assert_eq!((texture.size(), texture.mip_levels()), ((4, 4), 3));
+/// let handle = texture.handle(); // for launch params or SBT records
+/// # let _ = handle;
+/// # Ok::<(), raykit::Error>(())
+/// ```
 pub struct Texture {
     storage: Storage,
     /// The table slot.

@@ -431,6 +431,63 @@ fn dropped_and_null_texture_handles() -> anyhow::Result<()> {
 }
 
 #[test]
+fn a_texture_dropped_while_a_launch_samples_it_lives_until_the_launch_ends() -> anyhow::Result<()> {
+    with_each_backend("a_texture_dropped_while_a_launch_samples_it_lives_until_the_launch_ends", |ctx, _backend| {
+        let rig = Rig::new(ctx)?;
+        let uniform = |value: [f32; 4]| -> raykit::Result<Texture> {
+            let mut data = Vec::new();
+            for _ in 0..TEX_W * TEX_H {
+                TextureFormat::Rgba32Float.encode(value, &mut data);
+            }
+            Texture::new(
+                ctx,
+                TextureFormat::Rgba32Float,
+                TEX_W,
+                TEX_H,
+                &data,
+                Mipmaps::Generate,
+                SamplerOptions::default(),
+            )
+        };
+        let baseline = ctx.memory_usage();
+        let texture = uniform([0.25, 0.5, 0.75, 1.0])?;
+        let sbt = rig.sbt(texture.handle())?;
+        let out = ctx.buffer::<Vec4>((SIZE * SIZE) as usize)?;
+        let params = Params {
+            out: out.handle(),
+            size: UVec2::splat(SIZE),
+            texture: texture.handle(),
+            stage: texture_test_device::STAGE_CLOSEST_HIT,
+            lod: 0.5,
+            scene: rig.ias.handle(),
+        };
+        // The gate holds the launch until it opens: the texture is dropped while
+        // the launch is pending, and another one made (on Vulkan its upload waits
+        // for the launch, which opens the gate).
+        let gate = ctx.close_submission_gate()?;
+        let launch = rig.pipeline.launch_async(&sbt, &params, [SIZE, SIZE, 1])?;
+        let readback = out.read_async()?;
+        drop(texture);
+        anyhow::ensure!(!launch.is_done()?, "the gate let the launch run");
+        let other = uniform([9.0; 4])?;
+        gate.open()?;
+        launch.wait()?;
+        let got = readback.wait()?;
+        let want = Vec4::new(0.25, 0.5, 0.75, 1.0);
+        let worst = got.iter().map(|g| (*g - want).abs().max_element()).fold(0.0, f32::max);
+        anyhow::ensure!(worst < 1e-5, "the launch sampled {} where the dropped texture holds {want}", got[0]);
+        drop((other, sbt, out));
+        ctx.wait_idle()?;
+        let end = ctx.memory_usage();
+        anyhow::ensure!(
+            (end.allocations, end.allocated_bytes) == (baseline.allocations, baseline.allocated_bytes),
+            "textures leaked: {baseline:?} before, {end:?} after"
+        );
+        Ok(())
+    })
+}
+
+#[test]
 fn bad_textures_are_refused_with_the_fix() -> anyhow::Result<()> {
     with_each_backend("bad_textures_are_refused_with_the_fix", |ctx, _backend| {
         let f = TextureFormat::Rgba8Srgb;
