@@ -441,12 +441,14 @@ impl Context {
     /// Objects dropped while the device may still use them count until their work
     /// has finished and they are collected (see [`Context::poll`]).
     ///
-    /// On the CPU backend: the live buffers and their bytes.
+    /// On the CPU backend: the live buffers and textures and their bytes.
     pub fn memory_usage(&self) -> MemoryUsage {
         let inner = match &self.backend {
             ContextBackend::Vulkan(inner) => inner,
             ContextBackend::Cpu(cpu) => {
-                let (allocations, bytes) = cpu.buffers.usage();
+                let (buffers, buffer_bytes) = cpu.buffers.usage();
+                let (textures, texture_bytes) = cpu.textures.usage();
+                let (allocations, bytes) = (buffers + textures, buffer_bytes + texture_bytes);
                 return MemoryUsage { allocations, allocated_bytes: bytes, reserved_bytes: bytes, blocks: allocations };
             }
         };

@@ -2,15 +2,21 @@
 //! handles in launch params and SBT records, as buffers are through
 //! `Buffer<T>` handles (see [`raykit_device::texture`]).
 //!
-//! A [`Texture`] is a Vulkan image (optimal tiling, `SAMPLED | TRANSFER_DST`) in
-//! one of four [`TextureFormat`]s, with a full or partial mip chain
-//! ([`Mipmaps::Generate`] builds it on the host with a 2×2 box filter, in linear
-//! light for sRGB textures; [`Texture::from_levels`] takes supplied levels), and its
-//! own sampler ([`SamplerOptions`]: filter, mip filter, address modes). It takes
+//! A [`Texture`] is an image in one of four [`TextureFormat`]s, with a full or
+//! partial mip chain ([`Mipmaps::Generate`] builds it on the host with a 2×2 box
+//! filter, in linear light for sRGB textures; [`Texture::from_levels`] takes
+//! supplied levels), and its own sampler ([`SamplerOptions`]: filter, mip filter,
+//! address modes). It takes
 //! a slot of the context's bindless texture table (set 0, binding 1, combined
 //! image samplers); every launch checks the texture handles of its params and
 //! records as it checks buffer handles, so a dropped texture's handle is refused
-//! with [`Error::InvalidHandle`]. See
+//! with [`Error::InvalidHandle`].
+//!
+//! On Vulkan it is an image (optimal tiling, `SAMPLED | TRANSFER_DST`) with a
+//! sampler in a bindless table of combined image samplers. On the CPU backend
+//! the texels stay in host memory and a sampler written to Vulkan's filtering
+//! rules reads them (see [`crate::cpu`]); formats, mips, sampler options,
+//! handles and errors are the same. See
 //! [`VkImageCreateInfo`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkImageCreateInfo.html)
 //! and [`VkSamplerCreateInfo`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkSamplerCreateInfo.html).
 
@@ -214,13 +220,22 @@ fn check_level(format: TextureFormat, level: u32, width: u32, height: u32, got: 
 
 /// A 2D texture in device memory with its sampler, at a slot of the context's
 /// texture table. Dropping it frees the slot once no pending work can sample it.
+///
+/// ```
+/// use raykit::{Backend, Context, ContextOptions, Mipmaps, SamplerOptions, Texture, TextureFormat};
+/// // The CPU backend needs no GPU; on Vulkan the calls are the same.
+/// let ctx = Context::new(ContextOptions { backend: Some(Backend::Cpu), ..Default::default() })?;
+/// let red = [255u8, 0, 0, 255].repeat(4 * 4);
+/// let options = SamplerOptions::default();
+/// let texture = Texture::new(&ctx, TextureFormat::Rgba8Srgb, 4, 4, &red, Mipmaps::Generate, options)?;
+/// assert_eq!((texture.size(), texture.mip_levels()), ((4, 4), 3));
+/// let handle = texture.handle(); // for launch params or SBT records
+/// # let _ = handle;
+/// # Ok::<(), raykit::Error>(())
+/// ```
 pub struct Texture {
-    ctx: Arc<ContextInner>,
-    image: vk::Image,
-    view: vk::ImageView,
-    sampler: vk::Sampler,
-    allocation: Option<Allocation>,
-    /// The table slot, 0 while none is taken.
+    storage: Storage,
+    /// The table slot.
     slot: u32,
     handle: u32,
     format: TextureFormat,
@@ -228,6 +243,24 @@ pub struct Texture {
     height: u32,
     levels: u32,
     options: SamplerOptions,
+}
+
+/// Where a [`Texture`]'s texels are.
+enum Storage {
+    /// A Vulkan image with its view and sampler.
+    Vulkan(VulkanImage),
+    /// Host memory, in the CPU backend's texture table.
+    Cpu(Arc<crate::cpu::CpuContext>),
+}
+
+/// A Vulkan image, its view, sampler and memory; freed (once no pending work
+/// uses them) when dropped.
+struct VulkanImage {
+    ctx: Arc<ContextInner>,
+    image: vk::Image,
+    view: vk::ImageView,
+    sampler: vk::Sampler,
+    allocation: Option<Allocation>,
 }
 
 impl std::fmt::Debug for Texture {
@@ -306,7 +339,10 @@ impl Texture {
             check_level(format, i as u32, w, h, level.data.len())?;
         }
         check_format(ctx, format, sampler)?;
-        create(ctx, format, levels, sampler)
+        match ctx.cpu() {
+            Some(cpu) => create_cpu(cpu, format, (width, height), levels, sampler),
+            None => create_vulkan(ctx, format, (width, height), levels, sampler),
+        }
     }
 
     /// A texture from an image of the `image` crate: 8-bit images (grey, grey +
@@ -369,19 +405,20 @@ impl Texture {
 
 /// The device's filtering precision: `(subTexelPrecisionBits, mipmapPrecisionBits)`,
 /// the bits of the weights with which it blends texels and mip levels (what a CPU
-/// reference of sampling must allow for).
+/// reference of sampling must allow for). The CPU backend's sampler blends in
+/// `f32` and reports `(8, 8)`.
 pub fn filter_precision_bits(ctx: &Context) -> (u32, u32) {
-    // Vulkan's minimum (4, 4) where there is no Vulkan device.
-    ctx.as_vulkan().map_or((4, 4), |inner| {
+    ctx.as_vulkan().map_or(crate::cpu::textures::PRECISION_BITS, |inner| {
         let limits = &inner.shared.properties.limits;
         (limits.sub_texel_precision_bits, limits.mipmap_precision_bits)
     })
 }
 
-/// The largest width and height of a texture on the device (`maxImageDimension2D`).
-/// 0 on the CPU backend, which has no textures.
+/// The largest width and height of a texture on the device (`maxImageDimension2D`);
+/// 16384 on the CPU backend.
 pub fn max_texture_size(ctx: &Context) -> u32 {
-    ctx.as_vulkan().map_or(0, |inner| inner.shared.properties.limits.max_image_dimension2_d)
+    ctx.as_vulkan()
+        .map_or(crate::cpu::textures::MAX_SIZE, |inner| inner.shared.properties.limits.max_image_dimension2_d)
 }
 
 fn check_size(ctx: &Context, width: u32, height: u32) -> Result<()> {
@@ -405,9 +442,10 @@ fn check_size(ctx: &Context, width: u32, height: u32) -> Result<()> {
     Ok(())
 }
 
-/// Refuses a format (and filter) the device cannot sample.
+/// Refuses a format (and filter) the device cannot sample (the CPU backend
+/// samples and filters every format).
 fn check_format(ctx: &Context, format: TextureFormat, sampler: SamplerOptions) -> Result<()> {
-    let inner = vulkan_for_textures(ctx)?;
+    let Some(inner) = ctx.as_vulkan() else { return Ok(()) };
     // SAFETY: the physical device belongs to this instance.
     let props =
         unsafe { inner.instance.get_physical_device_format_properties(inner.shared.physical, format.vk_format()) };
@@ -446,36 +484,47 @@ fn vk_address(a: AddressMode) -> vk::SamplerAddressMode {
     }
 }
 
-/// Creates the image, uploads `levels`, makes the view and sampler and takes a table slot.
-/// The Vulkan context textures are made on; the CPU backend has none yet.
-fn vulkan_for_textures(ctx: &Context) -> Result<&std::sync::Arc<crate::context::ContextInner>> {
-    ctx.as_vulkan().ok_or(Error::NotOnCpuBackend {
-        what: "a texture",
-        why: "the CPU backend does not sample images yet (programs that sample the null handle read zero)",
-        fix: "make textures on a Context of Backend::Vulkan",
+/// A texture on the CPU backend: `levels` (checked) copied into its texture table.
+fn create_cpu(
+    cpu: &Arc<crate::cpu::CpuContext>,
+    format: TextureFormat,
+    (width, height): (u32, u32),
+    levels: &[MipLevel],
+    options: SamplerOptions,
+) -> Result<Texture> {
+    let texture = crate::cpu::textures::CpuTexture::new(format, levels.to_vec(), options);
+    let (slot, handle) = cpu.textures.insert(Arc::new(texture))?;
+    Ok(Texture {
+        storage: Storage::Cpu(cpu.clone()),
+        slot,
+        handle,
+        format,
+        width,
+        height,
+        levels: levels.len() as u32,
+        options,
     })
 }
 
-fn create(ctx: &Context, format: TextureFormat, levels: &[MipLevel], options: SamplerOptions) -> Result<Texture> {
-    let inner = vulkan_for_textures(ctx)?;
+/// Creates the Vulkan image, uploads `levels`, makes the view and sampler and takes a table slot.
+fn create_vulkan(
+    ctx: &Context,
+    format: TextureFormat,
+    (width, height): (u32, u32),
+    levels: &[MipLevel],
+    options: SamplerOptions,
+) -> Result<Texture> {
+    let inner = ctx.vulkan("a texture")?;
     inner.check_device("a texture creation")?;
     let device = &inner.device;
-    let (width, height) = (levels[0].width, levels[0].height);
     let level_count = levels.len() as u32;
     // Wrapped at once: an early return frees whatever exists (null handles are no-ops).
-    let mut texture = Texture {
+    let mut texture = VulkanImage {
         ctx: inner.clone(),
         image: vk::Image::null(),
         view: vk::ImageView::null(),
         sampler: vk::Sampler::null(),
         allocation: None,
-        slot: 0,
-        handle: 0,
-        format,
-        width,
-        height,
-        levels: level_count,
-        options,
     };
     let info = vk::ImageCreateInfo::default()
         .image_type(vk::ImageType::TYPE_2D)
@@ -626,19 +675,27 @@ fn create(ctx: &Context, format: TextureFormat, levels: &[MipLevel], options: Sa
     texture.sampler = unsafe { device.create_sampler(&sampler_info, None) }.map_err(Error::vk("vkCreateSampler"))?;
     let table = &inner.buffer_table;
     let (slot, handle) = table.textures.insert(device, table.set, texture.view, texture.sampler)?;
-    texture.slot = slot;
-    texture.handle = handle;
-    Ok(texture)
+    Ok(Texture { storage: Storage::Vulkan(texture), slot, handle, format, width, height, levels: level_count, options })
 }
 
 impl Drop for Texture {
     fn drop(&mut self) {
-        if self.slot != 0 {
-            // Launches refuse its handle from now on; the slot is emptied and reused
-            // once no pending work can sample it.
-            self.ctx.buffer_table.textures.kill(self.slot);
-            self.ctx.retire(Retired::TextureSlot(self.slot));
+        // Launches refuse its handle from now on.
+        match &self.storage {
+            Storage::Vulkan(image) => {
+                // The slot is emptied and reused once no pending work can sample it;
+                // the image is freed after it (when `image` drops).
+                image.ctx.buffer_table.textures.kill(self.slot);
+                image.ctx.retire(Retired::TextureSlot(self.slot));
+            }
+            // Launches running keep the texels they started with.
+            Storage::Cpu(cpu) => cpu.textures.remove(self.slot),
         }
+    }
+}
+
+impl Drop for VulkanImage {
+    fn drop(&mut self) {
         self.ctx.retire(Retired::Image(self.image, self.view, self.sampler, self.allocation.take()));
     }
 }

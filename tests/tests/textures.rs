@@ -1,4 +1,4 @@
-//! Textures against a CPU reference sampler.
+//! Textures against a CPU reference sampler, on both backends.
 //!
 //! A quad covering texture coordinates [-0.75, 1.75]² is sampled once per pixel,
 //! at an explicit level of detail, from raygen, closest-hit (its SBT record's
@@ -7,7 +7,9 @@
 //! nearest mip and clamp/mirror; bilinear at level 0 with mirror/clamp). The CPU
 //! reference implements Vulkan's sampling rules (texel coordinates, address
 //! modes, bilinear weights, the mip level chosen from the LOD, sRGB decoded
-//! before filtering) over the same mip chain the host generated. The tolerance
+//! before filtering) over the same mip chain the host generated, in `f64`, with
+//! its own texel decoding: it shares no code with the CPU backend's sampler. Each
+//! test runs on Vulkan and on the CPU backend (`with_each_backend`). The tolerance
 //! is what Vulkan lets a device round: texel and mip weights carry only
 //! `subTexelPrecisionBits` and `mipmapPrecisionBits` bits (read from the
 //! device), so a result may be off by that share of the texture's value range;
@@ -23,7 +25,7 @@ use raykit::{
     AddressMode, Context, Error, Filter, Gas, Ias, LinkOptions, Mipmaps, Module, Pipeline, ProgramGroup,
     SamplerOptions, Sbt, Texture, TextureFormat, Triangles,
 };
-use raykit_tests::with_context;
+use raykit_tests::with_each_backend;
 use texture_test_device::{
     pixel_uv, HitRecord, Params, ViaAnyHit, ViaCallable, ViaClosestHit, ViaMiss, AH, CH, CH_CALL, MISSED, MS,
     MS_SAMPLE, QUAD, RG, SAMPLE_TEXTURE, STAGES,
@@ -73,6 +75,37 @@ fn wrap(i: i64, n: i64, mode: AddressMode) -> i64 {
     }
 }
 
+/// The linear value of an 8-bit sRGB code (the sRGB transfer function, in `f64`).
+fn srgb_decode(code: u8) -> f32 {
+    let c = code as f64 / 255.0;
+    (if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }) as f32
+}
+
+/// An IEEE half-precision float's value.
+fn half_value(bits: u16) -> f32 {
+    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exponent = i32::from((bits >> 10) & 0x1f);
+    let mantissa = f64::from(bits & 0x3ff);
+    let magnitude = match exponent {
+        0 => mantissa * 2f64.powi(-24),
+        31 if mantissa == 0.0 => f64::INFINITY,
+        31 => f64::NAN,
+        e => (1.0 + mantissa / 1024.0) * 2f64.powi(e - 15),
+    };
+    (sign * magnitude) as f32
+}
+
+/// The linear value of the texel in `bytes`: the reference's own decoding.
+fn decode(format: TextureFormat, bytes: &[u8]) -> Vec4 {
+    Vec4::from_array(std::array::from_fn(|c| match format {
+        TextureFormat::Rgba8Srgb if c < 3 => srgb_decode(bytes[c]),
+        TextureFormat::Rgba8Srgb | TextureFormat::Rgba8Unorm => bytes[c] as f32 / 255.0,
+        TextureFormat::Rgba16Float => half_value(u16::from_le_bytes([bytes[2 * c], bytes[2 * c + 1]])),
+        TextureFormat::Rgba32Float => f32::from_le_bytes(std::array::from_fn(|i| bytes[4 * c + i])),
+        other => panic!("no reference decoding for {other:?}"),
+    }))
+}
+
 /// The CPU reference sampler over a texture's mip chain.
 struct Reference<'a> {
     format: TextureFormat,
@@ -87,7 +120,7 @@ impl Reference<'_> {
         let y = wrap(y, l.height as i64, self.options.address_v);
         let bpt = self.format.bytes_per_texel();
         let i = (y as usize * l.width as usize + x as usize) * bpt;
-        Vec4::from_array(self.format.decode(&l.data[i..i + bpt]))
+        decode(self.format, &l.data[i..i + bpt])
     }
 
     /// Candidate results of sampling one level at `(u, v)` (two or four where a
@@ -256,7 +289,7 @@ fn samplers() -> [(SamplerOptions, f32, &'static str); 4] {
 
 #[test]
 fn every_format_and_stage_samples_as_the_cpu_reference() -> anyhow::Result<()> {
-    with_context("every_format_and_stage_samples_as_the_cpu_reference", |ctx| {
+    with_each_backend("every_format_and_stage_samples_as_the_cpu_reference", |ctx, backend| {
         let rig = Rig::new(ctx)?;
         let (sub_bits, mip_bits) = filter_precision_bits(ctx);
         let weight_error = 2.0 / (1u64 << sub_bits) as f32 + 1.0 / (1u64 << mip_bits) as f32;
@@ -269,7 +302,7 @@ fn every_format_and_stage_samples_as_the_cpu_reference() -> anyhow::Result<()> {
             let (lo, hi) = levels[0]
                 .data
                 .chunks(format.bytes_per_texel())
-                .map(|t| format.decode(t))
+                .map(|t| decode(format, t).to_array())
                 .fold((f32::MAX, f32::MIN), |(lo, hi), t| {
                     (t.iter().fold(lo, |a, &b| a.min(b)), t.iter().fold(hi, |a, &b| a.max(b)))
                 });
@@ -306,7 +339,9 @@ fn every_format_and_stage_samples_as_the_cpu_reference() -> anyhow::Result<()> {
                             }
                         }
                     }
-                    eprintln!("{format:?}, {what}, {stage_name}: worst error {worst:.2e} (tolerance {tolerance:.2e})");
+                    eprintln!(
+                        "[{backend:?}] {format:?}, {what}, {stage_name}: worst error {worst:.2e} (tolerance {tolerance:.2e})"
+                    );
                 }
             }
         }
@@ -318,13 +353,13 @@ fn every_format_and_stage_samples_as_the_cpu_reference() -> anyhow::Result<()> {
 
 #[test]
 fn sampling_an_image_crate_picture_decodes_srgb() -> anyhow::Result<()> {
-    with_context("sampling_an_image_crate_picture_decodes_srgb", |ctx| {
+    with_each_backend("sampling_an_image_crate_picture_decodes_srgb", |ctx, _backend| {
         let rig = Rig::new(ctx)?;
         // A uniform sRGB grey of 188 is linear 0.5 (within half an 8-bit step).
         let picture = image::DynamicImage::ImageRgb8(image::RgbImage::from_pixel(4, 4, image::Rgb([188, 188, 188])));
         let texture = Texture::from_image(ctx, &picture, true, Mipmaps::Generate, SamplerOptions::default())?;
         anyhow::ensure!(texture.format() == TextureFormat::Rgba8Srgb && texture.mip_levels() == 3);
-        let want = raykit::device::color::srgb_to_linear(188.0 / 255.0);
+        let want = srgb_decode(188);
         for (stage, name) in STAGES {
             for lod in [0.0, 1.5, 2.0] {
                 let got = rig.render(ctx, &texture, stage, lod)?;
@@ -352,7 +387,7 @@ fn sampling_an_image_crate_picture_decodes_srgb() -> anyhow::Result<()> {
 
 #[test]
 fn dropped_and_null_texture_handles() -> anyhow::Result<()> {
-    with_context("dropped_and_null_texture_handles", |ctx| {
+    with_each_backend("dropped_and_null_texture_handles", |ctx, _backend| {
         let rig = Rig::new(ctx)?;
         let data = texels(TextureFormat::Rgba8Unorm);
         let make = || {
@@ -396,8 +431,65 @@ fn dropped_and_null_texture_handles() -> anyhow::Result<()> {
 }
 
 #[test]
+fn a_texture_dropped_while_a_launch_samples_it_lives_until_the_launch_ends() -> anyhow::Result<()> {
+    with_each_backend("a_texture_dropped_while_a_launch_samples_it_lives_until_the_launch_ends", |ctx, _backend| {
+        let rig = Rig::new(ctx)?;
+        let uniform = |value: [f32; 4]| -> raykit::Result<Texture> {
+            let mut data = Vec::new();
+            for _ in 0..TEX_W * TEX_H {
+                TextureFormat::Rgba32Float.encode(value, &mut data);
+            }
+            Texture::new(
+                ctx,
+                TextureFormat::Rgba32Float,
+                TEX_W,
+                TEX_H,
+                &data,
+                Mipmaps::Generate,
+                SamplerOptions::default(),
+            )
+        };
+        let baseline = ctx.memory_usage();
+        let texture = uniform([0.25, 0.5, 0.75, 1.0])?;
+        let sbt = rig.sbt(texture.handle())?;
+        let out = ctx.buffer::<Vec4>((SIZE * SIZE) as usize)?;
+        let params = Params {
+            out: out.handle(),
+            size: UVec2::splat(SIZE),
+            texture: texture.handle(),
+            stage: texture_test_device::STAGE_CLOSEST_HIT,
+            lod: 0.5,
+            scene: rig.ias.handle(),
+        };
+        // The gate holds the launch until it opens: the texture is dropped while
+        // the launch is pending, and another one made (on Vulkan its upload waits
+        // for the launch, which opens the gate).
+        let gate = ctx.close_submission_gate()?;
+        let launch = rig.pipeline.launch_async(&sbt, &params, [SIZE, SIZE, 1])?;
+        let readback = out.read_async()?;
+        drop(texture);
+        anyhow::ensure!(!launch.is_done()?, "the gate let the launch run");
+        let other = uniform([9.0; 4])?;
+        gate.open()?;
+        launch.wait()?;
+        let got = readback.wait()?;
+        let want = Vec4::new(0.25, 0.5, 0.75, 1.0);
+        let worst = got.iter().map(|g| (*g - want).abs().max_element()).fold(0.0, f32::max);
+        anyhow::ensure!(worst < 1e-5, "the launch sampled {} where the dropped texture holds {want}", got[0]);
+        drop((other, sbt, out));
+        ctx.wait_idle()?;
+        let end = ctx.memory_usage();
+        anyhow::ensure!(
+            (end.allocations, end.allocated_bytes) == (baseline.allocations, baseline.allocated_bytes),
+            "textures leaked: {baseline:?} before, {end:?} after"
+        );
+        Ok(())
+    })
+}
+
+#[test]
 fn bad_textures_are_refused_with_the_fix() -> anyhow::Result<()> {
-    with_context("bad_textures_are_refused_with_the_fix", |ctx| {
+    with_each_backend("bad_textures_are_refused_with_the_fix", |ctx, _backend| {
         let f = TextureFormat::Rgba8Srgb;
         let opts = SamplerOptions::default();
         match Texture::new(ctx, f, 0, 4, &[], Mipmaps::One, opts) {
@@ -438,7 +530,7 @@ fn bad_textures_are_refused_with_the_fix() -> anyhow::Result<()> {
 fn environment_sampling_on_the_device_matches_the_host() -> anyhow::Result<()> {
     use raykit::glam::Vec3;
     use texture_test_device::{environment_numbers, EnvironmentParams, RG_ENVIRONMENT};
-    with_context("environment_sampling_on_the_device_matches_the_host", |ctx| {
+    with_each_backend("environment_sampling_on_the_device_matches_the_host", |ctx, _backend| {
         // A sky with a sun: the samples crowd around the sun.
         let (w, h) = (64u32, 32u32);
         let mut radiance = vec![Vec3::new(0.2, 0.3, 0.5); (w * h) as usize];

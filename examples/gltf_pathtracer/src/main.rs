@@ -1,5 +1,6 @@
 //! `cargo run --release -p gltf_pathtracer -- --scene FILE.gltf [--env FILE.exr] [--width W] [--height H]
-//! [--spp N] [--max-depth N] [--no-light-sampling] [--materials callables|inlined] [-o FILE.png]`: path-traces a glTF scene lit by its emissive triangles and an environment map (an
+//! [--spp N] [--max-depth N] [--no-light-sampling] [--materials callables|inlined] [--backend vulkan|cpu]
+//! [-o FILE.png]`: path-traces a glTF scene lit by its emissive triangles and an environment map (an
 //! OpenEXR equirectangular map, or a procedural sky), progressively with a progress bar, to a tonemapped
 //! PNG and the linear radiance as OpenEXR beside it.
 //!
@@ -51,6 +52,11 @@ struct Cli {
     /// The tonemapped PNG; the linear radiance goes to the same path with `.exr`.
     #[arg(long, short, default_value = "gltf.png")]
     output: PathBuf,
+    /// Where the device programs run: `vulkan` (a GPU, or lavapipe) or `cpu`
+    /// (the Rust programs natively on this machine's CPUs). Default: the
+    /// `RAYKIT_BACKEND` environment variable, else `vulkan`.
+    #[arg(long, value_parser = ["vulkan", "cpu"])]
+    backend: Option<String>,
 }
 
 fn load_env(path: &std::path::Path) -> anyhow::Result<EnvironmentMap> {
@@ -76,7 +82,9 @@ fn main() -> anyhow::Result<()> {
         Some(path) => load_env(path)?,
         None => default_sky(256, 128)?,
     };
-    let ctx = raykit::Context::new(raykit::ContextOptions::default())?;
+    let backend =
+        cli.backend.as_deref().map(|b| if b == "cpu" { raykit::Backend::Cpu } else { raykit::Backend::Vulkan });
+    let ctx = raykit::Context::new(raykit::ContextOptions { backend, ..Default::default() })?;
     let gpu = GpuScene::new(&ctx, &scene)?;
     let camera = framing_camera(&scene);
     if let Some(mode) = &cli.materials {

@@ -58,6 +58,8 @@ pub(crate) struct LaunchJob {
     pub(crate) dims: [u32; 3],
     /// The buffer table when the launch started, by slot.
     pub(crate) buffers: Vec<Option<Words>>,
+    /// The texture table when the launch started, by slot.
+    pub(crate) textures: super::textures::Snapshot,
     /// The live IASes when the launch started, with their addresses (a few:
     /// searched in order, faster than hashing on every trace).
     pub(crate) scenes: Vec<(u64, Arc<SceneData>)>,
@@ -69,8 +71,9 @@ impl LaunchJob {
     pub(crate) fn new(pipeline: Arc<PipelineData>, sbt: Arc<SbtData>, params: &[u8], dims: [u32; 3]) -> LaunchJob {
         let ctx = pipeline.ctx.clone();
         let buffers = ctx.buffers.snapshot();
+        let textures = ctx.textures.snapshot();
         let scenes = ctx.scenes().iter().map(|(a, s)| (*a, s.data.clone())).collect::<Vec<_>>();
-        LaunchJob { ctx, pipeline, sbt, params: Aligned::new(params, 0), dims, buffers, scenes }
+        LaunchJob { ctx, pipeline, sbt, params: Aligned::new(params, 0), dims, buffers, textures, scenes }
     }
 }
 
@@ -386,11 +389,8 @@ impl Runtime for Frame<'_, '_> {
         resume_unwind(Box::new(AnyHitEnd::Terminate))
     }
 
-    fn sample_texture(&self, _texture: u32, _uv: glam::Vec2, _lod: f32) -> glam::Vec4 {
-        // No texture exists on the CPU backend (`Texture::new` refuses it), so
-        // every handle is the null one or a foreign one: as the device's null
-        // descriptor, it reads zero.
-        glam::Vec4::ZERO
+    fn sample_texture(&self, texture: u32, uv: glam::Vec2, lod: f32) -> glam::Vec4 {
+        super::textures::sample(&self.job().textures, texture, uv, lod)
     }
 }
 
@@ -797,8 +797,7 @@ impl CpuLaunch {
         let ctx = &pipeline.ctx;
         let params = bytemuck::bytes_of(params);
         let live = |handle| ctx.buffers.is_live(handle);
-        // The CPU backend has no textures: only the null handle is one.
-        let texture = |handle| handle == 0;
+        let texture = |handle| ctx.textures.is_live(handle);
         let scenes = ctx.scenes();
         let traversable = |address| scenes.get(&address).map_or(TraversableState::Unknown, |s| s.check.state());
         check_handles(&pipeline.handle_fields, params, None, live, texture, traversable)?;

@@ -9,11 +9,11 @@
 //! same types and calls as on Vulkan: modules name the linked device crate
 //! ([`Module::from_device_crate`](crate::Module::from_device_crate)), program
 //! groups, pipelines, SBTs, GASes, IASes, buffers, launches (synchronous and
-//! asynchronous), specialization constants, user exceptions and the exception
-//! program. Device programs can then be debugged as ordinary Rust: breakpoints,
-//! `println!`, `assert!`, sanitizers. A panic in a program ends its launch with
-//! [`Error::ProgramPanicked`], naming the
-//! program and the launch index.
+//! asynchronous), specialization constants, user exceptions, the exception
+//! program, and textures. Device programs can then be debugged as ordinary
+//! Rust: breakpoints, `println!`, `assert!`, sanitizers. A panic in a program
+//! ends its launch with [`Error::ProgramPanicked`], naming the program and the
+//! launch index.
 //!
 //! What differs from Vulkan:
 //! * SPIR-V modules (GLSL, WGSL, SPIR-V files) cannot run: they are refused with
@@ -32,6 +32,12 @@
 //!   context ([rayon](https://crates.io/crates/rayon)); each invocation computes
 //!   the same values whatever the number of threads, and user exceptions are
 //!   reported in launch-index order.
+//! * Textures ([`Texture`](crate::Texture)) keep their texels in host memory,
+//!   and `sample_lod` runs a sampler written to Vulkan's filtering rules
+//!   (texel coordinates, address modes, bilinear weights, mip selection and
+//!   blending, sRGB decoded before filtering) in `f32`: every format and filter
+//!   is supported, up to 16384 texels a side
+//!   ([`max_texture_size`](crate::texture::max_texture_size)).
 //! * Stack sizes, pipeline libraries, compile caches, GPU timestamps and the raw
 //!   Vulkan handles do not apply: those calls say so with a typed error or report
 //!   nothing.
@@ -40,6 +46,7 @@ pub(crate) mod accel;
 pub(crate) mod buffers;
 pub(crate) mod launch;
 pub(crate) mod program;
+pub(crate) mod textures;
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -91,6 +98,7 @@ pub(crate) struct CpuContext {
     pub(crate) id: u64,
     pub(crate) log: MessageLog,
     pub(crate) buffers: buffers::BufferTable,
+    pub(crate) textures: textures::TextureTable,
     /// The live IASes, by the address their `Traversable` carries.
     pub(crate) scenes: Mutex<HashMap<u64, LiveScene>>,
     pub(crate) pool: rayon::ThreadPool,
@@ -170,6 +178,7 @@ impl CpuContext {
             id,
             log: MessageLog::with_callback(options.log_callback.clone()),
             buffers: Default::default(),
+            textures: Default::default(),
             scenes: Mutex::new(HashMap::new()),
             pool,
             running: Mutex::new(Running::default()),
