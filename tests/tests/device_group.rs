@@ -15,6 +15,8 @@
 //!   rows moving between the devices the render is, bit for bit, the sum of each
 //!   launch's contribution by the device that rendered the row; and it matches
 //!   the one-device render within the two devices' float rounding;
+//! * the GLSL and WGSL twins of the path tracer render bands as the Rust
+//!   programs do;
 //! * a group of one device launches directly, on the calling thread, and equals a
 //!   plain render;
 //! * rows carry their state between devices (and do not when told not to);
@@ -141,6 +143,27 @@ fn two_contexts_of_one_device_render_the_one_device_picture_bit_for_bit() -> any
         let mean = image.radiance.iter().map(|c| c.element_sum()).sum::<f32>() / image.radiance.len() as f32;
         anyhow::ensure!(mean > 0.01 && image.rays >= u64::from(W * H * SPP * launches), "a real picture: {mean}");
         println!("{down} rows moved to device 1 and {up} to device 0 during the render; identical to one device");
+        Ok(())
+    })
+}
+
+#[test]
+fn the_glsl_and_wgsl_twins_render_bands_too() -> anyhow::Result<()> {
+    with_contexts("the_glsl_and_wgsl_twins_render_bands_too", vec![vulkan(), vulkan()], |ctx| {
+        let twins: [(&str, fn(&Context) -> raykit::Result<Programs>); 2] =
+            [("GLSL", Programs::glsl), ("WGSL", Programs::wgsl)];
+        for (twin, programs) in twins {
+            let scene = Scene::new(&ctx[0])?;
+            let mut one = Renderer::new(&ctx[0], &programs(&ctx[0])?, &scene, W, H)?;
+            let group = DeviceGroup::new(ctx.to_vec())?;
+            let mut split = GroupRenderer::new(&group, W, H, programs)?;
+            for weights in [[1.0, 3.0], [3.0, 1.0]] {
+                one.launch(SPP)?;
+                split.split_mut().set_balance(Balance::Weights(weights.to_vec()))?;
+                split.launch(SPP)?;
+            }
+            same_bits(&split.accumulation()?, &one.accumulation()?, &format!("{twin} twin split against one device"))?;
+        }
         Ok(())
     })
 }
