@@ -147,11 +147,13 @@ fn two_contexts_of_one_device_render_the_one_device_picture_bit_for_bit() -> any
     })
 }
 
+/// Makes the path tracer's programs on a context.
+type MakePrograms = fn(&Context) -> raykit::Result<Programs>;
+
 #[test]
 fn the_glsl_and_wgsl_twins_render_bands_too() -> anyhow::Result<()> {
     with_contexts("the_glsl_and_wgsl_twins_render_bands_too", vec![vulkan(), vulkan()], |ctx| {
-        let twins: [(&str, fn(&Context) -> raykit::Result<Programs>); 2] =
-            [("GLSL", Programs::glsl), ("WGSL", Programs::wgsl)];
+        let twins: [(&str, MakePrograms); 2] = [("GLSL", Programs::glsl), ("WGSL", Programs::wgsl)];
         for (twin, programs) in twins {
             let scene = Scene::new(&ctx[0])?;
             let mut one = Renderer::new(&ctx[0], &programs(&ctx[0])?, &scene, W, H)?;
