@@ -442,6 +442,7 @@ impl<T: BandRows> Split<T> {
             }
             self.held[0] = band.rows;
             self.last[0] = Some(BandTiming { rows: self.total_rows, seconds });
+            self.fold_timings();
             return Ok(());
         }
         if self.carry_rows {
@@ -581,14 +582,20 @@ impl<T: BandRows> Split<T> {
     /// After a launch: folds its timings into the rates and, when balancing by
     /// measurement, sets the next bands from them.
     fn rebalance(&mut self) {
+        self.fold_timings();
+        if self.balance == Balance::Measured {
+            self.next = partition(self.total_rows, &self.measured_weights(), true);
+        }
+    }
+
+    /// Folds the last launch's timings into the smoothed rates: half the new
+    /// measurement, half the earlier estimate.
+    fn fold_timings(&mut self) {
         for (rate, timing) in self.rates.iter_mut().zip(&self.last) {
             if let Some(timing) = timing {
                 let measured = timing.rows_per_second();
                 *rate = Some(rate.map_or(measured, |old| 0.5 * old + 0.5 * measured));
             }
-        }
-        if self.balance == Balance::Measured {
-            self.next = partition(self.total_rows, &self.measured_weights(), true);
         }
     }
 

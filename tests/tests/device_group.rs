@@ -396,6 +396,7 @@ fn a_group_of_one_device_launches_directly_and_equals_a_plain_render() -> anyhow
         let caller = std::thread::current().id();
         anyhow::ensure!(split.states()[0].launched_on.iter().all(|t| *t == caller), "launched on the calling thread");
         anyhow::ensure!(split.bands()[0].rows == (0..H), "the band stays whole");
+        anyhow::ensure!(split.timings()[0].is_some() && split.rates()[0].is_some(), "the launches were measured");
         anyhow::ensure!(split.gather_vec()?.iter().all(|v| *v == 3), "three launches counted");
         Ok(())
     })
