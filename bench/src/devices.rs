@@ -13,9 +13,9 @@
 //! each, alternating. The speed-up is the median of per-repetition ratios of the
 //! one device's time to the group's.
 //!
-//! Both renders are checked: the same rays, and, when every device of the group
-//! has the same name (one GPU model and driver), the same picture bit for bit;
-//! otherwise the differing pixels are counted.
+//! Both renders are checked: when every device of the group has the same name
+//! (one GPU model and driver), the same picture bit for bit; otherwise the same
+//! rays within 1%, and the differing pixels are counted.
 
 use std::time::Instant;
 
@@ -74,11 +74,16 @@ pub fn run(opts: &Options, device: Option<&str>) -> anyhow::Result<Results> {
     let (_, warm_group) = render(&mut split)?;
     let rays = |accum: &[Vec4]| accum.iter().map(|p| f64::from(p.w)).sum::<f64>() as u64;
     let (rays_one, rays_group) = (rays(&warm_one), rays(&warm_group));
-    anyhow::ensure!(rays_one == rays_group, "one device traced {rays_one} rays, the group {rays_group}");
     let bits = |p: &Vec4| p.to_array().map(f32::to_bits);
     let differing = warm_one.iter().zip(&warm_group).filter(|(a, b)| bits(a) != bits(b)).count();
     if devices.iter().all(|d| *d == devices[0]) {
         anyhow::ensure!(differing == 0, "{differing} pixels differ between one device and the group of alike devices");
+    } else {
+        // Devices that round differently may send a grazing ray another way.
+        anyhow::ensure!(
+            rays_one.abs_diff(rays_group) * 100 <= rays_one,
+            "one device traced {rays_one} rays, the group {rays_group}"
+        );
     }
     let (mut one_s, mut group_s) = (Vec::new(), Vec::new());
     for rep in 0..opts.reps {
