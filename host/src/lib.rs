@@ -9,6 +9,7 @@ mod buffer_table;
 pub mod cache;
 pub mod context;
 pub mod cpu;
+pub mod device_group;
 mod device_registry;
 mod driver_lock;
 pub mod error;
@@ -34,6 +35,7 @@ pub use accel::{
 };
 pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Backend, Context, ContextOptions, DeviceLimits, MemoryUsage};
+pub use device_group::{Balance, Band, BandRows, BandTiming, DeviceGroup, Split};
 pub use error::{DeviceReport, Error, Result, UserException};
 #[cfg(feature = "fault-injection")]
 #[doc(hidden)]
@@ -69,6 +71,7 @@ pub use raykit_spirv as spirv;
 fn host_objects_are_send_and_sync<P: LaunchParams, T: raykit_device::Element + Send + Sync>() {
     fn check<X: Send + Sync>() {}
     check::<Context>();
+    check::<DeviceGroup>();
     check::<Module>();
     check::<ProgramGroup>();
     check::<Pipeline<P>>();
