@@ -5,12 +5,8 @@
 #![deny(missing_debug_implementations)]
 
 pub mod accel;
-mod buffer_table;
-pub mod cache;
 pub mod context;
 pub mod cpu;
-mod device_registry;
-mod driver_lock;
 pub mod error;
 #[cfg(feature = "fault-injection")]
 pub mod gate;
@@ -23,10 +19,12 @@ pub mod program_group;
 pub mod sbt;
 pub mod stack;
 pub mod texture;
-mod texture_table;
-pub mod timeline;
 pub mod validate;
+mod vulkan;
 pub mod wgsl;
+
+pub use vulkan::{cache, timeline};
+pub(crate) use vulkan::{buffer_table, device_registry, driver_lock, texture_table};
 
 pub use accel::{
     Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance,

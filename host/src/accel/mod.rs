@@ -55,11 +55,11 @@
 //! have no Vulkan equivalent. An [`Ias`] keeps the [`Gas`]es it instances alive,
 //! so an instance can never point at a destroyed GAS.
 
-mod build;
 mod gas;
 mod ias;
 pub mod input;
-mod structure;
+
+use crate::vulkan::accel::{build, structure};
 
 pub use build::PendingBuild;
 pub use gas::{Compaction, Gas, GasBuilder};

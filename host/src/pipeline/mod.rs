@@ -23,14 +23,12 @@
 //! for GPU-timed launches), and its Vulkan handles are reachable for interoperation
 //! ([`raw`]).
 
-mod exceptions;
-mod handle;
 pub mod launch;
-mod layout;
 pub mod library;
 pub mod raw;
-mod shader_groups;
 pub mod timing;
+
+use crate::vulkan::pipeline::{exceptions, handle, layout, shader_groups};
 
 use std::fmt;
 use std::marker::PhantomData;

@@ -1,0 +1,6 @@
+//! Acceleration structures on Vulkan.
+
+pub(crate) mod build;
+pub(crate) mod structure;
+
+use crate::accel::input;
