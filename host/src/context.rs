@@ -45,13 +45,13 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use ash::vk;
 
-use crate::buffer_table::BufferTable;
 use crate::cache::{CacheKey, DiskCache, PipelineCacheInfo, PipelineCacheLocation};
-use crate::device_registry::{SharedDevice, SharedInstance};
 use crate::error::{Error, Result};
 use crate::handles::LiveTraversables;
 use crate::log::{LogCallback, MessageLog};
-use crate::timeline::Timeline;
+use crate::vulkan::buffer_table::BufferTable;
+use crate::vulkan::device_registry::{SharedDevice, SharedInstance};
+use crate::vulkan::timeline::Timeline;
 
 /// Where a [`Context`] runs device programs.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
@@ -266,13 +266,13 @@ impl Context {
     fn new_vulkan(options: ContextOptions) -> Result<Context> {
         let validation =
             options.validation.unwrap_or_else(|| std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1"));
-        let instance = crate::device_registry::instance(validation)?;
+        let instance = crate::vulkan::device_registry::instance(validation)?;
         let id = next_context_id();
         let log = MessageLog::with_callback(options.log_callback.clone());
         // Routed before the device is made, so messages of its creation reach the log.
         instance.routes.add(id, log.clone());
         let mut route = RouteGuard { instance, id, armed: true };
-        let shared = crate::device_registry::acquire(instance, options.device_name_contains.as_deref())?;
+        let shared = crate::vulkan::device_registry::acquire(instance, options.device_name_contains.as_deref())?;
         let mut hold = DeviceHold { shared: shared.clone(), armed: true };
         let device = &shared.device;
         let physical = shared.physical;
@@ -808,7 +808,7 @@ impl Drop for ContextInner {
             self.device.destroy_command_pool(*pool, None);
             // The log stays routed until the device (if this was its last context)
             // is destroyed, so it hears about objects left alive on it.
-            crate::device_registry::release(&self.shared);
+            crate::vulkan::device_registry::release(&self.shared);
         }
         self.shared.instance.routes.remove(self.id);
         self.log.mark_destroyed();
@@ -841,7 +841,7 @@ impl Drop for DeviceHold {
         if self.armed {
             // SAFETY: the failed creation destroyed what it made (its guards drop
             // before this one) and made nothing else on the device.
-            unsafe { crate::device_registry::release(&self.shared) };
+            unsafe { crate::vulkan::device_registry::release(&self.shared) };
         }
     }
 }

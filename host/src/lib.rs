@@ -24,7 +24,6 @@ mod vulkan;
 pub mod wgsl;
 
 pub use vulkan::{cache, timeline};
-pub(crate) use vulkan::{buffer_table, device_registry, driver_lock, texture_table};
 
 pub use accel::{
     Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance,

@@ -16,7 +16,7 @@ use raykit_device::{Buffer, Element};
 
 use crate::context::{Context, ContextInner, Submission};
 use crate::error::{Error, Result};
-use crate::timeline::Retired;
+use crate::vulkan::timeline::Retired;
 
 /// A Vulkan buffer with its memory, freed on drop.
 pub(crate) struct RawBuffer {

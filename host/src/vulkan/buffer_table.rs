@@ -25,7 +25,7 @@ use ash::vk;
 use std::mem::ManuallyDrop;
 
 use crate::error::{Error, Result};
-use crate::texture_table::TextureTable;
+use crate::vulkan::texture_table::TextureTable;
 
 /// The table's size.
 const SLOTS: u32 = raykit_abi::BUFFER_TABLE_SLOTS;
@@ -51,7 +51,7 @@ pub(crate) struct BufferTable {
     /// The generation of the live buffer in each slot, 0 when none (cleared when
     /// the buffer is dropped, before its slot waits for its pending work).
     live: Vec<AtomicU32>,
-    /// The texture table, binding 1 of the same set (see [`crate::texture_table`]).
+    /// The texture table, binding 1 of the same set (see [`crate::vulkan::texture_table`]).
     pub(crate) textures: ManuallyDrop<TextureTable>,
 }
 
@@ -97,7 +97,7 @@ impl BufferTable {
                 .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
                 .descriptor_count(capacity)
                 .stage_flags(RT_STAGES),
-            crate::texture_table::layout_binding(),
+            crate::vulkan::texture_table::layout_binding(),
         ];
         let flags = [vk::DescriptorBindingFlags::PARTIALLY_BOUND | vk::DescriptorBindingFlags::UPDATE_AFTER_BIND; 2];
         let mut binding_flags = vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&flags);
@@ -110,7 +110,7 @@ impl BufferTable {
             .map_err(Error::vk("vkCreateDescriptorSetLayout"))?;
         let sizes = [
             vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: capacity },
-            crate::texture_table::pool_size(),
+            crate::vulkan::texture_table::pool_size(),
         ];
         let pool_info = vk::DescriptorPoolCreateInfo::default()
             .flags(vk::DescriptorPoolCreateFlags::UPDATE_AFTER_BIND)

@@ -9,8 +9,8 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::input::{BuildInput, Shape};
 use super::structure::AccelSizes;
+use crate::accel::input::{BuildInput, Shape};
 use crate::context::{ContextInner, Submission};
 use crate::error::{Error, Result};
 use crate::memory::RawBuffer;
@@ -285,7 +285,7 @@ impl QueryPool {
 impl Drop for QueryPool {
     fn drop(&mut self) {
         // Destroyed once the submission writing it has finished.
-        self.ctx.retire(crate::timeline::Retired::QueryPool(self.pool));
+        self.ctx.retire(crate::vulkan::timeline::Retired::QueryPool(self.pool));
     }
 }
 

@@ -2,5 +2,3 @@
 
 pub(crate) mod build;
 pub(crate) mod structure;
-
-use crate::accel::input;

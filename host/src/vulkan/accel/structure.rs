@@ -132,6 +132,6 @@ impl Drop for AccelStructure {
         // once the last submitted epoch has finished (its storage buffer, dropped
         // after this, waits for the same epoch). Instances that reference it hold
         // an `Arc` to it.
-        self.ctx.retire(crate::timeline::Retired::Accel(self.handle));
+        self.ctx.retire(crate::vulkan::timeline::Retired::Accel(self.handle));
     }
 }

@@ -5,11 +5,11 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::buffer_table::SlotReuse;
 use crate::context::ContextInner;
 use crate::error::{Error, Result, UserException};
 use crate::memory::RawBuffer;
 use crate::program_group::ProgramGroup;
+use crate::vulkan::buffer_table::SlotReuse;
 
 /// A user-exception buffer: a device buffer in the bindless table, one per set of
 /// programs compiled together. Every launch zeroes its counter and copies it into
@@ -91,6 +91,6 @@ pub(crate) fn launch_error(total: u32, recorded: Vec<UserException>, max_trace_d
 impl Drop for ExceptionBuffer {
     fn drop(&mut self) {
         // The slot is reused only once no pending work can write it.
-        self.ctx.retire(crate::timeline::Retired::Slot(self.slot));
+        self.ctx.retire(crate::vulkan::timeline::Retired::Slot(self.slot));
     }
 }
