@@ -25,6 +25,7 @@ use ash::vk;
 use std::mem::ManuallyDrop;
 
 use crate::error::{Error, Result};
+use crate::handles::{handle_value, next_generation, SLOT_BITS};
 use crate::vulkan::texture_table::TextureTable;
 
 /// The table's size.
@@ -53,27 +54,6 @@ pub(crate) struct BufferTable {
     live: Vec<AtomicU32>,
     /// The texture table, binding 1 of the same set (see [`crate::vulkan::texture_table`]).
     pub(crate) textures: ManuallyDrop<TextureTable>,
-}
-
-/// Bits of a handle that name the slot; the bits above carry the generation.
-const SLOT_BITS: u32 = SLOTS.trailing_zeros();
-
-/// Generations are unique across the process (until they wrap after 2^20 buffers),
-/// so a handle of another context, or of a buffer whose slot was reused, differs
-/// from the live one's.
-pub(crate) fn next_generation() -> u32 {
-    static NEXT: AtomicU32 = AtomicU32::new(1);
-    loop {
-        let g = NEXT.fetch_add(1, Ordering::Relaxed) & ((1 << (32 - SLOT_BITS)) - 1);
-        if g != 0 {
-            return g;
-        }
-    }
-}
-
-/// The handle device programs get: the slot in the low bits, the generation above.
-pub(crate) fn handle_value(slot: u32, generation: u32) -> u32 {
-    slot | (generation << SLOT_BITS)
 }
 
 /// Which free slot a new entry of the table takes.
