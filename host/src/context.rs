@@ -45,11 +45,12 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use ash::vk;
 
-use crate::cache::{CacheKey, DiskCache, PipelineCacheInfo, PipelineCacheLocation};
+use crate::cache::{PipelineCacheInfo, PipelineCacheLocation};
 use crate::error::{Error, Result};
 use crate::handles::LiveTraversables;
 use crate::log::{LogCallback, MessageLog};
 use crate::vulkan::buffer_table::BufferTable;
+use crate::vulkan::cache::{CacheKey, DiskCache};
 use crate::vulkan::device_registry::{SharedDevice, SharedInstance};
 use crate::vulkan::timeline::Timeline;
 

@@ -5,6 +5,7 @@
 #![deny(missing_debug_implementations)]
 
 pub mod accel;
+pub mod cache;
 pub mod context;
 pub mod cpu;
 pub mod error;
@@ -23,7 +24,7 @@ pub mod validate;
 mod vulkan;
 pub mod wgsl;
 
-pub use vulkan::{cache, timeline};
+pub use vulkan::timeline;
 
 pub use accel::{
     Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance,

@@ -10,11 +10,12 @@ use ash::vk;
 use glam::Vec3;
 
 use super::input::{self, Aabb, Aabbs, BuildInput, Shape, Triangles};
+use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
 use crate::memory::RawBuffer;
-use crate::vulkan::accel::build::{self, Geometry, Job, PendingBuild};
+use crate::vulkan::accel::build::{self, Geometry, Job};
 use crate::vulkan::accel::structure::AccelStructure;
 
 const BOTTOM: vk::AccelerationStructureTypeKHR = vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL;

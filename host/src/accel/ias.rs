@@ -11,10 +11,11 @@ use glam::Affine3A;
 use raykit_device::Traversable;
 
 use super::gas::{Gas, GasAccel};
+use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use crate::vulkan::accel::build::{self, Geometry, InputPacker, Job, PendingBuild};
+use crate::vulkan::accel::build::{self, Geometry, InputPacker, Job};
 use crate::vulkan::accel::structure::AccelStructure;
 
 const TOP: vk::AccelerationStructureTypeKHR = vk::AccelerationStructureTypeKHR::TOP_LEVEL;

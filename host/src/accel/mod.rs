@@ -58,12 +58,12 @@
 mod gas;
 mod ias;
 pub mod input;
+mod options;
+mod pending;
 
-use crate::vulkan::accel::{build, structure};
-
-pub use build::PendingBuild;
 pub use gas::{Compaction, Gas, GasBuilder};
 pub(crate) use ias::HitReach;
 pub use ias::{Ias, IasBuilder, Instance, InstanceFlags};
 pub use input::{Aabb, Aabbs, BuildInput, GeometryFlags, Indices, Triangles};
-pub use structure::{AccelSizes, BuildOptions, BuildPreference};
+pub use options::{AccelSizes, BuildOptions, BuildPreference};
+pub use pending::PendingBuild;

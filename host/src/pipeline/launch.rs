@@ -146,11 +146,7 @@ impl Launch {
             exceptions.extend(thrown);
         }
         if total > 0 {
-            return Err(crate::vulkan::pipeline::exceptions::launch_error(
-                total,
-                exceptions,
-                launch.pipeline.max_trace_depth,
-            ));
+            return Err(super::exceptions_error(total, exceptions, launch.pipeline.max_trace_depth));
         }
         Ok(())
     }

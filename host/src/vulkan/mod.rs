@@ -3,7 +3,7 @@
 
 pub(crate) mod accel;
 pub(crate) mod buffer_table;
-pub mod cache;
+pub(crate) mod cache;
 pub(crate) mod device_registry;
 pub(crate) mod driver_lock;
 pub(crate) mod pipeline;

@@ -1,95 +1,14 @@
-//! What every acceleration structure has: its build flags, the memory sizes the
-//! driver asks for, and the structure itself with its storage
-//! ([`VkAccelerationStructureKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkAccelerationStructureKHR.html)).
+//! An acceleration structure on Vulkan: the structure itself with its storage
+//! ([`VkAccelerationStructureKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkAccelerationStructureKHR.html)),
+//! and the build flags [`BuildOptions`] stand for.
 
 use std::sync::Arc;
 
 use ash::vk;
 
+use crate::accel::{BuildOptions, BuildPreference};
 use crate::context::ContextInner;
 use crate::memory::RawBuffer;
-
-/// Which way the builder trades build time against trace time (OptiX's
-/// `OPTIX_BUILD_FLAG_PREFER_FAST_TRACE` / `_BUILD`).
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
-pub enum BuildPreference {
-    /// Slower builds, faster traversal (the default, for static geometry).
-    #[default]
-    FastTrace,
-    /// Faster builds, slower traversal (for geometry rebuilt every frame).
-    FastBuild,
-    /// Let the driver choose.
-    Neither,
-}
-
-/// Build flags of one acceleration structure.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
-pub struct BuildOptions {
-    /// Build-time versus trace-time preference.
-    pub preference: BuildPreference,
-    /// Allow [`Gas::update`](super::Gas::update) / [`Ias::update`](super::Ias::update) (refit) later.
-    pub allow_update: bool,
-    /// Allow [`Gas::compact`](super::Gas::compact) later.
-    pub allow_compaction: bool,
-}
-
-impl BuildOptions {
-    /// Prefer fast traversal (the default).
-    #[must_use]
-    pub fn fast_trace(mut self) -> Self {
-        self.preference = BuildPreference::FastTrace;
-        self
-    }
-
-    /// Prefer fast builds.
-    #[must_use]
-    pub fn fast_build(mut self) -> Self {
-        self.preference = BuildPreference::FastBuild;
-        self
-    }
-
-    /// Allow later refits (`update`).
-    #[must_use]
-    pub fn allow_update(mut self, allow: bool) -> Self {
-        self.allow_update = allow;
-        self
-    }
-
-    /// Allow later compaction.
-    #[must_use]
-    pub fn allow_compaction(mut self, allow: bool) -> Self {
-        self.allow_compaction = allow;
-        self
-    }
-
-    pub(crate) fn vk_flags(self) -> vk::BuildAccelerationStructureFlagsKHR {
-        type F = vk::BuildAccelerationStructureFlagsKHR;
-        let mut flags = match self.preference {
-            BuildPreference::FastTrace => F::PREFER_FAST_TRACE,
-            BuildPreference::FastBuild => F::PREFER_FAST_BUILD,
-            BuildPreference::Neither => F::empty(),
-        };
-        if self.allow_update {
-            flags |= F::ALLOW_UPDATE;
-        }
-        if self.allow_compaction {
-            flags |= F::ALLOW_COMPACTION;
-        }
-        flags
-    }
-}
-
-/// Memory an acceleration structure needs, from the driver's size query
-/// (OptiX's `OptixAccelBufferSizes`).
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
-pub struct AccelSizes {
-    /// Bytes of the structure itself (`accelerationStructureSize`).
-    pub structure: u64,
-    /// Scratch bytes a build needs (`buildScratchSize`).
-    pub build_scratch: u64,
-    /// Scratch bytes an update needs (`updateScratchSize`).
-    pub update_scratch: u64,
-}
 
 /// An acceleration structure with its storage; destroyed on drop.
 pub(crate) struct AccelStructure {
@@ -133,5 +52,23 @@ impl Drop for AccelStructure {
         // after this, waits for the same epoch). Instances that reference it hold
         // an `Arc` to it.
         self.ctx.retire(crate::vulkan::timeline::Retired::Accel(self.handle));
+    }
+}
+
+impl BuildOptions {
+    pub(crate) fn vk_flags(self) -> vk::BuildAccelerationStructureFlagsKHR {
+        type F = vk::BuildAccelerationStructureFlagsKHR;
+        let mut flags = match self.preference {
+            BuildPreference::FastTrace => F::PREFER_FAST_TRACE,
+            BuildPreference::FastBuild => F::PREFER_FAST_BUILD,
+            BuildPreference::Neither => F::empty(),
+        };
+        if self.allow_update {
+            flags |= F::ALLOW_UPDATE;
+        }
+        if self.allow_compaction {
+            flags |= F::ALLOW_COMPACTION;
+        }
+        flags
     }
 }

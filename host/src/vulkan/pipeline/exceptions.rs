@@ -6,7 +6,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::context::ContextInner;
-use crate::error::{Error, Result, UserException};
+use crate::error::{Result, UserException};
 use crate::memory::RawBuffer;
 use crate::program_group::ProgramGroup;
 use crate::vulkan::buffer_table::SlotReuse;
@@ -64,27 +64,6 @@ impl ExceptionBuffer {
             })
             .collect();
         (total, records)
-    }
-}
-
-/// The error of a launch whose programs threw `total` exceptions, `recorded` of
-/// them recorded, in a pipeline linked with `max_trace_depth`: the traces refused
-/// past the depth ([`Error::RecursionTooDeep`]) if any were recorded, otherwise
-/// the user exceptions ([`Error::UserExceptions`]).
-pub(crate) fn launch_error(total: u32, recorded: Vec<UserException>, max_trace_depth: u32) -> Error {
-    use raykit_device::exception::TRACE_DEPTH_EXCEEDED;
-    let (refused, user): (Vec<UserException>, Vec<UserException>) =
-        recorded.into_iter().partition(|e| e.code == TRACE_DEPTH_EXCEEDED);
-    if refused.is_empty() {
-        return Error::UserExceptions { total, exceptions: user };
-    }
-    Error::RecursionTooDeep {
-        max_trace_depth,
-        depth: max_trace_depth.saturating_add(1),
-        refused: refused.len(),
-        launch_indices: refused.iter().map(|e| e.launch_index).collect(),
-        user_exceptions: user,
-        total,
     }
 }
 

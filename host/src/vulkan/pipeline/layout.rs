@@ -14,16 +14,8 @@ use raykit_spirv::ParamsDelivery;
 use crate::context::ContextInner;
 use crate::error::{Error, Result};
 use crate::memory::RawBuffer;
+use crate::pipeline::params_delivery;
 use crate::vulkan::buffer_table::RT_STAGES;
-
-/// How raykit delivers params of type `P`.
-pub fn params_delivery<P: LaunchParams>() -> ParamsDelivery {
-    if raykit_device::uses_push_constants::<P>() {
-        ParamsDelivery::PushConstants
-    } else {
-        ParamsDelivery::UniformBuffer { set: raykit_device::PARAMS_SET, binding: raykit_device::PARAMS_BINDING }
-    }
-}
 
 /// The set layout of the params uniform buffer (set 1). Its one owner is the
 /// [`PipelineLayout`] made with it.
