@@ -14,9 +14,9 @@ use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use crate::memory::RawBuffer;
 use crate::vulkan::accel::build::{self, Geometry, Job};
 use crate::vulkan::accel::structure::AccelStructure;
+use crate::vulkan::memory::RawBuffer;
 
 const BOTTOM: vk::AccelerationStructureTypeKHR = vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL;
 

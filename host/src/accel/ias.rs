@@ -193,7 +193,7 @@ fn check_fields(instances: &[Instance], limit: u64) -> Result<()> {
 fn upload(
     ctx: &Arc<ContextInner>,
     records: &[vk::AccelerationStructureInstanceKHR],
-) -> Result<(crate::memory::RawBuffer, Geometry)> {
+) -> Result<(crate::vulkan::memory::RawBuffer, Geometry)> {
     // SAFETY: `AccelerationStructureInstanceKHR` is plain data (floats, packed
     // integers and a u64 address) with no padding: 64 bytes each.
     let bytes = unsafe { std::slice::from_raw_parts(records.as_ptr() as *const u8, std::mem::size_of_val(records)) };

@@ -58,9 +58,9 @@ use ash::vk;
 use super::{Pipeline, PipelineInner, PipelineRepr};
 use crate::context::Submission;
 use crate::error::{Error, Result};
-use crate::memory::RawBuffer;
 use crate::sbt::{Sbt, SbtDevice};
 use crate::vulkan::buffer_table::RT_STAGES;
+use crate::vulkan::memory::RawBuffer;
 use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
 
 /// A launch submitted to the device and not yet waited for (OptiX's launch on a

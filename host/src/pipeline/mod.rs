@@ -40,9 +40,9 @@ use raykit_spirv::{InterfaceSizes, ParamsDelivery};
 
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result, UserException};
-use crate::memory::RawBuffer;
 use crate::program_group::{GroupKind, ProgramGroup};
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
+use crate::vulkan::memory::RawBuffer;
 use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
 use crate::vulkan::pipeline::handle::PipelineHandle;
 use crate::vulkan::pipeline::layout::{ParamsUniform, PipelineLayout};

@@ -6,6 +6,7 @@ pub(crate) mod buffer_table;
 pub(crate) mod cache;
 pub(crate) mod device_registry;
 pub(crate) mod driver_lock;
+pub(crate) mod memory;
 pub(crate) mod pipeline;
 pub(crate) mod texture_table;
 pub mod timeline;

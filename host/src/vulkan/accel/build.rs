@@ -13,7 +13,7 @@ use crate::accel::input::{BuildInput, Shape};
 use crate::accel::AccelSizes;
 use crate::context::{ContextInner, Submission};
 use crate::error::{Error, Result};
-use crate::memory::RawBuffer;
+use crate::vulkan::memory::RawBuffer;
 
 /// A geometry whose data is on the device: what `VkAccelerationStructureGeometryKHR` needs.
 #[derive(Copy, Clone, Debug)]

@@ -8,7 +8,7 @@ use ash::vk;
 
 use crate::accel::{BuildOptions, BuildPreference};
 use crate::context::ContextInner;
-use crate::memory::RawBuffer;
+use crate::vulkan::memory::RawBuffer;
 
 /// An acceleration structure with its storage; destroyed on drop.
 pub(crate) struct AccelStructure {

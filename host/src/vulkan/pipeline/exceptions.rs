@@ -7,9 +7,9 @@ use ash::vk;
 
 use crate::context::ContextInner;
 use crate::error::{Result, UserException};
-use crate::memory::RawBuffer;
 use crate::program_group::ProgramGroup;
 use crate::vulkan::buffer_table::SlotReuse;
+use crate::vulkan::memory::RawBuffer;
 
 /// A user-exception buffer: a device buffer in the bindless table, one per set of
 /// programs compiled together. Every launch zeroes its counter and copies it into

@@ -13,9 +13,9 @@ use raykit_spirv::ParamsDelivery;
 
 use crate::context::ContextInner;
 use crate::error::{Error, Result};
-use crate::memory::RawBuffer;
 use crate::pipeline::params_delivery;
 use crate::vulkan::buffer_table::RT_STAGES;
+use crate::vulkan::memory::RawBuffer;
 
 /// The set layout of the params uniform buffer (set 1). Its one owner is the
 /// [`PipelineLayout`] made with it.
