@@ -13,8 +13,9 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 use raykit_device::{Buffer, Element};
 
-use crate::context::{Context, Submission};
+use crate::context::Context;
 use crate::error::{Error, Result};
+use crate::vulkan::context::Submission;
 use crate::vulkan::memory::RawBuffer;
 use crate::vulkan::timeline::Retired;
 

@@ -56,10 +56,10 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::{Pipeline, PipelineInner, PipelineRepr};
-use crate::context::Submission;
 use crate::error::{Error, Result};
 use crate::sbt::{Sbt, SbtDevice};
 use crate::vulkan::buffer_table::RT_STAGES;
+use crate::vulkan::context::Submission;
 use crate::vulkan::memory::RawBuffer;
 use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
 

@@ -4,6 +4,7 @@
 pub(crate) mod accel;
 pub(crate) mod buffer_table;
 pub(crate) mod cache;
+pub(crate) mod context;
 pub(crate) mod device_registry;
 pub(crate) mod driver_lock;
 pub(crate) mod memory;

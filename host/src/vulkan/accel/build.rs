@@ -11,8 +11,9 @@ use gpu_allocator::MemoryLocation;
 
 use crate::accel::input::{BuildInput, Shape};
 use crate::accel::AccelSizes;
-use crate::context::{ContextInner, Submission};
+use crate::context::ContextInner;
 use crate::error::{Error, Result};
+use crate::vulkan::context::Submission;
 use crate::vulkan::memory::RawBuffer;
 
 /// A geometry whose data is on the device: what `VkAccelerationStructureGeometryKHR` needs.
