@@ -19,6 +19,10 @@
 //! `cpu` — the CPU backend against the Vulkan device, primary rays and the path
 //! tracer (16 spp), with the same Rust programs (see `cpu.rs`).
 //!
+//! `devices` — the path tracer on one device against the same progressive render
+//! split across a device group (`--devices all`, every ray-tracing GPU, or a
+//! count), with the speed-up (see `devices.rs`). Not run unless named.
+//!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
 //!   `$RAYKIT_SPIRV_DIR`); suites that trace need them, `accel` does not.
@@ -28,6 +32,8 @@
 //! * `--device NAME` — use the first ray-tracing device whose name contains NAME.
 //! * `--triangles N`, `--primary-size WxH`, `--path-size N`, `--spp N`, `--launches N` — sizes of
 //!   the tracing suites (defaults 1000000, 1920x1080, 512, 1, 1000).
+//! * `--devices all|N`, `--spp-per-launch N` — the `devices` suite's group (default `all`) and
+//!   launches (default 16 paths per pixel each; `--spp` 1 means 64 in all there).
 //!
 //! The binary needs only the Vulkan loader (and the SPIR-V files for suites that
 //! trace): build it here with `cargo build --release -p raykit-bench` and copy
@@ -36,6 +42,7 @@
 mod accel;
 mod ash_baseline;
 mod cpu;
+mod devices;
 mod launch;
 mod materials;
 mod pipeline;
@@ -51,8 +58,23 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 11] =
-    ["accel", "stack", "pipeline", "primary", "path", "launch", "launch-loop", "shaders", "soak", "cpu", "materials"];
+const SUITES: [&str; 12] = [
+    "accel",
+    "stack",
+    "pipeline",
+    "primary",
+    "path",
+    "launch",
+    "launch-loop",
+    "shaders",
+    "soak",
+    "cpu",
+    "materials",
+    "devices",
+];
+
+/// Suites run only when named: `devices` splits work across every GPU of the host.
+const ONLY_WHEN_NAMED: [&str; 1] = ["devices"];
 
 struct Args {
     suites: Vec<String>,
@@ -111,7 +133,7 @@ fn parse() -> anyhow::Result<Args> {
         args.trace.reps = reps;
     }
     if args.suites.is_empty() {
-        args.suites = SUITES.iter().map(|s| s.to_string()).collect();
+        args.suites = SUITES.iter().filter(|s| !ONLY_WHEN_NAMED.contains(s)).map(|s| s.to_string()).collect();
     }
     Ok(args)
 }
@@ -158,6 +180,13 @@ fn main() -> anyhow::Result<()> {
             markdown.push_str("## cpu\n\n");
             markdown.push_str(&table);
             report["suites"]["cpu"] = cpu::json(&rows);
+        } else if suite == "devices" {
+            let results = devices::run(&args.trace, args.device.as_deref())?;
+            let table = devices::markdown(&results);
+            println!("## devices\n\n{table}");
+            markdown.push_str("## devices\n\n");
+            markdown.push_str(&table);
+            report["suites"]["devices"] = devices::json(&results);
         } else if suite == "pipeline" {
             let rows = pipeline::run(args.device.as_deref(), args.reps)?;
             let table = pipeline::markdown(&rows, &device);

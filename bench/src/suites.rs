@@ -10,11 +10,21 @@ use crate::trace::Options;
 
 /// Defaults of the options these suites add.
 pub fn default_options() -> Options {
-    Options { reps: 5, triangles: 1_000_000, primary_size: (1920, 1080), path_size: 512, spp: 1, launches: 1000 }
+    Options {
+        reps: 5,
+        triangles: 1_000_000,
+        primary_size: (1920, 1080),
+        path_size: 512,
+        spp: 1,
+        launches: 1000,
+        devices: "all".to_owned(),
+        spp_per_launch: 16,
+    }
 }
 
 /// Parses one option of these suites (`--triangles`, `--primary-size WxH`,
-/// `--path-size N`, `--spp N`, `--launches N`); returns false when `name` is not one.
+/// `--path-size N`, `--spp N`, `--launches N`, `--devices all|N`,
+/// `--spp-per-launch N`); returns false when `name` is not one.
 pub fn parse_option(
     opts: &mut Options,
     name: &str,
@@ -30,6 +40,11 @@ pub fn parse_option(
         "--path-size" => opts.path_size = value()?.parse().context("--path-size takes a number")?,
         "--spp" => opts.spp = value()?.parse().context("--spp takes a number")?,
         "--launches" => opts.launches = value()?.parse().context("--launches takes a number")?,
+        "--devices" => opts.devices = value()?,
+        "--spp-per-launch" => {
+            opts.spp_per_launch = value()?.parse().context("--spp-per-launch takes a number")?;
+            anyhow::ensure!(opts.spp_per_launch > 0, "--spp-per-launch must be at least 1");
+        }
         _ => return Ok(false),
     }
     Ok(true)

@@ -40,6 +40,10 @@ pub struct Options {
     pub spp: u32,
     /// Launches per loop of the `launch-loop` suite.
     pub launches: usize,
+    /// The group of the `devices` suite: `all`, or a count of contexts.
+    pub devices: String,
+    /// Paths per pixel of each launch of the `devices` suite's progressive renders.
+    pub spp_per_launch: u32,
 }
 
 /// One variant's results.

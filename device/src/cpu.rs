@@ -133,12 +133,19 @@ pub trait Runtime {
 }
 
 /// Runs `f` with a zeroed scratch of `T::WORDS` words, for reading or writing
-/// one buffer element.
+/// one buffer element. The scratch is the smallest of a few sizes that holds
+/// them (`T::WORDS` is a constant: the other branches fold away), so a scalar
+/// or vector element does not clear a large one.
 pub fn with_words<T: crate::Element, R>(f: impl FnOnce(&mut [u32]) -> R) -> R {
-    const INLINE: usize = 64;
     let words = T::WORDS as usize;
-    if words <= INLINE {
-        let mut scratch = [0u32; INLINE];
+    if words <= 4 {
+        let mut scratch = [0u32; 4];
+        f(&mut scratch[..words])
+    } else if words <= 16 {
+        let mut scratch = [0u32; 16];
+        f(&mut scratch[..words])
+    } else if words <= 64 {
+        let mut scratch = [0u32; 64];
         f(&mut scratch[..words])
     } else {
         let mut scratch = vec![0u32; words];

@@ -98,6 +98,11 @@ pub struct ContextOptions {
     /// Contexts made for the same GPU (with the same validation setting) share its
     /// `VkDevice`.
     pub device_name_contains: Option<String>,
+    /// Use the `n`-th usable ray-tracing device (counted from 0 among those
+    /// `device_name_contains` lets through, in the Vulkan loader's order) instead
+    /// of the first; [`Error::DeviceIndexOutOfRange`] lists them when there are
+    /// fewer. [`Context::all`] makes one context per device this way.
+    pub device_index: Option<usize>,
     /// Where the on-disk compile cache lives, or [`PipelineCacheLocation::Off`]
     /// (see [`crate::cache`]). On by default.
     pub pipeline_cache: PipelineCacheLocation,
@@ -218,6 +223,46 @@ impl Context {
         }
     }
 
+    /// One context per ray-tracing device, for splitting work across them
+    /// ([`crate::DeviceGroup`]): on Vulkan, every usable device that
+    /// `options.device_name_contains` lets through, in the loader's order, each
+    /// made as [`Context::new`] makes one with [`ContextOptions::device_index`] set.
+    /// Devices of type CPU (Mesa's lavapipe) are left out when a GPU is there too:
+    /// beside GPUs they slow a split launch down more than they help; make a
+    /// context for one by name and put it in a group explicitly to use it anyway.
+    /// On the CPU backend, one context (the backend uses every core already).
+    ///
+    /// `options.device_index` is ignored. Fails as [`Context::new`] does when
+    /// there is no usable device, or with the first device that fails.
+    ///
+    /// ```no_run
+    /// use raykit::{Context, ContextOptions};
+    /// let contexts = Context::all(ContextOptions::default())?;
+    /// for ctx in &contexts {
+    ///     println!("{}", ctx.device_name());
+    /// }
+    /// # Ok::<(), raykit::Error>(())
+    /// ```
+    pub fn all(options: ContextOptions) -> Result<Vec<Context>> {
+        if options.backend.or_else(Backend::from_env).unwrap_or_default() == Backend::Cpu {
+            return Ok(vec![Context::new(options)?]);
+        }
+        let validation =
+            options.validation.unwrap_or_else(|| std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1"));
+        let instance = crate::vulkan::device_registry::instance(validation)?;
+        let usable = crate::vulkan::device_registry::usable_devices(instance, options.device_name_contains.as_deref())?;
+        let is_cpu = |u: &crate::vulkan::device_registry::Usable| {
+            u.report.device_type == format!("{:?}", vk::PhysicalDeviceType::CPU)
+        };
+        let any_gpu = usable.iter().any(|u| !is_cpu(u));
+        usable
+            .iter()
+            .enumerate()
+            .filter(|(_, u)| !(any_gpu && is_cpu(u)))
+            .map(|(index, _)| Context::new(ContextOptions { device_index: Some(index), ..options.clone() }))
+            .collect()
+    }
+
     /// A context of an existing Vulkan context's inner state.
     pub(crate) fn from_vulkan(inner: Arc<ContextInner>) -> Context {
         Context { backend: ContextBackend::Vulkan(inner) }
@@ -274,7 +319,11 @@ impl Context {
         // Routed before the device is made, so messages of its creation reach the log.
         instance.routes.add(id, log.clone());
         let mut route = RouteGuard { instance, id, armed: true };
-        let shared = crate::vulkan::device_registry::acquire(instance, options.device_name_contains.as_deref())?;
+        let choice = crate::vulkan::device_registry::DeviceChoice {
+            name_contains: options.device_name_contains.as_deref(),
+            index: options.device_index,
+        };
+        let shared = crate::vulkan::device_registry::acquire(instance, choice)?;
         let mut hold = DeviceHold { shared: shared.clone(), armed: true };
         let device = &shared.device;
         let physical = shared.physical;

@@ -8,6 +8,7 @@ pub mod accel;
 pub mod cache;
 pub mod context;
 pub mod cpu;
+pub mod device_group;
 pub mod error;
 #[cfg(feature = "fault-injection")]
 pub mod gate;
@@ -32,6 +33,7 @@ pub use accel::{
 };
 pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Backend, Context, ContextOptions, DeviceLimits, MemoryUsage};
+pub use device_group::{Balance, Band, BandRows, BandTiming, DeviceGroup, Split};
 pub use error::{DeviceReport, Error, Result, UserException};
 #[cfg(feature = "fault-injection")]
 #[doc(hidden)]
@@ -67,6 +69,7 @@ pub use raykit_spirv as spirv;
 fn host_objects_are_send_and_sync<P: LaunchParams, T: raykit_device::Element + Send + Sync>() {
     fn check<X: Send + Sync>() {}
     check::<Context>();
+    check::<DeviceGroup>();
     check::<Module>();
     check::<ProgramGroup>();
     check::<Pipeline<P>>();

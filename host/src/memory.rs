@@ -210,6 +210,65 @@ impl<T: Element> DeviceBuffer<T> {
         Ok(PendingRead { state: Pending::Copying { submission, staging, len: self.len }, _element: PhantomData })
     }
 
+    /// Copies elements `first..first + out.len()` into `out`: a part of
+    /// [`DeviceBuffer::read`], which waits for pending work the same way.
+    pub fn read_into(&self, first: usize, out: &mut [T]) -> Result<()> {
+        let end = self.check_range(first, out.len())?;
+        let size = std::mem::size_of::<T>();
+        match &self.storage {
+            Storage::Vulkan(raw) => {
+                raw.ctx.wait_for_pending_work()?;
+                let bytes = raw.mapped().ok_or(Error::BufferSize {
+                    len: self.len,
+                    element_size: size,
+                    reason: "the buffer is not host-visible",
+                })?;
+                bytemuck::cast_slice_mut::<T, u8>(out).copy_from_slice(&bytes[first * size..end * size]);
+            }
+            Storage::Cpu { ctx, words } => {
+                ctx.wait_idle();
+                let mut tmp = vec![0u32; out.len() * T::WORDS as usize];
+                crate::cpu::buffers::read_words(words, first as u64 * u64::from(T::WORDS), &mut tmp);
+                bytemuck::cast_slice_mut::<T, u8>(out).copy_from_slice(bytemuck::cast_slice(&tmp));
+            }
+        }
+        Ok(())
+    }
+
+    /// Overwrites elements `first..first + data.len()` (after pending work that
+    /// may use the buffer has finished, as [`DeviceBuffer::write`] does).
+    pub fn write_at(&mut self, first: usize, data: &[T]) -> Result<()> {
+        let end = self.check_range(first, data.len())?;
+        let size = std::mem::size_of::<T>();
+        let len = self.len;
+        match &mut self.storage {
+            Storage::Vulkan(raw) => {
+                raw.ctx.wait_for_pending_work()?;
+                let bytes = raw.mapped_mut().ok_or(Error::BufferSize {
+                    len,
+                    element_size: size,
+                    reason: "the buffer is not host-visible",
+                })?;
+                bytes[first * size..end * size].copy_from_slice(bytemuck::cast_slice(data));
+            }
+            Storage::Cpu { ctx, words } => {
+                ctx.wait_idle();
+                let mut tmp = vec![0u32; data.len() * T::WORDS as usize];
+                bytemuck::cast_slice_mut::<u32, u8>(&mut tmp).copy_from_slice(bytemuck::cast_slice(data));
+                crate::cpu::buffers::write_words(words, first as u64 * u64::from(T::WORDS), &tmp);
+            }
+        }
+        Ok(())
+    }
+
+    /// The end of the `count` elements from `first`, when they are in the buffer.
+    fn check_range(&self, first: usize, count: usize) -> Result<usize> {
+        match first.checked_add(count) {
+            Some(end) if end <= self.len => Ok(end),
+            end => Err(Error::BufferRange { start: first, end: end.unwrap_or(usize::MAX), len: self.len }),
+        }
+    }
+
     /// Overwrites the buffer's first `data.len()` elements.
     pub fn write(&mut self, data: &[T]) -> Result<()> {
         if data.len() > self.len {

@@ -53,6 +53,36 @@ pub fn test_backends() -> anyhow::Result<Vec<Backend>> {
         .collect()
 }
 
+/// Runs `test` with one fresh context per entry of `options` (contexts of one
+/// device share it, as contexts do), then destroys them and checks each one's
+/// validation log as [`with_context`] does. Without a ray-tracing device it
+/// fails or skips loudly as [`with_context`] does.
+pub fn with_contexts(
+    name: &str,
+    options: Vec<ContextOptions>,
+    test: impl FnOnce(&[Context]) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let mut contexts = Vec::with_capacity(options.len());
+    for options in options {
+        let Some(ctx) = context_or_skip(name, options)? else { return Ok(()) };
+        contexts.push(ctx);
+    }
+    let logs: Vec<raykit::MessageLog> = contexts.iter().map(Context::messages).collect();
+    let result = test(&contexts);
+    drop(contexts);
+    let mut problems = Vec::new();
+    for (i, log) in logs.iter().enumerate() {
+        if !log.context_destroyed() {
+            problems
+                .push(format!("context {i} was not destroyed at the end of the test: a raykit object still holds it"));
+        }
+        problems.extend(log.take().iter().map(|m| format!("context {i}: validation message: {m}")));
+    }
+    result?;
+    anyhow::ensure!(problems.is_empty(), "{name}: {}", problems.join("\n"));
+    Ok(())
+}
+
 /// [`with_context`] with `options` (validation as `RAYKIT_VALIDATION` says).
 pub fn with_context_options(
     name: &str,

@@ -13,7 +13,7 @@ layout(push_constant, scalar) uniform Params {
     uint subframe;
     uint samples;
     uint max_depth;
-    uint pad;
+    uint row_offset; // first image row of this launch (a band of a split launch)
     vec3 cam_eye;
     vec3 cam_u;
     vec3 cam_v;

@@ -9,11 +9,16 @@
 //! launches are cut into. [`Image`] holds the result: linear radiance per pixel,
 //! written as PFM, and tonemapped to PNG.
 //!
+//! [`GroupRenderer`] renders the same picture on several devices at once (a
+//! `raykit::DeviceGroup`): one renderer per device, each launch split into bands
+//! of rows by the devices' measured speeds, the bands gathered into one image.
+//!
 //! The device half, and the math and scene both halves share, are in the
 //! `path-tracer-device` crate. [`Programs::glsl`] loads a GLSL twin of the same
 //! programs (`glsl/`), and [`Programs::wgsl`] a WGSL twin (`wgsl/`, compiled by
 //! naga at build time), used by the tests and the benchmarks.
 
+use std::ops::Range;
 use std::path::Path;
 
 use path_tracer_device::math::{tonemap, CameraFrame};
@@ -21,7 +26,8 @@ use path_tracer_device::scene::{self, MATERIALS, VERTICES};
 use path_tracer_device::{HitRecord, Params, Radiance, RaygenRecord, Shadow};
 use raykit::glam::{UVec2, Vec3, Vec4};
 use raykit::{
-    Context, DeviceBuffer, Gas, GeometryFlags, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Triangles,
+    Band, BandRows, Context, DeviceBuffer, DeviceGroup, Gas, GeometryFlags, Ias, LinkOptions, Module, Pipeline,
+    ProgramGroup, Sbt, Split, Triangles,
 };
 pub use raykit_scene::Camera;
 
@@ -196,7 +202,7 @@ impl Renderer {
             subframe: 0,
             samples: 1,
             max_depth: scene::MAX_DEPTH,
-            _pad: 0,
+            row_offset: 0,
             cam_eye: camera.eye,
             cam_u: camera.u,
             cam_v: camera.v,
@@ -253,6 +259,15 @@ impl Renderer {
         Ok(())
     }
 
+    /// One launch adding `samples` paths per pixel to the rows of `band` only,
+    /// as launch `subframe` of the progressive sequence (0 overwrites those rows
+    /// of the accumulation buffer); waits for it. Leaves the renderer's own
+    /// counters alone: for split launches ([`GroupRenderer`]), which keep them.
+    pub fn launch_band(&self, subframe: u32, samples: u32, band: &Band) -> raykit::Result<()> {
+        let params = Params { subframe, samples, row_offset: band.first_row(), ..self.params };
+        self.pipeline.launch(&self.sbt, &params, band.launch_dims(self.params.size.x, 1))
+    }
+
     /// [`Renderer::launch`] timed by GPU timestamps around the trace.
     pub fn launch_timed(&mut self, samples: u32, timer: &raykit::LaunchTimer) -> raykit::Result<std::time::Duration> {
         let params = Params { subframe: self.subframe, samples, ..self.params };
@@ -282,17 +297,192 @@ impl Renderer {
     /// Reads the accumulation buffer back: mean radiance per pixel and the rays
     /// traced so far.
     pub fn image(&self) -> raykit::Result<Image> {
-        let accum = self.accum.read()?;
-        let n = self.samples_done.max(1) as f32;
-        let radiance = accum.iter().map(|a| a.truncate() / n).collect();
-        let rays = accum.iter().map(|a| a.w as f64).sum::<f64>() as u64;
-        Ok(Image { width: self.params.size.x, height: self.params.size.y, radiance, rays })
+        Ok(Image::from_accumulation(self.params.size, &self.accum.read()?, self.samples_done))
+    }
+
+    /// The accumulation buffer as it stands: per pixel, the sum of the radiance
+    /// samples (xyz) and the rays traced (w).
+    pub fn accumulation(&self) -> raykit::Result<Vec<Vec4>> {
+        self.accum.read()
     }
 
     /// Rays traced so far (reads the accumulation buffer back).
     pub fn rays(&self) -> raykit::Result<u64> {
         Ok(self.accum.read()?.iter().map(|a| a.w as f64).sum::<f64>() as u64)
     }
+}
+
+/// A [`Renderer`]'s rows are those of its accumulation buffer: what a split
+/// launch gathers, and moves between devices when the bands change.
+impl BandRows for Renderer {
+    type Item = Vec4;
+
+    fn row_len(&self) -> usize {
+        self.params.size.x as usize
+    }
+
+    fn read_rows(&self, rows: Range<u32>, out: &mut [Vec4]) -> raykit::Result<()> {
+        self.accum.read_into(rows.start as usize * self.row_len(), out)
+    }
+
+    fn write_rows(&mut self, rows: Range<u32>, data: &[Vec4]) -> raykit::Result<()> {
+        let first = rows.start as usize * self.row_len();
+        self.accum.write_at(first, data)
+    }
+}
+
+/// One device's part of a [`GroupRenderer`]: its copy of the scene and its
+/// renderer (pipeline, SBT, accumulation buffer).
+pub struct DevicePart {
+    /// The device's renderer.
+    pub renderer: Renderer,
+    /// The scene on the device (the renderer's params point into it).
+    pub scene: Scene,
+}
+
+impl BandRows for DevicePart {
+    type Item = Vec4;
+
+    fn row_len(&self) -> usize {
+        self.renderer.row_len()
+    }
+
+    fn read_rows(&self, rows: Range<u32>, out: &mut [Vec4]) -> raykit::Result<()> {
+        self.renderer.read_rows(rows, out)
+    }
+
+    fn write_rows(&mut self, rows: Range<u32>, data: &[Vec4]) -> raykit::Result<()> {
+        self.renderer.write_rows(rows, data)
+    }
+}
+
+/// The path tracer on several devices: each device renders a band of rows of
+/// every launch with its own scene, pipeline and accumulation buffer; the bands
+/// follow the devices' measured speeds and are gathered into one image. The
+/// picture is the one a single [`Renderer`] makes, bit for bit on devices that
+/// compute alike (rows that change device carry their accumulated sums along;
+/// see `raykit::device_group`).
+pub struct GroupRenderer {
+    split: Split<DevicePart>,
+    size: UVec2,
+    samples_done: u32,
+    subframe: u32,
+}
+
+impl GroupRenderer {
+    /// Builds the scene, the programs (`programs`, called once per device, e.g.
+    /// [`Programs::rust`]) and a renderer on every device of `group`, in parallel,
+    /// for a `width × height` render.
+    pub fn new(
+        group: &DeviceGroup,
+        width: u32,
+        height: u32,
+        programs: impl Fn(&Context) -> raykit::Result<Programs> + Sync,
+    ) -> raykit::Result<GroupRenderer> {
+        let split = group.split(height, |ctx| {
+            let scene = Scene::new(ctx)?;
+            let renderer = Renderer::new(ctx, &programs(ctx)?, &scene, width, height)?;
+            Ok(DevicePart { renderer, scene })
+        })?;
+        Ok(GroupRenderer { split, size: UVec2::new(width, height), samples_done: 0, subframe: 0 })
+    }
+
+    /// One split launch adding `samples` paths per pixel; waits for every device.
+    pub fn launch(&mut self, samples: u32) -> raykit::Result<()> {
+        if self.subframe == 0 {
+            // This launch overwrites: nothing accumulated is to be carried over.
+            self.split.forget_rows();
+        }
+        let subframe = self.subframe;
+        self.split.launch(|part, band| part.renderer.launch_band(subframe, samples, band))?;
+        self.subframe += 1;
+        self.samples_done += samples;
+        Ok(())
+    }
+
+    /// Sets the cap on path length on every device (see
+    /// [`Renderer::set_max_depth`]). Starts sampling over.
+    pub fn set_max_depth(&mut self, max_depth: u32) {
+        for part in self.split.states_mut() {
+            part.renderer.set_max_depth(max_depth);
+        }
+        self.reset();
+    }
+
+    /// Starts over; the devices' measured speeds stay.
+    pub fn reset(&mut self) {
+        self.samples_done = 0;
+        self.subframe = 0;
+    }
+
+    /// Image size.
+    pub fn size(&self) -> UVec2 {
+        self.size
+    }
+
+    /// Paths per pixel accumulated so far.
+    pub fn samples_done(&self) -> u32 {
+        self.samples_done
+    }
+
+    /// The split: bands, timings, balance, the devices' renderers.
+    pub fn split(&self) -> &Split<DevicePart> {
+        &self.split
+    }
+
+    /// The split, to change its balance.
+    pub fn split_mut(&mut self) -> &mut Split<DevicePart> {
+        &mut self.split
+    }
+
+    /// Gathers the accumulation buffers' rows from the devices that rendered them.
+    pub fn accumulation(&self) -> raykit::Result<Vec<Vec4>> {
+        self.split.gather_vec()
+    }
+
+    /// Gathers the image: mean radiance per pixel and the rays traced so far.
+    pub fn image(&self) -> raykit::Result<Image> {
+        Ok(Image::from_accumulation(self.size, &self.accumulation()?, self.samples_done))
+    }
+}
+
+/// The contexts `spec` names, for a [`GroupRenderer`]: `all` is one per
+/// ray-tracing device (`Context::all`); a count `N` is N contexts over those
+/// devices in turn (on a machine with one device, N contexts share it: the split
+/// at work where there is one device, for tests and demonstrations). On the CPU
+/// backend (`options.backend`), `all` is one context and `N` is N.
+pub fn device_contexts(spec: &str, options: raykit::ContextOptions) -> anyhow::Result<Vec<Context>> {
+    let count = match spec {
+        "all" => None,
+        n => match n.parse::<usize>() {
+            Ok(n) if n > 0 => Some(n),
+            _ => anyhow::bail!("devices: `all` or a count of at least 1, got {n:?}"),
+        },
+    };
+    let all = Context::all(options.clone())?;
+    let Some(n) = count else { return Ok(all) };
+    let mut contexts = Vec::with_capacity(n);
+    for i in 0..n {
+        let device = &all[i % all.len()];
+        if i < all.len() {
+            contexts.push(device.clone());
+            continue;
+        }
+        if device.backend() == raykit::Backend::Cpu {
+            contexts.push(Context::new(options.clone())?);
+            continue;
+        }
+        // Another context on device `i % len`: found by its name and its rank
+        // among the devices of that name.
+        let name = device.device_name().into_owned();
+        let rank = all[..i % all.len()].iter().filter(|c| c.device_name() == name).count();
+        contexts.push(Context::new(raykit::ContextOptions {
+            device_name_contains: Some(name),
+            device_index: Some(rank),
+            ..options.clone()
+        })?);
+    }
+    Ok(contexts)
 }
 
 /// A rendered image: mean linear radiance per pixel, row 0 at the top.
@@ -309,6 +499,15 @@ pub struct Image {
 }
 
 impl Image {
+    /// The image of an accumulation buffer (per pixel: radiance sum, rays) after
+    /// `samples` paths per pixel.
+    pub fn from_accumulation(size: UVec2, accum: &[Vec4], samples: u32) -> Image {
+        let n = samples.max(1) as f32;
+        let radiance = accum.iter().map(|a| a.truncate() / n).collect();
+        let rays = accum.iter().map(|a| a.w as f64).sum::<f64>() as u64;
+        Image { width: size.x, height: size.y, radiance, rays }
+    }
+
     /// Tonemapped RGBA8 pixels (exposure, Reinhard, sRGB).
     pub fn tonemapped(&self, exposure: f32) -> Vec<u32> {
         self.radiance.iter().map(|&c| tonemap(c, exposure)).collect()

@@ -1,9 +1,16 @@
-//! `cargo run --release -p path_tracer -- [--width W] [--height H] [--spp N] [--max-depth N] [--exr] [--output FILE.png] [--watch]`:
+//! `cargo run --release -p path_tracer -- [--width W] [--height H] [--spp N] [--max-depth N] [--exr] [--output FILE.png] [--watch] [--devices all|N] [--backend vulkan|cpu|vulkan,cpu]`:
 //! renders optixPathTracer's Cornell box progressively, with a progress bar, to a
 //! tonemapped PNG and the linear radiance as PFM next to it. With `--watch` it then
 //! keeps running: each save of the device crate's sources rebuilds it, swaps the
 //! pipeline and renders the picture again (a compile error is printed and the old
 //! pipeline stays).
+//!
+//! With `--devices all` it renders on every ray-tracing GPU at once: each launch
+//! is split into bands of rows by the devices' measured speeds, and the bands are
+//! gathered into one picture, the same as one device's. `--devices N` makes N
+//! contexts over the devices in turn (on a machine with one device, N contexts
+//! share it: a way to see the split work there); `--backend vulkan,cpu` adds the
+//! CPU backend to the group.
 //!
 //! Build the shaders first (`cargo xtask build-shaders`), or run `cargo xtask demo`.
 
@@ -13,7 +20,8 @@ use std::time::Instant;
 use anyhow::Context as _;
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
-use path_tracer::{Programs, Renderer, Scene};
+use path_tracer::{GroupRenderer, Programs, Renderer, Scene};
+use raykit::{Backend, Context, ContextOptions, DeviceGroup};
 
 /// Renders the Cornell box with raykit's path tracer.
 #[derive(Parser)]
@@ -53,11 +61,20 @@ struct Cli {
     /// Use the first ray-tracing device whose name contains this.
     #[arg(long)]
     device: Option<String>,
-    /// Where the device programs run: `vulkan` (a GPU, or lavapipe) or `cpu`
-    /// (the Rust programs natively on this machine's CPUs). Default: the
-    /// `RAYKIT_BACKEND` environment variable, else `vulkan`.
-    #[arg(long, value_parser = ["vulkan", "cpu"], conflicts_with_all = ["glsl", "wgsl", "watch"])]
+    /// Where the device programs run: `vulkan` (a GPU, or lavapipe), `cpu`
+    /// (the Rust programs natively on this machine's CPUs), or `vulkan,cpu`
+    /// (both at once: the Vulkan devices `--devices` names and the CPU backend,
+    /// each launch split between them by speed). Default: the `RAYKIT_BACKEND`
+    /// environment variable, else `vulkan`.
+    #[arg(long, value_parser = ["vulkan", "cpu", "vulkan,cpu"], conflicts_with_all = ["glsl", "wgsl", "watch"])]
     backend: Option<String>,
+    /// Render on several devices at once, each launch split into bands of rows
+    /// by the devices' measured speeds: `all` (one context per ray-tracing GPU,
+    /// or lavapipe where there is no GPU) or a count N (N contexts over those
+    /// devices in turn; on one device, N contexts share it). Without it: one
+    /// device, no split.
+    #[arg(long, conflicts_with = "watch")]
+    devices: Option<String>,
     /// After rendering, watch `examples/path_tracer/device` and render again
     /// after each change (hot reload), until interrupted.
     #[arg(long, conflicts_with_all = ["glsl", "wgsl"])]
@@ -68,13 +85,12 @@ fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     anyhow::ensure!(cli.width > 0 && cli.height > 0, "--width and --height must be at least 1");
     anyhow::ensure!(cli.spp > 0 && cli.spp_per_launch > 0, "--spp and --spp-per-launch must be at least 1");
-    let backend =
-        cli.backend.as_deref().map(|b| if b == "cpu" { raykit::Backend::Cpu } else { raykit::Backend::Vulkan });
-    let ctx = raykit::Context::new(raykit::ContextOptions {
-        device_name_contains: cli.device.clone(),
-        backend,
-        ..Default::default()
-    })?;
+    anyhow::ensure!(cli.max_depth > 0, "--max-depth must be at least 1");
+    if cli.devices.is_some() || cli.backend.as_deref() == Some("vulkan,cpu") {
+        return render_group(&cli);
+    }
+    let backend = cli.backend.as_deref().map(|b| if b == "cpu" { Backend::Cpu } else { Backend::Vulkan });
+    let ctx = Context::new(ContextOptions { device_name_contains: cli.device.clone(), backend, ..Default::default() })?;
     let programs = match (cli.glsl, cli.wgsl) {
         (true, _) => Programs::glsl(&ctx)?,
         (_, true) => Programs::wgsl(&ctx)?,
@@ -82,7 +98,6 @@ fn main() -> anyhow::Result<()> {
     };
     let scene = Scene::new(&ctx)?;
     let mut renderer = Renderer::new(&ctx, &programs, &scene, cli.width, cli.height)?;
-    anyhow::ensure!(cli.max_depth > 0, "--max-depth must be at least 1");
     renderer.set_max_depth(cli.max_depth);
 
     render(&cli, &ctx, &mut renderer)?;
@@ -92,13 +107,102 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Renders `cli.spp` paths per pixel with a progress bar and writes the pictures.
-fn render(cli: &Cli, ctx: &raykit::Context, renderer: &mut Renderer) -> anyhow::Result<()> {
-    let bar = ProgressBar::new(cli.spp as u64);
+/// The contexts of the group `--devices` and `--backend` ask for.
+fn group_contexts(cli: &Cli) -> anyhow::Result<Vec<Context>> {
+    let spec = cli.devices.as_deref().unwrap_or("1");
+    let cpu = ContextOptions { backend: Some(Backend::Cpu), ..Default::default() };
+    let (vulkan, with_cpu) = match cli.backend.as_deref() {
+        Some("cpu") => (false, true),
+        Some("vulkan,cpu") => (true, true),
+        Some(_) => (true, false),
+        None => (Backend::from_env() != Some(Backend::Cpu), Backend::from_env() == Some(Backend::Cpu)),
+    };
+    if !vulkan {
+        return path_tracer::device_contexts(spec, cpu);
+    }
+    let options = ContextOptions {
+        backend: Some(Backend::Vulkan),
+        device_name_contains: cli.device.clone(),
+        ..Default::default()
+    };
+    let mut contexts = path_tracer::device_contexts(spec, options)?;
+    if with_cpu {
+        contexts.push(Context::new(cpu)?);
+    }
+    Ok(contexts)
+}
+
+/// Renders on a device group: each launch split across the devices.
+fn render_group(cli: &Cli) -> anyhow::Result<()> {
+    let group = DeviceGroup::new(group_contexts(cli)?)?;
+    let names: Vec<String> = group.contexts().iter().map(|c| c.device_name().into_owned()).collect();
+    println!("{} device(s): {}", names.len(), names.join(", "));
+    let (glsl, wgsl) = (cli.glsl, cli.wgsl);
+    let mut renderer = GroupRenderer::new(&group, cli.width, cli.height, |ctx| match (glsl, wgsl) {
+        (true, _) => Programs::glsl(ctx),
+        (_, true) => Programs::wgsl(ctx),
+        _ => Programs::rust(ctx),
+    })?;
+    renderer.set_max_depth(cli.max_depth);
+    let bar = progress_bar(cli.spp)?;
+    let started = Instant::now();
+    while renderer.samples_done() < cli.spp {
+        let samples = cli.spp_per_launch.min(cli.spp - renderer.samples_done());
+        renderer.launch(samples)?;
+        let bands: Vec<String> = renderer.split().bands().iter().map(|b| b.row_count().to_string()).collect();
+        bar.set_message(format!("rows per device {}", bands.join("/")));
+        bar.set_position(renderer.samples_done() as u64);
+    }
+    bar.finish();
+    let seconds = started.elapsed().as_secs_f64();
+    let image = renderer.image()?;
+    let (png, pfm) = write_pictures(cli, &image)?;
+    let split = renderer.split();
+    for (i, ((name, band), timing)) in names.iter().zip(split.held_bands()).zip(split.timings()).enumerate() {
+        let time = timing.map_or(String::from("no rows"), |t| format!("{:.1} ms", t.seconds * 1e3));
+        println!("  device {i} ({name}): rows {}..{} in the last launch, {time}", band.rows.start, band.rows.end);
+    }
+    println!(
+        "rendered {}x{} at {} spp on {} device(s) in {seconds:.2} s ({} rays, {:.2} Mrays/s) to {} and {}",
+        cli.width,
+        cli.height,
+        cli.spp,
+        names.len(),
+        image.rays,
+        image.rays as f64 / seconds / 1e6,
+        png.display(),
+        pfm.display()
+    );
+    Ok(())
+}
+
+/// The progress bar of a render of `spp` paths per pixel.
+fn progress_bar(spp: u32) -> anyhow::Result<ProgressBar> {
+    let bar = ProgressBar::new(spp as u64);
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} spp  {msg}")
             .context("progress bar template")?,
     );
+    Ok(bar)
+}
+
+/// Writes the PNG, the PFM and (with `--exr`) the EXR; returns the PNG's and the PFM's paths.
+fn write_pictures(cli: &Cli, image: &path_tracer::Image) -> anyhow::Result<(PathBuf, PathBuf)> {
+    if let Some(dir) = cli.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    image.write_png(&cli.output, cli.exposure)?;
+    let pfm = cli.output.with_extension("pfm");
+    image.write_pfm(&pfm)?;
+    if cli.exr {
+        image.write_exr(&cli.output.with_extension("exr"))?;
+    }
+    Ok((cli.output.clone(), pfm))
+}
+
+/// Renders `cli.spp` paths per pixel with a progress bar and writes the pictures.
+fn render(cli: &Cli, ctx: &Context, renderer: &mut Renderer) -> anyhow::Result<()> {
+    let bar = progress_bar(cli.spp)?;
     let started = Instant::now();
     while renderer.samples_done() < cli.spp {
         let samples = cli.spp_per_launch.min(cli.spp - renderer.samples_done());
@@ -111,15 +215,7 @@ fn render(cli: &Cli, ctx: &raykit::Context, renderer: &mut Renderer) -> anyhow::
     bar.finish();
     let seconds = started.elapsed().as_secs_f64();
     let image = renderer.image()?;
-    if let Some(dir) = cli.output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    image.write_png(&cli.output, cli.exposure)?;
-    let pfm = cli.output.with_extension("pfm");
-    image.write_pfm(&pfm)?;
-    if cli.exr {
-        image.write_exr(&cli.output.with_extension("exr"))?;
-    }
+    let (_, pfm) = write_pictures(cli, &image)?;
     println!(
         "rendered {}x{} at {} spp on {} in {seconds:.2} s ({} rays, {:.2} Mrays/s, {} programs) to {} and {}",
         cli.width,
@@ -140,7 +236,7 @@ fn render(cli: &Cli, ctx: &raykit::Context, renderer: &mut Renderer) -> anyhow::
 }
 
 /// Hot reload: rebuilds the device crate on each change and renders again.
-fn watch(cli: &Cli, ctx: &raykit::Context, renderer: &mut Renderer) -> anyhow::Result<()> {
+fn watch(cli: &Cli, ctx: &Context, renderer: &mut Renderer) -> anyhow::Result<()> {
     let device = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("device");
     let spv = raykit::spirv_path("path-tracer-device");
     let out_dir = spv.parent().context("the SPIR-V path has a directory")?.to_path_buf();

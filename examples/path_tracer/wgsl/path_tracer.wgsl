@@ -20,7 +20,7 @@ struct Params {
     subframe: u32,
     samples: u32,
     max_depth: u32,
-    pad: u32,
+    row_offset: u32, // first image row of this launch (a band of a split launch)
     cam_eye: Vec3f,
     cam_u: Vec3f,
     cam_v: Vec3f,
@@ -93,10 +93,11 @@ fn onb_to_world(n: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
 }
 
 @ray_generation
-fn rg(@builtin(ray_invocation_id) launch_id: vec3<u32>, @builtin(num_ray_invocations) launch_size: vec3<u32>) {
-    let index = launch_id.xy;
+fn rg(@builtin(ray_invocation_id) launch_id: vec3<u32>) {
+    // The pixel in the whole image: this launch may render a band of its rows.
+    let index = launch_id.xy + vec2<u32>(0u, params.row_offset);
     let dims = params.size;
-    let pixel = index.x + launch_size.x * index.y;
+    let pixel = index.x + dims.x * index.y;
     let light_v1 = vec3f(light.v1);
     let light_v2 = vec3f(light.v2);
     let light_normal = normalize(cross(light_v1, light_v2));

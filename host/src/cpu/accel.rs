@@ -85,11 +85,17 @@ impl std::fmt::Debug for GasData {
     }
 }
 
-/// The build parameters: obvhs's medium preset (PLOC with reinsertion), which
-/// builds in about a second per million triangles on one core and traces
-/// within a few percent of its slowest, best preset.
-fn build_params() -> BvhBuildParams {
-    BvhBuildParams::medium_build()
+/// The build parameters for a tree of `primitives`: obvhs's medium preset (PLOC
+/// with reinsertion), which builds in about a second per million triangles on
+/// one core and traces within a few percent of its slowest, best preset; small
+/// trees, which build in milliseconds whatever the preset, get the best one
+/// (4% fewer instructions in the path tracer's Cornell box traversal).
+fn build_params(primitives: usize) -> BvhBuildParams {
+    if primitives <= 4096 {
+        BvhBuildParams::very_slow_build()
+    } else {
+        BvhBuildParams::medium_build()
+    }
 }
 
 impl GasData {
@@ -116,7 +122,7 @@ impl GasData {
             }
         }
         let bounds = boxes.iter().fold(BvhAabb::empty(), |all, b| all.union(b));
-        let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(), &mut Duration::default());
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(boxes.len()), &mut Duration::default());
         let leaves = bvh
             .primitive_indices
             .iter()
@@ -214,7 +220,7 @@ impl SceneData {
     /// Builds the tree over `instances`' world bounds.
     pub(crate) fn build(instances: Vec<SceneInstance>) -> SceneData {
         let boxes: Vec<BvhAabb> = instances.iter().map(world_bounds).collect();
-        let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(), &mut Duration::default());
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(boxes.len()), &mut Duration::default());
         SceneData { instances, bvh }
     }
 

@@ -88,8 +88,20 @@ impl BufferTable {
     }
 }
 
+/// The words `first..first + len` of `words`, when all of them exist.
+fn whole(words: &[AtomicU32], first: u64, len: usize) -> Option<&[AtomicU32]> {
+    let first = usize::try_from(first).ok()?;
+    words.get(first..first.checked_add(len)?)
+}
+
 /// Reads `out.len()` words from `first`: zeros past the end.
 pub(crate) fn read_words(words: &[AtomicU32], first: u64, out: &mut [u32]) {
+    if let Some(inside) = whole(words, first, out.len()) {
+        for (o, w) in out.iter_mut().zip(inside) {
+            *o = w.load(Ordering::Relaxed);
+        }
+        return;
+    }
     for (i, o) in out.iter_mut().enumerate() {
         *o = usize::try_from(first + i as u64)
             .ok()
@@ -100,6 +112,12 @@ pub(crate) fn read_words(words: &[AtomicU32], first: u64, out: &mut [u32]) {
 
 /// Writes `data` from word `first`: words past the end are discarded.
 pub(crate) fn write_words(words: &[AtomicU32], first: u64, data: &[u32]) {
+    if let Some(inside) = whole(words, first, data.len()) {
+        for (w, d) in inside.iter().zip(data) {
+            w.store(*d, Ordering::Relaxed);
+        }
+        return;
+    }
     for (i, d) in data.iter().enumerate() {
         if let Some(w) = usize::try_from(first + i as u64).ok().and_then(|at| words.get(at)) {
             w.store(*d, Ordering::Relaxed);

@@ -468,8 +468,39 @@ impl<'f> Traversal<'f> {
         self.call.flags
     }
 
-    /// Walks the IAS's tree, then each instance's GAS tree.
+    /// Walks the IAS's tree, then each instance's GAS tree: compiled for AVX2
+    /// (with FMA, POPCNT, LZCNT and BMI) where the CPU has it, else for the
+    /// target's baseline. Rust never fuses a multiply and an add by itself, so
+    /// both compute the same values.
     fn run(&self) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("popcnt")
+            && std::arch::is_x86_feature_detected!("lzcnt")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2")
+        {
+            // SAFETY: the CPU has every feature `run_avx2` is compiled for.
+            unsafe { self.run_avx2() };
+            return;
+        }
+        self.walk();
+    }
+
+    /// [`Traversal::walk`] compiled for AVX2 and its companions.
+    ///
+    /// # Safety
+    /// The CPU must have the features named below.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    unsafe fn run_avx2(&self) {
+        self.walk();
+    }
+
+    /// Walks the IAS's tree, then each instance's GAS tree.
+    #[inline(always)]
+    fn walk(&self) {
         let origin = Vec3A::from(self.ray.origin);
         let direction = Vec3A::from(self.ray.direction);
         // An empty or NaN interval hits nothing.
@@ -502,6 +533,7 @@ impl<'f> Traversal<'f> {
     }
 
     /// Traverses instance `index`.
+    #[inline(always)]
     fn instance(&self, index: u32) {
         let instance: &SceneInstance = &self.scene.instances[index as usize];
         if u32::from(instance.mask) & self.call.cull_mask & 0xff == 0 {
@@ -529,6 +561,7 @@ impl<'f> Traversal<'f> {
 
     /// Tests one primitive of instance `index`.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn primitive(
         &self,
         index: u32,
@@ -749,6 +782,7 @@ fn matrix(a: Affine3A) -> Matrix4x3 {
 }
 
 /// Möller–Trumbore: `(t, u, v, determinant)` of a hit inside `[t_min, t_max]`.
+#[inline(always)]
 fn intersect_triangle(
     tri: &super::accel::Triangle,
     origin: Vec3A,

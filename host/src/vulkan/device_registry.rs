@@ -207,36 +207,86 @@ impl SharedDevice {
     }
 }
 
-/// A context's hold on a device: the device it uses, taken from the registry (made
-/// if none was there) and handed back by [`release`].
-pub(crate) fn acquire(instance: &'static SharedInstance, name_contains: Option<&str>) -> Result<Arc<SharedDevice>> {
-    let mut registry = registry();
-    let vk_instance = &instance.instance;
+/// Which device a context asks the registry for.
+#[derive(Copy, Clone, Debug, Default)]
+pub(crate) struct DeviceChoice<'a> {
+    /// Only devices whose name contains this.
+    pub(crate) name_contains: Option<&'a str>,
+    /// The `index`-th usable device (after the name filter), in the loader's
+    /// order; the first when `None`.
+    pub(crate) index: Option<usize>,
+}
+
+/// A usable ray-tracing device: its report and where the loader lists it.
+pub(crate) struct Usable {
+    physical: vk::PhysicalDevice,
+    queue_family: u32,
+    pub(crate) report: DeviceReport,
+}
+
+/// Every physical device's report, and the usable ones matching `name_contains`
+/// in the loader's order.
+fn survey(instance: &ash::Instance, name_contains: Option<&str>) -> Result<(Vec<DeviceReport>, Vec<Usable>)> {
     // SAFETY: plain enumeration call on a live instance.
     let physical_devices =
-        unsafe { vk_instance.enumerate_physical_devices() }.map_err(Error::vk("vkEnumeratePhysicalDevices"))?;
+        unsafe { instance.enumerate_physical_devices() }.map_err(Error::vk("vkEnumeratePhysicalDevices"))?;
     let mut reports = Vec::new();
-    let mut chosen = None;
+    let mut usable = Vec::new();
     for &physical in &physical_devices {
-        let (report, family) = inspect_device(vk_instance, physical)?;
+        let (report, family) = inspect_device(instance, physical)?;
         let name_ok = name_contains.is_none_or(|want| report.name.contains(want));
-        if chosen.is_none() && report.missing.is_empty() && name_ok {
-            if let Some(family) = family {
-                chosen = Some((physical, family));
+        match family {
+            Some(queue_family) if report.missing.is_empty() && name_ok => {
+                usable.push(Usable { physical, queue_family, report: report.clone() });
             }
+            _ => {}
         }
         reports.push(report);
     }
-    let Some((physical, queue_family)) = chosen else {
-        if let Some(want) = name_contains {
-            for r in &mut reports {
-                if !r.name.contains(want) {
-                    r.missing.push(format!("a name containing {want:?}"));
-                }
+    Ok((reports, usable))
+}
+
+/// The usable ray-tracing devices whose name contains `name_contains`, in the
+/// loader's order (the order [`DeviceChoice::index`] counts in); an error listing
+/// every device when there is none.
+pub(crate) fn usable_devices(instance: &'static SharedInstance, name_contains: Option<&str>) -> Result<Vec<Usable>> {
+    let _registry = registry();
+    let (reports, usable) = survey(&instance.instance, name_contains)?;
+    if usable.is_empty() {
+        return Err(no_device(reports, name_contains));
+    }
+    Ok(usable)
+}
+
+/// `NoRayTracingDevice` with every device's report, naming the name filter where
+/// a device did not pass it.
+fn no_device(mut reports: Vec<DeviceReport>, name_contains: Option<&str>) -> Error {
+    if let Some(want) = name_contains {
+        for r in &mut reports {
+            if !r.name.contains(want) {
+                r.missing.push(format!("a name containing {want:?}"));
             }
         }
-        return Err(Error::NoRayTracingDevice { devices: reports });
+    }
+    Error::NoRayTracingDevice { devices: reports }
+}
+
+/// A context's hold on a device: the device it uses, taken from the registry (made
+/// if none was there) and handed back by [`release`].
+pub(crate) fn acquire(instance: &'static SharedInstance, choice: DeviceChoice<'_>) -> Result<Arc<SharedDevice>> {
+    let mut registry = registry();
+    let (reports, usable) = survey(&instance.instance, choice.name_contains)?;
+    if usable.is_empty() {
+        return Err(no_device(reports, choice.name_contains));
+    }
+    let index = choice.index.unwrap_or(0);
+    let Some(chosen) = usable.get(index) else {
+        return Err(Error::DeviceIndexOutOfRange {
+            index,
+            usable: usable.iter().map(|u| u.report.name.clone()).collect(),
+        });
     };
+    let (physical, queue_family) = (chosen.physical, chosen.queue_family);
     let existing = registry
         .devices
         .iter_mut()

@@ -40,8 +40,12 @@ pub struct Params {
     pub samples: u32,
     /// Longest path (bounces).
     pub max_depth: u32,
-    /// Padding (keeps `handle` 8-byte aligned on every target).
-    pub _pad: u32,
+    /// First image row of this launch: a launch of `size.x × rows` renders rows
+    /// `row_offset..row_offset + rows` (a band of a launch split across devices,
+    /// see `raykit::device_group`); 0 for the whole image. Vulkan's launch index
+    /// starts at 0 in every launch, so raygen adds this to it. (Also keeps
+    /// `handle` 8-byte aligned on every target.)
+    pub row_offset: u32,
     /// Camera position.
     pub cam_eye: Vec3,
     /// Camera right, scaled to half the image-plane width.
@@ -129,9 +133,10 @@ fn rg(
     #[payload] hit: &mut HitInfo,
     #[payload] visible: &mut u32,
 ) {
-    let index = ctx.launch_index().truncate();
+    // The pixel in the whole image: this launch may render a band of its rows.
+    let index = ctx.launch_index().truncate() + UVec2::new(0, p.row_offset);
     let dims: UVec2 = p.size;
-    let pixel = ctx.launch_linear_index();
+    let pixel = index.x + dims.x * index.y;
     let mut seed = math::pixel_seed(pixel, p.subframe);
     let mut sum = Vec3::ZERO;
     let mut rays = 0u32;
