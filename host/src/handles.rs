@@ -37,6 +37,27 @@ use crate::context::ContextInner;
 use crate::error::{Error, Result};
 use crate::sbt::SbtRegion;
 
+/// Bits of a handle that name the slot; the bits above carry the generation.
+pub(crate) const SLOT_BITS: u32 = raykit_abi::BUFFER_TABLE_SLOTS.trailing_zeros();
+
+/// Generations are unique across the process (until they wrap after 2^20 buffers),
+/// so a handle of another context, or of a buffer whose slot was reused, differs
+/// from the live one's.
+pub(crate) fn next_generation() -> u32 {
+    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(1);
+    loop {
+        let g = NEXT.fetch_add(1, Ordering::Relaxed) & ((1 << (32 - SLOT_BITS)) - 1);
+        if g != 0 {
+            return g;
+        }
+    }
+}
+
+/// The handle device programs get: the slot in the low bits, the generation above.
+pub(crate) fn handle_value(slot: u32, generation: u32) -> u32 {
+    slot | (generation << SLOT_BITS)
+}
+
 /// What a handle field holds.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 enum HandleKind {

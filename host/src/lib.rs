@@ -5,13 +5,10 @@
 #![deny(missing_debug_implementations)]
 
 pub mod accel;
-mod buffer_table;
 pub mod cache;
 pub mod context;
 pub mod cpu;
 pub mod device_group;
-mod device_registry;
-mod driver_lock;
 pub mod error;
 #[cfg(feature = "fault-injection")]
 pub mod gate;
@@ -24,10 +21,11 @@ pub mod program_group;
 pub mod sbt;
 pub mod stack;
 pub mod texture;
-mod texture_table;
-pub mod timeline;
 pub mod validate;
+mod vulkan;
 pub mod wgsl;
+
+pub use vulkan::timeline;
 
 pub use accel::{
     Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance,

@@ -29,8 +29,8 @@ use raykit_device::Texture2D;
 
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use crate::memory::RawBuffer;
-use crate::timeline::Retired;
+use crate::vulkan::memory::RawBuffer;
+use crate::vulkan::timeline::Retired;
 
 /// The texel formats of textures. All sample as four `f32` components.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]

@@ -9,12 +9,14 @@ use std::sync::Arc;
 use ash::vk;
 use glam::Vec3;
 
-use super::build::{self, Geometry, Job, PendingBuild};
 use super::input::{self, Aabb, Aabbs, BuildInput, Shape, Triangles};
-use super::structure::{AccelSizes, AccelStructure, BuildOptions};
+use super::PendingBuild;
+use super::{AccelSizes, BuildOptions};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use crate::memory::RawBuffer;
+use crate::vulkan::accel::build::{self, Geometry, Job};
+use crate::vulkan::accel::structure::AccelStructure;
+use crate::vulkan::memory::RawBuffer;
 
 const BOTTOM: vk::AccelerationStructureTypeKHR = vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL;
 

@@ -10,11 +10,13 @@ use ash::vk;
 use glam::Affine3A;
 use raykit_device::Traversable;
 
-use super::build::{self, Geometry, InputPacker, Job, PendingBuild};
 use super::gas::{Gas, GasAccel};
-use super::structure::{AccelSizes, AccelStructure, BuildOptions};
+use super::PendingBuild;
+use super::{AccelSizes, BuildOptions};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
+use crate::vulkan::accel::build::{self, Geometry, InputPacker, Job};
+use crate::vulkan::accel::structure::AccelStructure;
 
 const TOP: vk::AccelerationStructureTypeKHR = vk::AccelerationStructureTypeKHR::TOP_LEVEL;
 
@@ -191,7 +193,7 @@ fn check_fields(instances: &[Instance], limit: u64) -> Result<()> {
 fn upload(
     ctx: &Arc<ContextInner>,
     records: &[vk::AccelerationStructureInstanceKHR],
-) -> Result<(crate::memory::RawBuffer, Geometry)> {
+) -> Result<(crate::vulkan::memory::RawBuffer, Geometry)> {
     // SAFETY: `AccelerationStructureInstanceKHR` is plain data (floats, packed
     // integers and a u64 address) with no padding: 64 bytes each.
     let bytes = unsafe { std::slice::from_raw_parts(records.as_ptr() as *const u8, std::mem::size_of_val(records)) };

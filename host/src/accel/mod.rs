@@ -55,15 +55,15 @@
 //! have no Vulkan equivalent. An [`Ias`] keeps the [`Gas`]es it instances alive,
 //! so an instance can never point at a destroyed GAS.
 
-mod build;
 mod gas;
 mod ias;
 pub mod input;
-mod structure;
+mod options;
+mod pending;
 
-pub use build::PendingBuild;
 pub use gas::{Compaction, Gas, GasBuilder};
 pub(crate) use ias::HitReach;
 pub use ias::{Ias, IasBuilder, Instance, InstanceFlags};
 pub use input::{Aabb, Aabbs, BuildInput, GeometryFlags, Indices, Triangles};
-pub use structure::{AccelSizes, BuildOptions, BuildPreference};
+pub use options::{AccelSizes, BuildOptions, BuildPreference};
+pub use pending::PendingBuild;

@@ -11,8 +11,8 @@
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use crate::buffer_table::{handle_value, next_generation};
 use crate::error::{Error, Result};
+use crate::handles::{handle_value, next_generation};
 
 const SLOTS: u32 = raykit_abi::BUFFER_TABLE_SLOTS;
 

@@ -31,8 +31,8 @@ use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 
 use glam::{Vec2, Vec4};
 
-use crate::buffer_table::{handle_value, next_generation};
 use crate::error::{Error, Result};
+use crate::handles::{handle_value, next_generation};
 use crate::texture::{AddressMode, Filter, MipLevel, SamplerOptions, TextureFormat};
 
 const SLOTS: u32 = raykit_abi::TEXTURE_TABLE_SLOTS;

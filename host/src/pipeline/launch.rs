@@ -55,13 +55,13 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::exceptions::ExceptionBuffer;
 use super::{Pipeline, PipelineInner, PipelineRepr};
-use crate::buffer_table::RT_STAGES;
-use crate::context::Submission;
 use crate::error::{Error, Result};
-use crate::memory::RawBuffer;
 use crate::sbt::{Sbt, SbtDevice};
+use crate::vulkan::buffer_table::RT_STAGES;
+use crate::vulkan::context::Submission;
+use crate::vulkan::memory::RawBuffer;
+use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
 
 /// A launch submitted to the device and not yet waited for (OptiX's launch on a
 /// stream). Dropping it waits for the work first.
@@ -146,7 +146,7 @@ impl Launch {
             exceptions.extend(thrown);
         }
         if total > 0 {
-            return Err(super::exceptions::launch_error(total, exceptions, launch.pipeline.max_trace_depth));
+            return Err(super::exceptions_error(total, exceptions, launch.pipeline.max_trace_depth));
         }
         Ok(())
     }

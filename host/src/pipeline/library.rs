@@ -28,13 +28,15 @@ use ash::vk;
 use raykit_device::LaunchParams;
 use raykit_spirv::InterfaceSizes;
 
-use super::exceptions::ExceptionBuffer;
-use super::handle::PipelineHandle;
-use super::layout::{params_delivery, PipelineLayout};
-use super::shader_groups::{check_groups, ShaderGroups, Specialization};
+use super::params_delivery;
+use super::Specialization;
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
+use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
+use crate::vulkan::pipeline::handle::PipelineHandle;
+use crate::vulkan::pipeline::layout::PipelineLayout;
+use crate::vulkan::pipeline::shader_groups::{check_groups, ShaderGroups};
 
 /// An empty raygen shader ([`raykit_spirv::empty_raygen`]) that a linked pipeline
 /// compiles itself on lavapipe, so that lavapipe gives the pipeline's programs

@@ -23,13 +23,10 @@
 //! for GPU-timed launches), and its Vulkan handles are reachable for interoperation
 //! ([`raw`]).
 
-mod exceptions;
-mod handle;
 pub mod launch;
-mod layout;
 pub mod library;
 pub mod raw;
-mod shader_groups;
+mod specialization;
 pub mod timing;
 
 use std::fmt;
@@ -42,19 +39,58 @@ use raykit_device::LaunchParams;
 use raykit_spirv::{InterfaceSizes, ParamsDelivery};
 
 use crate::context::{Context, ContextInner};
-use crate::error::{Error, Result};
-use crate::memory::RawBuffer;
-use crate::program_group::ProgramGroup;
+use crate::error::{Error, Result, UserException};
+use crate::program_group::{GroupKind, ProgramGroup};
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
-pub(crate) use exceptions::launch_error as exceptions_error;
-use exceptions::ExceptionBuffer;
-use handle::PipelineHandle;
-pub use layout::params_delivery;
-use layout::{ParamsUniform, PipelineLayout};
+use crate::vulkan::memory::RawBuffer;
+use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
+use crate::vulkan::pipeline::handle::PipelineHandle;
+use crate::vulkan::pipeline::layout::{ParamsUniform, PipelineLayout};
+use crate::vulkan::pipeline::shader_groups::{check_groups, CompiledGroup, LinkedGroup, ShaderGroups};
 use library::{interface_info, LibraryInner, PipelineLibrary, PushConstantCarrier};
-pub(crate) use shader_groups::check_linkable;
-pub use shader_groups::Specialization;
-use shader_groups::{check_groups, CompiledGroup, LinkedGroup, ShaderGroups};
+pub use specialization::Specialization;
+
+/// How raykit delivers params of type `P`.
+pub fn params_delivery<P: LaunchParams>() -> ParamsDelivery {
+    if raykit_device::uses_push_constants::<P>() {
+        ParamsDelivery::PushConstants
+    } else {
+        ParamsDelivery::UniformBuffer { set: raykit_device::PARAMS_SET, binding: raykit_device::PARAMS_BINDING }
+    }
+}
+
+/// What the groups of a launchable pipeline must have: a raygen group, and at
+/// most one exception group.
+pub(crate) fn check_linkable<'g>(groups: impl Iterator<Item = &'g ProgramGroup> + Clone) -> Result<()> {
+    if groups.clone().filter(|g| g.kind() == GroupKind::Exception).count() > 1 {
+        return Err(Error::SeveralExceptionPrograms);
+    }
+    if !groups.clone().any(|g| g.kind() == GroupKind::Raygen) {
+        return Err(Error::NoRaygen);
+    }
+    Ok(())
+}
+
+/// The error of a launch whose programs threw `total` exceptions, `recorded` of
+/// them recorded, in a pipeline linked with `max_trace_depth`: the traces refused
+/// past the depth ([`Error::RecursionTooDeep`]) if any were recorded, otherwise
+/// the user exceptions ([`Error::UserExceptions`]).
+pub(crate) fn exceptions_error(total: u32, recorded: Vec<UserException>, max_trace_depth: u32) -> Error {
+    use raykit_device::exception::TRACE_DEPTH_EXCEEDED;
+    let (refused, user): (Vec<UserException>, Vec<UserException>) =
+        recorded.into_iter().partition(|e| e.code == TRACE_DEPTH_EXCEEDED);
+    if refused.is_empty() {
+        return Error::UserExceptions { total, exceptions: user };
+    }
+    Error::RecursionTooDeep {
+        max_trace_depth,
+        depth: max_trace_depth.saturating_add(1),
+        refused: refused.len(),
+        launch_indices: refused.iter().map(|e| e.launch_index).collect(),
+        user_exceptions: user,
+        total,
+    }
+}
 
 /// Link options (OptiX's `OptixPipelineLinkOptions`).
 #[derive(Copy, Clone, Debug)]

@@ -55,7 +55,7 @@ impl std::fmt::Debug for LaunchTimer {
 impl Drop for LaunchTimer {
     fn drop(&mut self) {
         // Destroyed once the launches writing it have finished.
-        self.ctx.retire(crate::timeline::Retired::QueryPool(self.pool));
+        self.ctx.retire(crate::vulkan::timeline::Retired::QueryPool(self.pool));
     }
 }
 

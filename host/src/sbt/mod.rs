@@ -29,9 +29,9 @@ use gpu_allocator::MemoryLocation;
 use crate::context::DeviceLimits;
 use crate::error::{Error, Result};
 use crate::handles::HandleField;
-use crate::memory::RawBuffer;
 use crate::pipeline::{Pipeline, PipelineInner, PipelineRepr};
 use crate::program_group::{GroupKind, ProgramGroup};
+use crate::vulkan::memory::RawBuffer;
 use raykit_device::{RayType, SbtRecordData};
 pub use region::SbtRegion;
 

@@ -208,7 +208,7 @@ impl ContextInner {
                 Retired::Slot(slot) => self.buffer_table.remove(device, slot),
                 Retired::Accel(accel) => self.accel.destroy_acceleration_structure(accel, None),
                 Retired::Pipeline(pipeline) => {
-                    let _exclusive = crate::driver_lock::exclusive();
+                    let _exclusive = crate::vulkan::driver_lock::exclusive();
                     device.destroy_pipeline(pipeline, None);
                 }
                 Retired::PipelineLayout(layout) => device.destroy_pipeline_layout(layout, None),

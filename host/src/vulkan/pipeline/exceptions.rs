@@ -5,11 +5,11 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::buffer_table::SlotReuse;
 use crate::context::ContextInner;
-use crate::error::{Error, Result, UserException};
-use crate::memory::RawBuffer;
+use crate::error::{Result, UserException};
 use crate::program_group::ProgramGroup;
+use crate::vulkan::buffer_table::SlotReuse;
+use crate::vulkan::memory::RawBuffer;
 
 /// A user-exception buffer: a device buffer in the bindless table, one per set of
 /// programs compiled together. Every launch zeroes its counter and copies it into
@@ -67,30 +67,9 @@ impl ExceptionBuffer {
     }
 }
 
-/// The error of a launch whose programs threw `total` exceptions, `recorded` of
-/// them recorded, in a pipeline linked with `max_trace_depth`: the traces refused
-/// past the depth ([`Error::RecursionTooDeep`]) if any were recorded, otherwise
-/// the user exceptions ([`Error::UserExceptions`]).
-pub(crate) fn launch_error(total: u32, recorded: Vec<UserException>, max_trace_depth: u32) -> Error {
-    use raykit_device::exception::TRACE_DEPTH_EXCEEDED;
-    let (refused, user): (Vec<UserException>, Vec<UserException>) =
-        recorded.into_iter().partition(|e| e.code == TRACE_DEPTH_EXCEEDED);
-    if refused.is_empty() {
-        return Error::UserExceptions { total, exceptions: user };
-    }
-    Error::RecursionTooDeep {
-        max_trace_depth,
-        depth: max_trace_depth.saturating_add(1),
-        refused: refused.len(),
-        launch_indices: refused.iter().map(|e| e.launch_index).collect(),
-        user_exceptions: user,
-        total,
-    }
-}
-
 impl Drop for ExceptionBuffer {
     fn drop(&mut self) {
         // The slot is reused only once no pending work can write it.
-        self.ctx.retire(crate::timeline::Retired::Slot(self.slot));
+        self.ctx.retire(crate::vulkan::timeline::Retired::Slot(self.slot));
     }
 }

@@ -28,7 +28,7 @@ impl PipelineHandle {
     ) -> Result<PipelineHandle> {
         ctx.check_device("a pipeline creation")?;
         let (pipelines, log) = crate::log::capture(|| {
-            let _creating = crate::driver_lock::shared();
+            let _creating = crate::vulkan::driver_lock::shared();
             // SAFETY: the callers' create infos are valid: every stage's module is
             // alive, libraries are live pipeline libraries of this device, and the
             // recursion depth was checked against the device limit.
@@ -49,7 +49,7 @@ impl PipelineHandle {
             }
             Err((p, e)) => {
                 for pipeline in p.into_iter().filter(|p| *p != vk::Pipeline::null()) {
-                    let _exclusive = crate::driver_lock::exclusive();
+                    let _exclusive = crate::vulkan::driver_lock::exclusive();
                     // SAFETY: never used.
                     unsafe { ctx.device.destroy_pipeline(pipeline, None) };
                 }
@@ -63,6 +63,6 @@ impl Drop for PipelineHandle {
     fn drop(&mut self) {
         // Pipelines linked from a library hold an `Arc` of it; launches in flight
         // may still use it: the timeline destroys it once they have finished.
-        self.ctx.retire(crate::timeline::Retired::Pipeline(self.handle));
+        self.ctx.retire(crate::vulkan::timeline::Retired::Pipeline(self.handle));
     }
 }

@@ -14,8 +14,9 @@ use std::sync::Mutex;
 
 use ash::vk;
 
-use crate::buffer_table::{handle_value, next_generation, RT_STAGES};
 use crate::error::{Error, Result};
+use crate::handles::{handle_value, next_generation};
+use crate::vulkan::buffer_table::RT_STAGES;
 
 /// The table's size.
 pub(crate) const SLOTS: u32 = raykit_abi::TEXTURE_TABLE_SLOTS;

@@ -319,7 +319,7 @@ pub(crate) unsafe fn release(device: &Arc<SharedDevice>) {
     // created or destroyed meanwhile. A lost device may be destroyed too.
     unsafe {
         let _ = registered.device.device.device_wait_idle();
-        let _exclusive = crate::driver_lock::exclusive();
+        let _exclusive = crate::vulkan::driver_lock::exclusive();
         registered.device.device.destroy_device(None);
     }
 }
@@ -359,7 +359,7 @@ fn create_device(
         .push_next(&mut features.v12)
         .push_next(&mut features.robustness2);
     let device = {
-        let _exclusive = crate::driver_lock::exclusive();
+        let _exclusive = crate::vulkan::driver_lock::exclusive();
         // SAFETY: the physical device supports every extension and feature enabled
         // (checked by `inspect_device`); the create info lives across the call; the
         // registry's lock is held by the caller.

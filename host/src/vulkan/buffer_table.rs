@@ -25,7 +25,8 @@ use ash::vk;
 use std::mem::ManuallyDrop;
 
 use crate::error::{Error, Result};
-use crate::texture_table::TextureTable;
+use crate::handles::{handle_value, next_generation, SLOT_BITS};
+use crate::vulkan::texture_table::TextureTable;
 
 /// The table's size.
 const SLOTS: u32 = raykit_abi::BUFFER_TABLE_SLOTS;
@@ -51,29 +52,8 @@ pub(crate) struct BufferTable {
     /// The generation of the live buffer in each slot, 0 when none (cleared when
     /// the buffer is dropped, before its slot waits for its pending work).
     live: Vec<AtomicU32>,
-    /// The texture table, binding 1 of the same set (see [`crate::texture_table`]).
+    /// The texture table, binding 1 of the same set (see [`crate::vulkan::texture_table`]).
     pub(crate) textures: ManuallyDrop<TextureTable>,
-}
-
-/// Bits of a handle that name the slot; the bits above carry the generation.
-const SLOT_BITS: u32 = SLOTS.trailing_zeros();
-
-/// Generations are unique across the process (until they wrap after 2^20 buffers),
-/// so a handle of another context, or of a buffer whose slot was reused, differs
-/// from the live one's.
-pub(crate) fn next_generation() -> u32 {
-    static NEXT: AtomicU32 = AtomicU32::new(1);
-    loop {
-        let g = NEXT.fetch_add(1, Ordering::Relaxed) & ((1 << (32 - SLOT_BITS)) - 1);
-        if g != 0 {
-            return g;
-        }
-    }
-}
-
-/// The handle device programs get: the slot in the low bits, the generation above.
-pub(crate) fn handle_value(slot: u32, generation: u32) -> u32 {
-    slot | (generation << SLOT_BITS)
 }
 
 /// Which free slot a new entry of the table takes.
@@ -97,7 +77,7 @@ impl BufferTable {
                 .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
                 .descriptor_count(capacity)
                 .stage_flags(RT_STAGES),
-            crate::texture_table::layout_binding(),
+            crate::vulkan::texture_table::layout_binding(),
         ];
         let flags = [vk::DescriptorBindingFlags::PARTIALLY_BOUND | vk::DescriptorBindingFlags::UPDATE_AFTER_BIND; 2];
         let mut binding_flags = vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&flags);
@@ -110,7 +90,7 @@ impl BufferTable {
             .map_err(Error::vk("vkCreateDescriptorSetLayout"))?;
         let sizes = [
             vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: capacity },
-            crate::texture_table::pool_size(),
+            crate::vulkan::texture_table::pool_size(),
         ];
         let pool_info = vk::DescriptorPoolCreateInfo::default()
             .flags(vk::DescriptorPoolCreateFlags::UPDATE_AFTER_BIND)

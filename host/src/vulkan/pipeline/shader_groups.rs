@@ -10,48 +10,11 @@ use ash::vk;
 use raykit_device::{LaunchParams, ProgramKind};
 use raykit_spirv::ParamsDelivery;
 
-use super::layout::params_delivery;
 use crate::context::ContextInner;
 use crate::error::{Error, Result};
+use crate::pipeline::{params_delivery, Specialization};
 use crate::program_group::{GroupKind, GroupPrograms, Program, ProgramGroup};
 use crate::stack::{GroupRole, GroupStackSizes};
-
-/// Values of specialization constants for
-/// [`Pipeline::with_specialization`](crate::Pipeline::with_specialization):
-/// `u32`s by constant ID (device programs declare them as
-/// `#[spec_constant(id = N, default = D)] x: u32`).
-#[derive(Clone, Debug, Default)]
-#[must_use]
-pub struct Specialization {
-    values: Vec<(u32, u32)>,
-}
-
-impl Specialization {
-    /// The constants set, by id.
-    pub(crate) fn values(&self) -> &[(u32, u32)] {
-        &self.values
-    }
-
-    /// No constants set: every program sees its defaults.
-    pub fn new() -> Self {
-        Specialization::default()
-    }
-
-    /// Sets constant `id` to `value` (a later value for the same ID replaces it).
-    /// IDs reserved by raykit ([`RESERVED_SPEC_IDS`](raykit_abi::RESERVED_SPEC_IDS)) are ignored here.
-    pub fn set(mut self, id: u32, value: u32) -> Self {
-        if !raykit_abi::is_reserved_spec_id(id) {
-            self.values.retain(|(i, _)| *i != id);
-            self.values.push((id, value));
-        }
-        self
-    }
-
-    /// Sets constant `id` to the bits of `value`.
-    pub fn set_f32(self, id: u32, value: f32) -> Self {
-        self.set(id, value.to_bits())
-    }
-}
 
 /// The shader stages and groups of a set of program groups compiled together,
 /// with the specialization every stage gets: the exception buffer's slot, the
@@ -116,7 +79,7 @@ impl ShaderGroups {
             (raykit_device::exception::EXCEPTION_SLOT_SPEC_ID, exception_slot),
             (raykit_device::exception::MAX_TRACE_DEPTH_SPEC_ID, max_trace_depth),
         ];
-        values.extend(constants.values.iter().copied());
+        values.extend(constants.values().iter().copied());
         let spec_data: Vec<u8> = values.iter().flat_map(|(_, v)| v.to_ne_bytes()).collect();
         let spec_entries: Vec<vk::SpecializationMapEntry> = values
             .iter()
@@ -200,18 +163,6 @@ pub(crate) fn check_groups<P: LaunchParams>(
                 raykit_spirv::check(&P::LAYOUT, &info.name, &info.params, delivery)?;
             }
         }
-    }
-    Ok(())
-}
-
-/// What the groups of a launchable pipeline must have: a raygen group, and at
-/// most one exception group.
-pub(crate) fn check_linkable<'g>(groups: impl Iterator<Item = &'g ProgramGroup> + Clone) -> Result<()> {
-    if groups.clone().filter(|g| g.kind() == GroupKind::Exception).count() > 1 {
-        return Err(Error::SeveralExceptionPrograms);
-    }
-    if !groups.clone().any(|g| g.kind() == GroupKind::Raygen) {
-        return Err(Error::NoRaygen);
     }
     Ok(())
 }

@@ -11,19 +11,11 @@ use ash::vk;
 use raykit_device::LaunchParams;
 use raykit_spirv::ParamsDelivery;
 
-use crate::buffer_table::RT_STAGES;
 use crate::context::ContextInner;
 use crate::error::{Error, Result};
-use crate::memory::RawBuffer;
-
-/// How raykit delivers params of type `P`.
-pub fn params_delivery<P: LaunchParams>() -> ParamsDelivery {
-    if raykit_device::uses_push_constants::<P>() {
-        ParamsDelivery::PushConstants
-    } else {
-        ParamsDelivery::UniformBuffer { set: raykit_device::PARAMS_SET, binding: raykit_device::PARAMS_BINDING }
-    }
-}
+use crate::pipeline::params_delivery;
+use crate::vulkan::buffer_table::RT_STAGES;
+use crate::vulkan::memory::RawBuffer;
 
 /// The set layout of the params uniform buffer (set 1). Its one owner is the
 /// [`PipelineLayout`] made with it.
@@ -50,7 +42,7 @@ impl ParamsSetLayout {
 impl Drop for ParamsSetLayout {
     fn drop(&mut self) {
         // Destroyed once the work that may use it has finished (see `crate::timeline`).
-        self.ctx.retire(crate::timeline::Retired::DescriptorSetLayout(self.handle));
+        self.ctx.retire(crate::vulkan::timeline::Retired::DescriptorSetLayout(self.handle));
     }
 }
 
@@ -93,7 +85,7 @@ impl PipelineLayout {
 impl Drop for PipelineLayout {
     fn drop(&mut self) {
         // Destroyed once the work that may use it has finished (see `crate::timeline`).
-        self.ctx.retire(crate::timeline::Retired::PipelineLayout(self.handle));
+        self.ctx.retire(crate::vulkan::timeline::Retired::PipelineLayout(self.handle));
     }
 }
 
@@ -170,6 +162,6 @@ impl ParamsUniform {
 impl Drop for ParamsUniform {
     fn drop(&mut self) {
         // Destroyed (with its set) once the launches that may use it have finished.
-        self.ctx.retire(crate::timeline::Retired::DescriptorPool(self.pool));
+        self.ctx.retire(crate::vulkan::timeline::Retired::DescriptorPool(self.pool));
     }
 }

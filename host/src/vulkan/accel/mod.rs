@@ -1,0 +1,5 @@
+//! Acceleration structures on Vulkan: the structure with its storage
+//! (`structure`), and recording and submitting builds (`build`).
+
+pub(crate) mod build;
+pub(crate) mod structure;

@@ -1,0 +1,308 @@
+//! A Vulkan context's operations: debug names, submissions on the context's
+//! timeline (recorded command buffers, recycled once their epoch has finished),
+//! and its destruction, which hands the shared device back to the registry (see
+//! [`crate::context`] for what contexts of one GPU share).
+
+use std::mem::ManuallyDrop;
+use std::sync::{Arc, MutexGuard};
+
+use ash::vk;
+
+use crate::context::ContextInner;
+use crate::error::{Error, Result};
+use crate::vulkan::device_registry::{SharedDevice, SharedInstance};
+
+impl ContextInner {
+    /// Gives `handle` a debug name, so validation messages and tools name it; the
+    /// name carries the context's id, which routes messages about the object to this
+    /// context (see [`crate::log`]). Does nothing without VK_EXT_debug_utils.
+    pub(crate) fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        let Some(debug) = &self.shared.debug_names else { return };
+        let Ok(name) = std::ffi::CString::new(crate::log::tagged_name(self.id, name)) else { return };
+        let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&name);
+        // SAFETY: `handle` is a live object of this device (callers name what they
+        // just made); naming needs no external synchronisation of the object.
+        let _ = unsafe { debug.set_debug_utils_object_name(&info) };
+    }
+
+    /// `Err(DeviceLost)` once the device was lost: every context on it refuses new work.
+    pub(crate) fn check_device(&self, during: &'static str) -> Result<()> {
+        self.shared.check(during)
+    }
+
+    /// The semaphore and value a submission made now waits for: the submission
+    /// gate's when it is closed (test builds, see [`crate::gate`]), else none.
+    #[cfg(feature = "fault-injection")]
+    fn gate_wait(&self) -> Option<(vk::Semaphore, u64)> {
+        self.gate.wait()
+    }
+
+    /// As above: without the test hook, never.
+    #[cfg(not(feature = "fault-injection"))]
+    #[inline(always)]
+    fn gate_wait(&self) -> Option<(vk::Semaphore, u64)> {
+        None
+    }
+
+    /// Opens a closed submission gate (test builds, see [`crate::gate`]) before a
+    /// host wait, which could otherwise wait for held work forever.
+    #[cfg(feature = "fault-injection")]
+    pub(crate) fn open_gate_before_waiting(&self) {
+        // Fails only on a lost device, which the wait then reports.
+        let _ = self.open_gate();
+    }
+
+    /// As above: without the test hook, nothing to open.
+    #[cfg(not(feature = "fault-injection"))]
+    #[inline(always)]
+    pub(crate) fn open_gate_before_waiting(&self) {}
+
+    pub(crate) fn allocator(&self) -> MutexGuard<'_, gpu_allocator::vulkan::Allocator> {
+        // A panic while holding the lock cannot leave the allocator half-updated in a
+        // way that matters more than losing the allocation; keep going.
+        self.allocator.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// Work submitted to the queue and not yet waited for: a recorded command buffer
+/// and the epoch it signals on the context's timeline semaphore (no fence: the
+/// semaphore is what is waited on). Dropping it waits for the work first, so
+/// buffers the work uses may be freed after it.
+pub(crate) struct Submission {
+    ctx: Arc<ContextInner>,
+    cmd: vk::CommandBuffer,
+    during: &'static str,
+    waited: bool,
+    /// The submission's epoch on the context's timeline.
+    pub(crate) epoch: u64,
+}
+
+impl ContextInner {
+    /// Records commands with `record` and submits them without waiting; the
+    /// returned [`Submission`] is waited on (or dropped, which waits).
+    pub(crate) fn submit(
+        self: &Arc<Self>,
+        during: &'static str,
+        record: impl FnOnce(vk::CommandBuffer),
+    ) -> Result<Submission> {
+        self.submit_checked(during, || Ok(()), record)
+    }
+
+    /// [`ContextInner::submit`], running `check` first under the timeline's lock:
+    /// what `check` finds alive stays alive until the work has finished, as a
+    /// drop after it waits for this submission's epoch (see [`crate::timeline`]).
+    pub(crate) fn submit_checked(
+        self: &Arc<Self>,
+        during: &'static str,
+        check: impl FnOnce() -> Result<()>,
+        record: impl FnOnce(vk::CommandBuffer),
+    ) -> Result<Submission> {
+        let mut timeline = self.timeline.lock();
+        check()?;
+        self.check_device(during)?;
+        let device = &self.device;
+        let pool = self.command_pool.lock().unwrap_or_else(|p| p.into_inner());
+        let reused = self.recycled.lock().unwrap_or_else(|p| p.into_inner()).pop();
+        let cmd = match reused {
+            Some(cmd) => cmd,
+            None => {
+                let alloc_info = vk::CommandBufferAllocateInfo::default()
+                    .command_pool(*pool)
+                    .level(vk::CommandBufferLevel::PRIMARY)
+                    .command_buffer_count(1);
+                // SAFETY: the pool is externally synchronised by the mutex held.
+                let cmd = unsafe { device.allocate_command_buffers(&alloc_info) }
+                    .map_err(Error::vk("vkAllocateCommandBuffers"))?[0];
+                self.set_name(cmd, "command buffer");
+                cmd
+            }
+        };
+        let epoch = timeline.last_submitted + 1;
+        let result = (|| {
+            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            // SAFETY: a fresh or finished (recycled) command buffer of a pool made
+            // with RESET_COMMAND_BUFFER, so beginning it resets it; recorded under
+            // the pool's lock.
+            unsafe { device.begin_command_buffer(cmd, &begin) }.map_err(Error::vk("vkBeginCommandBuffer"))?;
+            record(cmd);
+            // SAFETY: as above.
+            unsafe { device.end_command_buffer(cmd) }.map_err(Error::vk("vkEndCommandBuffer"))?;
+            let cmds = [cmd];
+            let signal = [self.timeline.semaphore];
+            let values = [epoch];
+            // Test builds only: a closed submission gate holds the work on the device.
+            let gate = self.gate_wait();
+            let (wait, wait_values) = match &gate {
+                Some((semaphore, value)) => (std::slice::from_ref(semaphore), std::slice::from_ref(value)),
+                None => (&[][..], &[][..]),
+            };
+            let wait_stages = [vk::PipelineStageFlags::ALL_COMMANDS];
+            let mut timeline_info = vk::TimelineSemaphoreSubmitInfo::default()
+                .signal_semaphore_values(&values)
+                .wait_semaphore_values(wait_values);
+            let submit = [vk::SubmitInfo::default()
+                .command_buffers(&cmds)
+                .wait_semaphores(wait)
+                .wait_dst_stage_mask(&wait_stages[..wait.len()])
+                .signal_semaphores(&signal)
+                .push_next(&mut timeline_info)];
+            // One queue for every context on the device, behind one lock.
+            let queue = self.shared.queue.lock().unwrap_or_else(|p| p.into_inner());
+            // Checked again under the queue's lock: no submission follows a loss.
+            self.check_device(during)?;
+            let submitted = if self.shared.take_injected_loss() {
+                Err(vk::Result::ERROR_DEVICE_LOST)
+            } else {
+                // SAFETY: the queue is externally synchronised by its mutex; the command
+                // buffer is fully recorded; the
+                // epoch is above every value signalled before (under the timeline lock).
+                unsafe { device.queue_submit(*queue, &submit, vk::Fence::null()) }
+            };
+            submitted.map_err(self.shared.error("vkQueueSubmit", during))
+        })();
+        if let Err(e) = result {
+            // SAFETY: nothing was submitted: the command buffer is idle.
+            unsafe { device.free_command_buffers(*pool, &[cmd]) };
+            return Err(e);
+        }
+        drop(pool);
+        timeline.last_submitted = epoch;
+        // Retire on every submission what finished meanwhile.
+        self.collect_locked(&mut timeline);
+        drop(timeline);
+        Ok(Submission { ctx: self.clone(), cmd, during, waited: false, epoch })
+    }
+}
+
+impl Submission {
+    /// Whether the work has finished, without blocking.
+    pub(crate) fn is_done(&self) -> Result<bool> {
+        if self.waited {
+            return Ok(true);
+        }
+        self.ctx.check_device(self.during)?;
+        // SAFETY: the semaphore is a live timeline semaphore of this device.
+        let reached = unsafe { self.ctx.device.get_semaphore_counter_value(self.ctx.timeline.semaphore) }
+            .map_err(self.ctx.shared.error("vkGetSemaphoreCounterValue", self.during))?;
+        Ok(reached >= self.epoch)
+    }
+
+    /// Blocks until the work has finished.
+    pub(crate) fn wait(&mut self) -> Result<()> {
+        if self.waited {
+            return Ok(());
+        }
+        // Once the device is lost, the work's results are lost with it.
+        self.ctx.check_device(self.during)?;
+        self.wait_epoch()?;
+        self.waited = true;
+        Ok(())
+    }
+
+    /// Waits for the submission's epoch. A lost device reports
+    /// `VK_ERROR_DEVICE_LOST` in finite time.
+    fn wait_epoch(&self) -> Result<()> {
+        self.ctx.open_gate_before_waiting();
+        let semaphores = [self.ctx.timeline.semaphore];
+        let values = [self.epoch];
+        let info = vk::SemaphoreWaitInfo::default().semaphores(&semaphores).values(&values);
+        // SAFETY: a live timeline semaphore of this device; the epoch was submitted,
+        // so the wait ends.
+        let waited = unsafe { self.ctx.device.wait_semaphores(&info, u64::MAX) };
+        waited.map_err(self.ctx.shared.error("vkWaitSemaphores", self.during))
+    }
+}
+
+impl Drop for Submission {
+    fn drop(&mut self) {
+        // Waits for the epoch even when the device was marked lost: another context's
+        // call may have seen the loss while this work still runs (or the loss was
+        // injected). A failed wait means a lost device; destroying the objects is
+        // still allowed then.
+        let waited = self.waited || self.wait_epoch().is_ok();
+        let pool = self.ctx.command_pool.lock().unwrap_or_else(|p| p.into_inner());
+        let device = &self.ctx.device;
+        // Keep a few finished command buffers for the next submissions.
+        const KEEP: usize = 8;
+        let mut recycled = self.ctx.recycled.lock().unwrap_or_else(|p| p.into_inner());
+        if waited && !self.ctx.shared.is_lost() && recycled.len() < KEEP {
+            recycled.push(self.cmd);
+            return;
+        }
+        // SAFETY: the work has finished (waited above), so the command buffer is
+        // idle; the pool is locked.
+        unsafe { device.free_command_buffers(*pool, &[self.cmd]) };
+    }
+}
+impl Drop for ContextInner {
+    fn drop(&mut self) {
+        // SAFETY: every child object and every submission holds an `Arc` to this
+        // context, so none is alive now and none of its work is pending (a
+        // submission waits for its work when dropped). Only this context's objects
+        // are destroyed here; the device goes with the last context on it.
+        unsafe {
+            // This context's work: the queue is shared with other contexts, so wait on
+            // this context's timeline rather than for the whole device. A lost device
+            // ends the wait with an error; the objects may be destroyed then.
+            let _ = self.wait_for_pending_work();
+            #[cfg(feature = "fault-injection")]
+            self.gate.destroy(&self.device);
+            self.destroy_all_retired();
+            self.timeline.destroy(&self.device);
+            // Errors cannot be returned from drop; `Context::save_pipeline_cache`
+            // reports them to whoever wants to know.
+            let _ = self.pipeline_cache.save(&self.device);
+            self.pipeline_cache.destroy(&self.device);
+            ManuallyDrop::take(&mut self.buffer_table).destroy(&self.device);
+            ManuallyDrop::drop(&mut self.allocator);
+            // Recycled command buffers go with the pool.
+            let pool = self.command_pool.get_mut().unwrap_or_else(|p| p.into_inner());
+            self.device.destroy_command_pool(*pool, None);
+            // The log stays routed until the device (if this was its last context)
+            // is destroyed, so it hears about objects left alive on it.
+            crate::vulkan::device_registry::release(&self.shared);
+        }
+        self.shared.instance.routes.remove(self.id);
+        self.log.mark_destroyed();
+    }
+}
+
+/// Stops routing messages to a context whose creation failed.
+pub(crate) struct RouteGuard {
+    pub(crate) instance: &'static SharedInstance,
+    pub(crate) id: u64,
+    pub(crate) armed: bool,
+}
+
+impl Drop for RouteGuard {
+    fn drop(&mut self) {
+        if self.armed {
+            self.instance.routes.remove(self.id);
+        }
+    }
+}
+
+/// Hands the device back if context creation fails after it was acquired.
+pub(crate) struct DeviceHold {
+    pub(crate) shared: Arc<SharedDevice>,
+    pub(crate) armed: bool,
+}
+
+impl Drop for DeviceHold {
+    fn drop(&mut self) {
+        if self.armed {
+            // SAFETY: the failed creation destroyed what it made (its guards drop
+            // before this one) and made nothing else on the device.
+            unsafe { crate::vulkan::device_registry::release(&self.shared) };
+        }
+    }
+}
+
+/// Destroys the command pool if context creation fails after it was made.
+pub(crate) struct PoolGuard<'a>(pub(crate) &'a ash::Device, pub(crate) vk::CommandPool);
+impl Drop for PoolGuard<'_> {
+    fn drop(&mut self) {
+        // SAFETY: the pool has no command buffers yet.
+        unsafe { self.0.destroy_command_pool(self.1, None) };
+    }
+}
