@@ -54,15 +54,7 @@ fn case(
     provoke: impl FnOnce(&Context) -> anyhow::Result<Error>,
     expected: impl FnOnce(&Error) -> bool,
 ) -> anyhow::Result<()> {
-    with_context(name, |ctx| {
-        let err = provoke(ctx)?;
-        anyhow::ensure!(expected(&err), "{name}: unexpected error {err:?}");
-        let text = err.to_string();
-        for m in mentions {
-            anyhow::ensure!(text.contains(m), "{name}: the message does not mention {m:?}: {text}");
-        }
-        still_usable(ctx)
-    })
+    with_context(name, |ctx| check_case(ctx, name, mentions, provoke, expected))
 }
 
 /// [`case`] on each backend (`raykit_tests::with_each_backend`): the same input,
@@ -73,15 +65,24 @@ fn case_on_each_backend(
     provoke: impl Fn(&Context) -> anyhow::Result<Error>,
     expected: impl Fn(&Error) -> bool,
 ) -> anyhow::Result<()> {
-    raykit_tests::with_each_backend(name, |ctx, _| {
-        let err = provoke(ctx)?;
-        anyhow::ensure!(expected(&err), "{name}: unexpected error {err:?}");
-        let text = err.to_string();
-        for m in mentions {
-            anyhow::ensure!(text.contains(m), "{name}: the message does not mention {m:?}: {text}");
-        }
-        still_usable(ctx)
-    })
+    raykit_tests::with_each_backend(name, |ctx, _| check_case(ctx, name, mentions, &provoke, &expected))
+}
+
+/// One case on `ctx`: the error, its variant, its message, then a render.
+fn check_case(
+    ctx: &Context,
+    name: &str,
+    mentions: &[&str],
+    provoke: impl FnOnce(&Context) -> anyhow::Result<Error>,
+    expected: impl FnOnce(&Error) -> bool,
+) -> anyhow::Result<()> {
+    let err = provoke(ctx)?;
+    anyhow::ensure!(expected(&err), "{name}: unexpected error {err:?}");
+    let text = err.to_string();
+    for m in mentions {
+        anyhow::ensure!(text.contains(m), "{name}: the message does not mention {m:?}: {text}");
+    }
+    still_usable(ctx)
 }
 
 fn triangle_module(ctx: &Context) -> anyhow::Result<Module> {
