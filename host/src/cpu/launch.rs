@@ -17,7 +17,7 @@
 
 use std::cell::{Cell, RefCell};
 use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::Arc;
 
 use glam::{Affine3A, UVec3, Vec3, Vec3A};
@@ -28,7 +28,7 @@ use raykit_device::stage::HitBuiltins;
 use raykit_device::{Matrix4x3, Ray, Traversable, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE};
 
 use super::accel::{Geometry, Leaf, SceneData, SceneInstance};
-use super::buffers::{read_words, write_words, Words};
+use super::buffers::Words;
 use super::program::{Aligned, PipelineData, Program, SbtData, ATTRIBUTE_BYTES};
 use super::{CpuContext, TILE};
 use crate::accel::InstanceFlags;
@@ -63,6 +63,8 @@ pub(crate) struct LaunchJob {
     /// The live IASes when the launch started, with their addresses (a few:
     /// searched in order, faster than hashing on every trace).
     pub(crate) scenes: Vec<(u64, Arc<SceneData>)>,
+    /// Whether traversals run [`Traversal::run_avx2`] (the CPU has its features).
+    avx2: bool,
 }
 
 impl LaunchJob {
@@ -73,7 +75,25 @@ impl LaunchJob {
         let buffers = ctx.buffers.snapshot();
         let textures = ctx.textures.snapshot();
         let scenes = ctx.scenes().iter().map(|(a, s)| (*a, s.data.clone())).collect::<Vec<_>>();
-        LaunchJob { ctx, pipeline, sbt, params: Aligned::new(params, 0), dims, buffers, textures, scenes }
+        let avx2 = has_avx2();
+        LaunchJob { ctx, pipeline, sbt, params: Aligned::new(params, 0), dims, buffers, textures, scenes, avx2 }
+    }
+}
+
+/// Whether the CPU has every feature [`Traversal::run_avx2`] is compiled for.
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("popcnt")
+            && std::arch::is_x86_feature_detected!("lzcnt")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
@@ -292,16 +312,10 @@ impl<'j> Frame<'_, 'j> {
 }
 
 impl Runtime for Frame<'_, '_> {
-    fn load(&self, buffer: u32, first_word: u64, words: &mut [u32]) {
+    fn buffer(&self, buffer: u32) -> &[AtomicU32] {
         match self.job().buffers.get((buffer & (raykit_abi::BUFFER_TABLE_SLOTS - 1)) as usize) {
-            Some(Some(b)) => read_words(b, first_word, words),
-            _ => words.fill(0),
-        }
-    }
-
-    fn store(&self, buffer: u32, first_word: u64, words: &[u32]) {
-        if let Some(Some(b)) = self.job().buffers.get((buffer & (raykit_abi::BUFFER_TABLE_SLOTS - 1)) as usize) {
-            write_words(b, first_word, words)
+            Some(Some(b)) => b,
+            _ => &[],
         }
     }
 
@@ -474,14 +488,9 @@ impl<'f> Traversal<'f> {
     /// both compute the same values.
     fn run(&self) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-            && std::arch::is_x86_feature_detected!("popcnt")
-            && std::arch::is_x86_feature_detected!("lzcnt")
-            && std::arch::is_x86_feature_detected!("bmi1")
-            && std::arch::is_x86_feature_detected!("bmi2")
-        {
-            // SAFETY: the CPU has every feature `run_avx2` is compiled for.
+        if self.frame.job().avx2 {
+            // SAFETY: the CPU has every feature `run_avx2` is compiled for
+            // (`has_avx2` checked them when the launch started).
             unsafe { self.run_avx2() };
             return;
         }
