@@ -101,15 +101,14 @@ impl CpuTexture {
         let y = texel_coordinate(uv.y, h);
         match self.options.filter {
             Filter::Nearest => {
-                let i = wrap(x.floor() as i64, w, modes.0);
-                let j = wrap(y.floor() as i64, h, modes.1);
+                let i = wrap(floor(x), w, modes.0);
+                let j = wrap(floor(y), h, modes.1);
                 self.fetch(l, i, j)
             }
             Filter::Linear => {
                 let (x, y) = (x - 0.5, y - 0.5);
-                let (fx, fy) = (x.floor(), y.floor());
-                let (a, b) = (x - fx, y - fy);
-                let (i0, j0) = (fx as i64, fy as i64);
+                let (i0, j0) = (floor(x), floor(y));
+                let (a, b) = (x - i0 as f32, y - j0 as f32);
                 let (i, i1) = (wrap(i0, w, modes.0), wrap(i0 + 1, w, modes.0));
                 let (j, j1) = (wrap(j0, h, modes.1), wrap(j0 + 1, h, modes.1));
                 (1.0 - a) * (1.0 - b) * self.fetch(l, i, j)
@@ -153,9 +152,27 @@ fn texel_coordinate(c: f32, size: u32) -> f32 {
     }
 }
 
+/// `⌊x⌋` of a texel coordinate (not NaN, within ±[`COORDINATE_LIMIT`] + 1,
+/// where every `i64` it gives converts back to `f32` exactly), without the
+/// library call `f32::floor` is on x86-64's baseline.
+#[inline(always)]
+fn floor(x: f32) -> i64 {
+    let t = x as i64;
+    if t as f32 > x {
+        t - 1
+    } else {
+        t
+    }
+}
+
 /// Texel index `i` wrapped into `0..size` by `mode` (Vulkan's wrapping operations).
+#[inline(always)]
 fn wrap(i: i64, size: u32, mode: AddressMode) -> u32 {
     let n = i64::from(size.max(1));
+    // Every mode leaves an index inside the texture as it is.
+    if (0..n).contains(&i) {
+        return i as u32;
+    }
     let wrapped = match mode {
         AddressMode::Repeat => i.rem_euclid(n),
         AddressMode::ClampToEdge => i.clamp(0, n - 1),
