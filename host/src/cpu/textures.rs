@@ -75,6 +75,10 @@ impl CpuTexture {
     /// Samples at `uv` and level of detail `lod` (see the module's rules).
     pub(crate) fn sample(&self, uv: Vec2, lod: f32) -> Vec4 {
         let Some(last) = self.levels.len().checked_sub(1) else { return Vec4::ZERO };
+        if last == 0 {
+            // One level: every level of detail clamps to it.
+            return self.sample_level(0, uv);
+        }
         let lod = if lod.is_nan() { 0.0 } else { lod.clamp(0.0, last as f32) };
         match self.options.mip_filter {
             Filter::Nearest => {
@@ -121,24 +125,33 @@ impl CpuTexture {
 
     /// The linear value of texel `(x, y)` of `level` (zero outside it, which
     /// wrapped coordinates never are).
+    #[inline]
     fn fetch(&self, level: &MipLevel, x: u32, y: u32) -> Vec4 {
-        let bpt = self.format.bytes_per_texel();
-        let at = (y as usize * level.width as usize + x as usize) * bpt;
-        let Some(t) = level.data.get(at..at + bpt) else { return Vec4::ZERO };
+        /// The `N` bytes of texel `i`, when `data` holds them.
+        #[inline(always)]
+        fn texel<const N: usize>(data: &[u8], i: usize) -> Option<&[u8; N]> {
+            data.get(i.checked_mul(N)?..)?.first_chunk()
+        }
+        let i = y as usize * level.width as usize + x as usize;
         let unorm = |b: u8| f32::from(b) / 255.0;
-        match self.format {
-            TextureFormat::Rgba8Srgb => {
+        let texel = match self.format {
+            TextureFormat::Rgba8Srgb => texel::<4>(&level.data, i).map(|t| {
                 let srgb = srgb_table();
                 Vec4::new(srgb[usize::from(t[0])], srgb[usize::from(t[1])], srgb[usize::from(t[2])], unorm(t[3]))
+            }),
+            TextureFormat::Rgba8Unorm => {
+                texel::<4>(&level.data, i).map(|t| Vec4::new(unorm(t[0]), unorm(t[1]), unorm(t[2]), unorm(t[3])))
             }
-            TextureFormat::Rgba8Unorm => Vec4::new(unorm(t[0]), unorm(t[1]), unorm(t[2]), unorm(t[3])),
-            TextureFormat::Rgba16Float => {
+            TextureFormat::Rgba16Float => texel::<8>(&level.data, i).map(|t| {
                 Vec4::from_array(std::array::from_fn(|c| half::f16::from_le_bytes([t[2 * c], t[2 * c + 1]]).to_f32()))
-            }
-            TextureFormat::Rgba32Float => Vec4::from_array(std::array::from_fn(|c| {
-                f32::from_le_bytes([t[4 * c], t[4 * c + 1], t[4 * c + 2], t[4 * c + 3]])
-            })),
-        }
+            }),
+            TextureFormat::Rgba32Float => texel::<16>(&level.data, i).map(|t| {
+                Vec4::from_array(std::array::from_fn(|c| {
+                    f32::from_le_bytes([t[4 * c], t[4 * c + 1], t[4 * c + 2], t[4 * c + 3]])
+                }))
+            }),
+        };
+        texel.unwrap_or(Vec4::ZERO)
     }
 }
 
