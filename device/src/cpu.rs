@@ -163,7 +163,10 @@ pub fn read_words(words: &[AtomicU32], first: u64, out: &mut [u32]) {
         return;
     }
     for (i, o) in out.iter_mut().enumerate() {
-        *o = usize::try_from(first + i as u64).ok().and_then(|at| words.get(at)).map_or(0, |w| w.load(Ordering::Relaxed));
+        *o = usize::try_from(first + i as u64)
+            .ok()
+            .and_then(|at| words.get(at))
+            .map_or(0, |w| w.load(Ordering::Relaxed));
     }
 }
 
