@@ -58,11 +58,7 @@ impl PartialEq for TypeInfo {
         // (one type may have several copies of the function).
         self.size == other.size
             && self.align == other.align
-            && (core::ptr::fn_addr_eq(self.type_name, other.type_name) || {
-                // Copies of one type's name are often one string.
-                let (a, b) = (self.name(), other.name());
-                a.len() == b.len() && (core::ptr::eq(a.as_ptr(), b.as_ptr()) || a == b)
-            })
+            && (core::ptr::fn_addr_eq(self.type_name, other.type_name) || self.name() == other.name())
     }
 }
 impl Eq for TypeInfo {}
