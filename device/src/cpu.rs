@@ -15,6 +15,7 @@
 //! pointer casts of the generated entry points sound.
 
 use core::marker::PhantomData;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use spirv_std::glam::{UVec3, Vec2, Vec3};
 
@@ -105,13 +106,22 @@ pub struct TraceCall {
 /// What a program compiled for the host calls instead of SPIR-V instructions:
 /// implemented by raykit's CPU backend, one value per running program.
 pub trait Runtime {
+    /// The words of the buffer that handle `buffer` names (its slot in the
+    /// launch's buffer table): empty for a handle naming no buffer. Programs
+    /// read and write them in place, with relaxed atomic accesses; accesses
+    /// past the end read zeros and discard writes (the device's
+    /// `robustBufferAccess2` rules, see [`crate::Buffer`]).
+    fn buffer(&self, buffer: u32) -> &[AtomicU32];
     /// Reads `words.len()` words of buffer handle `buffer` from word
-    /// `first_word`: zeros past its end or for a handle naming no buffer (the
-    /// device's `robustBufferAccess2` rules, see [`crate::Buffer`]).
-    fn load(&self, buffer: u32, first_word: u64, words: &mut [u32]);
+    /// `first_word`: zeros past its end or for a handle naming no buffer.
+    fn load(&self, buffer: u32, first_word: u64, words: &mut [u32]) {
+        read_words(self.buffer(buffer), first_word, words)
+    }
     /// Writes `words` into buffer handle `buffer` from word `first_word`;
     /// words past its end, or for a handle naming no buffer, are discarded.
-    fn store(&self, buffer: u32, first_word: u64, words: &[u32]);
+    fn store(&self, buffer: u32, first_word: u64, words: &[u32]) {
+        write_words(self.buffer(buffer), first_word, words)
+    }
     /// Traces `ray` into `scene` (`OpTraceRayKHR`); the miss or hit programs
     /// selected by `call` receive `payload`.
     fn trace(&self, scene: Traversable, ray: Ray, call: TraceCall, payload: Erased<'_>);
@@ -130,6 +140,46 @@ pub trait Runtime {
     /// Samples texture handle `texture` at `uv` and mip level `lod`
     /// (`OpImageSampleExplicitLod`).
     fn sample_texture(&self, texture: u32, uv: Vec2, lod: f32) -> spirv_std::glam::Vec4;
+}
+
+/// The words `first..first + len` of `words`, when all of them exist.
+#[inline(always)]
+fn whole(words: &[AtomicU32], first: u64, len: usize) -> Option<&[AtomicU32]> {
+    let first = usize::try_from(first).ok()?;
+    words.get(first..first.checked_add(len)?)
+}
+
+/// Reads `out.len()` words of `words` from word `first`: zeros past the end.
+#[inline(always)]
+pub fn read_words(words: &[AtomicU32], first: u64, out: &mut [u32]) {
+    if let Some(inside) = whole(words, first, out.len()) {
+        for (o, w) in out.iter_mut().zip(inside) {
+            *o = w.load(Ordering::Relaxed);
+        }
+        return;
+    }
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = usize::try_from(first + i as u64)
+            .ok()
+            .and_then(|at| words.get(at))
+            .map_or(0, |w| w.load(Ordering::Relaxed));
+    }
+}
+
+/// Writes `data` into `words` from word `first`: words past the end are discarded.
+#[inline(always)]
+pub fn write_words(words: &[AtomicU32], first: u64, data: &[u32]) {
+    if let Some(inside) = whole(words, first, data.len()) {
+        for (w, d) in inside.iter().zip(data) {
+            w.store(*d, Ordering::Relaxed);
+        }
+        return;
+    }
+    for (i, d) in data.iter().enumerate() {
+        if let Some(w) = usize::try_from(first + i as u64).ok().and_then(|at| words.get(at)) {
+            w.store(*d, Ordering::Relaxed);
+        }
+    }
 }
 
 /// Runs `f` with a zeroed scratch of `T::WORDS` words, for reading or writing

@@ -238,9 +238,10 @@ fn load<T: Element>(table: &crate::BufferTable, buffer: Buffer<T>, index: u32) -
 /// Reads element `index` of `buffer` through the CPU backend, with the
 /// device's rules for accesses out of bounds (see [`Buffer`]).
 #[cfg(not(target_arch = "spirv"))]
+#[inline]
 fn load<T: Element>(device: &dyn crate::cpu::Runtime, buffer: Buffer<T>, index: u32) -> T {
     crate::cpu::with_words::<T, _>(|words| {
-        device.load(buffer.raw(), u64::from(index) * u64::from(T::WORDS), words);
+        crate::cpu::read_words(device.buffer(buffer.raw()), u64::from(index) * u64::from(T::WORDS), words);
         T::read(words, 0)
     })
 }
@@ -258,10 +259,11 @@ fn store<T: Element>(table: &mut crate::BufferTable, buffer: Buffer<T>, index: u
 
 /// Writes element `index` of `buffer` through the CPU backend.
 #[cfg(not(target_arch = "spirv"))]
+#[inline]
 fn store<T: Element>(device: &dyn crate::cpu::Runtime, buffer: Buffer<T>, index: u32, value: T) {
     crate::cpu::with_words::<T, _>(|words| {
         value.write(words, 0);
-        device.store(buffer.raw(), u64::from(index) * u64::from(T::WORDS), words)
+        crate::cpu::write_words(device.buffer(buffer.raw()), u64::from(index) * u64::from(T::WORDS), words)
     })
 }
 

@@ -8,7 +8,7 @@
 //! them the same way. A launch takes a snapshot of the table when it starts:
 //! buffers dropped while it runs stay alive in the snapshot until it ends.
 
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::AtomicU32;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use crate::error::{Error, Result};
@@ -88,39 +88,6 @@ impl BufferTable {
     }
 }
 
-/// The words `first..first + len` of `words`, when all of them exist.
-fn whole(words: &[AtomicU32], first: u64, len: usize) -> Option<&[AtomicU32]> {
-    let first = usize::try_from(first).ok()?;
-    words.get(first..first.checked_add(len)?)
-}
-
-/// Reads `out.len()` words from `first`: zeros past the end.
-pub(crate) fn read_words(words: &[AtomicU32], first: u64, out: &mut [u32]) {
-    if let Some(inside) = whole(words, first, out.len()) {
-        for (o, w) in out.iter_mut().zip(inside) {
-            *o = w.load(Ordering::Relaxed);
-        }
-        return;
-    }
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = usize::try_from(first + i as u64)
-            .ok()
-            .and_then(|at| words.get(at))
-            .map_or(0, |w| w.load(Ordering::Relaxed));
-    }
-}
-
-/// Writes `data` from word `first`: words past the end are discarded.
-pub(crate) fn write_words(words: &[AtomicU32], first: u64, data: &[u32]) {
-    if let Some(inside) = whole(words, first, data.len()) {
-        for (w, d) in inside.iter().zip(data) {
-            w.store(*d, Ordering::Relaxed);
-        }
-        return;
-    }
-    for (i, d) in data.iter().enumerate() {
-        if let Some(w) = usize::try_from(first + i as u64).ok().and_then(|at| words.get(at)) {
-            w.store(*d, Ordering::Relaxed);
-        }
-    }
-}
+/// Word accesses with the device's rules for those out of bounds (the same
+/// functions device programs read and write buffers with).
+pub(crate) use raykit_device::cpu::{read_words, write_words};

@@ -75,6 +75,10 @@ impl CpuTexture {
     /// Samples at `uv` and level of detail `lod` (see the module's rules).
     pub(crate) fn sample(&self, uv: Vec2, lod: f32) -> Vec4 {
         let Some(last) = self.levels.len().checked_sub(1) else { return Vec4::ZERO };
+        if last == 0 {
+            // One level: every level of detail clamps to it.
+            return self.sample_level(0, uv);
+        }
         let lod = if lod.is_nan() { 0.0 } else { lod.clamp(0.0, last as f32) };
         match self.options.mip_filter {
             Filter::Nearest => {
@@ -101,15 +105,14 @@ impl CpuTexture {
         let y = texel_coordinate(uv.y, h);
         match self.options.filter {
             Filter::Nearest => {
-                let i = wrap(x.floor() as i64, w, modes.0);
-                let j = wrap(y.floor() as i64, h, modes.1);
+                let i = wrap(floor(x), w, modes.0);
+                let j = wrap(floor(y), h, modes.1);
                 self.fetch(l, i, j)
             }
             Filter::Linear => {
                 let (x, y) = (x - 0.5, y - 0.5);
-                let (fx, fy) = (x.floor(), y.floor());
-                let (a, b) = (x - fx, y - fy);
-                let (i0, j0) = (fx as i64, fy as i64);
+                let (i0, j0) = (floor(x), floor(y));
+                let (a, b) = (x - i0 as f32, y - j0 as f32);
                 let (i, i1) = (wrap(i0, w, modes.0), wrap(i0 + 1, w, modes.0));
                 let (j, j1) = (wrap(j0, h, modes.1), wrap(j0 + 1, h, modes.1));
                 (1.0 - a) * (1.0 - b) * self.fetch(l, i, j)
@@ -122,24 +125,33 @@ impl CpuTexture {
 
     /// The linear value of texel `(x, y)` of `level` (zero outside it, which
     /// wrapped coordinates never are).
+    #[inline]
     fn fetch(&self, level: &MipLevel, x: u32, y: u32) -> Vec4 {
-        let bpt = self.format.bytes_per_texel();
-        let at = (y as usize * level.width as usize + x as usize) * bpt;
-        let Some(t) = level.data.get(at..at + bpt) else { return Vec4::ZERO };
+        /// The `N` bytes of texel `i`, when `data` holds them.
+        #[inline(always)]
+        fn texel<const N: usize>(data: &[u8], i: usize) -> Option<&[u8; N]> {
+            data.get(i.checked_mul(N)?..)?.first_chunk()
+        }
+        let i = y as usize * level.width as usize + x as usize;
         let unorm = |b: u8| f32::from(b) / 255.0;
-        match self.format {
-            TextureFormat::Rgba8Srgb => {
+        let texel = match self.format {
+            TextureFormat::Rgba8Srgb => texel::<4>(&level.data, i).map(|t| {
                 let srgb = srgb_table();
                 Vec4::new(srgb[usize::from(t[0])], srgb[usize::from(t[1])], srgb[usize::from(t[2])], unorm(t[3]))
+            }),
+            TextureFormat::Rgba8Unorm => {
+                texel::<4>(&level.data, i).map(|t| Vec4::new(unorm(t[0]), unorm(t[1]), unorm(t[2]), unorm(t[3])))
             }
-            TextureFormat::Rgba8Unorm => Vec4::new(unorm(t[0]), unorm(t[1]), unorm(t[2]), unorm(t[3])),
-            TextureFormat::Rgba16Float => {
+            TextureFormat::Rgba16Float => texel::<8>(&level.data, i).map(|t| {
                 Vec4::from_array(std::array::from_fn(|c| half::f16::from_le_bytes([t[2 * c], t[2 * c + 1]]).to_f32()))
-            }
-            TextureFormat::Rgba32Float => Vec4::from_array(std::array::from_fn(|c| {
-                f32::from_le_bytes([t[4 * c], t[4 * c + 1], t[4 * c + 2], t[4 * c + 3]])
-            })),
-        }
+            }),
+            TextureFormat::Rgba32Float => texel::<16>(&level.data, i).map(|t| {
+                Vec4::from_array(std::array::from_fn(|c| {
+                    f32::from_le_bytes([t[4 * c], t[4 * c + 1], t[4 * c + 2], t[4 * c + 3]])
+                }))
+            }),
+        };
+        texel.unwrap_or(Vec4::ZERO)
     }
 }
 
@@ -153,9 +165,27 @@ fn texel_coordinate(c: f32, size: u32) -> f32 {
     }
 }
 
+/// `⌊x⌋` of a texel coordinate (not NaN, within ±[`COORDINATE_LIMIT`] + 1,
+/// where every `i64` it gives converts back to `f32` exactly), without the
+/// library call `f32::floor` is on x86-64's baseline.
+#[inline(always)]
+fn floor(x: f32) -> i64 {
+    let t = x as i64;
+    if t as f32 > x {
+        t - 1
+    } else {
+        t
+    }
+}
+
 /// Texel index `i` wrapped into `0..size` by `mode` (Vulkan's wrapping operations).
+#[inline(always)]
 fn wrap(i: i64, size: u32, mode: AddressMode) -> u32 {
     let n = i64::from(size.max(1));
+    // Every mode leaves an index inside the texture as it is.
+    if (0..n).contains(&i) {
+        return i as u32;
+    }
     let wrapped = match mode {
         AddressMode::Repeat => i.rem_euclid(n),
         AddressMode::ClampToEdge => i.clamp(0, n - 1),
