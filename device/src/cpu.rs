@@ -50,6 +50,13 @@ impl TypeInfo {
     pub fn name(&self) -> &'static str {
         (self.type_name)()
     }
+
+    /// An identity of the description: equal identities are the same type
+    /// (different ones may still be, when the compiler made several copies of
+    /// the name function). What a checker may remember a successful comparison by.
+    pub fn identity(&self) -> usize {
+        self.type_name as usize
+    }
 }
 
 impl PartialEq for TypeInfo {

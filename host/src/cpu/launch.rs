@@ -146,6 +146,8 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                     launch_index: UVec3::ZERO,
                     running: RefCell::new(Vec::with_capacity(8)),
                     exceptions: RefCell::new(Vec::new()),
+                    // No name function is at address 0: nothing matches these.
+                    same_types: Cell::new([(0, 0); 4]),
                 };
                 for y in ty * TILE..((ty + 1) * TILE).min(h) {
                     for x in tx * TILE..((tx + 1) * TILE).min(w) {
@@ -196,7 +198,13 @@ struct InvocationState<'j> {
     /// that it names the program it came from).
     running: RefCell<Vec<&'static str>>,
     exceptions: RefCell<Vec<UserException>>,
+    /// Pairs of types (declared, given) found equal by name, by identity: a
+    /// program receiving what it received before is not compared by name again.
+    same_types: Cell<[TypePair; 4]>,
 }
+
+/// The identities of two types found equal (see [`TypeInfo::identity`]).
+type TypePair = (usize, usize);
 
 /// Runs the raygen program at `state.launch_index`.
 fn invoke(state: &InvocationState<'_>, outcome: &mut Outcome) {
@@ -290,14 +298,21 @@ impl<'j> Frame<'_, 'j> {
 
     /// Checks that `program` receives `what` of type `given`.
     fn check_type(&self, program: Program, what: &str, declared: Option<TypeInfo>, given: TypeInfo) {
-        if let Some(declared) = declared {
-            if declared != given {
-                fault(format!(
-                    "`{}` takes a {what} of type {declared:?}, but was given one of type {given:?}",
-                    program.name
-                ));
-            }
+        let Some(declared) = declared else { return };
+        let pair = (declared.identity(), given.identity());
+        let mut seen = self.state.same_types.get();
+        if seen.contains(&pair) {
+            return;
         }
+        if declared != given {
+            fault(format!(
+                "`{}` takes a {what} of type {declared:?}, but was given one of type {given:?}",
+                program.name
+            ));
+        }
+        seen.rotate_right(1);
+        seen[0] = pair;
+        self.state.same_types.set(seen);
     }
 
     /// The record at `index` of `region` (1 miss, 2 hit, 3 callable).
