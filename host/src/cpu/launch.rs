@@ -58,7 +58,7 @@ pub(crate) struct LaunchJob {
     pub(crate) params: Aligned,
     pub(crate) dims: [u32; 3],
     /// The buffer table when the launch started, by slot.
-    pub(crate) buffers: Vec<Option<Words>>,
+    pub(crate) buffers: super::slots::Snapshot<Words>,
     /// The texture table when the launch started, by slot.
     pub(crate) textures: super::textures::Snapshot,
     /// The live IASes when the launch started, with their addresses (a few:

@@ -50,6 +50,7 @@ pub(crate) mod accel;
 pub(crate) mod buffers;
 pub(crate) mod launch;
 pub(crate) mod program;
+pub(crate) mod slots;
 pub(crate) mod textures;
 
 use std::collections::HashMap;

@@ -27,12 +27,12 @@
 //! whose slot holds no texture, sample as zero, as the device's null
 //! descriptor does.
 
-use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
+use std::sync::{Arc, OnceLock};
 
 use glam::{Vec2, Vec4};
 
-use crate::error::{Error, Result};
-use crate::handles::{handle_value, next_generation};
+use super::slots::{SlotTable, SlotValue};
+use crate::error::Error;
 use crate::texture::{AddressMode, Filter, MipLevel, SamplerOptions, TextureFormat};
 
 const SLOTS: u32 = raykit_abi::TEXTURE_TABLE_SLOTS;
@@ -208,7 +208,7 @@ fn srgb_table() -> &'static [f32; 256] {
 }
 
 /// The textures of every slot when a launch started, up to the last one taken.
-pub(crate) type Snapshot = Arc<[Option<Arc<CpuTexture>>]>;
+pub(crate) type Snapshot = super::slots::Snapshot<Arc<CpuTexture>>;
 
 /// Samples handle `handle` of `textures` (zero for a slot holding none).
 pub(crate) fn sample(textures: &[Option<Arc<CpuTexture>>], handle: u32, uv: Vec2, lod: f32) -> Vec4 {
@@ -218,77 +218,18 @@ pub(crate) fn sample(textures: &[Option<Arc<CpuTexture>>], handle: u32, uv: Vec2
     }
 }
 
-/// What each slot holds, and the snapshot launches take until a slot changes.
-struct Slots {
-    live: Vec<Option<(u32, Arc<CpuTexture>)>>,
-    /// Free slots, the next one taken at the end.
-    free: Vec<u32>,
-    snapshot: Option<Snapshot>,
-}
-
 /// The texture table of one CPU context.
-pub(crate) struct TextureTable {
-    slots: Mutex<Slots>,
-}
+pub(crate) type TextureTable = SlotTable<Arc<CpuTexture>>;
 
-impl Default for TextureTable {
-    fn default() -> Self {
-        // Slot 0 stays empty: it is the null handle.
-        let slots =
-            Slots { live: (0..SLOTS).map(|_| None).collect(), free: (1..SLOTS).rev().collect(), snapshot: None };
-        TextureTable { slots: Mutex::new(slots) }
-    }
-}
+impl SlotValue for Arc<CpuTexture> {
+    const SLOTS: u32 = SLOTS;
 
-impl TextureTable {
-    fn lock(&self) -> MutexGuard<'_, Slots> {
-        self.slots.lock().unwrap_or_else(|p| p.into_inner())
+    fn table_full(capacity: u32) -> Error {
+        Error::TextureTableFull { capacity }
     }
 
-    /// Puts `texture` in a free slot; returns the slot and the handle's value.
-    pub(crate) fn insert(&self, texture: Arc<CpuTexture>) -> Result<(u32, u32)> {
-        let mut slots = self.lock();
-        let slot = slots.free.pop().ok_or(Error::TextureTableFull { capacity: SLOTS - 1 })?;
-        let generation = next_generation();
-        slots.live[slot as usize] = Some((generation, texture));
-        slots.snapshot = None;
-        Ok((slot, handle_value(slot, generation)))
-    }
-
-    /// Empties `slot` (its texture was dropped); launches running keep the texture.
-    pub(crate) fn remove(&self, slot: u32) {
-        let mut slots = self.lock();
-        if let Some(entry) = slots.live.get_mut(slot as usize) {
-            if entry.take().is_some() {
-                slots.free.insert(0, slot);
-                slots.snapshot = None;
-            }
-        }
-    }
-
-    /// Whether `handle` is the null handle or names a live texture of this table.
-    pub(crate) fn is_live(&self, handle: u32) -> bool {
-        let slot = handle & (SLOTS - 1);
-        let generation = handle >> SLOTS.trailing_zeros();
-        handle == 0 || self.lock().live[slot as usize].as_ref().is_some_and(|(g, _)| *g == generation)
-    }
-
-    /// The texture of every slot now, for a launch.
-    pub(crate) fn snapshot(&self) -> Snapshot {
-        let mut slots = self.lock();
-        if let Some(snapshot) = &slots.snapshot {
-            return snapshot.clone();
-        }
-        let end = slots.live.iter().rposition(Option::is_some).map_or(0, |last| last + 1);
-        let snapshot: Snapshot = slots.live[..end].iter().map(|s| s.as_ref().map(|(_, t)| t.clone())).collect();
-        slots.snapshot = Some(snapshot.clone());
-        snapshot
-    }
-
-    /// Live textures and their bytes.
-    pub(crate) fn usage(&self) -> (usize, u64) {
-        let slots = self.lock();
-        slots.live.iter().flatten().fold((0, 0), |(n, bytes), (_, t)| (n + 1, bytes + t.bytes()))
+    fn bytes(&self) -> u64 {
+        CpuTexture::bytes(self)
     }
 }
 
@@ -371,7 +312,7 @@ mod tests {
     }
 
     #[test]
-    fn the_table_checks_generations_and_snapshots_its_textures() -> Result<()> {
+    fn the_table_checks_generations_and_snapshots_its_textures() -> crate::error::Result<()> {
         let table = TextureTable::default();
         let t = || Arc::new(texture(TextureFormat::Rgba8Unorm, 1, 1, &[[1.0; 4]], SamplerOptions::default()));
         let (slot, handle) = table.insert(t())?;
