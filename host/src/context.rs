@@ -87,6 +87,14 @@ pub struct ContextOptions {
     /// Threads of the CPU backend's pool; `None` means `RAYKIT_CPU_THREADS`, else
     /// one per logical CPU. Results do not depend on it.
     pub cpu_threads: Option<usize>,
+    /// Whether the CPU backend traces camera rays in packets: eight invocations
+    /// run side by side, and their traces from the point each invocation first
+    /// traced from, into scenes whose triangles run no program while a ray
+    /// traverses, walk the tree together (several times faster for coherent
+    /// rays). `None` means on, unless the environment variable
+    /// `RAYKIT_CPU_PACKETS` is `0`. Results do not depend on it, except which of
+    /// two hits at exactly the same distance is the closest.
+    pub cpu_packets: Option<bool>,
     /// Enable the Khronos validation layer and collect its messages in
     /// [`Context::messages`]. `None` means: on when the environment variable
     /// `RAYKIT_VALIDATION` is `1`. The layer is a property of the Vulkan instance:

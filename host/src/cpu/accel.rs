@@ -208,6 +208,10 @@ pub(crate) struct SceneInstance {
 pub(crate) struct SceneData {
     pub(crate) instances: Vec<SceneInstance>,
     pub(crate) bvh: CwBvh,
+    /// Every primitive is a triangle.
+    pub(crate) all_triangles: bool,
+    /// Every primitive is an opaque triangle (see [`super::packet::scene_kind`]).
+    pub(crate) all_opaque_triangles: bool,
 }
 
 impl std::fmt::Debug for SceneData {
@@ -221,7 +225,8 @@ impl SceneData {
     pub(crate) fn build(instances: Vec<SceneInstance>) -> SceneData {
         let boxes: Vec<BvhAabb> = instances.iter().map(world_bounds).collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(boxes.len()), &mut Duration::default());
-        SceneData { instances, bvh }
+        let (all_triangles, all_opaque_triangles) = super::packet::scene_kind(&instances);
+        SceneData { instances, bvh, all_triangles, all_opaque_triangles }
     }
 
     /// Bytes the structure takes on the host.

@@ -30,6 +30,8 @@ use raykit_device::{Matrix4x3, Ray, Traversable, HIT_KIND_BACK_FACING_TRIANGLE, 
 
 use super::accel::{Geometry, Leaf, SceneData, SceneInstance};
 use super::buffers::Words;
+use super::lanes::{self, LaneYielder};
+use super::packet::{self, PacketRay, Traced};
 use super::program::{Aligned, PipelineData, Program, SbtData, ATTRIBUTE_BYTES};
 use super::{CpuContext, TILE};
 use crate::accel::InstanceFlags;
@@ -66,6 +68,9 @@ pub(crate) struct LaunchJob {
     pub(crate) scenes: Vec<(u64, Arc<SceneData>)>,
     /// Whether traversals run [`Traversal::run_avx2`] (the CPU has its features).
     avx2: bool,
+    /// Whether invocations run in blocks of lanes whose camera rays are traced
+    /// in packets (the context allows it and the CPU has AVX2).
+    packets: bool,
 }
 
 impl LaunchJob {
@@ -77,7 +82,19 @@ impl LaunchJob {
         let textures = ctx.textures.snapshot();
         let scenes = ctx.scenes().iter().map(|(a, s)| (*a, s.data.clone())).collect::<Vec<_>>();
         let avx2 = has_avx2();
-        LaunchJob { ctx, pipeline, sbt, params: Aligned::new(params, 0), dims, buffers, textures, scenes, avx2 }
+        let packets = avx2 && ctx.packets;
+        LaunchJob {
+            ctx,
+            pipeline,
+            sbt,
+            params: Aligned::new(params, 0),
+            dims,
+            buffers,
+            textures,
+            scenes,
+            avx2,
+            packets,
+        }
     }
 }
 
@@ -140,15 +157,15 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                 let z = (tile / (u64::from(tiles_x) * u64::from(tiles_y))) as u32;
                 let rest = tile % (u64::from(tiles_x) * u64::from(tiles_y));
                 let (ty, tx) = ((rest / u64::from(tiles_x)) as u32, (rest % u64::from(tiles_x)) as u32);
+                if job.packets {
+                    run_tile_in_blocks(job, [tx, ty, z], &mut outcome);
+                    if outcome.failure.is_some() {
+                        stop.store(true, Ordering::Relaxed);
+                    }
+                    return outcome;
+                }
                 // One state for the tile's invocations, its lists reused.
-                let mut state = InvocationState {
-                    job,
-                    launch_index: UVec3::ZERO,
-                    running: RefCell::new(Vec::with_capacity(8)),
-                    exceptions: RefCell::new(Vec::new()),
-                    // No name function is at address 0: nothing matches these.
-                    same_types: Cell::new([(0, 0); 4]),
-                };
+                let mut state = InvocationState::new(job);
                 for y in ty * TILE..((ty + 1) * TILE).min(h) {
                     for x in tx * TILE..((tx + 1) * TILE).min(w) {
                         state.launch_index = UVec3::new(x, y, z);
@@ -201,6 +218,122 @@ struct InvocationState<'j> {
     /// Pairs of types (declared, given) found equal by name, by identity: a
     /// program receiving what it received before is not compared by name again.
     same_types: Cell<[TypePair; 4]>,
+    /// While the invocation runs in a lane of a block: what its packet traces
+    /// suspend through (null otherwise).
+    lane: Cell<*const LaneYielder>,
+    /// Where the invocation's first trace started: its traces from there (a
+    /// camera's rays) go in packets.
+    camera: Cell<Option<Vec3>>,
+}
+
+impl<'j> InvocationState<'j> {
+    fn new(job: &'j LaunchJob) -> Self {
+        InvocationState {
+            job,
+            launch_index: UVec3::ZERO,
+            running: RefCell::new(Vec::with_capacity(8)),
+            exceptions: RefCell::new(Vec::new()),
+            // No name function is at address 0: nothing matches these.
+            same_types: Cell::new([(0, 0); 4]),
+            lane: Cell::new(std::ptr::null()),
+            camera: Cell::new(None),
+        }
+    }
+}
+
+/// Pixels of a block, one per lane: 4 × 4, or 16 × 1 in a launch one row high.
+fn block_shape(height: u32) -> (u32, u32) {
+    if height == 1 {
+        (16, 1)
+    } else {
+        (4, 4)
+    }
+}
+
+/// Runs tile `[tx, ty, z]` in blocks of [`packet::WIDTH`] invocations, one
+/// per lane, their camera rays traced in packets. Lanes stop after the block in
+/// which one failed; the first failure in launch order is kept.
+fn run_tile_in_blocks(job: &LaunchJob, [tx, ty, z]: [u32; 3], outcome: &mut Outcome) {
+    let [w, h, _] = job.dims;
+    let (bw, bh) = block_shape(h);
+    let (x0, y0) = (tx * TILE, ty * TILE);
+    let (x_end, y_end) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+    let blocks_x = (x_end - x0).div_ceil(bw);
+    let blocks = blocks_x * (y_end - y0).div_ceil(bh);
+    let failed = Cell::new(false);
+    let outcomes: Vec<RefCell<Outcome>> = (0..packet::WIDTH).map(|_| RefCell::default()).collect();
+    // Lane `lane`'s invocation in block `block`, if the block has one there.
+    let pixel = |block: u32, lane: u32| {
+        let (x, y) = (x0 + (block % blocks_x) * bw + lane % bw, y0 + (block / blocks_x) * bh + lane / bw);
+        (x < x_end && y < y_end).then(|| UVec3::new(x, y, z))
+    };
+    let body = |lane: usize, yielder: &LaneYielder| {
+        let mut state = InvocationState::new(job);
+        state.lane.set(yielder);
+        let mut outcome = outcomes[lane].borrow_mut();
+        for block in 0..blocks {
+            if failed.get() {
+                break;
+            }
+            if let Some(index) = pixel(block, lane as u32) {
+                state.launch_index = index;
+                state.running.get_mut().clear();
+                state.camera.set(None);
+                invoke(&state, &mut outcome);
+                if outcome.failure.is_some() {
+                    failed.set(true);
+                }
+            }
+            lanes::end_invocation(yielder);
+        }
+    };
+    let lanes = (bw * bh) as usize;
+    if let Err(e) = lanes::run_lanes(lanes, &body, |rays| trace_packet(job, rays)) {
+        let index = [x0, y0, z];
+        let failure = Failure::Fault { program: "(launch)", problem: e.to_string() };
+        outcome.failure = Some((linear_index(job.dims, index), index, failure));
+        return;
+    }
+    for lane in outcomes {
+        let mut lane = lane.into_inner();
+        outcome.exceptions.append(&mut lane.exceptions);
+        if let Some(failure) = lane.failure {
+            if outcome.failure.as_ref().is_none_or(|f| failure.0 < f.0) {
+                outcome.failure = Some(failure);
+            }
+        }
+    }
+}
+
+/// Traces the rays of a block's suspended lanes: those into one scene together.
+fn trace_packet(job: &LaunchJob, rays: &[&PacketRay]) {
+    let mut left: u32 = (1 << rays.len()) - 1;
+    let mut group: Vec<&PacketRay> = Vec::with_capacity(rays.len());
+    while left != 0 {
+        let scene = rays[left.trailing_zeros() as usize].scene;
+        group.clear();
+        let mut rest = left;
+        while rest != 0 {
+            let i = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if rays[i].scene == scene {
+                group.push(rays[i]);
+                left &= !(1 << i);
+            }
+        }
+        // SAFETY: the scene is one of the launch's (`job.scenes` holds it for
+        // the launch), and packets run only where the CPU has AVX2 and its
+        // companions (`LaunchJob::packets`).
+        #[cfg(target_arch = "x86_64")]
+        unsafe {
+            packet::trace(&*scene, &group)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        for ray in &group {
+            ray.traced.set(packet::Traced::Alone);
+        }
+        let _ = job;
+    }
 }
 
 /// The identities of two types found equal (see [`TypeInfo::identity`]).
@@ -296,6 +429,28 @@ impl<'j> Frame<'_, 'j> {
         self.state.running.borrow_mut().pop();
     }
 
+    /// Whether a trace of `ray` into `scene` goes in a packet: the invocation
+    /// runs in a lane, the ray starts where its first trace did (a camera's
+    /// rays), and no program can run while it traverses (triangles only, all
+    /// opaque or made so by the ray; no flag a packet does not follow).
+    fn packet_ready(&self, scene: &SceneData, ray: &Ray, call: TraceCall) -> bool {
+        const PACKET_FLAGS: u32 =
+            ray_flags::OPAQUE | ray_flags::TERMINATE_ON_FIRST_HIT | ray_flags::SKIP_CLOSEST_HIT | ray_flags::SKIP_AABBS;
+        if self.state.lane.get().is_null() || call.flags & !PACKET_FLAGS != 0 {
+            return false;
+        }
+        if !(scene.all_opaque_triangles || (scene.all_triangles && call.flags & ray_flags::OPAQUE != 0)) {
+            return false;
+        }
+        match self.state.camera.get() {
+            Some(camera) => camera == ray.origin,
+            None => {
+                self.state.camera.set(Some(ray.origin));
+                true
+            }
+        }
+    }
+
     /// Checks that `program` receives `what` of type `given`.
     fn check_type(&self, program: Program, what: &str, declared: Option<TypeInfo>, given: TypeInfo) {
         let Some(declared) = declared else { return };
@@ -347,7 +502,48 @@ impl Runtime for Frame<'_, '_> {
             fault(format!("a trace into traversable {address:#x}, which is no live IAS of this Context"));
         };
         let traversal = Traversal::new(self, scene, ray, call, depth, &payload);
-        traversal.run();
+        if self.packet_ready(scene, &ray, call) {
+            let request = PacketRay {
+                scene: &**scene,
+                origin: ray.origin,
+                direction: ray.direction,
+                t_min: ray.t_min,
+                t_max: ray.t_max,
+                cull_mask: call.cull_mask,
+                first_hit: call.flags & ray_flags::TERMINATE_ON_FIRST_HIT != 0,
+                traced: Cell::new(Traced::Pending),
+            };
+            // SAFETY: `packet_ready` checked that the invocation runs in a lane,
+            // whose coroutine set `lane` to its yielder and is running this call.
+            let yielder = unsafe { &*self.state.lane.get() };
+            yielder.suspend(&request);
+            match request.traced.get() {
+                Traced::Hit(hit) => {
+                    let instance = &scene.instances[hit.instance as usize];
+                    let record = u64::from(instance.sbt_offset)
+                        + u64::from(hit.geometry) * u64::from(call.sbt_stride)
+                        + u64::from(call.sbt_offset);
+                    let hit_kind =
+                        if hit.front { HIT_KIND_FRONT_FACING_TRIANGLE } else { HIT_KIND_BACK_FACING_TRIANGLE };
+                    traversal.t_max.set(hit.t);
+                    traversal.committed.set(Some(Committed {
+                        t: hit.t,
+                        hit_kind,
+                        instance: hit.instance,
+                        geometry: hit.geometry,
+                        primitive: hit.primitive,
+                        record,
+                    }));
+                    let mut attributes: Attributes = [0; ATTRIBUTE_BYTES / 16];
+                    bytemuck::cast_slice_mut::<u128, f32>(&mut attributes)[..2].copy_from_slice(&[hit.u, hit.v]);
+                    traversal.committed_attributes.set(attributes);
+                }
+                Traced::Miss => {}
+                Traced::Alone | Traced::Pending => traversal.run(),
+            }
+        } else {
+            traversal.run();
+        }
         let frame = Frame { state: self.state, depth, traversal: None };
         match traversal.committed.get() {
             Some(hit) => {

@@ -48,7 +48,9 @@
 
 pub(crate) mod accel;
 pub(crate) mod buffers;
+pub(crate) mod lanes;
 pub(crate) mod launch;
+pub(crate) mod packet;
 pub(crate) mod program;
 pub(crate) mod slots;
 pub(crate) mod textures;
@@ -90,7 +92,7 @@ pub(crate) const LAUNCH_DIMENSION_LIMITS: [u64; 3] = [1 << 30, 1 << 30, 1 << 30]
 
 /// Stack of each of the pool's threads: deep enough for 31 levels of
 /// recursion through user programs.
-const THREAD_STACK: usize = 64 << 20;
+pub(crate) const THREAD_STACK: usize = 64 << 20;
 
 /// A live IAS as traces reach it: its built structure and what launches check.
 pub(crate) struct LiveScene {
@@ -107,6 +109,8 @@ pub(crate) struct CpuContext {
     /// The live IASes, by the address their `Traversable` carries.
     pub(crate) scenes: Mutex<HashMap<u64, LiveScene>>,
     pub(crate) pool: rayon::ThreadPool,
+    /// Whether launches trace in packets where they can (see [`packet`]).
+    pub(crate) packets: bool,
     /// The launches running, by the epoch each got when it started; reads and
     /// writes of buffers wait for them.
     running: Mutex<Running>,
@@ -186,6 +190,9 @@ impl CpuContext {
             textures: Default::default(),
             scenes: Mutex::new(HashMap::new()),
             pool,
+            packets: options
+                .cpu_packets
+                .unwrap_or_else(|| std::env::var("RAYKIT_CPU_PACKETS").map_or(true, |v| v.trim() != "0")),
             running: Mutex::new(Running::default()),
             finished: Condvar::new(),
             gate: Gate::default(),

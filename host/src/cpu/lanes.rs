@@ -1,0 +1,94 @@
+//! Blocks of invocations run side by side as coroutines (corosensei), so that
+//! their traces can be made together: an invocation that traces a ray a packet
+//! can take suspends with it; once every invocation of the block has suspended
+//! or finished, the block traces the suspended rays as one packet and resumes
+//! them. Everything else an invocation does runs as before, on its own stack.
+//!
+//! Stacks are as deep as the pool's threads' and are kept per thread for the
+//! next block.
+
+use std::cell::RefCell;
+
+use corosensei::stack::DefaultStack;
+use corosensei::{Coroutine, CoroutineResult, Yielder};
+
+use super::packet::{PacketRay, WIDTH};
+use super::THREAD_STACK;
+use crate::error::{Error, Result};
+
+/// What an invocation running in a lane suspends through.
+pub(crate) type LaneYielder = Yielder<(), *const PacketRay>;
+
+type Lane = Coroutine<(), *const PacketRay, (), DefaultStack>;
+
+thread_local! {
+    /// Stacks of finished lanes, for the next block on this thread.
+    static STACKS: RefCell<Vec<DefaultStack>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Runs `body(lane, yielder)` for each lane of `0..count` (at most
+/// [`WIDTH`]), each in a coroutine of its own. A body runs its invocations one
+/// after another and calls [`end_invocation`] after each: lanes move from one
+/// invocation to the next together, so the rays of a block come from
+/// neighbouring invocations. Whenever every lane has suspended with a ray, or
+/// ended its invocation, or returned, `trace` gets the rays (in lane order) and
+/// those lanes are resumed; when every lane has ended its invocation, all are
+/// resumed for their next.
+pub(crate) fn run_lanes<F, T>(count: usize, body: &F, mut trace: T) -> Result<()>
+where
+    F: Fn(usize, &LaneYielder),
+    T: FnMut(&[&PacketRay]),
+{
+    debug_assert!(count <= WIDTH);
+    let mut lanes: Vec<Lane> = Vec::with_capacity(count);
+    for lane in 0..count {
+        let stack = match STACKS.with_borrow_mut(Vec::pop) {
+            Some(stack) => stack,
+            None => DefaultStack::new(THREAD_STACK).map_err(|e| Error::CpuThreads { reason: e.to_string() })?,
+        };
+        // SAFETY: the coroutine borrows `body`, which outlives this function;
+        // every lane is driven to completion below or dropped (unwound) before
+        // it returns.
+        lanes.push(unsafe {
+            Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder))
+        });
+    }
+    let mut rays: Vec<&PacketRay> = Vec::with_capacity(count);
+    // Lanes that ended their invocation and wait for the others.
+    let mut waiting = vec![false; count];
+    loop {
+        rays.clear();
+        let mut running = false;
+        for (lane, coroutine) in lanes.iter_mut().enumerate() {
+            if waiting[lane] || coroutine.done() {
+                continue;
+            }
+            if let CoroutineResult::Yield(ray) = coroutine.resume(()) {
+                running = true;
+                if ray.is_null() {
+                    waiting[lane] = true;
+                } else {
+                    // SAFETY: the ray lives on the lane's stack, in the trace
+                    // call that suspended; the lane stays suspended until
+                    // `trace` has returned and `rays` is cleared.
+                    rays.push(unsafe { &*ray });
+                }
+            }
+        }
+        if !rays.is_empty() {
+            trace(&rays);
+        } else if running || waiting.contains(&true) {
+            // Every lane ended its invocation: on to the next.
+            waiting.fill(false);
+        } else {
+            break;
+        }
+    }
+    STACKS.with_borrow_mut(|stacks| stacks.extend(lanes.into_iter().map(Coroutine::into_stack)));
+    Ok(())
+}
+
+/// Ends a lane's invocation: waits until every lane has ended its own.
+pub(crate) fn end_invocation(yielder: &LaneYielder) {
+    yielder.suspend(std::ptr::null());
+}

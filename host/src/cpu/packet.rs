@@ -1,0 +1,568 @@
+//! Packet traces: up to sixteen rays of a block of invocations traced together
+//! through a scene of opaque triangles, where no program runs during the
+//! traversal.
+//!
+//! Each group of rays with one direction octant walks the tree once. A node's
+//! children are tested against the group's interval: the boxes of origins and
+//! inverse directions that hold every ray of the group, widened a little, so a
+//! child any ray would enter is always entered. Triangles are tested against
+//! every ray at once, eight lanes at a time, with the same operations in the same
+//! order as [`super::launch`]'s one-ray test, so each ray gets the same hit as
+//! alone; only which of two hits at exactly the same distance wins may differ.
+//! Rays far apart in direction or origin would make the interval loose, so such
+//! groups are walked one ray at a time by the same code.
+
+use std::cell::Cell;
+
+use glam::{Affine3A, Vec3, Vec3A};
+use obvhs::cwbvh::node::CwBvhNode;
+use obvhs::cwbvh::CwBvh;
+
+use super::accel::{GasData, Geometry, SceneData, SceneInstance};
+use crate::accel::{GeometryFlags, InstanceFlags};
+
+/// Rays in a packet: two AVX2 registers of `f32` lanes.
+pub(crate) const WIDTH: usize = 16;
+
+/// A set of lanes, lane `i` at bit `i`.
+type LaneMask = u16;
+
+/// Rays whose directions are closer than this (the cosine of about 6°) share
+/// a walk.
+const COHERENT_COSINE: f32 = 0.995;
+
+/// Rays whose origins differ by more than this fraction of their distance from
+/// the world origin (or more than this, near it) are walked alone.
+const COHERENT_ORIGIN: f32 = 1e-3;
+
+/// How far node intervals are widened, relative to their ends: many ulps, so
+/// that rounding never loses a child a ray enters.
+const WIDEN: f32 = 1.0 / (1 << 16) as f32;
+
+/// What became of a [`PacketRay`].
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) enum Traced {
+    /// Not traced yet.
+    Pending,
+    /// The packet could not take it (a NaN or infinite origin or direction):
+    /// the invocation traces it alone.
+    Alone,
+    Miss,
+    Hit(PacketHit),
+}
+
+/// The closest accepted triangle of a ray.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct PacketHit {
+    pub(crate) t: f32,
+    pub(crate) u: f32,
+    pub(crate) v: f32,
+    /// Front-facing, after the instance's facing flip.
+    pub(crate) front: bool,
+    pub(crate) instance: u32,
+    pub(crate) geometry: u32,
+    pub(crate) primitive: u32,
+}
+
+/// A trace waiting in its invocation for the rest of its packet.
+pub(crate) struct PacketRay {
+    pub(crate) scene: *const SceneData,
+    pub(crate) origin: Vec3,
+    pub(crate) direction: Vec3,
+    pub(crate) t_min: f32,
+    pub(crate) t_max: f32,
+    pub(crate) cull_mask: u32,
+    /// `TERMINATE_ON_FIRST_HIT`: the first accepted hit ends the ray.
+    pub(crate) first_hit: bool,
+    pub(crate) traced: Cell<Traced>,
+}
+
+/// Whether every primitive of a scene of `instances` is a triangle, and whether every one is
+/// opaque (by its geometry's flag and its instance's `FORCE_*` flags): rays
+/// into an all-triangle scene with the ray's `OPAQUE` flag, or into an
+/// all-opaque one, run no program while they traverse.
+pub(crate) fn scene_kind(instances: &[SceneInstance]) -> (bool, bool) {
+    let mut triangles = true;
+    let mut opaque = true;
+    for instance in instances {
+        for geometry in &instance.gas.geometries {
+            let Geometry::Triangles { flags, .. } = geometry else {
+                triangles = false;
+                continue;
+            };
+            let mut geometry_opaque = flags.contains(GeometryFlags::OPAQUE);
+            if instance.flags.contains(InstanceFlags::FORCE_OPAQUE) {
+                geometry_opaque = true;
+            }
+            if instance.flags.contains(InstanceFlags::FORCE_NON_OPAQUE) {
+                geometry_opaque = false;
+            }
+            opaque &= geometry_opaque;
+        }
+    }
+    (triangles, triangles && opaque)
+}
+
+/// Traces `rays` (all into `scene`, at most [`WIDTH`]) and sets each one's
+/// [`PacketRay::traced`]. Compiled for AVX2 and its companions: callers check
+/// that the CPU has them.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+pub(crate) fn trace(scene: &SceneData, rays: &[&PacketRay]) {
+    debug_assert!(rays.len() <= WIDTH);
+    let mut packet = Packet::new(scene);
+    for (lane, ray) in rays.iter().enumerate() {
+        let finite = ray.origin.is_finite() && ray.direction.is_finite();
+        if !finite {
+            ray.traced.set(Traced::Alone);
+            continue;
+        }
+        ray.traced.set(Traced::Miss);
+        // An empty or NaN interval hits nothing.
+        if ray.t_min.partial_cmp(&ray.t_max).is_none_or(|o| o == std::cmp::Ordering::Greater) {
+            continue;
+        }
+        packet.origin[lane] = ray.origin;
+        packet.direction[lane] = ray.direction;
+        packet.t_min[lane] = ray.t_min;
+        packet.t_max[lane] = ray.t_max;
+        packet.cull_mask[lane] = ray.cull_mask;
+        if ray.first_hit {
+            packet.first_hit |= 1 << lane;
+        }
+        packet.active |= 1 << lane;
+    }
+    if packet.active != 0 {
+        match &scene.instances[..] {
+            // One instance: its GAS's tree does every box test the IAS's would.
+            [only] => {
+                if !only.gas.leaves.is_empty() {
+                    packet.instance(0, packet.active);
+                }
+            }
+            _ => {
+                let mut left = packet.active;
+                let (origin, direction) = (packet.origin, packet.direction);
+                while left != 0 {
+                    let group = packet.next_group(&mut left, &origin, &direction);
+                    packet.walk_scene(&group);
+                }
+            }
+        }
+    }
+    for (lane, ray) in rays.iter().enumerate() {
+        if let Some(hit) = packet.hits[lane] {
+            ray.traced.set(Traced::Hit(hit));
+        }
+    }
+}
+
+/// The rays of a packet, lane by lane, and what they hit so far.
+struct Packet<'s> {
+    scene: &'s SceneData,
+    origin: [Vec3; WIDTH],
+    direction: [Vec3; WIDTH],
+    t_min: [f32; WIDTH],
+    /// The closest accepted hit's distance, or the ray's `t_max`.
+    t_max: [f32; WIDTH],
+    cull_mask: [u32; WIDTH],
+    /// Lanes that end at their first accepted hit.
+    first_hit: LaneMask,
+    /// Lanes still traversing.
+    active: LaneMask,
+    hits: [Option<PacketHit>; WIDTH],
+}
+
+/// The rays of one walk, in one octant: their lanes' origins and directions in
+/// the walked tree's space, and the interval holding them.
+struct Group {
+    lanes: LaneMask,
+    ox: [f32; WIDTH],
+    oy: [f32; WIDTH],
+    oz: [f32; WIDTH],
+    dx: [f32; WIDTH],
+    dy: [f32; WIDTH],
+    dz: [f32; WIDTH],
+    origin_lo: Vec3A,
+    origin_hi: Vec3A,
+    /// Every ray starts at one point (`origin_lo == origin_hi`).
+    shared_origin: bool,
+    /// The nearest `t_min` of the group's rays.
+    near: f32,
+    inverse_lo: Vec3A,
+    inverse_hi: Vec3A,
+    /// A direction in the octant, for the tree's child order.
+    octant: Vec3A,
+}
+
+/// `1 / d`, finite, with the signs [`octant_of`] gives `d`.
+fn safe_inverse(d: Vec3A) -> Vec3A {
+    let inverse = (Vec3A::ONE / d).clamp(Vec3A::splat(-1e30), Vec3A::splat(1e30));
+    Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::splat(1e30), inverse)
+}
+
+/// The octant of `d` as obvhs orders children: negative components are `< 0`.
+fn octant_of(d: Vec3) -> u8 {
+    u8::from(d.x < 0.0) | (u8::from(d.y < 0.0) << 1) | (u8::from(d.z < 0.0) << 2)
+}
+
+impl<'s> Packet<'s> {
+    fn new(scene: &'s SceneData) -> Self {
+        Packet {
+            scene,
+            origin: [Vec3::ZERO; WIDTH],
+            direction: [Vec3::ZERO; WIDTH],
+            t_min: [0.0; WIDTH],
+            t_max: [0.0; WIDTH],
+            cull_mask: [0; WIDTH],
+            first_hit: 0,
+            active: 0,
+            hits: [None; WIDTH],
+        }
+    }
+
+    /// Takes from `left` the next group: the first lane, and the lanes in its
+    /// octant whose rays are close to its ray (others are left for later
+    /// groups, in the end alone).
+    fn next_group(&self, left: &mut LaneMask, origin: &[Vec3; WIDTH], direction: &[Vec3; WIDTH]) -> Group {
+        let first = left.trailing_zeros() as usize;
+        let octant = octant_of(direction[first]);
+        let axis = direction[first];
+        let axis_length2 = axis.length_squared() * (COHERENT_COSINE * COHERENT_COSINE);
+        let reach = COHERENT_ORIGIN * origin[first].abs().max_element().max(1.0);
+        let mut together: LaneMask = 1 << first;
+        let mut rest = *left & !together;
+        while rest != 0 {
+            let lane = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            // cos(angle) ≥ COHERENT_COSINE, without roots.
+            let cosine = direction[lane].dot(axis);
+            let close = octant_of(direction[lane]) == octant
+                && cosine > 0.0
+                && cosine * cosine >= axis_length2 * direction[lane].length_squared()
+                && (origin[lane] - origin[first]).abs().max_element() <= reach;
+            if close {
+                together |= 1 << lane;
+            }
+        }
+        *left &= !together;
+        Group::new(together, origin, direction, &self.t_min)
+    }
+
+    /// Walks the IAS's tree with `group` (world space), visiting instances.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    fn walk_scene(&mut self, group: &Group) {
+        let scene = self.scene;
+        let bvh: &CwBvh = &scene.bvh;
+        let mut state = bvh.new_traversal(group.octant);
+        let mut node: &CwBvhNode;
+        use glam::UVec2;
+        obvhs::traverse!(bvh, node, state, self.node_mask(node, group, state.oct_inv4), {
+            let index = bvh.primitive_indices[state.primitive_id as usize];
+            self.instance(index, group.lanes & self.active);
+            if group.lanes & self.active == 0 {
+                break;
+            }
+        });
+    }
+
+    /// Traverses instance `index` with the rays of `lanes` its mask lets in.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    fn instance(&mut self, index: u32, lanes: LaneMask) {
+        let instance = &self.scene.instances[index as usize];
+        let mut lanes = lanes;
+        let mut rest = lanes;
+        while rest != 0 {
+            let lane = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if u32::from(instance.mask) & self.cull_mask[lane] & 0xff == 0 {
+                lanes &= !(1 << lane);
+            }
+        }
+        if lanes == 0 {
+            return;
+        }
+        // The object-space rays, as a trace alone computes them.
+        let w2o: Affine3A = instance.world_to_object;
+        // The identity changes no value: skip its arithmetic.
+        let identity = w2o == Affine3A::IDENTITY;
+        let mut origin = [Vec3::ZERO; WIDTH];
+        let mut direction = [Vec3::ZERO; WIDTH];
+        let mut rest = lanes;
+        while rest != 0 {
+            let lane = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if identity {
+                (origin[lane], direction[lane]) = (self.origin[lane], self.direction[lane]);
+            } else {
+                origin[lane] = w2o.transform_point3(self.origin[lane]);
+                direction[lane] = w2o.transform_vector3(self.direction[lane]);
+            }
+        }
+        let gas = &instance.gas;
+        let flip = instance.flags.contains(InstanceFlags::FLIP_TRIANGLE_FACING);
+        let mut left = lanes;
+        while left != 0 {
+            let group = self.next_group(&mut left, &origin, &direction);
+            self.walk_gas(index, gas, flip, &group);
+        }
+    }
+
+    /// Walks a GAS's tree with `group` (object space), testing triangles.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    fn walk_gas(&mut self, instance: u32, gas: &GasData, flip: bool, group: &Group) {
+        let bvh: &CwBvh = &gas.bvh;
+        let mut state = bvh.new_traversal(group.octant);
+        let mut node: &CwBvhNode;
+        use glam::UVec2;
+        obvhs::traverse!(bvh, node, state, self.node_mask(node, group, state.oct_inv4), {
+            let leaf = &gas.leaves[state.primitive_id as usize];
+            self.triangle(instance, leaf, flip, group);
+            if group.lanes & self.active == 0 {
+                break;
+            }
+        });
+    }
+
+    /// The obvhs hit mask of `node`'s children for `group`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    #[inline]
+    fn node_mask(&self, node: &CwBvhNode, group: &Group, oct_inv4: u32) -> u32 {
+        let lanes = group.lanes & self.active;
+        if lanes == 0 {
+            return 0;
+        }
+        use std::arch::x86_64::*;
+        // The farthest `t_max` of the walking lanes.
+        let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let lanes_of = |half: i32| _mm256_set1_epi32(i32::from(lanes) >> (8 * half));
+        let walking = |half| _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(lanes_of(half), bits), bits));
+        // SAFETY: `t_max` holds the sixteen `f32`s the two unaligned loads read.
+        let (low, high) =
+            unsafe { (_mm256_loadu_ps(self.t_max.as_ptr()), _mm256_loadu_ps(self.t_max.as_ptr().add(8))) };
+        let none = _mm256_set1_ps(f32::NEG_INFINITY);
+        let t_max = _mm256_max_ps(_mm256_blendv_ps(none, low, walking(0)), _mm256_blendv_ps(none, high, walking(1)));
+        let half = _mm_max_ps(_mm256_castps256_ps128(t_max), _mm256_extractf128_ps::<1>(t_max));
+        let half = _mm_max_ps(half, _mm_movehl_ps(half, half));
+        let far = _mm_cvtss_f32(_mm_max_ss(half, _mm_shuffle_ps::<0b01>(half, half)));
+        if group.shared_origin {
+            node_mask_avx2::<true>(node, group, far, oct_inv4)
+        } else {
+            node_mask_avx2::<false>(node, group, far, oct_inv4)
+        }
+    }
+
+    /// Tests `leaf`'s triangle against the group's active rays and keeps the
+    /// closer hits; the same arithmetic as the one-ray test, lane by lane.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    #[inline]
+    fn triangle(&mut self, instance: u32, leaf: &super::accel::Leaf, flip: bool, group: &Group) {
+        let lanes = group.lanes & self.active;
+        for half in 0..WIDTH / 8 {
+            let in_half = (lanes >> (8 * half)) as u8;
+            if in_half != 0 {
+                self.triangle_half(instance, leaf, flip, group, 8 * half, in_half);
+            }
+        }
+    }
+
+    /// [`Packet::triangle`] for the eight lanes from `first`, of which `lanes`
+    /// (bit `i` for lane `first + i`) take part.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    #[inline]
+    fn triangle_half(
+        &mut self,
+        instance: u32,
+        leaf: &super::accel::Leaf,
+        flip: bool,
+        group: &Group,
+        first: usize,
+        lanes: u8,
+    ) {
+        use std::arch::x86_64::*;
+        let tri = &leaf.triangle;
+        let set = |v: f32| _mm256_set1_ps(v);
+        // SAFETY: `a` holds `WIDTH` `f32`s; the unaligned load reads eight from
+        // `first`, which is at most `WIDTH - 8`.
+        let load = |a: &[f32; WIDTH]| unsafe { _mm256_loadu_ps(a.as_ptr().add(first)) };
+        let (mul, sub, add) = (
+            |a: __m256, b: __m256| _mm256_mul_ps(a, b),
+            |a: __m256, b: __m256| _mm256_sub_ps(a, b),
+            |a: __m256, b: __m256| _mm256_add_ps(a, b),
+        );
+        let (dx, dy, dz) = (load(&group.dx), load(&group.dy), load(&group.dz));
+        let (ox, oy, oz) = (load(&group.ox), load(&group.oy), load(&group.oz));
+        let (e1x, e1y, e1z) = (set(tri.e1.x), set(tri.e1.y), set(tri.e1.z));
+        let (e2x, e2y, e2z) = (set(tri.e2.x), set(tri.e2.y), set(tri.e2.z));
+        // p = d × e2 (glam: a.y·b.z − a.z·b.y, …)
+        let px = sub(mul(dy, e2z), mul(dz, e2y));
+        let py = sub(mul(dz, e2x), mul(dx, e2z));
+        let pz = sub(mul(dx, e2y), mul(dy, e2x));
+        // glam's dot: (x·x' + y·y') + z·z'
+        let dot = |ax, ay, az, bx, by, bz| add(add(mul(ax, bx), mul(ay, by)), mul(az, bz));
+        let det = dot(e1x, e1y, e1z, px, py, pz);
+        let abs = |v: __m256| _mm256_andnot_ps(set(-0.0), v);
+        let mut ok = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_NEQ_OQ>(det, set(0.0)),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(abs(det), set(f32::INFINITY)),
+        );
+        let inv = _mm256_div_ps(set(1.0), det);
+        let (sx, sy, sz) = (sub(ox, set(tri.v0.x)), sub(oy, set(tri.v0.y)), sub(oz, set(tri.v0.z)));
+        let u = mul(dot(sx, sy, sz, px, py, pz), inv);
+        ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GE_OQ>(u, set(0.0)));
+        ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LE_OQ>(u, set(1.0)));
+        // q = s × e1
+        let qx = sub(mul(sy, e1z), mul(sz, e1y));
+        let qy = sub(mul(sz, e1x), mul(sx, e1z));
+        let qz = sub(mul(sx, e1y), mul(sy, e1x));
+        let v = mul(dot(dx, dy, dz, qx, qy, qz), inv);
+        let rejected_v =
+            _mm256_or_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(v, set(0.0)), _mm256_cmp_ps::<_CMP_GT_OQ>(add(u, v), set(1.0)));
+        ok = _mm256_andnot_ps(rejected_v, ok);
+        let t = mul(dot(e2x, e2y, e2z, qx, qy, qz), inv);
+        ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GE_OQ>(t, load(&self.t_min)));
+        ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LE_OQ>(t, load(&self.t_max)));
+        let mut accepted = (_mm256_movemask_ps(ok) as u32 as u8) & lanes;
+        if accepted == 0 {
+            return;
+        }
+        let mut ts = [0.0f32; 8];
+        let mut us = [0.0f32; 8];
+        let mut vs = [0.0f32; 8];
+        let mut dets = [0.0f32; 8];
+        // SAFETY: each array holds the eight `f32`s the unaligned store writes.
+        unsafe {
+            _mm256_storeu_ps(ts.as_mut_ptr(), t);
+            _mm256_storeu_ps(us.as_mut_ptr(), u);
+            _mm256_storeu_ps(vs.as_mut_ptr(), v);
+            _mm256_storeu_ps(dets.as_mut_ptr(), det);
+        }
+        while accepted != 0 {
+            let i = accepted.trailing_zeros() as usize;
+            accepted &= accepted - 1;
+            let lane = first + i;
+            self.t_max[lane] = ts[i];
+            self.hits[lane] = Some(PacketHit {
+                t: ts[i],
+                u: us[i],
+                v: vs[i],
+                front: (dets[i] > 0.0) != flip,
+                instance,
+                geometry: leaf.geometry,
+                primitive: leaf.primitive,
+            });
+            if self.first_hit & (1 << lane) != 0 {
+                self.active &= !(1 << lane);
+            }
+        }
+    }
+}
+
+impl Group {
+    /// The group of `lanes`, with their interval.
+    fn new(lanes: LaneMask, origin: &[Vec3; WIDTH], direction: &[Vec3; WIDTH], t_min: &[f32; WIDTH]) -> Group {
+        let first = lanes.trailing_zeros() as usize;
+        let mut group = Group {
+            lanes,
+            ox: [0.0; WIDTH],
+            oy: [0.0; WIDTH],
+            oz: [0.0; WIDTH],
+            dx: [0.0; WIDTH],
+            dy: [0.0; WIDTH],
+            dz: [0.0; WIDTH],
+            origin_lo: Vec3A::splat(f32::INFINITY),
+            origin_hi: Vec3A::splat(f32::NEG_INFINITY),
+            shared_origin: false,
+            near: f32::INFINITY,
+            inverse_lo: Vec3A::splat(f32::INFINITY),
+            inverse_hi: Vec3A::splat(f32::NEG_INFINITY),
+            octant: Vec3A::from(direction[first]),
+        };
+        let mut rest = lanes;
+        while rest != 0 {
+            let lane = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let (o, d) = (origin[lane], direction[lane]);
+            (group.ox[lane], group.oy[lane], group.oz[lane]) = (o.x, o.y, o.z);
+            (group.dx[lane], group.dy[lane], group.dz[lane]) = (d.x, d.y, d.z);
+            let inverse = safe_inverse(Vec3A::from(d));
+            group.origin_lo = group.origin_lo.min(o.into());
+            group.origin_hi = group.origin_hi.max(o.into());
+            group.inverse_lo = group.inverse_lo.min(inverse);
+            group.inverse_hi = group.inverse_hi.max(inverse);
+            group.near = group.near.min(t_min[lane]);
+        }
+        group.shared_origin = group.origin_lo == group.origin_hi;
+        group
+    }
+}
+
+/// Which of `node`'s children the interval of `group` may enter within
+/// `[group.near, far]`, as obvhs's hit mask: each child's box decoded to `f32`
+/// (exactly: the scale is a power of two), its slab distances bounded over the
+/// corners of the origin and inverse-direction boxes, the interval widened by
+/// [`WIDEN`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+#[inline]
+fn node_mask_avx2<const SHARED_ORIGIN: bool>(node: &CwBvhNode, group: &Group, far: f32, oct_inv4: u32) -> u32 {
+    use std::arch::x86_64::*;
+    let extent = node.compute_extent();
+    let widen = |q: &[u8; 8]| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_set_epi64x(0, i64::from_le_bytes(*q))));
+    // The distances to one plane per child, bounded over the group's corners.
+    let bounds = |q: &[u8; 8], p: f32, e: f32, o_lo: f32, o_hi: f32, i_lo: f32, i_hi: f32| {
+        let plane = _mm256_add_ps(_mm256_set1_ps(p), _mm256_mul_ps(widen(q), _mm256_set1_ps(e)));
+        let a = _mm256_sub_ps(plane, _mm256_set1_ps(o_lo));
+        let (il, ih) = (_mm256_set1_ps(i_lo), _mm256_set1_ps(i_hi));
+        if SHARED_ORIGIN {
+            let (aa, ab) = (_mm256_mul_ps(a, il), _mm256_mul_ps(a, ih));
+            return (_mm256_min_ps(aa, ab), _mm256_max_ps(aa, ab));
+        }
+        let b = _mm256_sub_ps(plane, _mm256_set1_ps(o_hi));
+        let (aa, ab, ba, bb) = (_mm256_mul_ps(a, il), _mm256_mul_ps(a, ih), _mm256_mul_ps(b, il), _mm256_mul_ps(b, ih));
+        (
+            _mm256_min_ps(_mm256_min_ps(aa, ab), _mm256_min_ps(ba, bb)),
+            _mm256_max_ps(_mm256_max_ps(aa, ab), _mm256_max_ps(ba, bb)),
+        )
+    };
+    let axis = |lo: &[u8; 8], hi: &[u8; 8], p: f32, e: f32, o_lo: f32, o_hi: f32, i_lo: f32, i_hi: f32| {
+        let (lo_min, lo_max) = bounds(lo, p, e, o_lo, o_hi, i_lo, i_hi);
+        let (hi_min, hi_max) = bounds(hi, p, e, o_lo, o_hi, i_lo, i_hi);
+        // Entering at the near plane, leaving at the far one: which is which
+        // follows the octant (every inverse of the group has one sign).
+        if i_lo < 0.0 {
+            (hi_min, lo_max)
+        } else {
+            (lo_min, hi_max)
+        }
+    };
+    let (olo, ohi, ilo, ihi) = (group.origin_lo, group.origin_hi, group.inverse_lo, group.inverse_hi);
+    let p = Vec3A::from(node.p);
+    let (in_x, out_x) = axis(&node.child_min_x, &node.child_max_x, p.x, extent.x, olo.x, ohi.x, ilo.x, ihi.x);
+    let (in_y, out_y) = axis(&node.child_min_y, &node.child_max_y, p.y, extent.y, olo.y, ohi.y, ilo.y, ihi.y);
+    let (in_z, out_z) = axis(&node.child_min_z, &node.child_max_z, p.z, extent.z, olo.z, ohi.z, ilo.z, ihi.z);
+    let enter = _mm256_max_ps(in_x, _mm256_max_ps(in_y, in_z));
+    let leave = _mm256_min_ps(out_x, _mm256_min_ps(out_y, out_z));
+    let abs = |v: __m256| _mm256_andnot_ps(_mm256_set1_ps(-0.0), v);
+    let widen_by = _mm256_set1_ps(WIDEN);
+    let enter = _mm256_sub_ps(enter, _mm256_mul_ps(abs(enter), widen_by));
+    let leave = _mm256_add_ps(leave, _mm256_mul_ps(abs(leave), widen_by));
+    let enter = _mm256_max_ps(enter, _mm256_set1_ps(group.near));
+    let leave = _mm256_min_ps(leave, _mm256_set1_ps(far));
+    let mut hits = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(enter, leave)) as u32;
+    let (child_bits, bit_index) = node.get_child_and_index_bits(oct_inv4);
+    let byte = |x: u64, b: u32| ((x >> (b * 8)) as u32) & 0xff;
+    let mut mask = 0;
+    while hits != 0 {
+        let child = hits.trailing_zeros();
+        hits &= hits - 1;
+        mask |= byte(child_bits, child) << byte(bit_index, child);
+    }
+    mask
+}
