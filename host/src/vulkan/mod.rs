@@ -38,5 +38,6 @@ pub(crate) mod device_registry;
 pub(crate) mod driver_lock;
 pub(crate) mod memory;
 pub(crate) mod pipeline;
+pub(crate) mod texture;
 pub(crate) mod texture_table;
 pub mod timeline;
