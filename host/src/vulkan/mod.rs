@@ -37,6 +37,7 @@ pub(crate) mod context;
 pub(crate) mod device_registry;
 pub(crate) mod driver_lock;
 pub(crate) mod memory;
+pub(crate) mod messenger;
 pub(crate) mod module;
 pub(crate) mod pipeline;
 pub(crate) mod texture;
