@@ -62,6 +62,7 @@ use crate::vulkan::buffer_table::RT_STAGES;
 use crate::vulkan::context::Submission;
 use crate::vulkan::memory::RawBuffer;
 use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
+use crate::vulkan::sbt::VulkanSbt;
 
 /// A launch submitted to the device and not yet waited for (OptiX's launch on a
 /// stream). Dropping it waits for the work first.
@@ -186,7 +187,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         timestamps: Option<vk::QueryPool>,
     ) -> Result<Launch> {
         let inner = match (&self.repr, &sbt.device) {
-            (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan { pipeline, .. }) if Arc::ptr_eq(pipeline, inner) => inner,
+            (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan(sbt)) if Arc::ptr_eq(&sbt.pipeline, inner) => inner,
             (PipelineRepr::Cpu(data), SbtDevice::Cpu { pipeline, data: records }) if Arc::ptr_eq(pipeline, data) => {
                 check_dimensions(dims, &crate::cpu::LIMITS, crate::cpu::LAUNCH_DIMENSION_LIMITS)?;
                 let launch = crate::cpu::launch::CpuLaunch::submit(data, sbt, records, params, dims)?;
@@ -237,7 +238,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             let hit_reach = |address| ctx.traversables.hit_reach(address);
             crate::validate::scene::check_scene(hit_reach, &inner.handle_fields, params_bytes, sbt, &inner.reach)
         };
-        let SbtDevice::Vulkan { raygen, miss, hit, callable, .. } = &sbt.device else {
+        let SbtDevice::Vulkan(VulkanSbt { raygen, miss, hit, callable, .. }) = &sbt.device else {
             return Err(Error::SbtOfAnotherPipeline);
         };
         let submission = ctx.submit_checked("a launch", check, |cmd| {
@@ -346,7 +347,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 }
             }
         })?;
-        let SbtDevice::Vulkan { buffer, .. } = &sbt.device else { return Err(Error::SbtOfAnotherPipeline) };
+        let SbtDevice::Vulkan(VulkanSbt { buffer, .. }) = &sbt.device else { return Err(Error::SbtOfAnotherPipeline) };
         let launch = VulkanLaunch { submission, readback, pipeline: inner.clone(), _sbt: buffer.clone() };
         Ok(Launch { repr: LaunchRepr::Vulkan(launch) })
     }

@@ -40,6 +40,7 @@ pub(crate) mod memory;
 pub(crate) mod messenger;
 pub(crate) mod module;
 pub(crate) mod pipeline;
+pub(crate) mod sbt;
 pub(crate) mod texture;
 pub(crate) mod texture_table;
 pub mod timeline;
