@@ -2,4 +2,5 @@
 //! (`structure`), and recording and submitting builds (`build`).
 
 pub(crate) mod build;
+pub(crate) mod gas;
 pub(crate) mod structure;
