@@ -3,4 +3,5 @@
 
 pub(crate) mod build;
 pub(crate) mod gas;
+pub(crate) mod ias;
 pub(crate) mod structure;
