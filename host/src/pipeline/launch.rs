@@ -53,12 +53,11 @@
 
 use std::sync::Arc;
 
-use ash::vk;
-
 use super::{Pipeline, PipelineRepr};
 use crate::error::{Error, Result};
 use crate::sbt::{Sbt, SbtDevice};
 use crate::vulkan::pipeline::record::VulkanLaunch;
+use crate::vulkan::pipeline::timing::TimestampPool;
 
 /// A launch submitted to the device and not yet waited for (OptiX's launch on a
 /// stream). Dropping it waits for the work first.
@@ -131,7 +130,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         sbt: &Sbt,
         params: &P,
         dims: [u32; 3],
-        timestamps: Option<vk::QueryPool>,
+        timestamps: Option<&TimestampPool>,
     ) -> Result<()> {
         self.submit_launch(sbt, params, dims, timestamps)?.wait()
     }
@@ -142,7 +141,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         sbt: &Sbt,
         params: &P,
         dims: [u32; 3],
-        timestamps: Option<vk::QueryPool>,
+        timestamps: Option<&TimestampPool>,
     ) -> Result<Launch> {
         let inner = match (&self.repr, &sbt.device) {
             (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan(sbt)) if Arc::ptr_eq(&sbt.pipeline, inner) => inner,
@@ -161,7 +160,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
             bytemuck::bytes_of(params),
             dims,
             self.stack_size(),
-            timestamps,
+            timestamps.map(|t| t.pool),
         )?;
         Ok(Launch { repr: LaunchRepr::Vulkan(launch) })
     }

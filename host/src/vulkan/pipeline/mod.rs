@@ -8,3 +8,4 @@ pub(crate) mod layout;
 pub(crate) mod link;
 pub(crate) mod record;
 pub(crate) mod shader_groups;
+pub(crate) mod timing;
