@@ -39,21 +39,15 @@
 //! [`Error::DeviceLost`], and the objects still drop cleanly. The next
 //! [`Context::new`] gets a new device, Vulkan's way back from a lost device.
 
-use std::mem::ManuallyDrop;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use ash::vk;
 
 use crate::cache::{PipelineCacheInfo, PipelineCacheLocation};
 use crate::error::{Error, Result};
-use crate::handles::LiveTraversables;
 use crate::log::{LogCallback, MessageLog};
-use crate::vulkan::buffer_table::BufferTable;
-use crate::vulkan::cache::{CacheKey, DiskCache};
-use crate::vulkan::context::{DeviceHold, PoolGuard, RouteGuard};
-use crate::vulkan::device_registry::SharedDevice;
-use crate::vulkan::timeline::Timeline;
+pub(crate) use crate::vulkan::context::ContextInner;
 
 /// Where a [`Context`] runs device programs.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
@@ -168,51 +162,8 @@ pub(crate) enum ContextBackend {
     Vulkan(Arc<ContextInner>),
     Cpu(Arc<crate::cpu::CpuContext>),
 }
-pub(crate) struct ContextInner {
-    /// This context's id, which its objects' debug names carry (see [`crate::log`]).
-    pub(crate) id: u64,
-    /// The device, shared with every other context on the same GPU.
-    pub(crate) shared: Arc<SharedDevice>,
-    pub(crate) log: MessageLog,
-    // Copies of the shared device's function tables and properties, read often.
-    pub(crate) instance: ash::Instance,
-    pub(crate) device: ash::Device,
-    pub(crate) rt: ash::khr::ray_tracing_pipeline::Device,
-    pub(crate) accel: ash::khr::acceleration_structure::Device,
-    /// This context's command pool: a pool is externally synchronised, so each
-    /// context has its own.
-    pub(crate) command_pool: Mutex<vk::CommandPool>,
-    /// Finished command buffers, reused by later submissions: allocating one for
-    /// every launch costs more than the launch on some drivers. Guarded with the
-    /// pool's lock held too.
-    pub(crate) recycled: Mutex<Vec<vk::CommandBuffer>>,
-    pub(crate) allocator: ManuallyDrop<Mutex<gpu_allocator::vulkan::Allocator>>,
-    pub(crate) buffer_table: ManuallyDrop<BufferTable>,
-    /// Epochs of submissions and the objects waiting for them (see [`crate::timeline`]).
-    pub(crate) timeline: Timeline,
-    /// The live IASes, which launches check `Traversable`s against (see [`crate::handles`]).
-    pub(crate) traversables: LiveTraversables,
-    pub(crate) limits: DeviceLimits,
-    /// Largest launch width, height and depth: `maxComputeWorkGroupCount[i] ×
-    /// maxComputeWorkGroupSize[i]`, as `vkCmdTraceRaysKHR` requires.
-    pub(crate) launch_dimension_limits: [u64; 3],
-    /// Whether `VK_KHR_shader_non_semantic_info` is enabled, which modules with
-    /// debug info (`SPV_KHR_non_semantic_info`) need.
-    pub(crate) non_semantic_info: bool,
-    /// Whether `VK_KHR_pipeline_library` is enabled (see [`crate::PipelineLibrary`]).
-    pub(crate) pipeline_library: bool,
-    /// Whether the driver is lavapipe (Mesa's CPU driver), whose workarounds
-    /// raykit applies (see [`crate::pipeline::library`]).
-    pub(crate) lavapipe: bool,
-    /// The compile cache every pipeline creation of this context goes through.
-    pub(crate) pipeline_cache: DiskCache,
-    /// The test hook that holds submissions on the device (see [`crate::gate`]).
-    #[cfg(feature = "fault-injection")]
-    pub(crate) gate: crate::gate::Gate,
-}
-
 /// Hands out context ids.
-fn next_context_id() -> u64 {
+pub(crate) fn next_context_id() -> u64 {
     static NEXT: AtomicU64 = AtomicU64::new(1);
     NEXT.fetch_add(1, Ordering::Relaxed)
 }
@@ -255,19 +206,9 @@ impl Context {
         if options.backend.or_else(Backend::from_env).unwrap_or_default() == Backend::Cpu {
             return Ok(vec![Context::new(options)?]);
         }
-        let validation =
-            options.validation.unwrap_or_else(|| std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1"));
-        let instance = crate::vulkan::device_registry::instance(validation)?;
-        let usable = crate::vulkan::device_registry::usable_devices(instance, options.device_name_contains.as_deref())?;
-        let is_cpu = |u: &crate::vulkan::device_registry::Usable| {
-            u.report.device_type == format!("{:?}", vk::PhysicalDeviceType::CPU)
-        };
-        let any_gpu = usable.iter().any(|u| !is_cpu(u));
-        usable
-            .iter()
-            .enumerate()
-            .filter(|(_, u)| !(any_gpu && is_cpu(u)))
-            .map(|(index, _)| Context::new(ContextOptions { device_index: Some(index), ..options.clone() }))
+        crate::vulkan::context::device_indices(&options)?
+            .into_iter()
+            .map(|index| Context::new(ContextOptions { device_index: Some(index), ..options.clone() }))
             .collect()
     }
 
@@ -319,72 +260,7 @@ impl Context {
 
     /// A Vulkan context on the first device with ray-tracing pipelines.
     fn new_vulkan(options: ContextOptions) -> Result<Context> {
-        let validation =
-            options.validation.unwrap_or_else(|| std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1"));
-        let instance = crate::vulkan::device_registry::instance(validation)?;
-        let id = next_context_id();
-        let log = MessageLog::with_callback(options.log_callback.clone());
-        // Routed before the device is made, so messages of its creation reach the log.
-        instance.routes.add(id, log.clone());
-        let mut route = RouteGuard { instance, id, armed: true };
-        let choice = crate::vulkan::device_registry::DeviceChoice {
-            name_contains: options.device_name_contains.as_deref(),
-            index: options.device_index,
-        };
-        let shared = crate::vulkan::device_registry::acquire(instance, choice)?;
-        let mut hold = DeviceHold { shared: shared.clone(), armed: true };
-        let device = &shared.device;
-        let physical = shared.physical;
-        let pool_info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(shared.queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER | vk::CommandPoolCreateFlags::TRANSIENT);
-        // SAFETY: valid device and create info.
-        let command_pool =
-            unsafe { device.create_command_pool(&pool_info, None) }.map_err(Error::vk("vkCreateCommandPool"))?;
-        let pool_guard = PoolGuard(device, command_pool);
-        let allocator = gpu_allocator::vulkan::Allocator::new(&gpu_allocator::vulkan::AllocatorCreateDesc {
-            instance: instance.instance.clone(),
-            device: device.clone(),
-            physical_device: physical,
-            debug_settings: Default::default(),
-            buffer_device_address: true,
-            allocation_sizes: Default::default(),
-        })
-        .map_err(|source| Error::Allocation { what: "the memory allocator", source })?;
-        let buffer_table = BufferTable::new(device)?;
-        let timeline = Timeline::new(device)?;
-        std::mem::forget(pool_guard);
-        let pipeline_cache = DiskCache::open(device, CacheKey::of(&shared.properties), &options.pipeline_cache);
-        let inner = ContextInner {
-            id,
-            log,
-            instance: instance.instance.clone(),
-            device: device.clone(),
-            rt: shared.rt.clone(),
-            accel: shared.accel.clone(),
-            command_pool: Mutex::new(command_pool),
-            recycled: Mutex::new(Vec::new()),
-            allocator: ManuallyDrop::new(Mutex::new(allocator)),
-            buffer_table: ManuallyDrop::new(buffer_table),
-            timeline,
-            traversables: LiveTraversables::default(),
-            limits: shared.limits,
-            launch_dimension_limits: shared.launch_dimension_limits,
-            non_semantic_info: shared.non_semantic_info,
-            pipeline_library: shared.pipeline_library,
-            lavapipe: shared.lavapipe,
-            pipeline_cache,
-            shared,
-            #[cfg(feature = "fault-injection")]
-            gate: Default::default(),
-        };
-        inner.set_name(command_pool, "command pool");
-        inner.set_name(inner.buffer_table.set, "buffer table");
-        inner.set_name(inner.buffer_table.layout, "buffer table layout");
-        // The context now owns the route and the hold.
-        route.armed = false;
-        hold.armed = false;
-        Ok(Context::from_vulkan(Arc::new(inner)))
+        Ok(Context::from_vulkan(crate::vulkan::context::create(&options)?))
     }
 
     /// The name of the device in use.
@@ -511,13 +387,7 @@ impl Context {
                 return MemoryUsage { allocations, allocated_bytes: bytes, reserved_bytes: bytes, blocks: allocations };
             }
         };
-        let report = inner.allocator().generate_report();
-        MemoryUsage {
-            allocations: report.allocations.len(),
-            allocated_bytes: report.total_allocated_bytes,
-            reserved_bytes: report.total_capacity_bytes,
-            blocks: report.blocks.len(),
-        }
+        inner.memory_usage()
     }
 }
 

@@ -22,11 +22,8 @@
 //! `optixModuleCreate` and `optixPipelineCreate`).
 
 use std::cell::RefCell;
-use std::ffi::{c_void, CStr};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
-
-use ash::vk;
 
 /// How serious a message is.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -190,7 +187,7 @@ pub(crate) fn tagged_name(context: u64, name: &str) -> String {
 }
 
 /// The context id and the name given, of a debug name made by [`tagged_name`].
-fn untag(name: &str) -> (Option<u64>, &str) {
+pub(crate) fn untag(name: &str) -> (Option<u64>, &str) {
     let Some(rest) = name.strip_prefix(TAG) else { return (None, name) };
     let Some((id, given)) = rest.split_once(' ') else { return (None, name) };
     match id.parse() {
@@ -218,7 +215,7 @@ impl Routes {
 
     /// The logs `message` goes to: those of the contexts in `named`, or every
     /// context's when none of them is alive.
-    fn targets(&self, named: &[u64]) -> Vec<MessageLog> {
+    pub(crate) fn targets(&self, named: &[u64]) -> Vec<MessageLog> {
         let contexts = self.contexts.lock().unwrap_or_else(|p| p.into_inner());
         let chosen: Vec<MessageLog> =
             contexts.iter().filter(|(id, _)| named.contains(id)).map(|(_, log)| log.clone()).collect();
@@ -228,60 +225,6 @@ impl Routes {
             chosen
         }
     }
-}
-
-/// The debug messenger's callback: turns the message into a [`ValidationMessage`],
-/// records it in this thread's captures and delivers it to the contexts it concerns.
-pub(crate) unsafe extern "system" fn debug_callback(
-    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
-    _types: vk::DebugUtilsMessageTypeFlagsEXT,
-    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
-    user_data: *mut c_void,
-) -> vk::Bool32 {
-    if user_data.is_null() || data.is_null() {
-        return vk::FALSE;
-    }
-    // SAFETY: `user_data` is the instance's `Routes`, which lives for the rest of the
-    // process; `data` and the strings and objects it points to are valid for this call.
-    let (routes, data) = unsafe { (&*(user_data as *const Routes), &*data) };
-    let text = |p: *const std::ffi::c_char| {
-        if p.is_null() {
-            String::new()
-        } else {
-            // SAFETY: as above: the strings of `data` are valid and NUL-terminated.
-            unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
-        }
-    };
-    let mut named = Vec::new();
-    let objects = if data.p_objects.is_null() || data.object_count == 0 {
-        Vec::new()
-    } else {
-        // SAFETY: `p_objects` holds `object_count` objects.
-        unsafe { std::slice::from_raw_parts(data.p_objects, data.object_count as usize) }
-            .iter()
-            .map(|o| {
-                let name = (!o.p_object_name.is_null()).then(|| text(o.p_object_name)).map(|name| {
-                    let (context, given) = untag(&name);
-                    named.extend(context);
-                    given.to_owned()
-                });
-                LoggedObject { object_type: format!("{:?}", o.object_type), handle: o.object_handle, name }
-            })
-            .collect()
-    };
-    let severity = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
-        Severity::Error
-    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
-        Severity::Warning
-    } else {
-        Severity::Info
-    };
-    let message = ValidationMessage { severity, id: text(data.p_message_id_name), text: text(data.p_message), objects };
-    record_in_captures(&message);
-    for log in routes.targets(&named) {
-        log.push(message.clone());
-    }
-    vk::FALSE
 }
 
 #[cfg(test)]

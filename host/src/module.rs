@@ -11,13 +11,13 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use ash::vk;
 use raykit_abi::ProgramPrefix;
 use raykit_device::ProgramKind;
 use rspirv::spirv::{ExecutionModel, Op, MAGIC_NUMBER as SPIRV_MAGIC};
 
-use crate::context::{Context, ContextInner};
+use crate::context::Context;
 use crate::error::{Error, Result};
+pub(crate) use crate::vulkan::module::ModuleInner;
 use raykit_spirv::{InterfaceSizes, ParamsBlock};
 
 /// One entry point of a module.
@@ -99,23 +99,8 @@ fn spirv_on_cpu() -> Error {
     }
 }
 
-pub(crate) struct ModuleInner {
-    pub(crate) ctx: Arc<ContextInner>,
-    pub(crate) shader: vk::ShaderModule,
-    pub(crate) entry_points: Vec<EntryPointInfo>,
-    /// Its SPIR-V, validated again with each pipeline's specialization constants.
-    pub(crate) words: Vec<u32>,
-    /// Messages reported while it was created.
-    pub(crate) log: Vec<crate::log::ValidationMessage>,
-    /// Whether it declares the user-exception buffer's specialization constant: only
-    /// then can its programs throw (rust-gpu leaves the constant out of modules
-    /// that never call `throw_exception`), and only then do launches collect
-    /// exceptions for it.
-    pub(crate) records_exceptions: bool,
-}
-
 /// The program kind of a ray-tracing execution model; `None` for other stages.
-fn kind_of(model: ExecutionModel) -> Option<ProgramKind> {
+pub(crate) fn kind_of(model: ExecutionModel) -> Option<ProgramKind> {
     raykit_abi::ExecutionModel::from_u32(model as u32).map(raykit_abi::ExecutionModel::kind)
 }
 
@@ -412,15 +397,8 @@ impl Module {
                 fix: "Compile the module without debug info (no -gVS)",
             });
         }
-        let info = vk::ShaderModuleCreateInfo::default().code(&words);
-        let (shader, log) = crate::log::capture(|| {
-            // SAFETY: `words` is a parsed SPIR-V module; the device is live.
-            unsafe { vulkan.device.create_shader_module(&info, None) }
-        });
-        let shader = shader.map_err(Error::vk("vkCreateShaderModule"))?;
-        vulkan.set_name(shader, &format!("raykit module {name}"));
         let records_exceptions = declares_spec_id(&words, raykit_abi::EXCEPTION_SLOT_SPEC_ID);
-        let inner = ModuleInner { ctx: vulkan.clone(), shader, entry_points, words, log, records_exceptions };
+        let inner = crate::vulkan::module::create(vulkan, entry_points, words, records_exceptions, name)?;
         Ok(Module { repr: ModuleRepr::Spirv(Arc::new(inner)) })
     }
 
@@ -556,13 +534,6 @@ pub fn spirv_candidates(crate_name: &str) -> Vec<PathBuf> {
     paths
 }
 
-impl Drop for ModuleInner {
-    fn drop(&mut self) {
-        // SAFETY: pipelines made from this module hold an `Arc` to it; none is alive.
-        unsafe { self.ctx.device.destroy_shader_module(self.shader, None) };
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -584,26 +555,6 @@ mod tests {
     const OP_FUNCTION: u32 = Op::Function as u32;
     const OP_FUNCTION_END: u32 = Op::FunctionEnd as u32;
     const OP_SPEC_CONSTANT_OP: u32 = Op::SpecConstantOp as u32;
-
-    /// raykit-abi types its numbers in (it has no dependencies): they must be
-    /// rspirv's execution models and ash's shader stages.
-    #[test]
-    fn the_abi_numbers_are_spirv_and_vulkan_ones() {
-        use raykit_abi::ExecutionModel as Abi;
-        for (abi, spirv, stage) in [
-            (Abi::RayGeneration, ExecutionModel::RayGenerationKHR, vk::ShaderStageFlags::RAYGEN_KHR),
-            (Abi::Intersection, ExecutionModel::IntersectionKHR, vk::ShaderStageFlags::INTERSECTION_KHR),
-            (Abi::AnyHit, ExecutionModel::AnyHitKHR, vk::ShaderStageFlags::ANY_HIT_KHR),
-            (Abi::ClosestHit, ExecutionModel::ClosestHitKHR, vk::ShaderStageFlags::CLOSEST_HIT_KHR),
-            (Abi::Miss, ExecutionModel::MissKHR, vk::ShaderStageFlags::MISS_KHR),
-            (Abi::Callable, ExecutionModel::CallableKHR, vk::ShaderStageFlags::CALLABLE_KHR),
-        ] {
-            assert_eq!(abi.to_u32(), spirv as u32, "{abi:?}");
-            assert_eq!(vk::ShaderStageFlags::from_raw(abi.vulkan_stage()), stage, "{abi:?}");
-            assert_eq!(kind_of(spirv), Some(abi.kind()));
-        }
-        assert_eq!(kind_of(ExecutionModel::GLCompute), None);
-    }
 
     #[test]
     fn rejects_bytes_that_are_not_spirv() {

@@ -6,7 +6,6 @@
 
 use std::sync::Arc;
 
-use ash::vk;
 use glam::Vec3;
 
 use super::input::{self, Aabb, Aabbs, BuildInput, Shape, Triangles};
@@ -14,11 +13,8 @@ use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use crate::vulkan::accel::build::{self, Geometry, Job};
+use crate::vulkan::accel::build;
 use crate::vulkan::accel::structure::AccelStructure;
-use crate::vulkan::memory::RawBuffer;
-
-const BOTTOM: vk::AccelerationStructureTypeKHR = vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL;
 
 /// Sizes before and after [`Gas::compact`].
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
@@ -77,28 +73,6 @@ pub struct GasBuilder<'a> {
     options: BuildOptions,
 }
 
-/// A validated build, ready to record.
-struct Prepared {
-    shapes: Vec<Shape>,
-    counts: Vec<u32>,
-    input_buffer: RawBuffer,
-    geometries: Vec<Geometry>,
-    sizes: AccelSizes,
-}
-
-/// Uploads validated inputs and queries their sizes.
-fn prepare(
-    ctx: &Arc<ContextInner>,
-    inputs: &[BuildInput<'_>],
-    shapes: Vec<Shape>,
-    options: BuildOptions,
-) -> Result<Prepared> {
-    let counts: Vec<u32> = shapes.iter().map(Shape::primitives).collect();
-    let (input_buffer, geometries) = build::upload_gas_inputs(ctx, inputs, &shapes)?;
-    let sizes = build::query_sizes(ctx, BOTTOM, options.vk_flags(), &geometries, &counts);
-    Ok(Prepared { shapes, counts, input_buffer, geometries, sizes })
-}
-
 impl<'a> GasBuilder<'a> {
     /// Adds a geometry; its SBT index is the number of geometries added before it.
     pub fn input(mut self, input: impl Into<BuildInput<'a>>) -> Self {
@@ -134,11 +108,7 @@ impl<'a> GasBuilder<'a> {
         }
         let inner = ctx.vulkan("a GAS size query")?;
         let shapes = input::validate(&self.inputs, &inner.limits, false)?;
-        let counts: Vec<u32> = shapes.iter().map(Shape::primitives).collect();
-        // The size query ignores addresses (only a transform's presence counts):
-        // describe the geometry without uploading it.
-        let geometries: Vec<Geometry> = self.inputs.iter().zip(&shapes).map(|(i, s)| describe(i, s)).collect();
-        Ok(build::query_sizes(inner, BOTTOM, self.options.vk_flags(), &geometries, &counts))
+        Ok(crate::vulkan::accel::gas::sizes(inner, &self.inputs, &shapes, self.options))
     }
 
     /// Builds and waits.
@@ -162,25 +132,6 @@ impl<'a> GasBuilder<'a> {
     }
 }
 
-/// A geometry as the size query sees it: formats, counts and strides, no data.
-fn describe(input: &BuildInput<'_>, shape: &Shape) -> Geometry {
-    match input {
-        BuildInput::Triangles(t) => Geometry::Triangles {
-            vertices: 0,
-            stride: t.stride,
-            max_vertex: t.vertex_count.saturating_sub(1) as u32,
-            index_type: match shape {
-                Shape::Triangles { index, .. } => index.vk(),
-                Shape::Aabbs { .. } => vk::IndexType::NONE_KHR,
-            },
-            indices: 0,
-            transform: u64::from(t.transform.is_some()),
-            flags: t.flags.vk(),
-        },
-        BuildInput::Aabbs(a) => Geometry::Aabbs { data: 0, stride: a.stride, flags: a.flags.vk() },
-    }
-}
-
 /// Validates, uploads and submits `builds` in one command buffer.
 fn submit_gases(ctx: &Arc<ContextInner>, builds: &[GasBuilder<'_>]) -> Result<(build::InFlight, Vec<Gas>)> {
     if builds.is_empty() {
@@ -191,33 +142,20 @@ fn submit_gases(ctx: &Arc<ContextInner>, builds: &[GasBuilder<'_>]) -> Result<(b
         .iter()
         .map(|b| input::validate(&b.inputs, &ctx.limits, b.options.allow_update))
         .collect::<Result<Vec<_>>>()?;
-    let mut gases = Vec::with_capacity(builds.len());
-    let mut jobs = Vec::with_capacity(builds.len());
-    let mut buffers = Vec::with_capacity(builds.len());
-    for (b, shapes) in builds.iter().zip(validated) {
-        let p = prepare(ctx, &b.inputs, shapes, b.options)?;
-        let accel = AccelStructure::new(ctx, BOTTOM, p.sizes.structure)?;
-        jobs.push(Job {
-            ty: BOTTOM,
-            flags: b.options.vk_flags(),
-            update_from: None,
-            dst: accel.handle,
-            geometries: p.geometries,
-            counts: p.counts,
-            scratch: p.sizes.build_scratch,
-            query_compacted: b.options.allow_compaction,
-        });
-        buffers.push(p.input_buffer);
-        gases.push(Gas {
-            accel: GasAccel::Vulkan(Arc::new(accel)),
-            shapes: p.shapes,
-            options: b.options,
-            sizes: p.sizes,
+    let batch = builds.iter().zip(validated).map(|(b, shapes)| (&b.inputs[..], shapes, b.options));
+    let (in_flight, built) = crate::vulkan::accel::gas::submit(ctx, batch)?;
+    let gases = built
+        .into_iter()
+        .zip(builds)
+        .map(|(b, builder)| Gas {
+            accel: GasAccel::Vulkan(Arc::new(b.accel)),
+            shapes: b.shapes,
+            options: builder.options,
+            sizes: b.sizes,
             compacted_size: None,
             compaction: None,
-        });
-    }
-    let in_flight = build::submit(ctx, &jobs, buffers)?;
+        })
+        .collect();
     Ok((in_flight, gases))
 }
 
@@ -303,19 +241,7 @@ impl Gas {
         if let Some(reason) = input::update_refusal(&self.shapes, &shapes) {
             return Err(Error::UpdateRefused { what: "GAS", reason });
         }
-        let p = prepare(&ctx, inputs, shapes, self.options)?;
-        let job = Job {
-            ty: BOTTOM,
-            flags: self.options.vk_flags(),
-            update_from: Some(accel.handle),
-            dst: accel.handle,
-            geometries: p.geometries,
-            counts: p.counts,
-            scratch: p.sizes.update_scratch,
-            query_compacted: false,
-        };
-        build::submit(&ctx, &[job], vec![p.input_buffer])?.wait()?;
-        accel.version.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
+        crate::vulkan::accel::gas::refit(&accel, inputs, shapes, self.options)?;
         self.compacted_size = None;
         Ok(())
     }
@@ -344,48 +270,7 @@ impl Gas {
                 return Ok(Gas { compaction: Some(Compaction { before: size, after: size }), ..self });
             }
         };
-        let ctx = accel.ctx.clone();
-        let compacted_size = match self.compacted_size {
-            Some(size) => size,
-            None => {
-                // Updated since the build: ask again.
-                let pool = build::QueryPool::compacted_sizes(&ctx, 1)?;
-                let handle = accel.handle;
-                let mut submission = ctx.submit("a compacted-size query", |cmd| {
-                    // SAFETY: the structure is built and alive; the pool has one query.
-                    unsafe {
-                        build::after_earlier_work_barrier(&ctx, cmd);
-                        ctx.device.cmd_reset_query_pool(cmd, pool.pool, 0, 1);
-                        ctx.accel.cmd_write_acceleration_structures_properties(
-                            cmd,
-                            &[handle],
-                            vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
-                            pool.pool,
-                            0,
-                        );
-                    }
-                })?;
-                submission.wait()?;
-                drop(submission);
-                pool.results()?.first().copied().unwrap_or(accel.size)
-            }
-        };
-        let compacted = AccelStructure::new(&ctx, BOTTOM, compacted_size.max(1))?;
-        let info = vk::CopyAccelerationStructureInfoKHR::default()
-            .src(accel.handle)
-            .dst(compacted.handle)
-            .mode(vk::CopyAccelerationStructureModeKHR::COMPACT);
-        let mut submission = ctx.submit("an acceleration structure compaction", |cmd| {
-            // SAFETY: both structures are alive until the wait below; the
-            // destination is at least the queried compacted size.
-            unsafe {
-                build::after_earlier_work_barrier(&ctx, cmd);
-                ctx.accel.cmd_copy_acceleration_structure(cmd, &info);
-                build::build_barrier(&ctx, cmd);
-            }
-        })?;
-        submission.wait()?;
-        drop(submission);
+        let (compacted, compacted_size) = crate::vulkan::accel::gas::compact(&accel, self.compacted_size)?;
         Ok(Gas {
             compaction: Some(Compaction { before: accel.size, after: compacted.size }),
             accel: GasAccel::Vulkan(Arc::new(compacted)),

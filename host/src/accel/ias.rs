@@ -6,7 +6,6 @@
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
-use ash::vk;
 use glam::Affine3A;
 use raykit_device::Traversable;
 
@@ -15,29 +14,25 @@ use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::{Context, ContextInner};
 use crate::error::{Error, Result};
-use crate::vulkan::accel::build::{self, Geometry, InputPacker, Job};
+use crate::vulkan::accel::build;
 use crate::vulkan::accel::structure::AccelStructure;
-
-const TOP: vk::AccelerationStructureTypeKHR = vk::AccelerationStructureTypeKHR::TOP_LEVEL;
 
 /// Per-instance flags (`VkGeometryInstanceFlagsKHR`, OptiX's `OPTIX_INSTANCE_FLAG_*`).
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
-pub struct InstanceFlags(u8);
+pub struct InstanceFlags(pub(crate) u8);
 
 impl InstanceFlags {
     /// No flags.
     pub const NONE: InstanceFlags = InstanceFlags(0);
     /// Disable face culling for this instance's triangles.
     pub const DISABLE_TRIANGLE_CULLING: InstanceFlags =
-        InstanceFlags(vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE.as_raw() as u8);
+        InstanceFlags(crate::vulkan::accel::ias::TRIANGLE_FACING_CULL_DISABLE);
     /// Swap front and back faces.
-    pub const FLIP_TRIANGLE_FACING: InstanceFlags =
-        InstanceFlags(vk::GeometryInstanceFlagsKHR::TRIANGLE_FLIP_FACING.as_raw() as u8);
+    pub const FLIP_TRIANGLE_FACING: InstanceFlags = InstanceFlags(crate::vulkan::accel::ias::TRIANGLE_FLIP_FACING);
     /// Treat every geometry as opaque (no any-hit).
-    pub const FORCE_OPAQUE: InstanceFlags = InstanceFlags(vk::GeometryInstanceFlagsKHR::FORCE_OPAQUE.as_raw() as u8);
+    pub const FORCE_OPAQUE: InstanceFlags = InstanceFlags(crate::vulkan::accel::ias::FORCE_OPAQUE);
     /// Treat every geometry as non-opaque (any-hit runs).
-    pub const FORCE_NON_OPAQUE: InstanceFlags =
-        InstanceFlags(vk::GeometryInstanceFlagsKHR::FORCE_NO_OPAQUE.as_raw() as u8);
+    pub const FORCE_NON_OPAQUE: InstanceFlags = InstanceFlags(crate::vulkan::accel::ias::FORCE_NO_OPAQUE);
 
     /// Whether every flag of `other` is set.
     pub fn contains(self, other: InstanceFlags) -> bool {
@@ -56,12 +51,12 @@ impl std::ops::BitOr for InstanceFlags {
 #[derive(Clone)]
 #[must_use]
 pub struct Instance {
-    accel: GasAccel,
-    transform: [f32; 12],
-    custom_index: u32,
-    mask: u8,
-    sbt_offset: u32,
-    flags: InstanceFlags,
+    pub(crate) accel: GasAccel,
+    pub(crate) transform: [f32; 12],
+    pub(crate) custom_index: u32,
+    pub(crate) mask: u8,
+    pub(crate) sbt_offset: u32,
+    pub(crate) flags: InstanceFlags,
     /// Geometries of its GAS: the hit records it spans per ray type.
     geometries: u32,
 }
@@ -124,20 +119,6 @@ impl Instance {
         self.flags = flags;
         self
     }
-
-    fn record(&self) -> vk::AccelerationStructureInstanceKHR {
-        vk::AccelerationStructureInstanceKHR {
-            transform: vk::TransformMatrixKHR { matrix: self.transform },
-            instance_custom_index_and_mask: vk::Packed24_8::new(self.custom_index, self.mask),
-            instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(self.sbt_offset, self.flags.0),
-            acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
-                device_handle: match &self.accel {
-                    GasAccel::Vulkan(accel) => accel.address,
-                    GasAccel::Cpu(_) => 0,
-                },
-            },
-        }
-    }
 }
 
 impl std::fmt::Debug for Instance {
@@ -153,13 +134,13 @@ impl std::fmt::Debug for Instance {
     }
 }
 
-/// Checks instances; returns their device records.
-fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<Vec<vk::AccelerationStructureInstanceKHR>> {
+/// Checks instances for a Vulkan IAS of `ctx`.
+fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<()> {
     check_fields(instances, ctx.limits.max_instance_count)?;
     if instances.iter().any(|i| !matches!(&i.accel, GasAccel::Vulkan(accel) if Arc::ptr_eq(&accel.ctx, ctx))) {
         return Err(Error::ContextMismatch);
     }
-    Ok(instances.iter().map(Instance::record).collect())
+    Ok(())
 }
 
 /// Checks what every backend requires of instances: some, at most `limit`, with
@@ -187,21 +168,6 @@ fn check_fields(instances: &[Instance], limit: u64) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// Uploads instance records; returns the buffer and the geometry naming it.
-fn upload(
-    ctx: &Arc<ContextInner>,
-    records: &[vk::AccelerationStructureInstanceKHR],
-) -> Result<(crate::vulkan::memory::RawBuffer, Geometry)> {
-    // SAFETY: `AccelerationStructureInstanceKHR` is plain data (floats, packed
-    // integers and a u64 address) with no padding: 64 bytes each.
-    let bytes = unsafe { std::slice::from_raw_parts(records.as_ptr() as *const u8, std::mem::size_of_val(records)) };
-    let mut packer = InputPacker::default();
-    let at = packer.push(bytes, 16);
-    let buffer = packer.upload(ctx, "IAS instances")?;
-    let geometry = Geometry::Instances { data: buffer.address + at };
-    Ok((buffer, geometry))
 }
 
 /// Describes an IAS build: instances and options.
@@ -239,22 +205,8 @@ impl IasBuilder<'_> {
             return Ok(PendingBuild::ready(ias));
         }
         let inner = ctx.vulkan("an IAS build")?;
-        let records = validate(inner, self.instances)?;
-        let (buffer, geometry) = upload(inner, &records)?;
-        let counts = [records.len() as u32];
-        let sizes = build::query_sizes(inner, TOP, self.options.vk_flags(), &[geometry], &counts);
-        let accel = AccelStructure::new(inner, TOP, sizes.structure)?;
-        let job = Job {
-            ty: TOP,
-            flags: self.options.vk_flags(),
-            update_from: None,
-            dst: accel.handle,
-            geometries: vec![geometry],
-            counts: counts.to_vec(),
-            scratch: sizes.build_scratch,
-            query_compacted: false,
-        };
-        let in_flight = build::submit(inner, &[job], vec![buffer])?;
+        validate(inner, self.instances)?;
+        let (accel, sizes, in_flight) = crate::vulkan::accel::ias::submit(inner, self.instances, self.options)?;
         let ias = Ias {
             accel: IasAccel::Vulkan(accel),
             gases: self.instances.iter().map(|i| i.accel.clone()).collect(),
@@ -328,25 +280,12 @@ impl Ias {
                 reason: format!("the instance count changed from {} to {}", self.gases.len(), instances.len()),
             });
         }
-        let (ctx, handle) = match &self.accel {
-            IasAccel::Vulkan(accel) => (accel.ctx.clone(), accel.handle),
+        let accel = match &self.accel {
+            IasAccel::Vulkan(accel) => accel,
             IasAccel::Cpu { .. } => return self.build_cpu(instances),
         };
-        let records = validate(&ctx, instances)?;
-        let (buffer, geometry) = upload(&ctx, &records)?;
-        let counts = [records.len() as u32];
-        let sizes = build::query_sizes(&ctx, TOP, self.options.vk_flags(), &[geometry], &counts);
-        let job = Job {
-            ty: TOP,
-            flags: self.options.vk_flags(),
-            update_from: Some(handle),
-            dst: handle,
-            geometries: vec![geometry],
-            counts: counts.to_vec(),
-            scratch: sizes.update_scratch,
-            query_compacted: false,
-        };
-        build::submit(&ctx, &[job], vec![buffer])?.wait()?;
+        validate(&accel.ctx, instances)?;
+        crate::vulkan::accel::ias::refit(accel, instances, self.options)?;
         self.gases = instances.iter().map(|i| i.accel.clone()).collect();
         self.reach = Arc::new(HitReach::of(instances));
         self.register();

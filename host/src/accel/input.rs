@@ -13,7 +13,6 @@
 
 use std::hash::{Hash, Hasher};
 
-use ash::vk;
 use glam::{Affine3A, Vec3};
 
 use crate::context::DeviceLimits;
@@ -26,24 +25,20 @@ const AABB_SIZE: u64 = 24;
 
 /// Per-geometry flags (`VkGeometryFlagsKHR`, OptiX's `OPTIX_GEOMETRY_FLAG_*`).
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
-pub struct GeometryFlags(u32);
+pub struct GeometryFlags(pub(crate) u32);
 
 impl GeometryFlags {
     /// No flags: any-hit programs run (OptiX's `OPTIX_GEOMETRY_FLAG_NONE`).
     pub const NONE: GeometryFlags = GeometryFlags(0);
     /// The geometry is opaque: any-hit programs are skipped.
-    pub const OPAQUE: GeometryFlags = GeometryFlags(vk::GeometryFlagsKHR::OPAQUE.as_raw());
+    pub const OPAQUE: GeometryFlags = GeometryFlags(crate::vulkan::accel::structure::GEOMETRY_OPAQUE);
     /// Any-hit runs at most once per primitive along a ray.
     pub const NO_DUPLICATE_ANY_HIT: GeometryFlags =
-        GeometryFlags(vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION.as_raw());
+        GeometryFlags(crate::vulkan::accel::structure::GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION);
 
     /// Whether every flag of `other` is set.
     pub fn contains(self, other: GeometryFlags) -> bool {
         self.0 & other.0 == other.0
-    }
-
-    pub(crate) fn vk(self) -> vk::GeometryFlagsKHR {
-        vk::GeometryFlagsKHR::from_raw(self.0)
     }
 }
 
@@ -106,16 +101,6 @@ pub(crate) enum IndexKind {
     None,
     U16,
     U32,
-}
-
-impl IndexKind {
-    pub(crate) fn vk(self) -> vk::IndexType {
-        match self {
-            IndexKind::None => vk::IndexType::NONE_KHR,
-            IndexKind::U16 => vk::IndexType::UINT16,
-            IndexKind::U32 => vk::IndexType::UINT32,
-        }
-    }
 }
 
 /// A triangle geometry: f32×3 vertex positions, optional indices and transform.

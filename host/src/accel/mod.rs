@@ -55,7 +55,7 @@
 //! have no Vulkan equivalent. An [`Ias`] keeps the [`Gas`]es it instances alive,
 //! so an instance can never point at a destroyed GAS.
 
-mod gas;
+pub(crate) mod gas;
 mod ias;
 pub mod input;
 mod options;

@@ -53,15 +53,11 @@
 
 use std::sync::Arc;
 
-use ash::vk;
-
-use super::{Pipeline, PipelineInner, PipelineRepr};
+use super::{Pipeline, PipelineRepr};
 use crate::error::{Error, Result};
 use crate::sbt::{Sbt, SbtDevice};
-use crate::vulkan::buffer_table::RT_STAGES;
-use crate::vulkan::context::Submission;
-use crate::vulkan::memory::RawBuffer;
-use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
+use crate::vulkan::pipeline::record::VulkanLaunch;
+use crate::vulkan::pipeline::timing::TimestampPool;
 
 /// A launch submitted to the device and not yet waited for (OptiX's launch on a
 /// stream). Dropping it waits for the work first.
@@ -76,42 +72,17 @@ enum LaunchRepr {
     Cpu(crate::cpu::launch::CpuLaunch),
 }
 
-/// A launch submitted to a Vulkan queue.
-struct VulkanLaunch {
-    // Field order matters: the submission (which waits in its drop) goes first.
-    submission: Submission,
-    /// Host-visible copies of the pipeline's exception buffers, written by the
-    /// launch; returned to the pipeline's pool when the launch is done.
-    readback: Option<RawBuffer>,
-    pipeline: Arc<PipelineInner>,
-    _sbt: Arc<RawBuffer>,
-}
-
-impl Drop for VulkanLaunch {
-    fn drop(&mut self) {
-        // The work is done once the submission has waited: only then may the
-        // readback buffer serve another launch.
-        if self.submission.wait().is_ok() {
-            if let Some(readback) = self.readback.take() {
-                let mut pool = self.pipeline.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                if pool.len() < 8 {
-                    pool.push(readback);
-                }
-            }
-        }
-    }
-}
-
 impl std::fmt::Debug for Launch {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let this = match &self.repr {
             LaunchRepr::Vulkan(launch) => launch,
             LaunchRepr::Cpu(launch) => return launch.fmt(f),
         };
-        let groups: Vec<_> = this.pipeline.groups.iter().map(|g| g.kind).collect();
+        let pipeline = this.pipeline();
+        let groups: Vec<_> = pipeline.groups.iter().map(|g| g.kind).collect();
         f.debug_struct("Launch")
             .field("pipeline_groups", &groups)
-            .field("exception_buffers", &this.pipeline.exceptions.len())
+            .field("exception_buffers", &pipeline.exceptions.len())
             .finish_non_exhaustive()
     }
 }
@@ -120,7 +91,7 @@ impl Launch {
     /// Whether the launch has finished, without blocking.
     pub fn is_done(&self) -> Result<bool> {
         match &self.repr {
-            LaunchRepr::Vulkan(launch) => launch.submission.is_done(),
+            LaunchRepr::Vulkan(launch) => launch.is_done(),
             LaunchRepr::Cpu(launch) => Ok(launch.is_done()),
         }
     }
@@ -132,23 +103,10 @@ impl Launch {
     /// Errors of the CPU backend's launches: [`Error::ProgramPanicked`] and
     /// [`Error::CpuLaunchFault`].
     pub fn wait(self) -> Result<()> {
-        let mut launch = match self.repr {
-            LaunchRepr::Vulkan(launch) => launch,
-            LaunchRepr::Cpu(launch) => return launch.wait(),
-        };
-        launch.submission.wait()?;
-        let Some(bytes) = launch.readback.as_ref().and_then(|r| r.mapped()) else { return Ok(()) };
-        let mut total = 0;
-        let mut exceptions = Vec::new();
-        for copy in bytes.chunks_exact(ExceptionBuffer::SIZE as usize) {
-            let (n, thrown) = ExceptionBuffer::parse(copy);
-            total += n;
-            exceptions.extend(thrown);
+        match self.repr {
+            LaunchRepr::Vulkan(launch) => launch.wait(),
+            LaunchRepr::Cpu(launch) => launch.wait(),
         }
-        if total > 0 {
-            return Err(super::exceptions_error(total, exceptions, launch.pipeline.max_trace_depth));
-        }
-        Ok(())
     }
 }
 
@@ -172,7 +130,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         sbt: &Sbt,
         params: &P,
         dims: [u32; 3],
-        timestamps: Option<vk::QueryPool>,
+        timestamps: Option<&TimestampPool>,
     ) -> Result<()> {
         self.submit_launch(sbt, params, dims, timestamps)?.wait()
     }
@@ -183,10 +141,10 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         sbt: &Sbt,
         params: &P,
         dims: [u32; 3],
-        timestamps: Option<vk::QueryPool>,
+        timestamps: Option<&TimestampPool>,
     ) -> Result<Launch> {
         let inner = match (&self.repr, &sbt.device) {
-            (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan { pipeline, .. }) if Arc::ptr_eq(pipeline, inner) => inner,
+            (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan(sbt)) if Arc::ptr_eq(&sbt.pipeline, inner) => inner,
             (PipelineRepr::Cpu(data), SbtDevice::Cpu { pipeline, data: records }) if Arc::ptr_eq(pipeline, data) => {
                 check_dimensions(dims, &crate::cpu::LIMITS, crate::cpu::LAUNCH_DIMENSION_LIMITS)?;
                 let launch = crate::cpu::launch::CpuLaunch::submit(data, sbt, records, params, dims)?;
@@ -196,158 +154,14 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         };
         let ctx = &inner.ctx;
         check_dimensions(dims, &ctx.limits, ctx.launch_dimension_limits)?;
-        let device = &ctx.device;
-        let params_bytes = bytemuck::bytes_of(params);
-        // `vkCmdUpdateBuffer` takes whole words: pad the params to the buffer's size.
-        let uniform = inner.params_uniform.as_ref().and_then(|u| {
-            let buffer = u.buffer.as_ref()?;
-            let mut padded = params_bytes.to_vec();
-            padded.resize(u.size as usize, 0);
-            Some((u.set, buffer.buffer, padded))
-        });
-        let stack_size = self.stack_size();
-        // Only the exception buffers of programs that can throw are zeroed, copied
-        // and read back (see `ModuleInner::records_exceptions`).
-        let throwing = &inner.throwing;
-        let readback = if throwing.is_empty() {
-            None
-        } else {
-            let pooled = inner.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
-            Some(match pooled {
-                Some(buffer) => buffer,
-                None => RawBuffer::new(
-                    ctx,
-                    "user exception readback",
-                    ExceptionBuffer::SIZE * throwing.len() as u64,
-                    vk::BufferUsageFlags::TRANSFER_DST,
-                    gpu_allocator::MemoryLocation::GpuToCpu,
-                    16,
-                )?,
-            })
-        };
-        // Whether the launch writes anything with transfers before tracing.
-        let transfers = !throwing.is_empty() || uniform.is_some();
-        // The handles of the params, those in SBT records whose type derives
-        // `SbtRecordData` (see `crate::handles`), and the scene's reach into the SBT.
-        let check = || {
-            ctx.check_handles(&inner.handle_fields, params_bytes, None)?;
-            for record in &sbt.checked {
-                ctx.check_handles(&record.fields, &record.data, Some((record.region, record.index)))?;
-            }
-            let hit_reach = |address| ctx.traversables.hit_reach(address);
-            crate::validate::scene::check_scene(hit_reach, &inner.handle_fields, params_bytes, sbt, &inner.reach)
-        };
-        let SbtDevice::Vulkan { raygen, miss, hit, callable, .. } = &sbt.device else {
-            return Err(Error::SbtOfAnotherPipeline);
-        };
-        let submission = ctx.submit_checked("a launch", check, |cmd| {
-            // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
-            // SBT buffers are alive until the work is done (the returned `Launch`
-            // holds them, and their drops wait for this submission's epoch on the
-            // timeline); `cmd` is recording.
-            unsafe {
-                // Every submission before this one ends with a barrier that orders its
-                // work before all later commands (a launch's is the one after its
-                // trace), so a launch that writes only from its programs needs none
-                // here. One that first writes with transfers (the params uniform, the
-                // exception counters) or resets timestamp queries waits here for
-                // earlier work.
-                if transfers || timestamps.is_some() {
-                    full_barrier(
-                        device,
-                        cmd,
-                        vk::PipelineStageFlags::ALL_COMMANDS,
-                        vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::MEMORY_READ,
-                        vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
-                        vk::AccessFlags::TRANSFER_WRITE | SHADER_ACCESS,
-                    );
-                }
-                if transfers {
-                    for exceptions in throwing {
-                        // The counter is the first word.
-                        device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
-                        // Then where the exception program sits in the callable region.
-                        let handler = sbt.exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
-                        device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 4, 4, handler);
-                    }
-                    if let Some((_, buffer, bytes)) = &uniform {
-                        device.cmd_update_buffer(cmd, *buffer, 0, bytes);
-                    }
-                    full_barrier(
-                        device,
-                        cmd,
-                        vk::PipelineStageFlags::TRANSFER,
-                        vk::AccessFlags::TRANSFER_WRITE,
-                        vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
-                        SHADER_ACCESS,
-                    );
-                }
-                device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, inner.pipeline.handle);
-                // The pipeline's stack size is dynamic state (see `crate::stack`).
-                ctx.rt.cmd_set_ray_tracing_pipeline_stack_size(cmd, stack_size);
-                device.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::RAY_TRACING_KHR,
-                    inner.layout.handle,
-                    raykit_abi::BUFFER_TABLE_SET,
-                    &[ctx.buffer_table.set],
-                    &[],
-                );
-                if let Some((set, _, _)) = &uniform {
-                    device.cmd_bind_descriptor_sets(
-                        cmd,
-                        vk::PipelineBindPoint::RAY_TRACING_KHR,
-                        inner.layout.handle,
-                        raykit_device::PARAMS_SET,
-                        &[*set],
-                        &[],
-                    );
-                }
-                if inner.layout.push_constant_size > 0 {
-                    device.cmd_push_constants(cmd, inner.layout.handle, RT_STAGES, 0, params_bytes);
-                }
-                if let Some(pool) = timestamps {
-                    device.cmd_reset_query_pool(cmd, pool, 0, 2);
-                    device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0);
-                }
-                ctx.rt.cmd_trace_rays(cmd, raygen, miss, hit, callable, dims[0], dims[1], dims[2]);
-                if let Some(pool) = timestamps {
-                    device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
-                }
-                // The programs' writes: visible to the host once the epoch is signalled,
-                // to the exception copies below, and to everything submitted later,
-                // which also starts only once the programs are done with what they
-                // read (see above).
-                full_barrier(
-                    device,
-                    cmd,
-                    vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
-                    vk::AccessFlags::SHADER_WRITE,
-                    vk::PipelineStageFlags::ALL_COMMANDS | vk::PipelineStageFlags::HOST,
-                    vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::HOST_READ,
-                );
-                if let Some(readback) = &readback {
-                    for (i, exceptions) in throwing.iter().enumerate() {
-                        let region = vk::BufferCopy {
-                            src_offset: 0,
-                            dst_offset: i as u64 * ExceptionBuffer::SIZE,
-                            size: ExceptionBuffer::SIZE,
-                        };
-                        device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]);
-                    }
-                    full_barrier(
-                        device,
-                        cmd,
-                        vk::PipelineStageFlags::TRANSFER,
-                        vk::AccessFlags::TRANSFER_WRITE,
-                        vk::PipelineStageFlags::HOST,
-                        vk::AccessFlags::HOST_READ,
-                    );
-                }
-            }
-        })?;
-        let SbtDevice::Vulkan { buffer, .. } = &sbt.device else { return Err(Error::SbtOfAnotherPipeline) };
-        let launch = VulkanLaunch { submission, readback, pipeline: inner.clone(), _sbt: buffer.clone() };
+        let launch = crate::vulkan::pipeline::record::submit(
+            inner,
+            sbt,
+            bytemuck::bytes_of(params),
+            dims,
+            self.stack_size(),
+            timestamps.map(|t| t.pool),
+        )?;
         Ok(Launch { repr: LaunchRepr::Vulkan(launch) })
     }
 }
@@ -385,30 +199,4 @@ fn check_dimensions(dims: [u32; 3], limits: &crate::context::DeviceLimits, dimen
         });
     }
     Ok(())
-}
-
-/// What the programs of a launch access: uniform params, buffers (read and written).
-const SHADER_ACCESS: vk::AccessFlags = vk::AccessFlags::from_raw(
-    vk::AccessFlags::UNIFORM_READ.as_raw()
-        | vk::AccessFlags::SHADER_READ.as_raw()
-        | vk::AccessFlags::SHADER_WRITE.as_raw(),
-);
-
-/// A global memory barrier.
-///
-/// # Safety
-/// `cmd` must be a command buffer of `device` in the recording state.
-unsafe fn full_barrier(
-    device: &ash::Device,
-    cmd: vk::CommandBuffer,
-    src_stage: vk::PipelineStageFlags,
-    src_access: vk::AccessFlags,
-    dst_stage: vk::PipelineStageFlags,
-    dst_access: vk::AccessFlags,
-) {
-    let barrier = vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access);
-    // SAFETY: per the contract above.
-    unsafe {
-        device.cmd_pipeline_barrier(cmd, src_stage, dst_stage, vk::DependencyFlags::empty(), &[barrier], &[], &[])
-    };
 }

@@ -24,53 +24,15 @@ use std::fmt;
 use std::marker::PhantomData;
 use std::sync::Arc;
 
-use ash::vk;
 use raykit_device::LaunchParams;
 use raykit_spirv::InterfaceSizes;
 
-use super::params_delivery;
 use super::Specialization;
-use crate::context::{Context, ContextInner};
+use crate::context::Context;
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
-use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
-use crate::vulkan::pipeline::handle::PipelineHandle;
-use crate::vulkan::pipeline::layout::PipelineLayout;
-use crate::vulkan::pipeline::shader_groups::{check_groups, ShaderGroups};
-
-/// An empty raygen shader ([`raykit_spirv::empty_raygen`]) that a linked pipeline
-/// compiles itself on lavapipe, so that lavapipe gives the pipeline's programs
-/// their push constants (see the module docs); alive while the pipeline is created.
-pub(crate) struct PushConstantCarrier {
-    ctx: Arc<ContextInner>,
-    module: vk::ShaderModule,
-}
-
-impl PushConstantCarrier {
-    pub(crate) fn new(ctx: &Arc<ContextInner>) -> Result<PushConstantCarrier> {
-        let code = raykit_spirv::empty_raygen();
-        let info = vk::ShaderModuleCreateInfo::default().code(&code);
-        // SAFETY: `empty_raygen` is valid SPIR-V (checked with spirv-val); the device is live.
-        let module =
-            unsafe { ctx.device.create_shader_module(&info, None) }.map_err(Error::vk("vkCreateShaderModule"))?;
-        Ok(PushConstantCarrier { ctx: ctx.clone(), module })
-    }
-
-    /// Its stage, for a linked pipeline's `pStages`.
-    pub(crate) fn stage(&self) -> vk::PipelineShaderStageCreateInfo<'static> {
-        vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::RAYGEN_KHR)
-            .module(self.module)
-            .name(c"main")
-    }
-}
-
-impl Drop for PushConstantCarrier {
-    fn drop(&mut self) {
-        // SAFETY: only used while creating a pipeline, which is done.
-        unsafe { self.ctx.device.destroy_shader_module(self.module, None) };
-    }
-}
+pub(crate) use crate::vulkan::pipeline::link::LibraryInner;
+use crate::vulkan::pipeline::shader_groups::check_groups;
 
 /// Options of a [`PipelineLibrary`].
 #[derive(Copy, Clone, Debug)]
@@ -94,27 +56,6 @@ impl Default for LibraryOptions {
 pub struct PipelineLibrary<P: LaunchParams> {
     pub(crate) inner: Arc<LibraryInner>,
     _params: PhantomData<fn(&P)>,
-}
-
-pub(crate) struct LibraryInner {
-    // Field order is drop order: the library goes before its layout.
-    pub(crate) pipeline: PipelineHandle,
-    /// The layout it was compiled with, kept as long as the library.
-    _layout: PipelineLayout,
-    pub(crate) ctx: Arc<ContextInner>,
-    /// Its groups, in library order.
-    pub(crate) groups: Vec<ProgramGroup>,
-    /// Where its programs record user exceptions (their slot was specialized in).
-    pub(crate) exceptions: Arc<ExceptionBuffer>,
-    pub(crate) max_trace_depth: u32,
-    pub(crate) interface: InterfaceSizes,
-}
-
-/// `sizes` as Vulkan takes them (`VkRayTracingPipelineInterfaceCreateInfoKHR`).
-pub(crate) fn interface_info(sizes: InterfaceSizes) -> vk::RayTracingPipelineInterfaceCreateInfoKHR<'static> {
-    vk::RayTracingPipelineInterfaceCreateInfoKHR::default()
-        .max_pipeline_ray_payload_size(sizes.payload)
-        .max_pipeline_ray_hit_attribute_size(sizes.hit_attributes)
 }
 
 impl<P: LaunchParams> PipelineLibrary<P> {
@@ -157,36 +98,7 @@ impl<P: LaunchParams> PipelineLibrary<P> {
                 limit: inner.limits.max_ray_hit_attribute_size,
             });
         }
-        let exceptions = Arc::new(ExceptionBuffer::new(inner, groups)?);
-        let layout = PipelineLayout::new::<P>(inner)?;
-        let shaders = ShaderGroups::new(groups, exceptions.slot, options.max_trace_depth, constants);
-        crate::validate::check_programs(
-            groups,
-            options.max_trace_depth,
-            &shaders.spec_values(),
-            params_delivery::<P>(),
-        )?;
-        let specialization = shaders.specialization();
-        let stages = shaders.stages(&specialization);
-        let interface_create = interface_info(interface);
-        let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
-            .flags(vk::PipelineCreateFlags::LIBRARY_KHR)
-            .stages(&stages)
-            .groups(&shaders.group_infos)
-            .max_pipeline_ray_recursion_depth(options.max_trace_depth)
-            .library_interface(&interface_create)
-            .layout(layout.handle);
-        let name = format!("raykit pipeline library [{}]", shaders.names().join(", "));
-        let pipeline = PipelineHandle::create(inner, &create_info, &name)?;
-        let library = LibraryInner {
-            pipeline,
-            _layout: layout,
-            ctx: inner.clone(),
-            groups: groups.iter().map(|g| (*g).clone()).collect(),
-            exceptions,
-            max_trace_depth: options.max_trace_depth,
-            interface,
-        };
+        let library = LibraryInner::new::<P>(inner, groups, options.max_trace_depth, interface, constants)?;
         Ok(PipelineLibrary { inner: Arc::new(library), _params: PhantomData })
     }
 

@@ -31,23 +31,19 @@ pub mod timing;
 
 use std::fmt;
 use std::marker::PhantomData;
-use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
 
-use ash::vk;
 use raykit_device::LaunchParams;
 use raykit_spirv::{InterfaceSizes, ParamsDelivery};
 
-use crate::context::{Context, ContextInner};
+use crate::context::Context;
 use crate::error::{Error, Result, UserException};
 use crate::program_group::{GroupKind, ProgramGroup};
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
-use crate::vulkan::memory::RawBuffer;
-use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
-use crate::vulkan::pipeline::handle::PipelineHandle;
-use crate::vulkan::pipeline::layout::{ParamsUniform, PipelineLayout};
-use crate::vulkan::pipeline::shader_groups::{check_groups, CompiledGroup, LinkedGroup, ShaderGroups};
-use library::{interface_info, LibraryInner, PipelineLibrary, PushConstantCarrier};
+pub(crate) use crate::vulkan::pipeline::link::PipelineInner;
+use crate::vulkan::pipeline::shader_groups::{check_groups, LinkedGroup};
+use library::{LibraryInner, PipelineLibrary};
 pub use specialization::Specialization;
 
 /// How raykit delivers params of type `P`.
@@ -128,105 +124,8 @@ fn no_stack_on_cpu() -> Error {
     }
 }
 
-/// A created pipeline with everything it owns.
-pub(crate) struct PipelineInner {
-    // Field order is drop order: the pipeline, then the params uniform (its set was
-    // allocated with the layout's params set layout), then the layout, then the
-    // libraries the pipeline was linked from.
-    pub(crate) pipeline: PipelineHandle,
-    /// The params uniform buffer, for params over the push-constant budget.
-    pub(crate) params_uniform: Option<ParamsUniform>,
-    pub(crate) layout: PipelineLayout,
-    /// The libraries it was linked from, kept alive as long as it is.
-    pub(crate) libraries: Vec<Arc<LibraryInner>>,
-    pub(crate) ctx: Arc<ContextInner>,
-    /// Its groups, in pipeline order.
-    pub(crate) groups: Vec<LinkedGroup>,
-    /// `shaderGroupHandleSize` bytes per group, in pipeline order.
-    pub(crate) handles: Vec<u8>,
-    /// `maxPipelineRayRecursionDepth`.
-    pub(crate) max_trace_depth: u32,
-    /// The SBT records its programs' traces select.
-    pub(crate) reach: crate::validate::TraceReach,
-    /// The stack size every launch sets (`vkCmdSetRayTracingPipelineStackSizeKHR`).
-    pub(crate) stack_size: AtomicU32,
-    /// Where programs record user exceptions: one buffer per set of programs
-    /// compiled together (the pipeline itself, or each linked library). Launches
-    /// zero and copy them on the device (see [`launch`]).
-    pub(crate) exceptions: Vec<Arc<ExceptionBuffer>>,
-    /// Those of `exceptions` whose programs can throw: the ones launches zero,
-    /// copy and read back.
-    pub(crate) throwing: Vec<Arc<ExceptionBuffer>>,
-    /// Finished launches' exception readback buffers, reused by later launches
-    /// (an allocation per launch is slow on some drivers).
-    pub(crate) readbacks: Mutex<Vec<RawBuffer>>,
-    /// Where `P`'s `Buffer` and `Traversable` fields are, checked by every launch.
-    pub(crate) handle_fields: Vec<crate::handles::HandleField>,
-}
-
-/// What a pipeline is made of besides its stages: its groups, its user-exception
-/// buffers and the libraries it is linked from.
-struct PipelineParts<'g> {
-    groups: Vec<CompiledGroup<'g>>,
-    exceptions: Vec<Arc<ExceptionBuffer>>,
-    libraries: Vec<Arc<LibraryInner>>,
-}
-
-impl PipelineInner {
-    /// Creates the pipeline for params `P` from `create_info` (its stages, groups
-    /// and libraries) with its own layout, params uniform buffer (for params over
-    /// the push-constant budget), recursion depth and the dynamic stack-size state;
-    /// names it `name`; reads its groups' handles and stack sizes, and sets the
-    /// default stack size.
-    fn new<P: LaunchParams>(
-        ctx: &Arc<ContextInner>,
-        max_trace_depth: u32,
-        create_info: vk::RayTracingPipelineCreateInfoKHR<'_>,
-        name: &str,
-        parts: PipelineParts<'_>,
-    ) -> Result<PipelineInner> {
-        let layout = PipelineLayout::new::<P>(ctx)?;
-        let params_uniform = ParamsUniform::for_layout::<P>(ctx, &layout)?;
-        // The stack size is set by every launch (see `crate::stack`).
-        let dynamic_states = [vk::DynamicState::RAY_TRACING_PIPELINE_STACK_SIZE_KHR];
-        let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        let create_info = create_info
-            .max_pipeline_ray_recursion_depth(max_trace_depth)
-            .dynamic_state(&dynamic_state)
-            .layout(layout.handle);
-        let pipeline = PipelineHandle::create(ctx, &create_info, name)?;
-        let count = parts.groups.len();
-        let handle_size = ctx.limits.shader_group_handle_size as usize;
-        // SAFETY: the pipeline is live and has exactly `count` groups.
-        let handles = unsafe {
-            ctx.rt.get_ray_tracing_shader_group_handles(pipeline.handle, 0, count as u32, count * handle_size)
-        }
-        .map_err(Error::vk("vkGetRayTracingShaderGroupHandlesKHR"))?;
-        let groups: Vec<LinkedGroup> =
-            parts.groups.iter().map(|g| LinkedGroup::read(ctx, pipeline.handle, g)).collect();
-        let default = stack::vulkan_default(&stack_sizes(&groups), max_trace_depth);
-        let reach = crate::validate::TraceReach::of(parts.groups.iter().map(|g| g.group));
-        Ok(PipelineInner {
-            reach,
-            pipeline,
-            params_uniform,
-            layout,
-            libraries: parts.libraries,
-            ctx: ctx.clone(),
-            groups,
-            handles,
-            max_trace_depth,
-            stack_size: AtomicU32::new(stack_bytes(default)?),
-            throwing: parts.exceptions.iter().filter(|e| e.recorded).cloned().collect(),
-            exceptions: parts.exceptions,
-            readbacks: Mutex::new(Vec::new()),
-            handle_fields: crate::handles::handle_fields(&P::LAYOUT),
-        })
-    }
-}
-
 /// The maxima of `groups`' stack sizes by program kind.
-fn stack_sizes(groups: &[LinkedGroup]) -> StackSizes {
+pub(crate) fn stack_sizes(groups: &[LinkedGroup]) -> StackSizes {
     StackSizes::from_groups(groups.iter().map(|g| (g.role, g.stack_sizes)))
 }
 
@@ -254,28 +153,8 @@ impl<P: LaunchParams> Pipeline<P> {
         let inner = ctx.vulkan("a pipeline")?;
         check_groups::<P>(inner, groups, options.max_trace_depth)?;
         check_linkable(groups.iter().copied())?;
-        let exceptions = Arc::new(ExceptionBuffer::new(inner, groups)?);
-        let shaders = ShaderGroups::new(groups, exceptions.slot, options.max_trace_depth, constants);
-        crate::validate::check_programs(
-            groups,
-            options.max_trace_depth,
-            &shaders.spec_values(),
-            params_delivery::<P>(),
-        )?;
-        let specialization = shaders.specialization();
-        let stages = shaders.stages(&specialization);
-        let create_info = vk::RayTracingPipelineCreateInfoKHR::default().stages(&stages).groups(&shaders.group_infos);
-        let name = format!("raykit pipeline [{}]", shaders.names().join(", "));
-        let parts = PipelineParts {
-            groups: groups
-                .iter()
-                .enumerate()
-                .map(|(i, g)| CompiledGroup { group: g, library: None, index: i as u32 })
-                .collect(),
-            exceptions: vec![exceptions],
-            libraries: Vec::new(),
-        };
-        Ok(Pipeline::from_inner(PipelineInner::new::<P>(inner, options.max_trace_depth, create_info, &name, parts)?))
+        let inner = crate::vulkan::pipeline::link::link_groups::<P>(inner, groups, options.max_trace_depth, constants)?;
+        Ok(Pipeline::from_inner(inner))
     }
 
     /// Links a pipeline from `libraries` (OptiX's "program groups can be used
@@ -325,34 +204,10 @@ impl<P: LaunchParams> Pipeline<P> {
             }
         }
         check_linkable(groups.iter().copied())?;
-        let library_pipelines: Vec<vk::Pipeline> = libraries.iter().map(|l| l.inner.pipeline.handle).collect();
-        let library_info = vk::PipelineLibraryCreateInfoKHR::default().libraries(&library_pipelines);
-        let interface_create = interface_info(interface);
-        // lavapipe gives push constants only to pipelines that compile a stage
-        // themselves (see [`library`]); give it one that does nothing.
-        let carrier = if inner.lavapipe { Some(PushConstantCarrier::new(inner)?) } else { None };
-        let carrier_stage: Vec<vk::PipelineShaderStageCreateInfo<'_>> =
-            carrier.iter().map(PushConstantCarrier::stage).collect();
-        let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
-            .stages(&carrier_stage)
-            .library_info(&library_info)
-            .library_interface(&interface_create);
-        let name = format!("raykit pipeline linked from {} libraries", libraries.len());
-        let parts = PipelineParts {
-            groups: libraries
-                .iter()
-                .flat_map(|l| {
-                    l.inner.groups.iter().enumerate().map(|(i, group)| CompiledGroup {
-                        group,
-                        library: Some(l.inner.pipeline.handle),
-                        index: i as u32,
-                    })
-                })
-                .collect(),
-            exceptions: libraries.iter().map(|l| l.inner.exceptions.clone()).collect(),
-            libraries: libraries.iter().map(|l| l.inner.clone()).collect(),
-        };
-        Ok(Pipeline::from_inner(PipelineInner::new::<P>(inner, options.max_trace_depth, create_info, &name, parts)?))
+        let libraries: Vec<&Arc<LibraryInner>> = libraries.iter().map(|l| &l.inner).collect();
+        let inner =
+            crate::vulkan::pipeline::link::link_libraries::<P>(inner, &libraries, options.max_trace_depth, interface)?;
+        Ok(Pipeline::from_inner(inner))
     }
 
     /// The stack sizes the driver reports for `group`'s shaders in this pipeline
@@ -522,7 +377,7 @@ fn describe_interface(sizes: InterfaceSizes) -> String {
 }
 
 /// A stack size as `vkCmdSetRayTracingPipelineStackSizeKHR` takes it.
-fn stack_bytes(bytes: u64) -> Result<u32> {
+pub(crate) fn stack_bytes(bytes: u64) -> Result<u32> {
     u32::try_from(bytes)
         .map_err(|_| Error::StackSize { reason: format!("{bytes} bytes do not fit the 32 bits Vulkan takes") })
 }

@@ -24,14 +24,13 @@ use std::fmt;
 use std::sync::Arc;
 
 use ash::vk;
-use gpu_allocator::MemoryLocation;
 
 use crate::context::DeviceLimits;
 use crate::error::{Error, Result};
 use crate::handles::HandleField;
-use crate::pipeline::{Pipeline, PipelineInner, PipelineRepr};
+use crate::pipeline::{Pipeline, PipelineRepr};
 use crate::program_group::{GroupKind, ProgramGroup};
-use crate::vulkan::memory::RawBuffer;
+use crate::vulkan::sbt::VulkanSbt;
 use raykit_device::{RayType, SbtRecordData};
 pub use region::SbtRegion;
 
@@ -440,28 +439,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
                 bytes[at + handle_size..at + handle_size + record.data.len()].copy_from_slice(&record.data);
             }
         }
-        let mut buffer = RawBuffer::new(
-            &pipeline.ctx,
-            "shader binding table",
-            total,
-            vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR,
-            MemoryLocation::CpuToGpu,
-            limits.shader_group_base_alignment as u64,
-        )?;
-        buffer.write_bytes(&bytes)?;
-        let region = |l: RegionLayout| vk::StridedDeviceAddressRegionKHR {
-            device_address: if l.size == 0 { 0 } else { buffer.address + l.offset },
-            stride: l.stride,
-            size: l.size,
-        };
-        let device = SbtDevice::Vulkan {
-            pipeline: pipeline.clone(),
-            raygen: region(rg),
-            miss: region(ms),
-            hit: region(ht),
-            callable: region(cl),
-            buffer: Arc::new(buffer),
-        };
+        let device = SbtDevice::Vulkan(VulkanSbt::new(pipeline, &bytes, layouts)?);
         Ok(Sbt { device, layouts, counts, data_types, exception_index, checked })
     }
 }
@@ -481,15 +459,7 @@ impl<P: raykit_device::LaunchParams> fmt::Debug for SbtBuilder<'_, P> {
 /// Where an [`Sbt`]'s records are.
 pub(crate) enum SbtDevice {
     /// In a Vulkan buffer.
-    Vulkan {
-        pipeline: Arc<PipelineInner>,
-        raygen: vk::StridedDeviceAddressRegionKHR,
-        miss: vk::StridedDeviceAddressRegionKHR,
-        hit: vk::StridedDeviceAddressRegionKHR,
-        callable: vk::StridedDeviceAddressRegionKHR,
-        /// Shared with launches in flight ([`crate::Launch`]), which keep it alive.
-        buffer: Arc<RawBuffer>,
-    },
+    Vulkan(VulkanSbt),
     /// In host memory, for the CPU backend (launches running hold their own `Arc`).
     Cpu { pipeline: Arc<crate::cpu::program::PipelineData>, data: Arc<crate::cpu::program::SbtData> },
 }
@@ -550,7 +520,7 @@ impl Sbt {
         }
         let layout = self.layouts[r];
         let limits = match &self.device {
-            SbtDevice::Vulkan { pipeline, .. } => pipeline.ctx.limits,
+            SbtDevice::Vulkan(sbt) => sbt.pipeline.ctx.limits,
             SbtDevice::Cpu { .. } => crate::cpu::LIMITS,
         };
         let handle = limits.shader_group_handle_size as u64;
@@ -571,62 +541,21 @@ impl Sbt {
             checked.data.clear();
             checked.data.extend_from_slice(bytes);
         }
-        let buffer = match &mut self.device {
-            SbtDevice::Vulkan { buffer, .. } => buffer,
+        match &mut self.device {
+            SbtDevice::Vulkan(sbt) => sbt.write(region, at, bytes),
             SbtDevice::Cpu { data, .. } => {
                 // Launches running hold the old records; later ones get these.
                 Arc::make_mut(data).regions[r][index].data.write(bytes);
-                return Ok(());
-            }
-        };
-        // A launch in flight holds a clone of the buffer: the device may be reading
-        // it. Write into a copy, which launches from now on use.
-        if Arc::get_mut(buffer).is_none() {
-            self.copy_on_write(region)?;
-        }
-        let SbtDevice::Vulkan { buffer, .. } = &mut self.device else { return Ok(()) };
-        let buffer =
-            Arc::get_mut(buffer).ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is shared".to_owned() })?;
-        let mapped = buffer
-            .mapped_mut()
-            .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
-        mapped[at..at + bytes.len()].copy_from_slice(bytes);
-        Ok(())
-    }
-
-    /// Replaces the buffer with a copy of it, for an update while launches use it.
-    fn copy_on_write(&mut self, region: SbtRegion) -> Result<()> {
-        let SbtDevice::Vulkan { pipeline, raygen, miss, hit, callable, buffer } = &mut self.device else {
-            return Ok(());
-        };
-        let old = &*buffer;
-        let ctx = &pipeline.ctx;
-        let mut copy = RawBuffer::new(
-            ctx,
-            "shader binding table",
-            old.size,
-            vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR,
-            MemoryLocation::CpuToGpu,
-            ctx.limits.shader_group_base_alignment as u64,
-        )?;
-        let bytes =
-            old.mapped().ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
-        copy.write_bytes(bytes)?;
-        let (from, to) = (old.address, copy.address);
-        for r in [raygen, miss, hit, callable] {
-            if r.size != 0 {
-                r.device_address = r.device_address - from + to;
+                Ok(())
             }
         }
-        *buffer = Arc::new(copy);
-        Ok(())
     }
 
     /// The raygen, miss, hit and callable regions passed to `vkCmdTraceRaysKHR`, for
     /// hand-written Vulkan (see [`crate::pipeline::raw`]); `None` on the CPU backend.
     pub fn raw_regions(&self) -> Option<[vk::StridedDeviceAddressRegionKHR; 4]> {
         match &self.device {
-            SbtDevice::Vulkan { raygen, miss, hit, callable, .. } => Some([*raygen, *miss, *hit, *callable]),
+            SbtDevice::Vulkan(sbt) => Some(sbt.regions()),
             SbtDevice::Cpu { .. } => None,
         }
     }

@@ -4,13 +4,153 @@
 //! [`crate::context`] for what contexts of one GPU share).
 
 use std::mem::ManuallyDrop;
-use std::sync::{Arc, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use ash::vk;
 
-use crate::context::ContextInner;
+use crate::context::{ContextOptions, DeviceLimits, MemoryUsage};
 use crate::error::{Error, Result};
+use crate::handles::LiveTraversables;
+use crate::log::MessageLog;
+use crate::vulkan::buffer_table::BufferTable;
+use crate::vulkan::cache::{CacheKey, DiskCache};
 use crate::vulkan::device_registry::{SharedDevice, SharedInstance};
+use crate::vulkan::timeline::Timeline;
+
+/// A Vulkan context: its share of the GPU's device and its own objects (see
+/// [`crate::context`]).
+pub(crate) struct ContextInner {
+    /// This context's id, which its objects' debug names carry (see [`crate::log`]).
+    pub(crate) id: u64,
+    /// The device, shared with every other context on the same GPU.
+    pub(crate) shared: Arc<SharedDevice>,
+    pub(crate) log: MessageLog,
+    // Copies of the shared device's function tables and properties, read often.
+    pub(crate) instance: ash::Instance,
+    pub(crate) device: ash::Device,
+    pub(crate) rt: ash::khr::ray_tracing_pipeline::Device,
+    pub(crate) accel: ash::khr::acceleration_structure::Device,
+    /// This context's command pool: a pool is externally synchronised, so each
+    /// context has its own.
+    pub(crate) command_pool: Mutex<vk::CommandPool>,
+    /// Finished command buffers, reused by later submissions: allocating one for
+    /// every launch costs more than the launch on some drivers. Guarded with the
+    /// pool's lock held too.
+    pub(crate) recycled: Mutex<Vec<vk::CommandBuffer>>,
+    pub(crate) allocator: ManuallyDrop<Mutex<gpu_allocator::vulkan::Allocator>>,
+    pub(crate) buffer_table: ManuallyDrop<BufferTable>,
+    /// Epochs of submissions and the objects waiting for them (see [`crate::timeline`]).
+    pub(crate) timeline: Timeline,
+    /// The live IASes, which launches check `Traversable`s against (see [`crate::handles`]).
+    pub(crate) traversables: LiveTraversables,
+    pub(crate) limits: DeviceLimits,
+    /// Largest launch width, height and depth: `maxComputeWorkGroupCount[i] ×
+    /// maxComputeWorkGroupSize[i]`, as `vkCmdTraceRaysKHR` requires.
+    pub(crate) launch_dimension_limits: [u64; 3],
+    /// Whether `VK_KHR_shader_non_semantic_info` is enabled, which modules with
+    /// debug info (`SPV_KHR_non_semantic_info`) need.
+    pub(crate) non_semantic_info: bool,
+    /// Whether `VK_KHR_pipeline_library` is enabled (see [`crate::PipelineLibrary`]).
+    pub(crate) pipeline_library: bool,
+    /// Whether the driver is lavapipe (Mesa's CPU driver), whose workarounds
+    /// raykit applies (see [`crate::pipeline::library`]).
+    pub(crate) lavapipe: bool,
+    /// The compile cache every pipeline creation of this context goes through.
+    pub(crate) pipeline_cache: DiskCache,
+    /// The test hook that holds submissions on the device (see [`crate::gate`]).
+    #[cfg(feature = "fault-injection")]
+    pub(crate) gate: crate::gate::Gate,
+}
+
+/// Whether `options` (or `RAYKIT_VALIDATION=1`) ask for the validation layer.
+fn validation(options: &ContextOptions) -> bool {
+    options.validation.unwrap_or_else(|| std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1"))
+}
+
+/// The `device_index` of every usable device that `options.device_name_contains`
+/// lets through, in the loader's order; devices of type CPU are left out when a
+/// GPU is there too (see [`crate::Context::all`]).
+pub(crate) fn device_indices(options: &ContextOptions) -> Result<Vec<usize>> {
+    let validation = validation(options);
+    let instance = crate::vulkan::device_registry::instance(validation)?;
+    let usable = crate::vulkan::device_registry::usable_devices(instance, options.device_name_contains.as_deref())?;
+    let is_cpu = |u: &crate::vulkan::device_registry::Usable| {
+        u.report.device_type == format!("{:?}", vk::PhysicalDeviceType::CPU)
+    };
+    let any_gpu = usable.iter().any(|u| !is_cpu(u));
+    Ok(usable.iter().enumerate().filter(|(_, u)| !(any_gpu && is_cpu(u))).map(|(index, _)| index).collect())
+}
+
+/// Creates a Vulkan context as `options` say: on the first device with
+/// ray-tracing pipelines (or the one they choose), shared with the other
+/// contexts on that GPU.
+pub(crate) fn create(options: &ContextOptions) -> Result<Arc<ContextInner>> {
+    let validation = validation(options);
+    let instance = crate::vulkan::device_registry::instance(validation)?;
+    let id = crate::context::next_context_id();
+    let log = MessageLog::with_callback(options.log_callback.clone());
+    // Routed before the device is made, so messages of its creation reach the log.
+    instance.routes.add(id, log.clone());
+    let mut route = RouteGuard { instance, id, armed: true };
+    let choice = crate::vulkan::device_registry::DeviceChoice {
+        name_contains: options.device_name_contains.as_deref(),
+        index: options.device_index,
+    };
+    let shared = crate::vulkan::device_registry::acquire(instance, choice)?;
+    let mut hold = DeviceHold { shared: shared.clone(), armed: true };
+    let device = &shared.device;
+    let physical = shared.physical;
+    let pool_info = vk::CommandPoolCreateInfo::default()
+        .queue_family_index(shared.queue_family)
+        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER | vk::CommandPoolCreateFlags::TRANSIENT);
+    // SAFETY: valid device and create info.
+    let command_pool =
+        unsafe { device.create_command_pool(&pool_info, None) }.map_err(Error::vk("vkCreateCommandPool"))?;
+    let pool_guard = PoolGuard(device, command_pool);
+    let allocator = gpu_allocator::vulkan::Allocator::new(&gpu_allocator::vulkan::AllocatorCreateDesc {
+        instance: instance.instance.clone(),
+        device: device.clone(),
+        physical_device: physical,
+        debug_settings: Default::default(),
+        buffer_device_address: true,
+        allocation_sizes: Default::default(),
+    })
+    .map_err(|source| Error::Allocation { what: "the memory allocator", source })?;
+    let buffer_table = BufferTable::new(device)?;
+    let timeline = Timeline::new(device)?;
+    std::mem::forget(pool_guard);
+    let pipeline_cache = DiskCache::open(device, CacheKey::of(&shared.properties), &options.pipeline_cache);
+    let inner = ContextInner {
+        id,
+        log,
+        instance: instance.instance.clone(),
+        device: device.clone(),
+        rt: shared.rt.clone(),
+        accel: shared.accel.clone(),
+        command_pool: Mutex::new(command_pool),
+        recycled: Mutex::new(Vec::new()),
+        allocator: ManuallyDrop::new(Mutex::new(allocator)),
+        buffer_table: ManuallyDrop::new(buffer_table),
+        timeline,
+        traversables: LiveTraversables::default(),
+        limits: shared.limits,
+        launch_dimension_limits: shared.launch_dimension_limits,
+        non_semantic_info: shared.non_semantic_info,
+        pipeline_library: shared.pipeline_library,
+        lavapipe: shared.lavapipe,
+        pipeline_cache,
+        shared,
+        #[cfg(feature = "fault-injection")]
+        gate: Default::default(),
+    };
+    inner.set_name(command_pool, "command pool");
+    inner.set_name(inner.buffer_table.set, "buffer table");
+    inner.set_name(inner.buffer_table.layout, "buffer table layout");
+    // The context now owns the route and the hold.
+    route.armed = false;
+    hold.armed = false;
+    Ok(Arc::new(inner))
+}
 
 impl ContextInner {
     /// Gives `handle` a debug name, so validation messages and tools name it; the
@@ -56,6 +196,17 @@ impl ContextInner {
     #[cfg(not(feature = "fault-injection"))]
     #[inline(always)]
     pub(crate) fn open_gate_before_waiting(&self) {}
+
+    /// Device memory this context's allocator holds now.
+    pub(crate) fn memory_usage(&self) -> MemoryUsage {
+        let report = self.allocator().generate_report();
+        MemoryUsage {
+            allocations: report.allocations.len(),
+            allocated_bytes: report.total_allocated_bytes,
+            reserved_bytes: report.total_capacity_bytes,
+            blocks: report.blocks.len(),
+        }
+    }
 
     pub(crate) fn allocator(&self) -> MutexGuard<'_, gpu_allocator::vulkan::Allocator> {
         // A panic while holding the lock cannot leave the allocator half-updated in a

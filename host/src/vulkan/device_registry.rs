@@ -11,7 +11,8 @@ use ash::vk;
 
 use crate::context::DeviceLimits;
 use crate::error::{DeviceReport, Error, Result};
-use crate::log::{debug_callback, Routes};
+use crate::log::Routes;
+use crate::vulkan::messenger::debug_callback;
 
 /// Device extensions raykit needs.
 const REQUIRED_EXTENSIONS: [&CStr; 4] = [

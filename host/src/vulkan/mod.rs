@@ -11,8 +11,12 @@
 //! * `device_registry`: the process-wide `VkInstance`s and the one `VkDevice`
 //!   per GPU that its contexts share; `driver_lock` keeps pipeline destruction
 //!   apart from pipeline creation.
-//! * `context`: a context's submissions (command buffers, each signalling an
-//!   epoch of the context's [`timeline`]) and its destruction.
+//! * `context`: a context's state (`ContextInner`), its creation and the choice
+//!   of devices for [`Context::all`](crate::Context::all), its submissions
+//!   (command buffers, each signalling an epoch of the context's [`timeline`])
+//!   and its destruction.
+//! * `messenger`: the debug messenger's callback, which hands validation
+//!   messages to the contexts they concern (see [`crate::log`]).
 //! * [`timeline`]: objects dropped while the device may use them, destroyed once
 //!   their epoch has finished (public as [`crate::timeline`]).
 //! * `memory`: a `VkBuffer` with its gpu-allocator allocation, under
@@ -20,15 +24,27 @@
 //! * `buffer_table`, `texture_table`: the bindless descriptor set that device
 //!   programs reach buffers and textures through.
 //! * `cache`: the `VkPipelineCache` and its file (see [`crate::cache`]).
+//! * `module`: a module's `VkShaderModule`.
+//! * `texture`: a texture's image, its upload, view and sampler, and the
+//!   device's format support.
 //! * `pipeline`: pipeline layouts and params uniforms, shader stages and groups,
-//!   owned `VkPipeline`s, user-exception buffers.
-//! * `accel`: acceleration structures and their build commands.
+//!   owned `VkPipeline`s, user-exception buffers, linking from groups and from
+//!   libraries (`link`), launch recording and submission (`record`), and the
+//!   timestamp queries of timed launches (`timing`).
+//! * `sbt`: the SBT's device buffer and the regions a trace is given.
+//! * `accel`: acceleration structures, their build commands, GAS builds, refits
+//!   and compaction (`gas`) and IAS instance records, builds and refits (`ias`).
 //!
-//! Still on the public types' side, with their Vulkan code inline: module
-//! creation ([`crate::module`]), textures and samplers ([`crate::texture`]),
-//! pipeline linking, launch recording and timing ([`crate::pipeline`]), the
-//! SBT's device buffer ([`crate::sbt`]), GAS and IAS builds, compaction and
-//! refits ([`crate::accel`]), and the debug messenger ([`crate::log`]).
+//! The public types keep their API, the checks of what they are given, and a
+//! dispatch to this module or to `cpu`. Some `ash` types stay in their files
+//! because the public API names them: the raw handles of
+//! [`Context`](crate::Context), [`Pipeline`](crate::Pipeline) and
+//! [`Sbt::raw_regions`](crate::Sbt::raw_regions) (for hand-written Vulkan),
+//! [`Context::set_debug_name`](crate::Context::set_debug_name),
+//! [`TextureFormat::vk_format`](crate::TextureFormat::vk_format) and the
+//! `vk::Result` that [`Error`](crate::Error) reports. Still with Vulkan code
+//! inline: [`DeviceBuffer`](crate::DeviceBuffer)'s creation and readback
+//! (`crate::memory`), and the test-only submission gate (`crate::gate`).
 
 pub(crate) mod accel;
 pub(crate) mod buffer_table;
@@ -37,6 +53,10 @@ pub(crate) mod context;
 pub(crate) mod device_registry;
 pub(crate) mod driver_lock;
 pub(crate) mod memory;
+pub(crate) mod messenger;
+pub(crate) mod module;
 pub(crate) mod pipeline;
+pub(crate) mod sbt;
+pub(crate) mod texture;
 pub(crate) mod texture_table;
 pub mod timeline;

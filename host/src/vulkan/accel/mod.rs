@@ -2,4 +2,6 @@
 //! (`structure`), and recording and submitting builds (`build`).
 
 pub(crate) mod build;
+pub(crate) mod gas;
+pub(crate) mod ias;
 pub(crate) mod structure;

@@ -1,12 +1,14 @@
 //! An acceleration structure on Vulkan: the structure itself with its storage
 //! ([`VkAccelerationStructureKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkAccelerationStructureKHR.html)),
-//! and the build flags [`BuildOptions`] stand for.
+//! and the build, geometry and index flags [`BuildOptions`], [`GeometryFlags`] and
+//! index formats stand for.
 
 use std::sync::Arc;
 
 use ash::vk;
 
-use crate::accel::{BuildOptions, BuildPreference};
+use crate::accel::input::IndexKind;
+use crate::accel::{BuildOptions, BuildPreference, GeometryFlags};
 use crate::context::ContextInner;
 use crate::vulkan::memory::RawBuffer;
 
@@ -70,5 +72,27 @@ impl BuildOptions {
             flags |= F::ALLOW_COMPACTION;
         }
         flags
+    }
+}
+
+/// `VK_GEOMETRY_OPAQUE_BIT_KHR`, as [`GeometryFlags`] holds it.
+pub(crate) const GEOMETRY_OPAQUE: u32 = vk::GeometryFlagsKHR::OPAQUE.as_raw();
+/// `VK_GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION_BIT_KHR`, as [`GeometryFlags`] holds it.
+pub(crate) const GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION: u32 =
+    vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION.as_raw();
+
+impl GeometryFlags {
+    pub(crate) fn vk(self) -> vk::GeometryFlagsKHR {
+        vk::GeometryFlagsKHR::from_raw(self.0)
+    }
+}
+
+impl IndexKind {
+    pub(crate) fn vk(self) -> vk::IndexType {
+        match self {
+            IndexKind::None => vk::IndexType::NONE_KHR,
+            IndexKind::U16 => vk::IndexType::UINT16,
+            IndexKind::U32 => vk::IndexType::UINT32,
+        }
     }
 }

@@ -5,4 +5,7 @@
 pub(crate) mod exceptions;
 pub(crate) mod handle;
 pub(crate) mod layout;
+pub(crate) mod link;
+pub(crate) mod record;
 pub(crate) mod shader_groups;
+pub(crate) mod timing;

@@ -1,0 +1,264 @@
+//! Launch recording on Vulkan: a launch's command buffer (params, exception
+//! counters, bindings, stack size, the trace, optional timestamps and the
+//! barriers between them), its submission and its user-exception readback (see
+//! [`crate::pipeline::launch`] for the rules it keeps).
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use crate::error::{Error, Result};
+use crate::pipeline::PipelineInner;
+use crate::sbt::{Sbt, SbtDevice};
+use crate::vulkan::buffer_table::RT_STAGES;
+use crate::vulkan::context::Submission;
+use crate::vulkan::memory::RawBuffer;
+use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
+use crate::vulkan::sbt::VulkanSbt;
+
+/// A launch submitted to a Vulkan queue.
+pub(crate) struct VulkanLaunch {
+    // Field order matters: the submission (which waits in its drop) goes first.
+    submission: Submission,
+    /// Host-visible copies of the pipeline's exception buffers, written by the
+    /// launch; returned to the pipeline's pool when the launch is done.
+    readback: Option<RawBuffer>,
+    pipeline: Arc<PipelineInner>,
+    _sbt: Arc<RawBuffer>,
+}
+
+impl Drop for VulkanLaunch {
+    fn drop(&mut self) {
+        // The work is done once the submission has waited: only then may the
+        // readback buffer serve another launch.
+        if self.submission.wait().is_ok() {
+            if let Some(readback) = self.readback.take() {
+                let mut pool = self.pipeline.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                if pool.len() < 8 {
+                    pool.push(readback);
+                }
+            }
+        }
+    }
+}
+
+impl VulkanLaunch {
+    /// The pipeline launched.
+    pub(crate) fn pipeline(&self) -> &PipelineInner {
+        &self.pipeline
+    }
+
+    /// Whether the launch has finished, without blocking.
+    pub(crate) fn is_done(&self) -> Result<bool> {
+        self.submission.is_done()
+    }
+
+    /// Blocks until the launch has finished; then reads back the user exceptions
+    /// its programs threw.
+    pub(crate) fn wait(mut self) -> Result<()> {
+        self.submission.wait()?;
+        let Some(bytes) = self.readback.as_ref().and_then(|r| r.mapped()) else { return Ok(()) };
+        let mut total = 0;
+        let mut exceptions = Vec::new();
+        for copy in bytes.chunks_exact(ExceptionBuffer::SIZE as usize) {
+            let (n, thrown) = ExceptionBuffer::parse(copy);
+            total += n;
+            exceptions.extend(thrown);
+        }
+        if total > 0 {
+            return Err(crate::pipeline::exceptions_error(total, exceptions, self.pipeline.max_trace_depth));
+        }
+        Ok(())
+    }
+}
+
+/// Records and submits a launch of `inner` with `sbt` (made for it, checked), with
+/// the params `params_bytes` over `dims` (checked), setting `stack_size`, with
+/// optional timestamps around the trace.
+pub(crate) fn submit(
+    inner: &Arc<PipelineInner>,
+    sbt: &Sbt,
+    params_bytes: &[u8],
+    dims: [u32; 3],
+    stack_size: u32,
+    timestamps: Option<vk::QueryPool>,
+) -> Result<VulkanLaunch> {
+    let ctx = &inner.ctx;
+    let device = &ctx.device;
+    // `vkCmdUpdateBuffer` takes whole words: pad the params to the buffer's size.
+    let uniform = inner.params_uniform.as_ref().and_then(|u| {
+        let buffer = u.buffer.as_ref()?;
+        let mut padded = params_bytes.to_vec();
+        padded.resize(u.size as usize, 0);
+        Some((u.set, buffer.buffer, padded))
+    });
+    // Only the exception buffers of programs that can throw are zeroed, copied
+    // and read back (see `ModuleInner::records_exceptions`).
+    let throwing = &inner.throwing;
+    let readback = if throwing.is_empty() {
+        None
+    } else {
+        let pooled = inner.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
+        Some(match pooled {
+            Some(buffer) => buffer,
+            None => RawBuffer::new(
+                ctx,
+                "user exception readback",
+                ExceptionBuffer::SIZE * throwing.len() as u64,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                gpu_allocator::MemoryLocation::GpuToCpu,
+                16,
+            )?,
+        })
+    };
+    // Whether the launch writes anything with transfers before tracing.
+    let transfers = !throwing.is_empty() || uniform.is_some();
+    // The handles of the params, those in SBT records whose type derives
+    // `SbtRecordData` (see `crate::handles`), and the scene's reach into the SBT.
+    let check = || {
+        ctx.check_handles(&inner.handle_fields, params_bytes, None)?;
+        for record in &sbt.checked {
+            ctx.check_handles(&record.fields, &record.data, Some((record.region, record.index)))?;
+        }
+        let hit_reach = |address| ctx.traversables.hit_reach(address);
+        crate::validate::scene::check_scene(hit_reach, &inner.handle_fields, params_bytes, sbt, &inner.reach)
+    };
+    let SbtDevice::Vulkan(VulkanSbt { raygen, miss, hit, callable, .. }) = &sbt.device else {
+        return Err(Error::SbtOfAnotherPipeline);
+    };
+    let submission = ctx.submit_checked("a launch", check, |cmd| {
+        // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
+        // SBT buffers are alive until the work is done (the returned `Launch`
+        // holds them, and their drops wait for this submission's epoch on the
+        // timeline); `cmd` is recording.
+        unsafe {
+            // Every submission before this one ends with a barrier that orders its
+            // work before all later commands (a launch's is the one after its
+            // trace), so a launch that writes only from its programs needs none
+            // here. One that first writes with transfers (the params uniform, the
+            // exception counters) or resets timestamp queries waits here for
+            // earlier work.
+            if transfers || timestamps.is_some() {
+                full_barrier(
+                    device,
+                    cmd,
+                    vk::PipelineStageFlags::ALL_COMMANDS,
+                    vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::MEMORY_READ,
+                    vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                    vk::AccessFlags::TRANSFER_WRITE | SHADER_ACCESS,
+                );
+            }
+            if transfers {
+                for exceptions in throwing {
+                    // The counter is the first word.
+                    device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
+                    // Then where the exception program sits in the callable region.
+                    let handler = sbt.exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
+                    device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 4, 4, handler);
+                }
+                if let Some((_, buffer, bytes)) = &uniform {
+                    device.cmd_update_buffer(cmd, *buffer, 0, bytes);
+                }
+                full_barrier(
+                    device,
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                    SHADER_ACCESS,
+                );
+            }
+            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, inner.pipeline.handle);
+            // The pipeline's stack size is dynamic state (see `crate::stack`).
+            ctx.rt.cmd_set_ray_tracing_pipeline_stack_size(cmd, stack_size);
+            device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::RAY_TRACING_KHR,
+                inner.layout.handle,
+                raykit_abi::BUFFER_TABLE_SET,
+                &[ctx.buffer_table.set],
+                &[],
+            );
+            if let Some((set, _, _)) = &uniform {
+                device.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::RAY_TRACING_KHR,
+                    inner.layout.handle,
+                    raykit_device::PARAMS_SET,
+                    &[*set],
+                    &[],
+                );
+            }
+            if inner.layout.push_constant_size > 0 {
+                device.cmd_push_constants(cmd, inner.layout.handle, RT_STAGES, 0, params_bytes);
+            }
+            if let Some(pool) = timestamps {
+                device.cmd_reset_query_pool(cmd, pool, 0, 2);
+                device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0);
+            }
+            ctx.rt.cmd_trace_rays(cmd, raygen, miss, hit, callable, dims[0], dims[1], dims[2]);
+            if let Some(pool) = timestamps {
+                device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
+            }
+            // The programs' writes: visible to the host once the epoch is signalled,
+            // to the exception copies below, and to everything submitted later,
+            // which also starts only once the programs are done with what they
+            // read (see above).
+            full_barrier(
+                device,
+                cmd,
+                vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                vk::AccessFlags::SHADER_WRITE,
+                vk::PipelineStageFlags::ALL_COMMANDS | vk::PipelineStageFlags::HOST,
+                vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::HOST_READ,
+            );
+            if let Some(readback) = &readback {
+                for (i, exceptions) in throwing.iter().enumerate() {
+                    let region = vk::BufferCopy {
+                        src_offset: 0,
+                        dst_offset: i as u64 * ExceptionBuffer::SIZE,
+                        size: ExceptionBuffer::SIZE,
+                    };
+                    device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]);
+                }
+                full_barrier(
+                    device,
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::PipelineStageFlags::HOST,
+                    vk::AccessFlags::HOST_READ,
+                );
+            }
+        }
+    })?;
+    let SbtDevice::Vulkan(VulkanSbt { buffer, .. }) = &sbt.device else { return Err(Error::SbtOfAnotherPipeline) };
+    let launch = VulkanLaunch { submission, readback, pipeline: inner.clone(), _sbt: buffer.clone() };
+    Ok(launch)
+}
+
+/// What the programs of a launch access: uniform params, buffers (read and written).
+const SHADER_ACCESS: vk::AccessFlags = vk::AccessFlags::from_raw(
+    vk::AccessFlags::UNIFORM_READ.as_raw()
+        | vk::AccessFlags::SHADER_READ.as_raw()
+        | vk::AccessFlags::SHADER_WRITE.as_raw(),
+);
+
+/// A global memory barrier.
+///
+/// # Safety
+/// `cmd` must be a command buffer of `device` in the recording state.
+unsafe fn full_barrier(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    src_stage: vk::PipelineStageFlags,
+    src_access: vk::AccessFlags,
+    dst_stage: vk::PipelineStageFlags,
+    dst_access: vk::AccessFlags,
+) {
+    let barrier = vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access);
+    // SAFETY: per the contract above.
+    unsafe {
+        device.cmd_pipeline_barrier(cmd, src_stage, dst_stage, vk::DependencyFlags::empty(), &[barrier], &[], &[])
+    };
+}

@@ -1,0 +1,101 @@
+//! SBTs on Vulkan: the packed records in a host-visible buffer with
+//! `SHADER_BINDING_TABLE_KHR` usage, and the regions `vkCmdTraceRaysKHR` is
+//! given (see [`crate::sbt`]).
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::error::{Error, Result};
+use crate::pipeline::PipelineInner;
+use crate::sbt::{RegionLayout, SbtRegion};
+use crate::vulkan::memory::RawBuffer;
+
+/// An SBT's records in a Vulkan buffer, and its regions' device addresses.
+pub(crate) struct VulkanSbt {
+    pub(crate) pipeline: Arc<PipelineInner>,
+    pub(crate) raygen: vk::StridedDeviceAddressRegionKHR,
+    pub(crate) miss: vk::StridedDeviceAddressRegionKHR,
+    pub(crate) hit: vk::StridedDeviceAddressRegionKHR,
+    pub(crate) callable: vk::StridedDeviceAddressRegionKHR,
+    /// Shared with launches in flight ([`crate::Launch`]), which keep it alive.
+    pub(crate) buffer: Arc<RawBuffer>,
+}
+
+impl VulkanSbt {
+    /// Uploads the packed records `bytes` of `pipeline`, laid out as `layouts`
+    /// (raygen, miss, hit, callable) say.
+    pub(crate) fn new(pipeline: &Arc<PipelineInner>, bytes: &[u8], layouts: [RegionLayout; 4]) -> Result<VulkanSbt> {
+        let [rg, ms, ht, cl] = layouts;
+        let mut buffer = RawBuffer::new(
+            &pipeline.ctx,
+            "shader binding table",
+            bytes.len() as u64,
+            vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR,
+            MemoryLocation::CpuToGpu,
+            pipeline.ctx.limits.shader_group_base_alignment as u64,
+        )?;
+        buffer.write_bytes(bytes)?;
+        let region = |l: RegionLayout| vk::StridedDeviceAddressRegionKHR {
+            device_address: if l.size == 0 { 0 } else { buffer.address + l.offset },
+            stride: l.stride,
+            size: l.size,
+        };
+        Ok(VulkanSbt {
+            pipeline: pipeline.clone(),
+            raygen: region(rg),
+            miss: region(ms),
+            hit: region(ht),
+            callable: region(cl),
+            buffer: Arc::new(buffer),
+        })
+    }
+
+    /// The raygen, miss, hit and callable regions.
+    pub(crate) fn regions(&self) -> [vk::StridedDeviceAddressRegionKHR; 4] {
+        [self.raygen, self.miss, self.hit, self.callable]
+    }
+
+    /// Writes `bytes` at byte `at` of the buffer (data of a record of `region`,
+    /// checked to fit).
+    pub(crate) fn write(&mut self, region: SbtRegion, at: usize, bytes: &[u8]) -> Result<()> {
+        // A launch in flight holds a clone of the buffer: the device may be reading
+        // it. Write into a copy, which launches from now on use.
+        if Arc::get_mut(&mut self.buffer).is_none() {
+            self.copy_on_write(region)?;
+        }
+        let buffer = Arc::get_mut(&mut self.buffer)
+            .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is shared".to_owned() })?;
+        let mapped = buffer
+            .mapped_mut()
+            .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
+        mapped[at..at + bytes.len()].copy_from_slice(bytes);
+        Ok(())
+    }
+
+    /// Replaces the buffer with a copy of it, for an update while launches use it.
+    fn copy_on_write(&mut self, region: SbtRegion) -> Result<()> {
+        let old = &*self.buffer;
+        let ctx = &self.pipeline.ctx;
+        let mut copy = RawBuffer::new(
+            ctx,
+            "shader binding table",
+            old.size,
+            vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR,
+            MemoryLocation::CpuToGpu,
+            ctx.limits.shader_group_base_alignment as u64,
+        )?;
+        let bytes =
+            old.mapped().ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
+        copy.write_bytes(bytes)?;
+        let (from, to) = (old.address, copy.address);
+        for r in [&mut self.raygen, &mut self.miss, &mut self.hit, &mut self.callable] {
+            if r.size != 0 {
+                r.device_address = r.device_address - from + to;
+            }
+        }
+        self.buffer = Arc::new(copy);
+        Ok(())
+    }
+}
