@@ -258,6 +258,15 @@ impl Context {
         }
     }
 
+    /// Rays the CPU backend has traced in packets on this context so far (see
+    /// [`ContextOptions::cpu_packets`]); `0` on Vulkan.
+    pub fn packet_rays(&self) -> u64 {
+        match &self.backend {
+            ContextBackend::Vulkan(_) => 0,
+            ContextBackend::Cpu(cpu) => cpu.packet_rays.load(std::sync::atomic::Ordering::Relaxed),
+        }
+    }
+
     /// A Vulkan context on the first device with ray-tracing pipelines.
     fn new_vulkan(options: ContextOptions) -> Result<Context> {
         Ok(Context::from_vulkan(crate::vulkan::context::create(&options)?))

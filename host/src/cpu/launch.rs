@@ -288,7 +288,13 @@ fn run_tile_in_blocks(job: &LaunchJob, [tx, ty, z]: [u32; 3], outcome: &mut Outc
         }
     };
     let lanes = (bw * bh) as usize;
-    if let Err(e) = lanes::run_lanes(lanes, &body, |rays| trace_packet(job, rays)) {
+    let mut packet_rays = 0;
+    let traced = lanes::run_lanes(lanes, &body, |rays| {
+        trace_packet(rays);
+        packet_rays += rays.len() as u64;
+    });
+    job.ctx.packet_rays.fetch_add(packet_rays, Ordering::Relaxed);
+    if let Err(e) = traced {
         let index = [x0, y0, z];
         let failure = Failure::Fault { program: "(launch)", problem: e.to_string() };
         outcome.failure = Some((linear_index(job.dims, index), index, failure));
@@ -306,7 +312,12 @@ fn run_tile_in_blocks(job: &LaunchJob, [tx, ty, z]: [u32; 3], outcome: &mut Outc
 }
 
 /// Traces the rays of a block's suspended lanes: those into one scene together.
-fn trace_packet(job: &LaunchJob, rays: &[&PacketRay]) {
+fn trace_packet(rays: &[&PacketRay]) {
+    let first = rays[0].scene;
+    if rays.iter().all(|ray| ray.scene == first) {
+        trace_group(rays);
+        return;
+    }
     let mut left: u32 = (1 << rays.len()) - 1;
     let mut group: Vec<&PacketRay> = Vec::with_capacity(rays.len());
     while left != 0 {
@@ -321,18 +332,22 @@ fn trace_packet(job: &LaunchJob, rays: &[&PacketRay]) {
                 left &= !(1 << i);
             }
         }
-        // SAFETY: the scene is one of the launch's (`job.scenes` holds it for
-        // the launch), and packets run only where the CPU has AVX2 and its
-        // companions (`LaunchJob::packets`).
-        #[cfg(target_arch = "x86_64")]
-        unsafe {
-            packet::trace(&*scene, &group)
-        };
-        #[cfg(not(target_arch = "x86_64"))]
-        for ray in &group {
-            ray.traced.set(packet::Traced::Alone);
-        }
-        let _ = job;
+        trace_group(&group);
+    }
+}
+
+/// Traces `rays`, all into one scene, as one packet.
+fn trace_group(rays: &[&PacketRay]) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: the scene is one of the launch's (`LaunchJob::scenes` holds it
+    // while the launch runs), and packets run only where the CPU has AVX2 and
+    // its companions (`LaunchJob::packets`).
+    unsafe {
+        packet::trace(&*rays[0].scene, rays)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    for ray in rays {
+        ray.traced.set(packet::Traced::Alone);
     }
 }
 

@@ -111,6 +111,8 @@ pub(crate) struct CpuContext {
     pub(crate) pool: rayon::ThreadPool,
     /// Whether launches trace in packets where they can (see [`packet`]).
     pub(crate) packets: bool,
+    /// Rays traced in packets so far.
+    pub(crate) packet_rays: AtomicU64,
     /// The launches running, by the epoch each got when it started; reads and
     /// writes of buffers wait for them.
     running: Mutex<Running>,
@@ -193,6 +195,7 @@ impl CpuContext {
             packets: options
                 .cpu_packets
                 .unwrap_or_else(|| std::env::var("RAYKIT_CPU_PACKETS").map_or(true, |v| v.trim() != "0")),
+            packet_rays: AtomicU64::new(0),
             running: Mutex::new(Running::default()),
             finished: Condvar::new(),
             gate: Gate::default(),

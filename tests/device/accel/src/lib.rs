@@ -256,3 +256,135 @@ fn ah_rules(ctx: &mut AnyHit, #[payload] _color: &mut Vec3) {
         ctx.ignore_intersection();
     }
 }
+
+/// Params of the packet test: a pinhole camera at `eye` looking down -z over
+/// `[-1, 1]²` at distance 1, `rays` rays per pixel, each direction moved by up
+/// to `spread` in x and y (a hash of the pixel and the ray), and where each
+/// ray's hit goes.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
+pub struct PacketParams {
+    /// `width × height × rays` records of [`HIT_WORDS`] words, pixel-major.
+    pub hits: Buffer<u32>,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Rays per pixel.
+    pub rays: u32,
+    /// The camera's position.
+    pub eye: Vec3,
+    /// How far directions are moved at random.
+    pub spread: f32,
+    /// Every odd ray of a pixel starts this far along x from `eye`.
+    pub shift: f32,
+    /// Padding to keep the scene on 8 bytes.
+    pub _pad: u32,
+    /// The scene.
+    pub scene: Traversable,
+}
+
+/// What a ray of the packet test hit: everything a closest-hit program sees of
+/// the triangle, bit for bit (`t` is `-1` for a miss).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct HitRecord {
+    /// The hit distance.
+    pub t: f32,
+    /// Barycentric u.
+    pub u: f32,
+    /// Barycentric v.
+    pub v: f32,
+    /// The primitive index.
+    pub primitive: u32,
+    /// The instance index.
+    pub instance: u32,
+    /// The geometry index.
+    pub geometry: u32,
+    /// 1 for a front face, 0 for a back face.
+    pub front: u32,
+    /// The instance's custom index.
+    pub custom: u32,
+}
+
+/// Words of a [`HitRecord`] in [`PacketParams::hits`].
+pub const HIT_WORDS: u32 = 8;
+
+/// The packet test's ray type: cull mask 0x01.
+pub struct Probe;
+impl RayType for Probe {
+    type Payload = HitRecord;
+    const CULL_MASK: u32 = 0x01;
+}
+
+/// A hash of `a` and `b` in `[0, 1)`.
+pub fn hash01(a: u32, b: u32) -> f32 {
+    let mut h = a.wrapping_mul(0x9e37_79b9) ^ b.wrapping_mul(0x85eb_ca6b);
+    h ^= h >> 16;
+    h = h.wrapping_mul(0x7feb_352d);
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x846c_a68b);
+    h ^= h >> 16;
+    (h >> 8) as f32 / 16_777_216.0
+}
+
+/// The ray `k` of pixel `index` of the packet test: `(origin, direction)`.
+pub fn probe_ray(index: UVec2, k: u32, params: &PacketParams) -> (Vec3, Vec3) {
+    let fx = (index.x as f32 + 0.5) / params.width as f32 * 2.0 - 1.0;
+    let fy = 1.0 - (index.y as f32 + 0.5) / params.height as f32 * 2.0;
+    let pixel = index.x + index.y * params.width;
+    let jx = (hash01(pixel, 2 * k) - 0.5) * params.spread;
+    let jy = (hash01(pixel, 2 * k + 1) - 0.5) * params.spread;
+    let origin = if k % 2 == 1 { params.eye + Vec3::new(params.shift, 0.0, 0.0) } else { params.eye };
+    (origin, Vec3::new(fx + jx, fy + jy, -1.0))
+}
+
+/// Traces the rays of the packet test and writes their records.
+#[raygen]
+fn rg_probe(ctx: &mut Raygen, #[params] params: &PacketParams, #[payload] hit: &mut HitRecord) {
+    let index: UVec3 = ctx.launch_index();
+    let pixel = ctx.launch_linear_index();
+    let mut k = 0;
+    while k < params.rays {
+        let (origin, direction) = probe_ray(index.truncate(), k, params);
+        *hit = HitRecord { t: -1.0, ..Default::default() };
+        ctx.trace_from::<Probe>(params.scene, origin, direction, hit);
+        let at = (pixel * params.rays + k) * HIT_WORDS;
+        let words = [
+            hit.t.to_bits(),
+            hit.u.to_bits(),
+            hit.v.to_bits(),
+            hit.primitive,
+            hit.instance,
+            hit.geometry,
+            hit.front,
+            hit.custom,
+        ];
+        let mut w = 0;
+        while w < HIT_WORDS {
+            ctx.store(params.hits, at + w, words[w as usize]);
+            w += 1;
+        }
+        k += 1;
+    }
+}
+
+/// Leaves the miss record (`t = -1`).
+#[miss(ray = Probe)]
+fn ms_probe(_ctx: &mut Miss, #[payload] _hit: &mut HitRecord) {}
+
+/// Records the hit.
+#[closest_hit(ray = Probe)]
+fn ch_probe(ctx: &mut ClosestHit, #[payload] hit: &mut HitRecord) {
+    let b = ctx.barycentrics();
+    *hit = HitRecord {
+        t: ctx.ray_tmax(),
+        u: b.x,
+        v: b.y,
+        primitive: ctx.primitive_index(),
+        instance: ctx.instance_index(),
+        geometry: ctx.geometry_index(),
+        front: u32::from(ctx.is_front_face_hit()),
+        custom: ctx.instance_custom_index(),
+    };
+}
