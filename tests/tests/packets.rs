@@ -21,6 +21,9 @@ use raykit::{
 const W: u32 = 64;
 const H: u32 = 48;
 
+/// Builds a scene: its GASes (kept alive) and the IAS over them.
+type SceneBuilder = dyn Fn(&Context) -> anyhow::Result<(Vec<Gas>, Ias)>;
+
 /// A deterministic stream of numbers in `[0, 1)`.
 struct Random(u64);
 
@@ -55,7 +58,7 @@ fn cpu(packets: bool) -> anyhow::Result<Context> {
 /// The hit records of `rays` rays per pixel into the scene `build` makes.
 fn trace(
     ctx: &Context,
-    build: &dyn Fn(&Context) -> anyhow::Result<(Vec<Gas>, Ias)>,
+    build: &SceneBuilder,
     rays: u32,
     spread: f32,
     shift: f32,
@@ -132,7 +135,7 @@ fn several_instances(ctx: &Context) -> anyhow::Result<(Vec<Gas>, Ias)> {
 
 /// Traces with packets and without, and compares the records.
 fn compare(
-    build: &dyn Fn(&Context) -> anyhow::Result<(Vec<Gas>, Ias)>,
+    build: &SceneBuilder,
     rays: u32,
     spread: f32,
     shift: f32,
@@ -186,7 +189,7 @@ fn camera_rays_in_packets_hit_what_they_hit_alone() -> anyhow::Result<()> {
 #[test]
 fn scattered_rays_in_packets_hit_what_they_hit_alone() -> anyhow::Result<()> {
     let rays = u64::from(W * H * 4);
-    for build in [&one_instance as &dyn Fn(&Context) -> _, &several_instances] {
+    for build in [&one_instance as &SceneBuilder, &several_instances] {
         let (hits, packed) = compare(build, 4, 1.5, 0.0)?;
         anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets");
         eprintln!("scattered rays: {hits} of {rays} hit");
@@ -197,7 +200,7 @@ fn scattered_rays_in_packets_hit_what_they_hit_alone() -> anyhow::Result<()> {
 #[test]
 fn rays_from_elsewhere_than_the_first_are_traced_alone_with_the_same_hits() -> anyhow::Result<()> {
     let rays = u64::from(W * H * 4);
-    for build in [&one_instance as &dyn Fn(&Context) -> _, &several_instances] {
+    for build in [&one_instance as &SceneBuilder, &several_instances] {
         let (hits, packed) = compare(build, 4, 0.02, 0.25)?;
         // Rays 0 and 2 of each pixel start at the camera; 1 and 3 elsewhere.
         anyhow::ensure!(packed == rays / 2, "{packed} of {rays} rays went in packets, not half");
