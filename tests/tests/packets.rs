@@ -56,13 +56,7 @@ fn cpu(packets: bool) -> anyhow::Result<Context> {
 }
 
 /// The hit records of `rays` rays per pixel into the scene `build` makes.
-fn trace(
-    ctx: &Context,
-    build: &SceneBuilder,
-    rays: u32,
-    spread: f32,
-    shift: f32,
-) -> anyhow::Result<Vec<[u32; 8]>> {
+fn trace(ctx: &Context, build: &SceneBuilder, rays: u32, spread: f32, shift: f32) -> anyhow::Result<Vec<[u32; 8]>> {
     let module = Module::from_device_crate(ctx, "accel-test-device")?;
     let raygen = ProgramGroup::raygen(&module, accel_test_device::RG_PROBE)?;
     let miss = ProgramGroup::miss(&module, accel_test_device::MS_PROBE)?;
@@ -134,12 +128,7 @@ fn several_instances(ctx: &Context) -> anyhow::Result<(Vec<Gas>, Ias)> {
 }
 
 /// Traces with packets and without, and compares the records.
-fn compare(
-    build: &SceneBuilder,
-    rays: u32,
-    spread: f32,
-    shift: f32,
-) -> anyhow::Result<(usize, u64)> {
+fn compare(build: &SceneBuilder, rays: u32, spread: f32, shift: f32) -> anyhow::Result<(usize, u64)> {
     let packed = cpu(true)?;
     let alone = cpu(false)?;
     let a = trace(&packed, build, rays, spread, shift)?;
