@@ -322,6 +322,7 @@ impl Ias {
                 mask: instance.mask,
                 sbt_offset: instance.sbt_offset,
                 flags: instance.flags,
+                identity: object_to_world == glam::Affine3A::IDENTITY,
             });
         }
         let data = Arc::new(crate::cpu::accel::SceneData::build(scene));

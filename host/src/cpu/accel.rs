@@ -202,6 +202,8 @@ pub(crate) struct SceneInstance {
     pub(crate) mask: u8,
     pub(crate) sbt_offset: u32,
     pub(crate) flags: InstanceFlags,
+    /// The instance has no transform: object space is world space.
+    pub(crate) identity: bool,
 }
 
 /// A built IAS: what a trace of its `Traversable` runs through.

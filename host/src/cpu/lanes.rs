@@ -27,13 +27,9 @@ thread_local! {
 }
 
 /// Runs `body(lane, yielder)` for each lane of `0..count` (at most
-/// [`WIDTH`]), each in a coroutine of its own. A body runs its invocations one
-/// after another and calls [`end_invocation`] after each: lanes move from one
-/// invocation to the next together, so the rays of a block come from
-/// neighbouring invocations. Whenever every lane has suspended with a ray, or
-/// ended its invocation, or returned, `trace` gets the rays (in lane order) and
-/// those lanes are resumed; when every lane has ended its invocation, all are
-/// resumed for their next.
+/// [`WIDTH`]), each in a coroutine of its own. Whenever every lane has
+/// suspended with a ray or returned, `trace` gets the rays (in lane order) and
+/// those lanes are resumed.
 pub(crate) fn run_lanes<F, T>(count: usize, body: &F, mut trace: T) -> Result<()>
 where
     F: Fn(usize, &LaneYielder),
@@ -49,46 +45,24 @@ where
         // SAFETY: the coroutine borrows `body`, which outlives this function;
         // every lane is driven to completion below or dropped (unwound) before
         // it returns.
-        lanes.push(unsafe {
-            Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder))
-        });
+        lanes.push(unsafe { Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder)) });
     }
     let mut rays: Vec<&PacketRay> = Vec::with_capacity(count);
-    // Lanes that ended their invocation and wait for the others.
-    let mut waiting = vec![false; count];
     loop {
         rays.clear();
-        let mut running = false;
-        for (lane, coroutine) in lanes.iter_mut().enumerate() {
-            if waiting[lane] || coroutine.done() {
-                continue;
-            }
+        for coroutine in lanes.iter_mut().filter(|lane| !lane.done()) {
             if let CoroutineResult::Yield(ray) = coroutine.resume(()) {
-                running = true;
-                if ray.is_null() {
-                    waiting[lane] = true;
-                } else {
-                    // SAFETY: the ray lives on the lane's stack, in the trace
-                    // call that suspended; the lane stays suspended until
-                    // `trace` has returned and `rays` is cleared.
-                    rays.push(unsafe { &*ray });
-                }
+                // SAFETY: the ray lives on the lane's stack, in the trace call
+                // that suspended; the lane stays suspended until `trace` has
+                // returned and `rays` is cleared.
+                rays.push(unsafe { &*ray });
             }
         }
-        if !rays.is_empty() {
-            trace(&rays);
-        } else if running || waiting.contains(&true) {
-            // Every lane ended its invocation: on to the next.
-            waiting.fill(false);
-        } else {
+        if rays.is_empty() {
             break;
         }
+        trace(&rays);
     }
     STACKS.with_borrow_mut(|stacks| stacks.extend(lanes.into_iter().map(Coroutine::into_stack)));
     Ok(())
-}
-
-/// Ends a lane's invocation: waits until every lane has ended its own.
-pub(crate) fn end_invocation(yielder: &LaneYielder) {
-    yielder.suspend(std::ptr::null());
 }

@@ -142,7 +142,9 @@ enum AnyHitEnd {
 /// Runs the launch; returns its error, if any, after every invocation ran.
 pub(crate) fn run(job: &LaunchJob) -> Result<()> {
     let [w, h, d] = job.dims;
-    let (tiles_x, tiles_y) = (w.div_ceil(TILE), h.div_ceil(TILE));
+    // Lanes' tiles are larger: what a tile sets up is shared by more invocations.
+    let tile_size = if job.packets { 2 * TILE } else { TILE };
+    let (tiles_x, tiles_y) = (w.div_ceil(tile_size), h.div_ceil(tile_size));
     let tiles = u64::from(tiles_x) * u64::from(tiles_y) * u64::from(d);
     let stop = AtomicBool::new(false);
     let outcomes: Vec<Outcome> = job.ctx.pool.install(|| {
@@ -158,7 +160,7 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                 let rest = tile % (u64::from(tiles_x) * u64::from(tiles_y));
                 let (ty, tx) = ((rest / u64::from(tiles_x)) as u32, (rest % u64::from(tiles_x)) as u32);
                 if job.packets {
-                    run_tile_in_blocks(job, [tx, ty, z], &mut outcome);
+                    run_tile_in_lanes(job, [tx * tile_size, ty * tile_size, z], tile_size, &mut outcome);
                     if outcome.failure.is_some() {
                         stop.store(true, Ordering::Relaxed);
                     }
@@ -166,8 +168,8 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                 }
                 // One state for the tile's invocations, its lists reused.
                 let mut state = InvocationState::new(job);
-                for y in ty * TILE..((ty + 1) * TILE).min(h) {
-                    for x in tx * TILE..((tx + 1) * TILE).min(w) {
+                for y in ty * tile_size..((ty + 1) * tile_size).min(h) {
+                    for x in tx * tile_size..((tx + 1) * tile_size).min(w) {
                         state.launch_index = UVec3::new(x, y, z);
                         state.running.get_mut().clear();
                         invoke(&state, &mut outcome);
@@ -241,27 +243,19 @@ impl<'j> InvocationState<'j> {
     }
 }
 
-/// Pixels of a block, one per lane: 4 × 4, or 16 × 1 in a launch one row high.
-fn block_shape(height: u32) -> (u32, u32) {
-    if height == 1 {
-        (16, 1)
-    } else {
-        (4, 4)
-    }
-}
-
-/// Runs tile `[tx, ty, z]` in blocks of [`packet::WIDTH`] invocations, one
-/// per lane, their camera rays traced in packets. Lanes stop after the block in
-/// which one failed; the first failure in launch order is kept.
-fn run_tile_in_blocks(job: &LaunchJob, [tx, ty, z]: [u32; 3], outcome: &mut Outcome) {
+/// Runs the tile of `size × size` invocations from `[x0, y0, z]` in
+/// [`packet::WIDTH`] lanes, their camera rays traced in packets. Lane `i` runs
+/// the tile's invocations `i`, `i + WIDTH`, … in rows of blocks of 4 × 2
+/// invocations, so that the lanes' rays stay close together. Lanes stop after
+/// an invocation failed; the first failure in launch order is kept.
+fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome: &mut Outcome) {
     let [w, h, _] = job.dims;
-    let (bw, bh) = block_shape(h);
-    let (x0, y0) = (tx * TILE, ty * TILE);
-    let (x_end, y_end) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+    let (x_end, y_end) = ((x0 + size).min(w), (y0 + size).min(h));
+    let (bw, bh) = if y_end - y0 == 1 { (packet::WIDTH as u32, 1) } else { (4, packet::WIDTH as u32 / 4) };
     let blocks_x = (x_end - x0).div_ceil(bw);
     let blocks = blocks_x * (y_end - y0).div_ceil(bh);
     let failed = Cell::new(false);
-    let outcomes: Vec<RefCell<Outcome>> = (0..packet::WIDTH).map(|_| RefCell::default()).collect();
+    let outcomes: [RefCell<Outcome>; packet::WIDTH] = std::array::from_fn(|_| RefCell::default());
     // Lane `lane`'s invocation in block `block`, if the block has one there.
     let pixel = |block: u32, lane: u32| {
         let (x, y) = (x0 + (block % blocks_x) * bw + lane % bw, y0 + (block / blocks_x) * bh + lane / bw);
@@ -284,12 +278,10 @@ fn run_tile_in_blocks(job: &LaunchJob, [tx, ty, z]: [u32; 3], outcome: &mut Outc
                     failed.set(true);
                 }
             }
-            lanes::end_invocation(yielder);
         }
     };
-    let lanes = (bw * bh) as usize;
     let mut packet_rays = 0;
-    let traced = lanes::run_lanes(lanes, &body, |rays| {
+    let traced = lanes::run_lanes(packet::WIDTH, &body, |rays| {
         trace_packet(rays);
         packet_rays += rays.len() as u64;
     });
@@ -466,6 +458,49 @@ impl<'j> Frame<'_, 'j> {
         }
     }
 
+    /// Suspends the invocation until its block has traced `ray` in a packet;
+    /// the committed hit and its attributes, if any (`Some(None)`: a miss), or
+    /// `None` when the packet could not take the ray.
+    #[allow(clippy::option_option)]
+    fn trace_in_packet(&self, scene: &SceneData, ray: &Ray, call: TraceCall) -> Option<Option<(Committed, Attributes)>> {
+        let request = PacketRay {
+            scene,
+            origin: ray.origin,
+            direction: ray.direction,
+            t_min: ray.t_min,
+            t_max: ray.t_max,
+            cull_mask: call.cull_mask,
+            first_hit: call.flags & ray_flags::TERMINATE_ON_FIRST_HIT != 0,
+            traced: Cell::new(Traced::Pending),
+        };
+        // SAFETY: `packet_ready` checked that the invocation runs in a lane,
+        // whose coroutine set `lane` to its yielder and is running this call.
+        let yielder = unsafe { &*self.state.lane.get() };
+        yielder.suspend(&request);
+        match request.traced.get() {
+            Traced::Hit(hit) => {
+                let instance = &scene.instances[hit.instance as usize];
+                let record = u64::from(instance.sbt_offset)
+                    + u64::from(hit.geometry) * u64::from(call.sbt_stride)
+                    + u64::from(call.sbt_offset);
+                let hit_kind = if hit.front { HIT_KIND_FRONT_FACING_TRIANGLE } else { HIT_KIND_BACK_FACING_TRIANGLE };
+                let committed = Committed {
+                    t: hit.t,
+                    hit_kind,
+                    instance: hit.instance,
+                    geometry: hit.geometry,
+                    primitive: hit.primitive,
+                    record,
+                };
+                let mut attributes: Attributes = [0; ATTRIBUTE_BYTES / 16];
+                bytemuck::cast_slice_mut::<u128, f32>(&mut attributes)[..2].copy_from_slice(&[hit.u, hit.v]);
+                Some(Some((committed, attributes)))
+            }
+            Traced::Miss => Some(None),
+            Traced::Alone | Traced::Pending => None,
+        }
+    }
+
     /// Checks that `program` receives `what` of type `given`.
     fn check_type(&self, program: Program, what: &str, declared: Option<TypeInfo>, given: TypeInfo) {
         let Some(declared) = declared else { return };
@@ -516,61 +551,26 @@ impl Runtime for Frame<'_, '_> {
         let Some((_, scene)) = job.scenes.iter().find(|(a, _)| *a == address) else {
             fault(format!("a trace into traversable {address:#x}, which is no live IAS of this Context"));
         };
-        let traversal = Traversal::new(self, scene, ray, call, depth, &payload);
-        if self.packet_ready(scene, &ray, call) {
-            let request = PacketRay {
-                scene: &**scene,
-                origin: ray.origin,
-                direction: ray.direction,
-                t_min: ray.t_min,
-                t_max: ray.t_max,
-                cull_mask: call.cull_mask,
-                first_hit: call.flags & ray_flags::TERMINATE_ON_FIRST_HIT != 0,
-                traced: Cell::new(Traced::Pending),
-            };
-            // SAFETY: `packet_ready` checked that the invocation runs in a lane,
-            // whose coroutine set `lane` to its yielder and is running this call.
-            let yielder = unsafe { &*self.state.lane.get() };
-            yielder.suspend(&request);
-            match request.traced.get() {
-                Traced::Hit(hit) => {
-                    let instance = &scene.instances[hit.instance as usize];
-                    let record = u64::from(instance.sbt_offset)
-                        + u64::from(hit.geometry) * u64::from(call.sbt_stride)
-                        + u64::from(call.sbt_offset);
-                    let hit_kind =
-                        if hit.front { HIT_KIND_FRONT_FACING_TRIANGLE } else { HIT_KIND_BACK_FACING_TRIANGLE };
-                    traversal.t_max.set(hit.t);
-                    traversal.committed.set(Some(Committed {
-                        t: hit.t,
-                        hit_kind,
-                        instance: hit.instance,
-                        geometry: hit.geometry,
-                        primitive: hit.primitive,
-                        record,
-                    }));
-                    let mut attributes: Attributes = [0; ATTRIBUTE_BYTES / 16];
-                    bytemuck::cast_slice_mut::<u128, f32>(&mut attributes)[..2].copy_from_slice(&[hit.u, hit.v]);
-                    traversal.committed_attributes.set(attributes);
-                }
-                Traced::Miss => {}
-                Traced::Alone | Traced::Pending => traversal.run(),
+        let traced = if self.packet_ready(scene, &ray, call) { self.trace_in_packet(scene, &ray, call) } else { None };
+        let committed = match traced {
+            Some(committed) => committed,
+            None => {
+                let traversal = Traversal::new(self, scene, ray, call, depth, &payload);
+                traversal.run();
+                traversal.committed.get().map(|hit| (hit, traversal.committed_attributes.get()))
             }
-        } else {
-            traversal.run();
-        }
+        };
         let frame = Frame { state: self.state, depth, traversal: None };
-        match traversal.committed.get() {
-            Some(hit) => {
+        match committed {
+            Some((hit, mut attributes)) => {
                 if call.flags & ray_flags::SKIP_CLOSEST_HIT != 0 {
                     return;
                 }
                 let record = frame.record(2, hit.record, "hit record");
                 let Some(program) = job.pipeline.groups[record.group].closest_hit else { return };
                 frame.check_type(program, "payload", program.cpu.payload, payload.ty);
-                let mut attributes = traversal.committed_attributes.get();
                 let mut inv = frame.invocation();
-                inv.hit = traversal.builtins(&hit, hit.t, hit.hit_kind);
+                inv.hit = hit_builtins(job, self.state.launch_index, scene, &ray, call, &hit, hit.t, hit.hit_kind);
                 inv.record = record.data.ptr();
                 inv.payload = payload.ptr;
                 inv.attributes = attributes.as_mut_ptr().cast();
@@ -985,28 +985,59 @@ impl<'f> Traversal<'f> {
 
     /// The built-ins of hit stages for `hit`, with `t_max` as `ray_tmax`.
     fn builtins(&self, hit: &Committed, t_max: f32, hit_kind: u32) -> HitBuiltins {
-        let instance = &self.scene.instances[hit.instance as usize];
-        let w2o = instance.world_to_object;
-        HitBuiltins {
-            launch_index: self.frame.state.launch_index,
-            launch_dimensions: UVec3::from_array(self.frame.job().dims),
-            world_ray_origin: self.ray.origin,
-            world_ray_direction: self.ray.direction,
-            object_ray_origin: w2o.transform_point3(self.ray.origin),
-            object_ray_direction: w2o.transform_vector3(self.ray.direction),
-            ray_tmin: self.ray.t_min,
-            ray_tmax: t_max,
-            ray_flags: self.call.flags,
-            hit_kind,
-            primitive_index: hit.primitive,
-            instance_id: hit.instance,
-            instance_custom_index: instance.custom_index,
-            geometry_index: hit.geometry,
-            object_to_world: matrix(instance.object_to_world),
-            world_to_object: matrix(w2o),
-        }
+        let frame = self.frame;
+        hit_builtins(frame.job(), frame.state.launch_index, self.scene, &self.ray, self.call, hit, t_max, hit_kind)
     }
 }
+
+/// The built-ins of hit stages for `hit` of a trace of `ray` into `scene` by
+/// invocation `launch_index`, with `t_max` as `ray_tmax`. An instance without
+/// a transform (the identity) makes the object-space ray the world-space one.
+#[allow(clippy::too_many_arguments)]
+fn hit_builtins(
+    job: &LaunchJob,
+    launch_index: UVec3,
+    scene: &SceneData,
+    ray: &Ray,
+    call: TraceCall,
+    hit: &Committed,
+    t_max: f32,
+    hit_kind: u32,
+) -> HitBuiltins {
+    let instance = &scene.instances[hit.instance as usize];
+    let (object_ray_origin, object_ray_direction, object_to_world, world_to_object) = if instance.identity {
+        (ray.origin, ray.direction, IDENTITY, IDENTITY)
+    } else {
+        let w2o = instance.world_to_object;
+        (
+            w2o.transform_point3(ray.origin),
+            w2o.transform_vector3(ray.direction),
+            matrix(instance.object_to_world),
+            matrix(w2o),
+        )
+    };
+    HitBuiltins {
+        launch_index,
+        launch_dimensions: UVec3::from_array(job.dims),
+        world_ray_origin: ray.origin,
+        world_ray_direction: ray.direction,
+        object_ray_origin,
+        object_ray_direction,
+        ray_tmin: ray.t_min,
+        ray_tmax: t_max,
+        ray_flags: call.flags,
+        hit_kind,
+        primitive_index: hit.primitive,
+        instance_id: hit.instance,
+        instance_custom_index: instance.custom_index,
+        geometry_index: hit.geometry,
+        object_to_world,
+        world_to_object,
+    }
+}
+
+/// The identity as the 4×3 matrix built-ins use.
+const IDENTITY: Matrix4x3 = Matrix4x3 { x_axis: Vec3::X, y_axis: Vec3::Y, z_axis: Vec3::Z, w_axis: Vec3::ZERO };
 
 /// The hit mask of `node`'s children for `ray` (see [`CwBvhNode::intersect_ray`]);
 /// `AVX2` only where the CPU has the features of [`Traversal::run_avx2`].

@@ -21,8 +21,9 @@ use obvhs::cwbvh::CwBvh;
 use super::accel::{GasData, Geometry, SceneData, SceneInstance};
 use crate::accel::{GeometryFlags, InstanceFlags};
 
-/// Rays in a packet: two AVX2 registers of `f32` lanes.
-pub(crate) const WIDTH: usize = 16;
+/// Rays in a packet: one AVX2 register of `f32` lanes per eight.
+pub(crate) const WIDTH: usize = 8;
+const _: () = assert!(WIDTH % 8 == 0 && WIDTH <= LaneMask::BITS as usize);
 
 /// A set of lanes, lane `i` at bit `i`.
 type LaneMask = u16;
@@ -258,12 +259,14 @@ impl<'s> Packet<'s> {
         let mut state = bvh.new_traversal(group.octant);
         let mut node: &CwBvhNode;
         use glam::UVec2;
-        obvhs::traverse!(bvh, node, state, self.node_mask(node, group, state.oct_inv4), {
+        let mut far = self.far(group);
+        obvhs::traverse!(bvh, node, state, self.node_mask(node, group, far, state.oct_inv4), {
             let index = bvh.primitive_indices[state.primitive_id as usize];
             self.instance(index, group.lanes & self.active);
             if group.lanes & self.active == 0 {
                 break;
             }
+            far = self.far(group);
         });
     }
 
@@ -287,7 +290,7 @@ impl<'s> Packet<'s> {
         // The object-space rays, as a trace alone computes them.
         let w2o: Affine3A = instance.world_to_object;
         // The identity changes no value: skip its arithmetic.
-        let identity = w2o == Affine3A::IDENTITY;
+        let identity = instance.identity;
         let mut origin = [Vec3::ZERO; WIDTH];
         let mut direction = [Vec3::ZERO; WIDTH];
         let mut rest = lanes;
@@ -318,37 +321,50 @@ impl<'s> Packet<'s> {
         let mut state = bvh.new_traversal(group.octant);
         let mut node: &CwBvhNode;
         use glam::UVec2;
-        obvhs::traverse!(bvh, node, state, self.node_mask(node, group, state.oct_inv4), {
+        let mut far = self.far(group);
+        obvhs::traverse!(bvh, node, state, self.node_mask(node, group, far, state.oct_inv4), {
             let leaf = &gas.leaves[state.primitive_id as usize];
-            self.triangle(instance, leaf, flip, group);
-            if group.lanes & self.active == 0 {
-                break;
+            if self.triangle(instance, leaf, flip, group) {
+                if group.lanes & self.active == 0 {
+                    break;
+                }
+                far = self.far(group);
             }
         });
     }
 
-    /// The obvhs hit mask of `node`'s children for `group`.
+    /// The farthest `t_max` of the group's active rays.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
-    fn node_mask(&self, node: &CwBvhNode, group: &Group, oct_inv4: u32) -> u32 {
-        let lanes = group.lanes & self.active;
-        if lanes == 0 {
-            return 0;
-        }
+    fn far(&self, group: &Group) -> f32 {
         use std::arch::x86_64::*;
-        // The farthest `t_max` of the walking lanes.
+        let lanes = group.lanes & self.active;
         let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-        let lanes_of = |half: i32| _mm256_set1_epi32(i32::from(lanes) >> (8 * half));
-        let walking = |half| _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(lanes_of(half), bits), bits));
-        // SAFETY: `t_max` holds the sixteen `f32`s the two unaligned loads read.
-        let (low, high) =
-            unsafe { (_mm256_loadu_ps(self.t_max.as_ptr()), _mm256_loadu_ps(self.t_max.as_ptr().add(8))) };
         let none = _mm256_set1_ps(f32::NEG_INFINITY);
-        let t_max = _mm256_max_ps(_mm256_blendv_ps(none, low, walking(0)), _mm256_blendv_ps(none, high, walking(1)));
+        let mut t_max = none;
+        for half in 0..WIDTH / 8 {
+            let lanes = _mm256_set1_epi32(i32::from(lanes) >> (8 * half));
+            let walking = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(lanes, bits), bits));
+            // SAFETY: `t_max` holds `WIDTH` `f32`s, a multiple of eight: the
+            // unaligned load reads eight of them.
+            let eight = unsafe { _mm256_loadu_ps(self.t_max.as_ptr().add(8 * half)) };
+            t_max = _mm256_max_ps(t_max, _mm256_blendv_ps(none, eight, walking));
+        }
         let half = _mm_max_ps(_mm256_castps256_ps128(t_max), _mm256_extractf128_ps::<1>(t_max));
         let half = _mm_max_ps(half, _mm_movehl_ps(half, half));
-        let far = _mm_cvtss_f32(_mm_max_ss(half, _mm_shuffle_ps::<0b01>(half, half)));
+        _mm_cvtss_f32(_mm_max_ss(half, _mm_shuffle_ps::<0b01>(half, half)))
+    }
+
+    /// The obvhs hit mask of `node`'s children for `group`, whose active rays
+    /// end by `far`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    #[inline]
+    fn node_mask(&self, node: &CwBvhNode, group: &Group, far: f32, oct_inv4: u32) -> u32 {
+        if group.lanes & self.active == 0 {
+            return 0;
+        }
         if group.shared_origin {
             node_mask_avx2::<true>(node, group, far, oct_inv4)
         } else {
@@ -361,14 +377,16 @@ impl<'s> Packet<'s> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
-    fn triangle(&mut self, instance: u32, leaf: &super::accel::Leaf, flip: bool, group: &Group) {
+    fn triangle(&mut self, instance: u32, leaf: &super::accel::Leaf, flip: bool, group: &Group) -> bool {
         let lanes = group.lanes & self.active;
+        let mut accepted = false;
         for half in 0..WIDTH / 8 {
             let in_half = (lanes >> (8 * half)) as u8;
             if in_half != 0 {
-                self.triangle_half(instance, leaf, flip, group, 8 * half, in_half);
+                accepted |= self.triangle_half(instance, leaf, flip, group, 8 * half, in_half);
             }
         }
+        accepted
     }
 
     /// [`Packet::triangle`] for the eight lanes from `first`, of which `lanes`
@@ -384,7 +402,7 @@ impl<'s> Packet<'s> {
         group: &Group,
         first: usize,
         lanes: u8,
-    ) {
+    ) -> bool {
         use std::arch::x86_64::*;
         let tri = &leaf.triangle;
         let set = |v: f32| _mm256_set1_ps(v);
@@ -430,7 +448,7 @@ impl<'s> Packet<'s> {
         ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LE_OQ>(t, load(&self.t_max)));
         let mut accepted = (_mm256_movemask_ps(ok) as u32 as u8) & lanes;
         if accepted == 0 {
-            return;
+            return false;
         }
         let mut ts = [0.0f32; 8];
         let mut us = [0.0f32; 8];
@@ -461,6 +479,7 @@ impl<'s> Packet<'s> {
                 self.active &= !(1 << lane);
             }
         }
+        true
     }
 }
 
