@@ -73,6 +73,9 @@ pub(crate) struct GasData {
     pub(crate) bvh: CwBvh,
     /// Bounds of everything, in object space.
     pub(crate) bounds: BvhAabb,
+    /// The leaves' triangles eight at a time, for a GAS small enough to test
+    /// without its tree (see [`super::flat`]).
+    pub(crate) flat: Option<Box<[super::flat::TriangleBlock]>>,
 }
 
 impl std::fmt::Debug for GasData {
@@ -123,7 +126,7 @@ impl GasData {
         }
         let bounds = boxes.iter().fold(BvhAabb::empty(), |all, b| all.union(b));
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(boxes.len()), &mut Duration::default());
-        let leaves = bvh
+        let leaves: Vec<Leaf> = bvh
             .primitive_indices
             .iter()
             .map(|&i| {
@@ -135,8 +138,9 @@ impl GasData {
                 Leaf { triangle, geometry, primitive }
             })
             .collect();
-        let geometries = built.into_iter().map(|(g, _)| g).collect();
-        GasData { geometries, leaves, bvh, bounds }
+        let geometries: Vec<Geometry> = built.into_iter().map(|(g, _)| g).collect();
+        let flat = super::flat::blocks(&geometries, &leaves);
+        GasData { geometries, leaves, bvh, bounds, flat }
     }
 
     /// Bytes the structure takes on the host.

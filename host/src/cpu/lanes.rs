@@ -45,7 +45,9 @@ where
         // SAFETY: the coroutine borrows `body`, which outlives this function;
         // every lane is driven to completion below or dropped (unwound) before
         // it returns.
-        lanes.push(unsafe { Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder)) });
+        lanes.push(unsafe {
+            Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder))
+        });
     }
     let mut rays: Vec<&PacketRay> = Vec::with_capacity(count);
     loop {

@@ -462,7 +462,12 @@ impl<'j> Frame<'_, 'j> {
     /// the committed hit and its attributes, if any (`Some(None)`: a miss), or
     /// `None` when the packet could not take the ray.
     #[allow(clippy::option_option)]
-    fn trace_in_packet(&self, scene: &SceneData, ray: &Ray, call: TraceCall) -> Option<Option<(Committed, Attributes)>> {
+    fn trace_in_packet(
+        &self,
+        scene: &SceneData,
+        ray: &Ray,
+        call: TraceCall,
+    ) -> Option<Option<(Committed, Attributes)>> {
         let request = PacketRay {
             scene,
             origin: ray.origin,
@@ -783,12 +788,36 @@ impl<'f> Traversal<'f> {
         let bvh = &gas.bvh;
         let (o, d) = (Vec3A::from(origin), Vec3A::from(direction));
         let mut ray = BvhRay::new(o, d, self.ray.t_min, self.t_max.get());
+        #[cfg(target_arch = "x86_64")]
+        if let (true, Some(blocks)) = (AVX2, &gas.flat) {
+            // A small GAS: every triangle, eight at a time, in leaf order.
+            for (b, block) in blocks.iter().enumerate() {
+                // SAFETY: `AVX2` is true only inside `run_avx2`, run where the CPU has its features.
+                let hits = unsafe { super::flat::intersect(block, o, d, self.ray.t_min, self.t_max.get()) };
+                let mut lanes = hits.lanes;
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    // An earlier candidate may have moved `t_max` closer.
+                    if hits.t[lane] > self.t_max.get() {
+                        continue;
+                    }
+                    let leaf = &gas.leaves[8 * b + lane];
+                    let found = (hits.t[lane], hits.u[lane], hits.v[lane], hits.det[lane]);
+                    self.primitive(index, instance, leaf, o, d, &ray, Some(found));
+                    if self.terminated.get() {
+                        return;
+                    }
+                }
+            }
+            return;
+        }
         let mut state = bvh.new_traversal(d);
         let mut node;
         use glam::UVec2;
         obvhs::traverse!(bvh, node, state, intersect_node::<AVX2>(node, &ray, state.oct_inv4), {
             let leaf = &gas.leaves[state.primitive_id as usize];
-            self.primitive(index, instance, leaf, o, d, &ray);
+            self.primitive(index, instance, leaf, o, d, &ray, None);
             if self.terminated.get() {
                 break;
             }
@@ -796,7 +825,8 @@ impl<'f> Traversal<'f> {
         });
     }
 
-    /// Tests one primitive of instance `index`.
+    /// Tests one primitive of instance `index`; a triangle's intersection
+    /// `(t, u, v, determinant)` may come `found` already.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn primitive(
@@ -807,6 +837,7 @@ impl<'f> Traversal<'f> {
         origin: Vec3A,
         direction: Vec3A,
         ray: &BvhRay,
+        found: Option<(f32, f32, f32, f32)>,
     ) {
         let (geometry, primitive) = (leaf.geometry, leaf.primitive);
         let geo = &instance.gas.geometries[geometry as usize];
@@ -837,7 +868,7 @@ impl<'f> Traversal<'f> {
                     return;
                 }
                 let Some((t, u, v, det)) =
-                    intersect_triangle(&leaf.triangle, origin, direction, ray.tmin, self.t_max.get())
+                    found.or_else(|| intersect_triangle(&leaf.triangle, origin, direction, ray.tmin, self.t_max.get()))
                 else {
                     return;
                 };

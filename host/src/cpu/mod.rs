@@ -48,6 +48,7 @@
 
 pub(crate) mod accel;
 pub(crate) mod buffers;
+pub(crate) mod flat;
 pub(crate) mod lanes;
 pub(crate) mod launch;
 pub(crate) mod packet;
