@@ -246,15 +246,17 @@ impl<'j> InvocationState<'j> {
 /// Runs the tile of `size × size` invocations from `[x0, y0, z]` in
 /// [`packet::WIDTH`] lanes, their camera rays traced in packets. Lane `i` runs
 /// the tile's invocations `i`, `i + WIDTH`, … in rows of blocks of 4 × 2
-/// invocations, so that the lanes' rays stay close together. Lanes stop after
-/// an invocation failed; the first failure in launch order is kept.
+/// invocations, so that the lanes' rays stay close together. Once an
+/// invocation failed, lanes run only the invocations before it in launch
+/// order, so the tile reports its first failure in launch order.
 fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome: &mut Outcome) {
     let [w, h, _] = job.dims;
     let (x_end, y_end) = ((x0 + size).min(w), (y0 + size).min(h));
     let (bw, bh) = if y_end - y0 == 1 { (packet::WIDTH as u32, 1) } else { (4, packet::WIDTH as u32 / 4) };
     let blocks_x = (x_end - x0).div_ceil(bw);
     let blocks = blocks_x * (y_end - y0).div_ceil(bh);
-    let failed = Cell::new(false);
+    // The launch-order position of the first failure so far.
+    let first_failure = Cell::new(u64::MAX);
     let outcomes: [RefCell<Outcome>; packet::WIDTH] = std::array::from_fn(|_| RefCell::default());
     // Lane `lane`'s invocation in block `block`, if the block has one there.
     let pixel = |block: u32, lane: u32| {
@@ -266,17 +268,22 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
         state.lane.set(yielder);
         let mut outcome = outcomes[lane].borrow_mut();
         for block in 0..blocks {
-            if failed.get() {
-                break;
+            let Some(index) = pixel(block, lane as u32) else { continue };
+            let position = linear_index(job.dims, index.to_array());
+            if position > first_failure.get() {
+                continue;
             }
-            if let Some(index) = pixel(block, lane as u32) {
-                state.launch_index = index;
-                state.running.get_mut().clear();
-                state.camera.set(None);
-                invoke(&state, &mut outcome);
-                if outcome.failure.is_some() {
-                    failed.set(true);
+            state.launch_index = index;
+            state.running.get_mut().clear();
+            state.camera.set(None);
+            let earlier = outcome.failure.take();
+            invoke(&state, &mut outcome);
+            match (outcome.failure.take(), earlier) {
+                (Some(failure), _) => {
+                    first_failure.set(first_failure.get().min(failure.0));
+                    outcome.failure = Some(failure);
                 }
+                (None, earlier) => outcome.failure = earlier,
             }
         }
     };
