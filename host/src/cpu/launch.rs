@@ -513,22 +513,30 @@ impl<'j> Frame<'_, 'j> {
         }
     }
 
-    /// Checks that `program` receives `what` of type `given`.
+    /// Checks that `program` receives `what` of type `given`: at once when the
+    /// pair was found equal before in this tile.
+    #[inline(always)]
     fn check_type(&self, program: Program, what: &str, declared: Option<TypeInfo>, given: TypeInfo) {
         let Some(declared) = declared else { return };
         let pair = (declared.identity(), given.identity());
-        let mut seen = self.state.same_types.get();
-        if seen.contains(&pair) {
-            return;
+        if !self.state.same_types.get().contains(&pair) {
+            self.compare_types(program, what, declared, given);
         }
+    }
+
+    /// [`Frame::check_type`] for a pair not seen yet: compares the types by
+    /// name and remembers them when equal.
+    #[inline(never)]
+    fn compare_types(&self, program: Program, what: &str, declared: TypeInfo, given: TypeInfo) {
         if declared != given {
             fault(format!(
                 "`{}` takes a {what} of type {declared:?}, but was given one of type {given:?}",
                 program.name
             ));
         }
+        let mut seen = self.state.same_types.get();
         seen.rotate_right(1);
-        seen[0] = pair;
+        seen[0] = (declared.identity(), given.identity());
         self.state.same_types.set(seen);
     }
 
