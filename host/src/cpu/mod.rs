@@ -29,13 +29,31 @@
 //!   1.7× faster and 16-ray packets about 3× faster on a million triangles; the
 //!   traversal is compiled for AVX2 where the CPU has it. Refit rebuilds the
 //!   tree; compaction keeps it.
+//! * GASes of at most 64 triangles are tested without their tree, one ray
+//!   against eight triangles at once (`cpu::flat`).
+//! * Camera rays are traced in packets (`cpu::packet`, `cpu::lanes`): eight
+//!   invocations of a tile run side by side as coroutines
+//!   ([corosensei](https://crates.io/crates/corosensei)), each on a stack as
+//!   deep as a pool thread's. A trace from where its invocation first traced,
+//!   into a scene whose triangles run no program while rays traverse it,
+//!   suspends the invocation until the other lanes have suspended or finished;
+//!   then their rays walk the tree together, against interval bounds that hold
+//!   them all, and their triangles are tested eight lanes wide. Each ray gets
+//!   the same hit as alone, bit for bit; only which of two hits at exactly the
+//!   same distance is the closest may differ.
+//!   [`ContextOptions::cpu_packets`](crate::ContextOptions::cpu_packets) (or
+//!   `RAYKIT_CPU_PACKETS=0`) turns packets off;
+//!   [`Context::packet_rays`](crate::Context::packet_rays) counts the rays they
+//!   took.
 //! * The trace depth is checked on every trace, for every ray type: a trace past
 //!   the pipeline's `max_trace_depth` is not made and the launch returns
 //!   [`Error::RecursionTooDeep`].
-//! * A launch runs in parallel over tiles of its grid on a thread pool of the
-//!   context ([rayon](https://crates.io/crates/rayon)); each invocation computes
-//!   the same values whatever the number of threads, and user exceptions are
-//!   reported in launch-index order.
+//! * A launch runs in parallel over tiles of its grid (8 × 8 invocations, or
+//!   16 × 16 in lanes) on a thread pool of the context
+//!   ([rayon](https://crates.io/crates/rayon)); each invocation computes the
+//!   same values whatever the number of threads, user exceptions are reported
+//!   in launch-index order, and a failed launch reports the first failure of
+//!   its tile in launch order.
 //! * Textures ([`Texture`](crate::Texture)) keep their texels in host memory,
 //!   and `sample_lod` runs a sampler written to Vulkan's filtering rules
 //!   (texel coordinates, address modes, bilinear weights, mip selection and
