@@ -125,8 +125,11 @@ enum Failure {
 #[derive(Default)]
 struct Outcome {
     exceptions: Vec<UserException>,
-    failure: Option<(u64, [u32; 3], Failure)>,
+    failure: Option<LaunchFailure>,
 }
+
+/// A failed invocation: its position in launch order, its index and why.
+type LaunchFailure = (u64, [u32; 3], Failure);
 
 /// A fault: a program asked for something the device would not define (an
 /// unknown traversable, a record past the SBT, a payload of another type).
@@ -172,7 +175,7 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                     for x in tx * tile_size..((tx + 1) * tile_size).min(w) {
                         state.launch_index = UVec3::new(x, y, z);
                         state.running.get_mut().clear();
-                        invoke(&state, &mut outcome);
+                        outcome.failure = invoke(&state, &mut outcome.exceptions);
                         if outcome.failure.is_some() {
                             stop.store(true, Ordering::Relaxed);
                             return outcome;
@@ -253,37 +256,33 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
     let [w, h, _] = job.dims;
     let (x_end, y_end) = ((x0 + size).min(w), (y0 + size).min(h));
     let (bw, bh) = if y_end - y0 == 1 { (packet::WIDTH as u32, 1) } else { (4, packet::WIDTH as u32 / 4) };
-    let blocks_x = (x_end - x0).div_ceil(bw);
-    let blocks = blocks_x * (y_end - y0).div_ceil(bh);
     // The launch-order position of the first failure so far.
     let first_failure = Cell::new(u64::MAX);
     let outcomes: [RefCell<Outcome>; packet::WIDTH] = std::array::from_fn(|_| RefCell::default());
-    // Lane `lane`'s invocation in block `block`, if the block has one there.
-    let pixel = |block: u32, lane: u32| {
-        let (x, y) = (x0 + (block % blocks_x) * bw + lane % bw, y0 + (block / blocks_x) * bh + lane / bw);
-        (x < x_end && y < y_end).then(|| UVec3::new(x, y, z))
-    };
     let body = |lane: usize, yielder: &LaneYielder| {
         let mut state = InvocationState::new(job);
         state.lane.set(yielder);
         let mut outcome = outcomes[lane].borrow_mut();
-        for block in 0..blocks {
-            let Some(index) = pixel(block, lane as u32) else { continue };
-            let position = linear_index(job.dims, index.to_array());
-            if position > first_failure.get() {
-                continue;
-            }
-            state.launch_index = index;
-            state.running.get_mut().clear();
-            state.camera.set(None);
-            let earlier = outcome.failure.take();
-            invoke(&state, &mut outcome);
-            match (outcome.failure.take(), earlier) {
-                (Some(failure), _) => {
+        // The lane's place in each block.
+        let (dx, dy) = (lane as u32 % bw, lane as u32 / bw);
+        for by in (y0..y_end).step_by(bh as usize) {
+            for bx in (x0..x_end).step_by(bw as usize) {
+                let (x, y) = (bx + dx, by + dy);
+                if x >= x_end || y >= y_end {
+                    continue;
+                }
+                let index = UVec3::new(x, y, z);
+                if linear_index(job.dims, index.to_array()) > first_failure.get() {
+                    continue;
+                }
+                state.launch_index = index;
+                state.running.get_mut().clear();
+                state.camera.set(None);
+                if let Some(failure) = invoke(&state, &mut outcome.exceptions) {
                     first_failure.set(first_failure.get().min(failure.0));
+                    // Only invocations before the first failure run after it.
                     outcome.failure = Some(failure);
                 }
-                (None, earlier) => outcome.failure = earlier,
             }
         }
     };
@@ -354,25 +353,30 @@ fn trace_group(rays: &[&PacketRay]) {
 type TypePair = (usize, usize);
 
 /// Runs the raygen program at `state.launch_index`.
-fn invoke(state: &InvocationState<'_>, outcome: &mut Outcome) {
+/// The user exceptions it threw go to `exceptions`; a failure is returned.
+fn invoke(state: &InvocationState<'_>, exceptions: &mut Vec<UserException>) -> Option<LaunchFailure> {
     let (job, index) = (state.job, state.launch_index);
-    let Some(record) = job.sbt.regions[0].first() else { return };
-    let Some(raygen) = job.pipeline.groups[record.group].general else { return };
+    let record = job.sbt.regions[0].first()?;
+    let raygen = job.pipeline.groups[record.group].general?;
     let frame = Frame { state, depth: 0, traversal: None };
     let result = catch_unwind(AssertUnwindSafe(|| {
         let mut inv = frame.invocation();
         inv.record = record.data.ptr();
         frame.run(raygen, &mut inv);
     }));
-    outcome.exceptions.append(&mut state.exceptions.borrow_mut());
-    if let Err(payload) = result {
-        let program = state.running.borrow().last().copied().unwrap_or(raygen.name);
-        let failure = match payload.downcast::<Fault>() {
-            Ok(fault) => Failure::Fault { program, problem: fault.0 },
-            Err(payload) => Failure::Panicked { program, message: panic_message(payload.as_ref()) },
-        };
-        outcome.failure = Some((linear_index(job.dims, index.to_array()), index.to_array(), failure));
+    {
+        let mut thrown = state.exceptions.borrow_mut();
+        if !thrown.is_empty() {
+            exceptions.append(&mut thrown);
+        }
     }
+    let payload = result.err()?;
+    let program = state.running.borrow().last().copied().unwrap_or(raygen.name);
+    let failure = match payload.downcast::<Fault>() {
+        Ok(fault) => Failure::Fault { program, problem: fault.0 },
+        Err(payload) => Failure::Panicked { program, message: panic_message(payload.as_ref()) },
+    };
+    Some((linear_index(job.dims, index.to_array()), index.to_array(), failure))
 }
 
 /// The position of `index` in launch order: `x + width × (y + height × z)`.

@@ -123,8 +123,7 @@ pub(crate) fn trace(scene: &SceneData, rays: &[&PacketRay]) {
         if ray.t_min.partial_cmp(&ray.t_max).is_none_or(|o| o == std::cmp::Ordering::Greater) {
             continue;
         }
-        packet.origin[lane] = ray.origin;
-        packet.direction[lane] = ray.direction;
+        packet.world.set(lane, ray.origin, ray.direction);
         packet.t_min[lane] = ray.t_min;
         packet.t_max[lane] = ray.t_max;
         packet.cull_mask[lane] = ray.cull_mask;
@@ -143,9 +142,9 @@ pub(crate) fn trace(scene: &SceneData, rays: &[&PacketRay]) {
             }
             _ => {
                 let mut left = packet.active;
-                let (origin, direction) = (packet.origin, packet.direction);
+                let world = packet.world;
                 while left != 0 {
-                    let group = packet.next_group(&mut left, &origin, &direction);
+                    let group = Group::next(&mut left, &world, &packet.t_min);
                     packet.walk_scene(&group);
                 }
             }
@@ -158,11 +157,37 @@ pub(crate) fn trace(scene: &SceneData, rays: &[&PacketRay]) {
     }
 }
 
+/// Rays lane by lane, coordinate by coordinate: `o[axis][lane]`, `d[axis][lane]`.
+#[derive(Copy, Clone)]
+struct Rays {
+    o: [[f32; WIDTH]; 3],
+    d: [[f32; WIDTH]; 3],
+}
+
+impl Rays {
+    const ZERO: Rays = Rays { o: [[0.0; WIDTH]; 3], d: [[0.0; WIDTH]; 3] };
+
+    fn set(&mut self, lane: usize, origin: Vec3, direction: Vec3) {
+        for axis in 0..3 {
+            self.o[axis][lane] = origin[axis];
+            self.d[axis][lane] = direction[axis];
+        }
+    }
+
+    fn origin(&self, lane: usize) -> Vec3 {
+        Vec3::new(self.o[0][lane], self.o[1][lane], self.o[2][lane])
+    }
+
+    fn direction(&self, lane: usize) -> Vec3 {
+        Vec3::new(self.d[0][lane], self.d[1][lane], self.d[2][lane])
+    }
+}
+
 /// The rays of a packet, lane by lane, and what they hit so far.
 struct Packet<'s> {
     scene: &'s SceneData,
-    origin: [Vec3; WIDTH],
-    direction: [Vec3; WIDTH],
+    /// The rays in world space.
+    world: Rays,
     t_min: [f32; WIDTH],
     /// The closest accepted hit's distance, or the ray's `t_max`.
     t_max: [f32; WIDTH],
@@ -174,16 +199,10 @@ struct Packet<'s> {
     hits: [Option<PacketHit>; WIDTH],
 }
 
-/// The rays of one walk, in one octant: their lanes' origins and directions in
-/// the walked tree's space, and the interval holding them.
+/// The rays of one walk, in one octant: their lanes, and the interval holding
+/// their rays in the walked tree's space.
 struct Group {
     lanes: LaneMask,
-    ox: [f32; WIDTH],
-    oy: [f32; WIDTH],
-    oz: [f32; WIDTH],
-    dx: [f32; WIDTH],
-    dy: [f32; WIDTH],
-    dz: [f32; WIDTH],
     origin_lo: Vec3A,
     origin_hi: Vec3A,
     /// Every ray starts at one point (`origin_lo == origin_hi`).
@@ -196,23 +215,11 @@ struct Group {
     octant: Vec3A,
 }
 
-/// `1 / d`, finite, with the signs [`octant_of`] gives `d`.
-fn safe_inverse(d: Vec3A) -> Vec3A {
-    let inverse = (Vec3A::ONE / d).clamp(Vec3A::splat(-1e30), Vec3A::splat(1e30));
-    Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::splat(1e30), inverse)
-}
-
-/// The octant of `d` as obvhs orders children: negative components are `< 0`.
-fn octant_of(d: Vec3) -> u8 {
-    u8::from(d.x < 0.0) | (u8::from(d.y < 0.0) << 1) | (u8::from(d.z < 0.0) << 2)
-}
-
 impl<'s> Packet<'s> {
     fn new(scene: &'s SceneData) -> Self {
         Packet {
             scene,
-            origin: [Vec3::ZERO; WIDTH],
-            direction: [Vec3::ZERO; WIDTH],
+            world: Rays::ZERO,
             t_min: [0.0; WIDTH],
             t_max: [0.0; WIDTH],
             cull_mask: [0; WIDTH],
@@ -220,34 +227,6 @@ impl<'s> Packet<'s> {
             active: 0,
             hits: [None; WIDTH],
         }
-    }
-
-    /// Takes from `left` the next group: the first lane, and the lanes in its
-    /// octant whose rays are close to its ray (others are left for later
-    /// groups, in the end alone).
-    fn next_group(&self, left: &mut LaneMask, origin: &[Vec3; WIDTH], direction: &[Vec3; WIDTH]) -> Group {
-        let first = left.trailing_zeros() as usize;
-        let octant = octant_of(direction[first]);
-        let axis = direction[first];
-        let axis_length2 = axis.length_squared() * (COHERENT_COSINE * COHERENT_COSINE);
-        let reach = COHERENT_ORIGIN * origin[first].abs().max_element().max(1.0);
-        let mut together: LaneMask = 1 << first;
-        let mut rest = *left & !together;
-        while rest != 0 {
-            let lane = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            // cos(angle) ≥ COHERENT_COSINE, without roots.
-            let cosine = direction[lane].dot(axis);
-            let close = octant_of(direction[lane]) == octant
-                && cosine > 0.0
-                && cosine * cosine >= axis_length2 * direction[lane].length_squared()
-                && (origin[lane] - origin[first]).abs().max_element() <= reach;
-            if close {
-                together |= 1 << lane;
-            }
-        }
-        *left &= !together;
-        Group::new(together, origin, direction, &self.t_min)
     }
 
     /// Walks the IAS's tree with `group` (world space), visiting instances.
@@ -287,36 +266,33 @@ impl<'s> Packet<'s> {
         if lanes == 0 {
             return;
         }
-        // The object-space rays, as a trace alone computes them.
-        let w2o: Affine3A = instance.world_to_object;
-        // The identity changes no value: skip its arithmetic.
-        let identity = instance.identity;
-        let mut origin = [Vec3::ZERO; WIDTH];
-        let mut direction = [Vec3::ZERO; WIDTH];
-        let mut rest = lanes;
-        while rest != 0 {
-            let lane = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            if identity {
-                (origin[lane], direction[lane]) = (self.origin[lane], self.direction[lane]);
-            } else {
-                origin[lane] = w2o.transform_point3(self.origin[lane]);
-                direction[lane] = w2o.transform_vector3(self.direction[lane]);
+        // The object-space rays, as a trace alone computes them; the identity
+        // changes no value, so its arithmetic is skipped.
+        let mut object = self.world;
+        if !instance.identity {
+            let w2o: Affine3A = instance.world_to_object;
+            let mut rest = lanes;
+            while rest != 0 {
+                let lane = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let origin = w2o.transform_point3(self.world.origin(lane));
+                let direction = w2o.transform_vector3(self.world.direction(lane));
+                object.set(lane, origin, direction);
             }
         }
         let gas = &instance.gas;
         let flip = instance.flags.contains(InstanceFlags::FLIP_TRIANGLE_FACING);
         let mut left = lanes;
         while left != 0 {
-            let group = self.next_group(&mut left, &origin, &direction);
-            self.walk_gas(index, gas, flip, &group);
+            let group = Group::next(&mut left, &object, &self.t_min);
+            self.walk_gas(index, gas, flip, &object, &group);
         }
     }
 
     /// Walks a GAS's tree with `group` (object space), testing triangles.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    fn walk_gas(&mut self, instance: u32, gas: &GasData, flip: bool, group: &Group) {
+    fn walk_gas(&mut self, instance: u32, gas: &GasData, flip: bool, rays: &Rays, group: &Group) {
         let bvh: &CwBvh = &gas.bvh;
         let mut state = bvh.new_traversal(group.octant);
         let mut node: &CwBvhNode;
@@ -324,7 +300,7 @@ impl<'s> Packet<'s> {
         let mut far = self.far(group);
         obvhs::traverse!(bvh, node, state, self.node_mask(node, group, far, state.oct_inv4), {
             let leaf = &gas.leaves[state.primitive_id as usize];
-            if self.triangle(instance, leaf, flip, group) {
+            if self.triangle(instance, leaf, flip, rays, group) {
                 if group.lanes & self.active == 0 {
                     break;
                 }
@@ -377,13 +353,13 @@ impl<'s> Packet<'s> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
-    fn triangle(&mut self, instance: u32, leaf: &super::accel::Leaf, flip: bool, group: &Group) -> bool {
+    fn triangle(&mut self, instance: u32, leaf: &super::accel::Leaf, flip: bool, rays: &Rays, group: &Group) -> bool {
         let lanes = group.lanes & self.active;
         let mut accepted = false;
         for half in 0..WIDTH / 8 {
             let in_half = (lanes >> (8 * half)) as u8;
             if in_half != 0 {
-                accepted |= self.triangle_half(instance, leaf, flip, group, 8 * half, in_half);
+                accepted |= self.triangle_half(instance, leaf, flip, rays, 8 * half, in_half);
             }
         }
         accepted
@@ -399,7 +375,7 @@ impl<'s> Packet<'s> {
         instance: u32,
         leaf: &super::accel::Leaf,
         flip: bool,
-        group: &Group,
+        rays: &Rays,
         first: usize,
         lanes: u8,
     ) -> bool {
@@ -414,8 +390,8 @@ impl<'s> Packet<'s> {
             |a: __m256, b: __m256| _mm256_sub_ps(a, b),
             |a: __m256, b: __m256| _mm256_add_ps(a, b),
         );
-        let (dx, dy, dz) = (load(&group.dx), load(&group.dy), load(&group.dz));
-        let (ox, oy, oz) = (load(&group.ox), load(&group.oy), load(&group.oz));
+        let (dx, dy, dz) = (load(&rays.d[0]), load(&rays.d[1]), load(&rays.d[2]));
+        let (ox, oy, oz) = (load(&rays.o[0]), load(&rays.o[1]), load(&rays.o[2]));
         let (e1x, e1y, e1z) = (set(tri.e1.x), set(tri.e1.y), set(tri.e1.z));
         let (e2x, e2y, e2z) = (set(tri.e2.x), set(tri.e2.y), set(tri.e2.z));
         // p = d × e2 (glam: a.y·b.z − a.z·b.y, …)
@@ -484,38 +460,103 @@ impl<'s> Packet<'s> {
 }
 
 impl Group {
-    /// The group of `lanes`, with their interval.
-    fn new(lanes: LaneMask, origin: &[Vec3; WIDTH], direction: &[Vec3; WIDTH], t_min: &[f32; WIDTH]) -> Group {
-        let first = lanes.trailing_zeros() as usize;
+    /// Takes from `left` the next group of `rays`: the first lane, and the
+    /// lanes in its octant whose rays are close to its ray (others are left
+    /// for later groups, in the end alone); with the interval holding them.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    fn next(left: &mut LaneMask, rays: &Rays, t_min: &[f32; WIDTH]) -> Group {
+        use std::arch::x86_64::*;
+        let first = left.trailing_zeros() as usize;
+        let (axis, start) = (rays.direction(first), rays.origin(first));
+        let axis_length2 = axis.length_squared() * (COHERENT_COSINE * COHERENT_COSINE);
+        let reach = COHERENT_ORIGIN * start.abs().max_element().max(1.0);
+        let set = |v: f32| _mm256_set1_ps(v);
+        let zero = _mm256_setzero_ps();
+        let abs = |v: __m256| _mm256_andnot_ps(set(-0.0), v);
+        let mut together: LaneMask = 1 << first;
+        for half in 0..WIDTH / 8 {
+            let at = 8 * half;
+            // SAFETY: each row holds `WIDTH` `f32`s; eight are read from `at`,
+            // which is at most `WIDTH - 8`.
+            let load = |row: &[f32; WIDTH]| unsafe { _mm256_loadu_ps(row.as_ptr().add(at)) };
+            let (dx, dy, dz) = (load(&rays.d[0]), load(&rays.d[1]), load(&rays.d[2]));
+            let (ox, oy, oz) = (load(&rays.o[0]), load(&rays.o[1]), load(&rays.o[2]));
+            // The same octant: each component below zero where the first's is.
+            let below = |v: __m256, first: f32| {
+                let lanes = _mm256_cmp_ps::<_CMP_LT_OQ>(v, zero);
+                if first < 0.0 {
+                    lanes
+                } else {
+                    _mm256_xor_ps(lanes, _mm256_castsi256_ps(_mm256_set1_epi32(-1)))
+                }
+            };
+            let octant = _mm256_and_ps(below(dx, axis.x), _mm256_and_ps(below(dy, axis.y), below(dz, axis.z)));
+            // cos(angle) ≥ COHERENT_COSINE, without roots.
+            let cosine = _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(dx, set(axis.x)), _mm256_mul_ps(dy, set(axis.y))),
+                _mm256_mul_ps(dz, set(axis.z)),
+            );
+            let length2 =
+                _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+            let aligned = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(cosine, zero),
+                _mm256_cmp_ps::<_CMP_GE_OQ>(_mm256_mul_ps(cosine, cosine), _mm256_mul_ps(set(axis_length2), length2)),
+            );
+            let spread = _mm256_max_ps(
+                abs(_mm256_sub_ps(ox, set(start.x))),
+                _mm256_max_ps(abs(_mm256_sub_ps(oy, set(start.y))), abs(_mm256_sub_ps(oz, set(start.z)))),
+            );
+            let near = _mm256_cmp_ps::<_CMP_LE_OQ>(spread, set(reach));
+            let close = _mm256_and_ps(octant, _mm256_and_ps(aligned, near));
+            together |= (_mm256_movemask_ps(close) as LaneMask) << at;
+        }
+        together &= *left;
+        *left &= !together;
         let mut group = Group {
-            lanes,
-            ox: [0.0; WIDTH],
-            oy: [0.0; WIDTH],
-            oz: [0.0; WIDTH],
-            dx: [0.0; WIDTH],
-            dy: [0.0; WIDTH],
-            dz: [0.0; WIDTH],
+            lanes: together,
             origin_lo: Vec3A::splat(f32::INFINITY),
             origin_hi: Vec3A::splat(f32::NEG_INFINITY),
             shared_origin: false,
             near: f32::INFINITY,
             inverse_lo: Vec3A::splat(f32::INFINITY),
             inverse_hi: Vec3A::splat(f32::NEG_INFINITY),
-            octant: Vec3A::from(direction[first]),
+            octant: Vec3A::from(axis),
         };
-        let mut rest = lanes;
-        while rest != 0 {
-            let lane = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            let (o, d) = (origin[lane], direction[lane]);
-            (group.ox[lane], group.oy[lane], group.oz[lane]) = (o.x, o.y, o.z);
-            (group.dx[lane], group.dy[lane], group.dz[lane]) = (d.x, d.y, d.z);
-            let inverse = safe_inverse(Vec3A::from(d));
-            group.origin_lo = group.origin_lo.min(o.into());
-            group.origin_hi = group.origin_hi.max(o.into());
-            group.inverse_lo = group.inverse_lo.min(inverse);
-            group.inverse_hi = group.inverse_hi.max(inverse);
-            group.near = group.near.min(t_min[lane]);
+        let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        // Lowest and highest of `v` over the group's lanes of this half.
+        let low = |v: __m256, lanes: __m256| {
+            let v = _mm256_blendv_ps(set(f32::INFINITY), v, lanes);
+            let h = _mm_min_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
+            let h = _mm_min_ps(h, _mm_movehl_ps(h, h));
+            _mm_cvtss_f32(_mm_min_ss(h, _mm_shuffle_ps::<0b01>(h, h)))
+        };
+        let high = |v: __m256, lanes: __m256| {
+            let v = _mm256_blendv_ps(set(f32::NEG_INFINITY), v, lanes);
+            let h = _mm_max_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
+            let h = _mm_max_ps(h, _mm_movehl_ps(h, h));
+            _mm_cvtss_f32(_mm_max_ss(h, _mm_shuffle_ps::<0b01>(h, h)))
+        };
+        for half in 0..WIDTH / 8 {
+            let at = 8 * half;
+            let in_half = _mm256_set1_epi32(i32::from(together >> at) & 0xff);
+            if together >> at & 0xff == 0 {
+                continue;
+            }
+            let lanes = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(in_half, bits), bits));
+            // SAFETY: as above.
+            let load = |row: &[f32; WIDTH]| unsafe { _mm256_loadu_ps(row.as_ptr().add(at)) };
+            for axis in 0..3 {
+                let (o, d) = (load(&rays.o[axis]), load(&rays.d[axis]));
+                // `1 / d`, finite, with the sign `octant_of` gives `d` (zero is positive).
+                let inverse = _mm256_min_ps(_mm256_max_ps(_mm256_div_ps(set(1.0), d), set(-1e30)), set(1e30));
+                let inverse = _mm256_blendv_ps(inverse, set(1e30), _mm256_cmp_ps::<_CMP_EQ_OQ>(d, zero));
+                group.origin_lo[axis] = group.origin_lo[axis].min(low(o, lanes));
+                group.origin_hi[axis] = group.origin_hi[axis].max(high(o, lanes));
+                group.inverse_lo[axis] = group.inverse_lo[axis].min(low(inverse, lanes));
+                group.inverse_hi[axis] = group.inverse_hi[axis].max(high(inverse, lanes));
+            }
+            group.near = group.near.min(low(load(t_min), lanes));
         }
         group.shared_origin = group.origin_lo == group.origin_hi;
         group
