@@ -15,12 +15,19 @@ use super::accel::{Geometry, Leaf};
 /// GASes of at most this many triangles (and no AABBs) are tested flat.
 pub(crate) const MAX_TRIANGLES: usize = 64;
 
+/// Eight `f32` lanes on a 32-byte boundary: AVX2 loads and stores of them
+/// never split a cache line.
+#[derive(Copy, Clone, Debug, Default)]
+#[repr(C, align(32))]
+pub(crate) struct Lanes(pub(crate) [f32; 8]);
+
 /// Eight triangles, a vertex and two edges each, coordinate by coordinate.
 #[derive(Clone, Debug, Default)]
+#[repr(C)]
 pub(crate) struct TriangleBlock {
-    v0: [[f32; 8]; 3],
-    e1: [[f32; 8]; 3],
-    e2: [[f32; 8]; 3],
+    v0: [Lanes; 3],
+    e1: [Lanes; 3],
+    e2: [Lanes; 3],
     /// Lanes that hold a triangle (the last block may be part empty).
     lanes: u8,
 }
@@ -39,9 +46,9 @@ pub(crate) fn blocks(geometries: &[Geometry], leaves: &[Leaf]) -> Option<Box<[Tr
             for (lane, leaf) in chunk.iter().enumerate() {
                 let t = &leaf.triangle;
                 for axis in 0..3 {
-                    block.v0[axis][lane] = t.v0[axis];
-                    block.e1[axis][lane] = t.e1[axis];
-                    block.e2[axis][lane] = t.e2[axis];
+                    block.v0[axis].0[lane] = t.v0[axis];
+                    block.e1[axis].0[lane] = t.e1[axis];
+                    block.e2[axis].0[lane] = t.e2[axis];
                 }
                 block.lanes |= 1 << lane;
             }
@@ -54,11 +61,11 @@ pub(crate) fn blocks(geometries: &[Geometry], leaves: &[Leaf]) -> Option<Box<[Tr
 /// One ray's hits on a block: the lanes hit inside `[t_min, t_max]`, and
 /// each lane's `(t, u, v, determinant)`.
 pub(crate) struct BlockHits {
+    pub(crate) t: Lanes,
+    pub(crate) u: Lanes,
+    pub(crate) v: Lanes,
+    pub(crate) det: Lanes,
     pub(crate) lanes: u8,
-    pub(crate) t: [f32; 8],
-    pub(crate) u: [f32; 8],
-    pub(crate) v: [f32; 8],
-    pub(crate) det: [f32; 8],
 }
 
 /// Tests the ray `origin + t·direction` against `block`'s triangles: the
@@ -69,8 +76,8 @@ pub(crate) struct BlockHits {
 pub(crate) fn intersect(block: &TriangleBlock, origin: Vec3A, direction: Vec3A, t_min: f32, t_max: f32) -> BlockHits {
     use std::arch::x86_64::*;
     let set = |v: f32| _mm256_set1_ps(v);
-    // SAFETY: `a` holds the eight `f32`s the unaligned load reads.
-    let load = |a: &[f32; 8]| unsafe { _mm256_loadu_ps(a.as_ptr()) };
+    // SAFETY: `a` holds eight `f32`s on a 32-byte boundary, which the load reads.
+    let load = |a: &Lanes| unsafe { _mm256_load_ps(a.0.as_ptr()) };
     let (mul, sub, add) = (
         |a: __m256, b: __m256| _mm256_mul_ps(a, b),
         |a: __m256, b: __m256| _mm256_sub_ps(a, b),
@@ -110,19 +117,19 @@ pub(crate) fn intersect(block: &TriangleBlock, origin: Vec3A, direction: Vec3A, 
     ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GE_OQ>(t, set(t_min)));
     ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LE_OQ>(t, set(t_max)));
     let mut hits = BlockHits {
+        t: Lanes::default(),
+        u: Lanes::default(),
+        v: Lanes::default(),
+        det: Lanes::default(),
         lanes: (_mm256_movemask_ps(ok) as u8) & block.lanes,
-        t: [0.0; 8],
-        u: [0.0; 8],
-        v: [0.0; 8],
-        det: [0.0; 8],
     };
     if hits.lanes != 0 {
-        // SAFETY: each array holds the eight `f32`s the unaligned store writes.
+        // SAFETY: each holds eight `f32`s on a 32-byte boundary, which the store writes.
         unsafe {
-            _mm256_storeu_ps(hits.t.as_mut_ptr(), t);
-            _mm256_storeu_ps(hits.u.as_mut_ptr(), u);
-            _mm256_storeu_ps(hits.v.as_mut_ptr(), v);
-            _mm256_storeu_ps(hits.det.as_mut_ptr(), det);
+            _mm256_store_ps(hits.t.0.as_mut_ptr(), t);
+            _mm256_store_ps(hits.u.0.as_mut_ptr(), u);
+            _mm256_store_ps(hits.v.0.as_mut_ptr(), v);
+            _mm256_store_ps(hits.det.0.as_mut_ptr(), det);
         }
     }
     hits

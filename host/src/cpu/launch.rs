@@ -818,11 +818,11 @@ impl<'f> Traversal<'f> {
                     let lane = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;
                     // An earlier candidate may have moved `t_max` closer.
-                    if hits.t[lane] > self.t_max.get() {
+                    if hits.t.0[lane] > self.t_max.get() {
                         continue;
                     }
                     let leaf = &gas.leaves[8 * b + lane];
-                    let found = (hits.t[lane], hits.u[lane], hits.v[lane], hits.det[lane]);
+                    let found = (hits.t.0[lane], hits.u.0[lane], hits.v.0[lane], hits.det.0[lane]);
                     self.primitive(index, instance, leaf, o, d, &ray, Some(found));
                     if self.terminated.get() {
                         return;

@@ -19,6 +19,7 @@ use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::cwbvh::CwBvh;
 
 use super::accel::{GasData, Geometry, SceneData, SceneInstance};
+use super::flat::Lanes;
 use crate::accel::{GeometryFlags, InstanceFlags};
 
 /// Rays in a packet: one AVX2 register of `f32` lanes per eight.
@@ -157,8 +158,11 @@ pub(crate) fn trace(scene: &SceneData, rays: &[&PacketRay]) {
     }
 }
 
-/// Rays lane by lane, coordinate by coordinate: `o[axis][lane]`, `d[axis][lane]`.
+/// Rays lane by lane, coordinate by coordinate: `o[axis][lane]`,
+/// `d[axis][lane]`; rows on 32-byte boundaries, so AVX2 loads of them never
+/// split a cache line.
 #[derive(Copy, Clone)]
+#[repr(C, align(32))]
 struct Rays {
     o: [[f32; WIDTH]; 3],
     d: [[f32; WIDTH]; 3],
@@ -183,14 +187,16 @@ impl Rays {
     }
 }
 
-/// The rays of a packet, lane by lane, and what they hit so far.
+/// The rays of a packet, lane by lane, and what they hit so far (the rows
+/// first, on 32-byte boundaries).
+#[repr(C, align(32))]
 struct Packet<'s> {
-    scene: &'s SceneData,
     /// The rays in world space.
     world: Rays,
     t_min: [f32; WIDTH],
     /// The closest accepted hit's distance, or the ray's `t_max`.
     t_max: [f32; WIDTH],
+    scene: &'s SceneData,
     cull_mask: [u32; WIDTH],
     /// Lanes that end at their first accepted hit.
     first_hit: LaneMask,
@@ -426,17 +432,16 @@ impl<'s> Packet<'s> {
         if accepted == 0 {
             return false;
         }
-        let mut ts = [0.0f32; 8];
-        let mut us = [0.0f32; 8];
-        let mut vs = [0.0f32; 8];
-        let mut dets = [0.0f32; 8];
-        // SAFETY: each array holds the eight `f32`s the unaligned store writes.
+        let (mut ts, mut us, mut vs, mut dets) =
+            (Lanes::default(), Lanes::default(), Lanes::default(), Lanes::default());
+        // SAFETY: each holds eight `f32`s on a 32-byte boundary, which the store writes.
         unsafe {
-            _mm256_storeu_ps(ts.as_mut_ptr(), t);
-            _mm256_storeu_ps(us.as_mut_ptr(), u);
-            _mm256_storeu_ps(vs.as_mut_ptr(), v);
-            _mm256_storeu_ps(dets.as_mut_ptr(), det);
+            _mm256_store_ps(ts.0.as_mut_ptr(), t);
+            _mm256_store_ps(us.0.as_mut_ptr(), u);
+            _mm256_store_ps(vs.0.as_mut_ptr(), v);
+            _mm256_store_ps(dets.0.as_mut_ptr(), det);
         }
+        let (ts, us, vs, dets) = (ts.0, us.0, vs.0, dets.0);
         while accepted != 0 {
             let i = accepted.trailing_zeros() as usize;
             accepted &= accepted - 1;
