@@ -9,7 +9,6 @@
 use std::marker::PhantomData;
 use std::sync::Arc;
 
-use ash::vk;
 use gpu_allocator::MemoryLocation;
 use raykit_device::{Buffer, Element};
 
@@ -66,24 +65,7 @@ impl<T: Element> DeviceBuffer<T> {
             return Ok(DeviceBuffer { storage, slot, handle, len, _element: PhantomData });
         }
         let inner = ctx.vulkan("a buffer")?;
-        let raw = RawBuffer::new(
-            inner,
-            "DeviceBuffer",
-            size,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-            location,
-            16,
-        )?;
-        let table = &inner.buffer_table;
-        let (slot, handle) = match table.insert(&inner.device, raw.buffer) {
-            // Slots of buffers dropped while work used them come back once it has
-            // finished: collect those, then try again.
-            Err(Error::BufferTableFull { .. }) => {
-                inner.collect()?;
-                table.insert(&inner.device, raw.buffer)?
-            }
-            other => other?,
-        };
+        let (raw, slot, handle) = RawBuffer::storage(inner, size, location)?;
         Ok(DeviceBuffer { storage: Storage::Vulkan(raw), slot, handle, len, _element: PhantomData })
     }
 
@@ -161,52 +143,7 @@ impl<T: Element> DeviceBuffer<T> {
                 return Ok(PendingRead { state, _element: PhantomData });
             }
         };
-        let ctx = &raw.ctx;
-        let staging = RawBuffer::new(
-            ctx,
-            "DeviceBuffer readback",
-            raw.size,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-            16,
-        )?;
-        let (src, dst, size) = (raw.buffer, staging.buffer, raw.size);
-        let submission = ctx.submit("a buffer readback", |cmd| {
-            let before = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
-            // Also orders the copy before every later command (a launch that
-            // writes the buffer next starts with no barrier of its own; see
-            // `crate::pipeline::launch`).
-            let after = vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(
-                vk::AccessFlags::HOST_READ | vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
-            );
-            // SAFETY: both buffers are alive while the copy is pending (`staging` is
-            // owned by the returned `PendingRead`, the source's drop waits for this
-            // epoch); `cmd` is recording; the sizes match.
-            unsafe {
-                let device = &ctx.device;
-                device.cmd_pipeline_barrier(
-                    cmd,
-                    vk::PipelineStageFlags::ALL_COMMANDS,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::DependencyFlags::empty(),
-                    &[before],
-                    &[],
-                    &[],
-                );
-                device.cmd_copy_buffer(cmd, src, dst, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
-                device.cmd_pipeline_barrier(
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::PipelineStageFlags::HOST | vk::PipelineStageFlags::ALL_COMMANDS,
-                    vk::DependencyFlags::empty(),
-                    &[after],
-                    &[],
-                    &[],
-                );
-            }
-        })?;
+        let (submission, staging) = raw.read_back()?;
         Ok(PendingRead { state: Pending::Copying { submission, staging, len: self.len }, _element: PhantomData })
     }
 

@@ -10,6 +10,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::context::ContextInner;
 use crate::error::{Error, Result};
+use crate::vulkan::context::Submission;
 use crate::vulkan::timeline::Retired;
 
 /// A Vulkan buffer with its memory, freed on drop.
@@ -103,5 +104,88 @@ impl Drop for RawBuffer {
         // Work in flight may still use the buffer: the timeline destroys it, and
         // frees its memory, once the last submitted epoch has finished.
         self.ctx.retire(Retired::Buffer(self.buffer, self.allocation.take()));
+    }
+}
+
+impl RawBuffer {
+    /// A storage buffer of `size` bytes at `location` for a
+    /// [`DeviceBuffer`](crate::DeviceBuffer), in a slot of the context's buffer
+    /// table: the buffer, the slot and the handle.
+    pub(crate) fn storage(
+        ctx: &Arc<ContextInner>,
+        size: u64,
+        location: MemoryLocation,
+    ) -> Result<(RawBuffer, u32, u32)> {
+        let raw = RawBuffer::new(
+            ctx,
+            "DeviceBuffer",
+            size,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            location,
+            16,
+        )?;
+        let table = &ctx.buffer_table;
+        let (slot, handle) = match table.insert(&ctx.device, raw.buffer) {
+            // Slots of buffers dropped while work used them come back once it has
+            // finished: collect those, then try again.
+            Err(Error::BufferTableFull { .. }) => {
+                ctx.collect()?;
+                table.insert(&ctx.device, raw.buffer)?
+            }
+            other => other?,
+        };
+        Ok((raw, slot, handle))
+    }
+
+    /// Submits a copy of the whole buffer into a new host-visible one: the
+    /// submission, and the copy, to read once the submission has finished.
+    pub(crate) fn read_back(&self) -> Result<(Submission, RawBuffer)> {
+        let ctx = &self.ctx;
+        let staging = RawBuffer::new(
+            ctx,
+            "DeviceBuffer readback",
+            self.size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+            16,
+        )?;
+        let (src, dst, size) = (self.buffer, staging.buffer, self.size);
+        let submission = ctx.submit("a buffer readback", |cmd| {
+            let before = vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
+                .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
+            // Also orders the copy before every later command (a launch that
+            // writes the buffer next starts with no barrier of its own; see
+            // `crate::vulkan::pipeline::record`).
+            let after = vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(
+                vk::AccessFlags::HOST_READ | vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
+            );
+            // SAFETY: both buffers are alive while the copy is pending (the caller
+            // keeps `staging` until the submission has finished, and the source's
+            // drop waits for this epoch); `cmd` is recording; the sizes match.
+            unsafe {
+                let device = &ctx.device;
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::ALL_COMMANDS,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::DependencyFlags::empty(),
+                    &[before],
+                    &[],
+                    &[],
+                );
+                device.cmd_copy_buffer(cmd, src, dst, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::HOST | vk::PipelineStageFlags::ALL_COMMANDS,
+                    vk::DependencyFlags::empty(),
+                    &[after],
+                    &[],
+                    &[],
+                );
+            }
+        })?;
+        Ok((submission, staging))
     }
 }

@@ -42,9 +42,9 @@
 //! [`Sbt::raw_regions`](crate::Sbt::raw_regions) (for hand-written Vulkan),
 //! [`Context::set_debug_name`](crate::Context::set_debug_name),
 //! [`TextureFormat::vk_format`](crate::TextureFormat::vk_format) and the
-//! `vk::Result` that [`Error`](crate::Error) reports. Still with Vulkan code
-//! inline: [`DeviceBuffer`](crate::DeviceBuffer)'s creation and readback
-//! (`crate::memory`), and the test-only submission gate (`crate::gate`).
+//! `vk::Result` that [`Error`](crate::Error) reports. The test-only submission
+//! gate (`crate::gate`, behind the `fault-injection` feature) is Vulkan through
+//! and through and keeps its public place.
 
 pub(crate) mod accel;
 pub(crate) mod buffer_table;
