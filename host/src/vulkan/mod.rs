@@ -20,7 +20,8 @@
 //! * [`timeline`]: objects dropped while the device may use them, destroyed once
 //!   their epoch has finished (public as [`crate::timeline`]).
 //! * `memory`: a `VkBuffer` with its gpu-allocator allocation, under
-//!   [`DeviceBuffer`](crate::DeviceBuffer), SBTs and acceleration structures.
+//!   [`DeviceBuffer`](crate::DeviceBuffer) (its slot in the buffer table and its
+//!   readback copy too), SBTs and acceleration structures.
 //! * `buffer_table`, `texture_table`: the bindless descriptor set that device
 //!   programs reach buffers and textures through.
 //! * `cache`: the `VkPipelineCache` and its file (see [`crate::cache`]).
