@@ -226,8 +226,8 @@ struct InvocationState<'j> {
     /// While the invocation runs in a lane of a block: what its packet traces
     /// suspend through (null otherwise).
     lane: Cell<*const LaneYielder>,
-    /// Where the invocation's first trace started: its traces from there (a
-    /// camera's rays) go in packets.
+    /// Where the invocation's first trace a packet could take started: its
+    /// traces from there (a camera's rays) go in packets.
     camera: Cell<Option<Vec3>>,
 }
 
@@ -448,9 +448,10 @@ impl<'j> Frame<'_, 'j> {
     }
 
     /// Whether a trace of `ray` into `scene` goes in a packet: the invocation
-    /// runs in a lane, the ray starts where its first trace did (a camera's
-    /// rays), and no program can run while it traverses (triangles only, all
-    /// opaque or made so by the ray; no flag a packet does not follow).
+    /// runs in a lane, no program can run while the ray traverses (triangles
+    /// only, all opaque or made so by the ray; no flag a packet does not
+    /// follow), and the ray starts where the invocation's first such trace did
+    /// (a camera's rays).
     fn packet_ready(&self, scene: &SceneData, ray: &Ray, call: TraceCall) -> bool {
         const PACKET_FLAGS: u32 =
             ray_flags::OPAQUE | ray_flags::TERMINATE_ON_FIRST_HIT | ray_flags::SKIP_CLOSEST_HIT | ray_flags::SKIP_AABBS;
@@ -1118,9 +1119,8 @@ unsafe fn intersect_node_avx2(node: &CwBvhNode, ray: &BvhRay, oct_inv4: u32) -> 
     let dir_inv = node.compute_extent() * ray.inv_direction;
     let origin = (Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
     // Eight quantized coordinates as `f32`s.
-    let widen = |q: &[u8; 8]| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_set_epi64x(0, i64::from_le_bytes(*q))));
     let slab = |lo: &[u8; 8], hi: &[u8; 8], negative: bool, dir_inv: f32, origin: f32| {
-        let (lo, hi) = (widen(lo), widen(hi));
+        let (lo, hi) = (super::simd::quantized(lo), super::simd::quantized(hi));
         let (near, far) = if negative { (hi, lo) } else { (lo, hi) };
         let (scale, offset) = (_mm256_set1_ps(dir_inv), _mm256_set1_ps(origin));
         (_mm256_add_ps(_mm256_mul_ps(near, scale), offset), _mm256_add_ps(_mm256_mul_ps(far, scale), offset))
@@ -1132,16 +1132,8 @@ unsafe fn intersect_node_avx2(node: &CwBvhNode, ray: &BvhRay, oct_inv4: u32) -> 
     let tmax = _mm256_min_ps(tmax_x, _mm256_min_ps(tmax_y, tmax_z));
     let tmin = _mm256_max_ps(tmin, _mm256_set1_ps(EPSILON));
     let tmax = _mm256_min_ps(tmax, _mm256_set1_ps(ray.tmax));
-    let mut hits = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tmin, tmax)) as u32;
-    let (child_bits, bit_index) = node.get_child_and_index_bits(oct_inv4);
-    let byte = |x: u64, b: u32| ((x >> (b * 8)) as u32) & 0xff;
-    let mut mask = 0;
-    while hits != 0 {
-        let child = hits.trailing_zeros();
-        hits &= hits - 1;
-        mask |= byte(child_bits, child) << byte(bit_index, child);
-    }
-    mask
+    let hits = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tmin, tmax)) as u32;
+    super::simd::child_mask(node, hits, oct_inv4)
 }
 
 /// An affine transform as the 4×3 matrix built-ins use.

@@ -71,6 +71,7 @@ pub(crate) mod lanes;
 pub(crate) mod launch;
 pub(crate) mod packet;
 pub(crate) mod program;
+pub(crate) mod simd;
 pub(crate) mod slots;
 pub(crate) mod textures;
 

@@ -19,7 +19,7 @@ use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::cwbvh::CwBvh;
 
 use super::accel::{GasData, Geometry, SceneData, SceneInstance};
-use super::flat::Lanes;
+use super::simd::{child_mask, quantized};
 use crate::accel::{GeometryFlags, InstanceFlags};
 
 /// Rays in a packet: one AVX2 register of `f32` lanes per eight.
@@ -387,61 +387,25 @@ impl<'s> Packet<'s> {
     ) -> bool {
         use std::arch::x86_64::*;
         let tri = &leaf.triangle;
-        let set = |v: f32| _mm256_set1_ps(v);
-        // SAFETY: `a` holds `WIDTH` `f32`s; the unaligned load reads eight from
-        // `first`, which is at most `WIDTH - 8`.
-        let load = |a: &[f32; WIDTH]| unsafe { _mm256_loadu_ps(a.as_ptr().add(first)) };
-        let (mul, sub, add) = (
-            |a: __m256, b: __m256| _mm256_mul_ps(a, b),
-            |a: __m256, b: __m256| _mm256_sub_ps(a, b),
-            |a: __m256, b: __m256| _mm256_add_ps(a, b),
+        let set = |v: Vec3A| [_mm256_set1_ps(v.x), _mm256_set1_ps(v.y), _mm256_set1_ps(v.z)];
+        // SAFETY: each row holds `WIDTH` `f32`s; the unaligned load reads eight
+        // from `first`, which is at most `WIDTH - 8`.
+        let load = |row: &[f32; WIDTH]| unsafe { _mm256_loadu_ps(row.as_ptr().add(first)) };
+        let found = super::simd::intersect_triangles(
+            rays.o.each_ref().map(load),
+            rays.d.each_ref().map(load),
+            set(tri.v0),
+            set(tri.e1),
+            set(tri.e2),
+            load(&self.t_min),
+            load(&self.t_max),
+            lanes,
         );
-        let (dx, dy, dz) = (load(&rays.d[0]), load(&rays.d[1]), load(&rays.d[2]));
-        let (ox, oy, oz) = (load(&rays.o[0]), load(&rays.o[1]), load(&rays.o[2]));
-        let (e1x, e1y, e1z) = (set(tri.e1.x), set(tri.e1.y), set(tri.e1.z));
-        let (e2x, e2y, e2z) = (set(tri.e2.x), set(tri.e2.y), set(tri.e2.z));
-        // p = d × e2 (glam: a.y·b.z − a.z·b.y, …)
-        let px = sub(mul(dy, e2z), mul(dz, e2y));
-        let py = sub(mul(dz, e2x), mul(dx, e2z));
-        let pz = sub(mul(dx, e2y), mul(dy, e2x));
-        // glam's dot: (x·x' + y·y') + z·z'
-        let dot = |ax, ay, az, bx, by, bz| add(add(mul(ax, bx), mul(ay, by)), mul(az, bz));
-        let det = dot(e1x, e1y, e1z, px, py, pz);
-        let abs = |v: __m256| _mm256_andnot_ps(set(-0.0), v);
-        let mut ok = _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_NEQ_OQ>(det, set(0.0)),
-            _mm256_cmp_ps::<_CMP_LT_OQ>(abs(det), set(f32::INFINITY)),
-        );
-        let inv = _mm256_div_ps(set(1.0), det);
-        let (sx, sy, sz) = (sub(ox, set(tri.v0.x)), sub(oy, set(tri.v0.y)), sub(oz, set(tri.v0.z)));
-        let u = mul(dot(sx, sy, sz, px, py, pz), inv);
-        ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GE_OQ>(u, set(0.0)));
-        ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LE_OQ>(u, set(1.0)));
-        // q = s × e1
-        let qx = sub(mul(sy, e1z), mul(sz, e1y));
-        let qy = sub(mul(sz, e1x), mul(sx, e1z));
-        let qz = sub(mul(sx, e1y), mul(sy, e1x));
-        let v = mul(dot(dx, dy, dz, qx, qy, qz), inv);
-        let rejected_v =
-            _mm256_or_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(v, set(0.0)), _mm256_cmp_ps::<_CMP_GT_OQ>(add(u, v), set(1.0)));
-        ok = _mm256_andnot_ps(rejected_v, ok);
-        let t = mul(dot(e2x, e2y, e2z, qx, qy, qz), inv);
-        ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GE_OQ>(t, load(&self.t_min)));
-        ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LE_OQ>(t, load(&self.t_max)));
-        let mut accepted = (_mm256_movemask_ps(ok) as u32 as u8) & lanes;
+        let mut accepted = found.lanes;
         if accepted == 0 {
             return false;
         }
-        let (mut ts, mut us, mut vs, mut dets) =
-            (Lanes::default(), Lanes::default(), Lanes::default(), Lanes::default());
-        // SAFETY: each holds eight `f32`s on a 32-byte boundary, which the store writes.
-        unsafe {
-            _mm256_store_ps(ts.0.as_mut_ptr(), t);
-            _mm256_store_ps(us.0.as_mut_ptr(), u);
-            _mm256_store_ps(vs.0.as_mut_ptr(), v);
-            _mm256_store_ps(dets.0.as_mut_ptr(), det);
-        }
-        let (ts, us, vs, dets) = (ts.0, us.0, vs.0, dets.0);
+        let (ts, us, vs, dets) = (found.t.0, found.u.0, found.v.0, found.det.0);
         while accepted != 0 {
             let i = accepted.trailing_zeros() as usize;
             accepted &= accepted - 1;
@@ -579,10 +543,9 @@ impl Group {
 fn node_mask_avx2<const SHARED_ORIGIN: bool>(node: &CwBvhNode, group: &Group, far: f32, oct_inv4: u32) -> u32 {
     use std::arch::x86_64::*;
     let extent = node.compute_extent();
-    let widen = |q: &[u8; 8]| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_set_epi64x(0, i64::from_le_bytes(*q))));
     // The distances to one plane per child, bounded over the group's corners.
     let bounds = |q: &[u8; 8], p: f32, e: f32, o_lo: f32, o_hi: f32, i_lo: f32, i_hi: f32| {
-        let plane = _mm256_add_ps(_mm256_set1_ps(p), _mm256_mul_ps(widen(q), _mm256_set1_ps(e)));
+        let plane = _mm256_add_ps(_mm256_set1_ps(p), _mm256_mul_ps(quantized(q), _mm256_set1_ps(e)));
         let a = _mm256_sub_ps(plane, _mm256_set1_ps(o_lo));
         let (il, ih) = (_mm256_set1_ps(i_lo), _mm256_set1_ps(i_hi));
         if SHARED_ORIGIN {
@@ -620,14 +583,6 @@ fn node_mask_avx2<const SHARED_ORIGIN: bool>(node: &CwBvhNode, group: &Group, fa
     let leave = _mm256_add_ps(leave, _mm256_mul_ps(abs(leave), widen_by));
     let enter = _mm256_max_ps(enter, _mm256_set1_ps(group.near));
     let leave = _mm256_min_ps(leave, _mm256_set1_ps(far));
-    let mut hits = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(enter, leave)) as u32;
-    let (child_bits, bit_index) = node.get_child_and_index_bits(oct_inv4);
-    let byte = |x: u64, b: u32| ((x >> (b * 8)) as u32) & 0xff;
-    let mut mask = 0;
-    while hits != 0 {
-        let child = hits.trailing_zeros();
-        hits &= hits - 1;
-        mask |= byte(child_bits, child) << byte(bit_index, child);
-    }
-    mask
+    let hits = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(enter, leave)) as u32;
+    child_mask(node, hits, oct_inv4)
 }
