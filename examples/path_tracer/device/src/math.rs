@@ -237,8 +237,7 @@ impl PathState {
 pub fn tonemap(c: Vec3, exposure: f32) -> u32 {
     let q = |v: f32| -> u32 {
         let v = (v * exposure).max(0.0);
-        let mapped = v / (1.0 + v);
-        (linear_to_srgb(mapped.clamp(0.0, 1.0)) * 255.0 + 0.5) as u32
+        raykit_device::color::srgb8(v / (1.0 + v))
     };
     q(c.x) | (q(c.y) << 8) | (q(c.z) << 16) | (255 << 24)
 }
