@@ -33,7 +33,7 @@ pub fn srgb_to_linear(c: f32) -> f32 {
 pub fn srgb8(c: f32) -> u32 {
     #[cfg(not(target_arch = "spirv"))]
     {
-        srgb8_table::quantize(c)
+        srgb8_table::quantize(srgb8_table::get(), c)
     }
     #[cfg(target_arch = "spirv")]
     {
@@ -49,7 +49,14 @@ fn srgb8_exact(c: f32) -> u32 {
 /// sutil's `make_color`: clamps a linear colour to `[0, 1]`, sRGB-encodes and
 /// quantises it to 8 bits, packed as RGBA8 (red in the lowest byte, alpha 255).
 pub fn pack_srgb8(c: Vec3) -> u32 {
-    srgb8(c.x) | (srgb8(c.y) << 8) | (srgb8(c.z) << 16) | (255 << 24)
+    #[cfg(not(target_arch = "spirv"))]
+    let q = {
+        let table = srgb8_table::get();
+        move |v: f32| srgb8_table::quantize(table, v)
+    };
+    #[cfg(target_arch = "spirv")]
+    let q = srgb8_exact;
+    q(c.x) | (q(c.y) << 8) | (q(c.z) << 16) | (255 << 24)
 }
 
 /// Quantises a colour clamped to `[0, 1]` to RGBA8 without a transfer function
@@ -79,9 +86,12 @@ mod srgb8_table {
         step_start: [f32; 257],
     }
 
-    /// The cell of `c` in `[0, 1]` (NaN is in cell 0).
+    /// The cell of `c` in `[0, 1]`.
     fn cell(c: f32) -> usize {
-        ((c * BUCKETS as f32) as usize).min(BUCKETS)
+        debug_assert!((0.0..=1.0).contains(&c));
+        // SAFETY: `c * BUCKETS` is finite and within `0..=BUCKETS`, which `i32` holds.
+        let cell: i32 = unsafe { (c * BUCKETS as f32).to_int_unchecked() };
+        (cell as usize).min(BUCKETS)
     }
 
     /// The lowest `f32` in `[0, 1]` for which `reached` holds (`reached` is false
@@ -131,14 +141,22 @@ mod srgb8_table {
     /// Whether the table is in use (rather than the formula).
     #[cfg(test)]
     pub(super) fn built() -> bool {
-        TABLE.get_or_init(build).is_some()
+        get().is_some()
     }
 
-    pub(super) fn quantize(c: f32) -> u32 {
-        let Some(table) = TABLE.get_or_init(build) else {
+    /// The table (built on first use), or `None` where the formula is used.
+    pub(super) fn get() -> Option<&'static Table> {
+        TABLE.get_or_init(build).as_ref()
+    }
+
+    /// [`super::srgb8`] by `table`, or by the formula without one.
+    #[inline(always)]
+    pub(super) fn quantize(table: Option<&Table>, c: f32) -> u32 {
+        let Some(table) = table else {
             return super::srgb8_exact(c);
         };
-        let c = c.clamp(0.0, 1.0);
+        // Clamped to `[0, 1]`, NaN to 0 (where the formula gives 0 too).
+        let c = if c >= 0.0 { c.min(1.0) } else { 0.0 };
         let k = table.at_cell[cell(c)];
         u32::from(k) + u32::from(c >= table.step_start[usize::from(k) + 1])
     }

@@ -174,7 +174,7 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                 for y in ty * tile_size..((ty + 1) * tile_size).min(h) {
                     for x in tx * tile_size..((tx + 1) * tile_size).min(w) {
                         state.launch_index = UVec3::new(x, y, z);
-                        state.running.get_mut().clear();
+                        state.failed_in.set(None);
                         outcome.failure = invoke(&state, &mut outcome.exceptions);
                         if outcome.failure.is_some() {
                             stop.store(true, Ordering::Relaxed);
@@ -216,9 +216,9 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
 struct InvocationState<'j> {
     job: &'j LaunchJob,
     launch_index: UVec3,
-    /// The programs running, innermost last (left as they are by a panic, so
-    /// that it names the program it came from).
-    running: RefCell<Vec<&'static str>>,
+    /// The innermost program a failure is unwinding (or unwound) through:
+    /// what the failure is reported from.
+    failed_in: Cell<Option<&'static str>>,
     exceptions: RefCell<Vec<UserException>>,
     /// Pairs of types (declared, given) found equal by name, by identity: a
     /// program receiving what it received before is not compared by name again.
@@ -236,7 +236,7 @@ impl<'j> InvocationState<'j> {
         InvocationState {
             job,
             launch_index: UVec3::ZERO,
-            running: RefCell::new(Vec::with_capacity(8)),
+            failed_in: Cell::new(None),
             exceptions: RefCell::new(Vec::new()),
             // No name function is at address 0: nothing matches these.
             same_types: Cell::new([(0, 0); 4]),
@@ -276,7 +276,7 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
                     continue;
                 }
                 state.launch_index = index;
-                state.running.get_mut().clear();
+                state.failed_in.set(None);
                 state.camera.set(None);
                 if let Some(failure) = invoke(&state, &mut outcome.exceptions) {
                     first_failure.set(first_failure.get().min(failure.0));
@@ -349,6 +349,21 @@ fn trace_group(rays: &[&PacketRay]) {
     }
 }
 
+/// Notes the program a failure unwinds through (dropped only while
+/// unwinding: [`Frame::run`] forgets it when the program returns).
+struct NoteUnwinding<'s> {
+    failed_in: &'s Cell<Option<&'static str>>,
+    program: &'static str,
+}
+
+impl Drop for NoteUnwinding<'_> {
+    fn drop(&mut self) {
+        if self.failed_in.get().is_none() {
+            self.failed_in.set(Some(self.program));
+        }
+    }
+}
+
 /// The identities of two types found equal (see [`TypeInfo::identity`]).
 type TypePair = (usize, usize);
 
@@ -360,7 +375,7 @@ fn invoke(state: &InvocationState<'_>, exceptions: &mut Vec<UserException>) -> O
     let raygen = job.pipeline.groups[record.group].general?;
     let frame = Frame { state, depth: 0, traversal: None };
     let result = catch_unwind(AssertUnwindSafe(|| {
-        let mut inv = frame.invocation();
+        let mut inv = frame.invocation(frame.no_hit());
         inv.record = record.data.ptr();
         frame.run(raygen, &mut inv);
     }));
@@ -371,7 +386,7 @@ fn invoke(state: &InvocationState<'_>, exceptions: &mut Vec<UserException>) -> O
         }
     }
     let payload = result.err()?;
-    let program = state.running.borrow().last().copied().unwrap_or(raygen.name);
+    let program = state.failed_in.get().unwrap_or(raygen.name);
     let failure = match payload.downcast::<Fault>() {
         Ok(fault) => Failure::Fault { program, problem: fault.0 },
         Err(payload) => Failure::Panicked { program, message: panic_message(payload.as_ref()) },
@@ -414,8 +429,10 @@ impl<'j> Frame<'_, 'j> {
         self.state.job
     }
 
-    /// An invocation of this frame with every pointer null.
-    fn invocation(&self) -> Invocation<'_> {
+    /// An invocation of this frame with `hit` as its hit built-ins and every
+    /// pointer null.
+    #[inline(always)]
+    fn invocation(&self, hit: HitBuiltins) -> Invocation<'_> {
         let job = self.job();
         Invocation {
             runtime: self,
@@ -423,11 +440,7 @@ impl<'j> Frame<'_, 'j> {
             launch_dimensions: UVec3::from_array(job.dims),
             world_ray_origin: Vec3::ZERO,
             world_ray_direction: Vec3::ZERO,
-            hit: HitBuiltins {
-                launch_index: self.state.launch_index,
-                launch_dimensions: UVec3::from_array(job.dims),
-                ..HitBuiltins::ZERO
-            },
+            hit,
             params: job.params.ptr(),
             record: std::ptr::null(),
             payload: std::ptr::null_mut(),
@@ -440,11 +453,23 @@ impl<'j> Frame<'_, 'j> {
         }
     }
 
-    /// Calls `program` with `inv`, noting it as running.
+    /// The hit built-ins of a stage without a hit: the launch's, zeros else.
+    fn no_hit(&self) -> HitBuiltins {
+        HitBuiltins {
+            launch_index: self.state.launch_index,
+            launch_dimensions: UVec3::from_array(self.job().dims),
+            ..HitBuiltins::ZERO
+        }
+    }
+
+    /// Calls `program` with `inv`; a failure unwinding out of it is noted as
+    /// coming from it, unless a program it called was noted first.
     fn run(&self, program: Program, inv: &mut Invocation<'_>) {
-        self.state.running.borrow_mut().push(program.name);
+        let unwinding = NoteUnwinding { failed_in: &self.state.failed_in, program: program.name };
         (program.cpu.run)(inv);
-        self.state.running.borrow_mut().pop();
+        std::mem::forget(unwinding);
+        // A failure the program caught itself is not the invocation's.
+        self.state.failed_in.set(None);
     }
 
     /// Whether a trace of `ray` into `scene` goes in a packet: the invocation
@@ -594,8 +619,16 @@ impl Runtime for Frame<'_, '_> {
                 let record = frame.record(2, hit.record, "hit record");
                 let Some(program) = job.pipeline.groups[record.group].closest_hit else { return };
                 frame.check_type(program, "payload", program.cpu.payload, payload.ty);
-                let mut inv = frame.invocation();
-                inv.hit = hit_builtins(job, self.state.launch_index, scene, &ray, call, &hit, hit.t, hit.hit_kind);
+                let mut inv = frame.invocation(hit_builtins(
+                    job,
+                    self.state.launch_index,
+                    scene,
+                    &ray,
+                    call,
+                    &hit,
+                    hit.t,
+                    hit.hit_kind,
+                ));
                 inv.record = record.data.ptr();
                 inv.payload = payload.ptr;
                 inv.attributes = attributes.as_mut_ptr().cast();
@@ -605,7 +638,7 @@ impl Runtime for Frame<'_, '_> {
                 let record = frame.record(1, u64::from(call.miss_index), "miss index");
                 let Some(program) = job.pipeline.groups[record.group].general else { return };
                 frame.check_type(program, "payload", program.cpu.payload, payload.ty);
-                let mut inv = frame.invocation();
+                let mut inv = frame.invocation(frame.no_hit());
                 inv.world_ray_origin = ray.origin;
                 inv.world_ray_direction = ray.direction;
                 inv.record = record.data.ptr();
@@ -621,7 +654,7 @@ impl Runtime for Frame<'_, '_> {
         let Some(program) = job.pipeline.groups[record.group].general else { return };
         self.check_type(program, "callable data", program.cpu.callable_data, data.ty);
         let frame = Frame { state: self.state, depth: self.depth, traversal: None };
-        let mut inv = frame.invocation();
+        let mut inv = frame.invocation(frame.no_hit());
         inv.record = record.data.ptr();
         inv.callable_data = data.ptr;
         frame.run(program, &mut inv);
@@ -634,7 +667,7 @@ impl Runtime for Frame<'_, '_> {
         let Some(program) = job.pipeline.groups[group].general else { return };
         let record = job.sbt.regions[3].iter().find(|r| r.group == group);
         let frame = Frame { state: self.state, depth: self.depth, traversal: None };
-        let mut inv = frame.invocation();
+        let mut inv = frame.invocation(frame.no_hit());
         inv.exception = ExceptionDetails { code, launch_index };
         inv.record = record.map_or(std::ptr::null(), |r| r.data.ptr());
         frame.run(program, &mut inv);
@@ -932,7 +965,6 @@ impl<'f> Traversal<'f> {
         self.candidate.set(Some(candidate));
         let inner = Frame { state: frame.state, depth: self.depth, traversal: Some(self) };
         let mut attributes: Attributes = [0; ATTRIBUTE_BYTES / 16];
-        let mut inv = inner.invocation();
         let probe = Committed {
             t: self.t_max.get(),
             hit_kind: 0,
@@ -941,19 +973,18 @@ impl<'f> Traversal<'f> {
             primitive: candidate.primitive,
             record: candidate.record,
         };
-        inv.hit = self.builtins(&probe, self.t_max.get(), 0);
+        let mut inv = inner.invocation(self.builtins(&probe, self.t_max.get(), 0));
         inv.record = record.data.ptr();
         inv.attributes = attributes.as_mut_ptr().cast();
         // The program writes its attributes here; `report` reads them from the cell.
         self.attribute_target.set(attributes.as_mut_ptr());
-        let running = frame.state.running.borrow().len();
         let result = catch_unwind(AssertUnwindSafe(|| inner.run(program, &mut inv)));
         self.attribute_target.set(std::ptr::null_mut());
         if let Err(payload) = result {
             match payload.downcast::<AnyHitEnd>() {
                 // An any-hit program ended the ray from inside a report.
                 Ok(end) if matches!(*end, AnyHitEnd::Terminate) => {
-                    frame.state.running.borrow_mut().truncate(running);
+                    frame.state.failed_in.set(None);
                     self.terminated.set(true);
                 }
                 Ok(_) => fault("ignore_intersection outside an any-hit program".to_owned()),
@@ -1000,17 +1031,16 @@ impl<'f> Traversal<'f> {
                 frame.check_type(program, "payload", program.cpu.payload, self.payload_type);
                 let inner = Frame { state: frame.state, depth: self.depth, traversal: Some(self) };
                 let mut attrs = attributes;
-                let mut inv = inner.invocation();
-                inv.hit = self.builtins(&hit, t, hit_kind);
+                let mut inv = inner.invocation(self.builtins(&hit, t, hit_kind));
                 inv.record = record.data.ptr();
                 inv.payload = self.payload.get();
                 inv.attributes = attrs.as_mut_ptr().cast();
-                let running = frame.state.running.borrow().len();
                 match catch_unwind(AssertUnwindSafe(|| inner.run(program, &mut inv))) {
                     Ok(()) => {}
                     Err(payload) => match payload.downcast::<AnyHitEnd>() {
                         Ok(end) => {
-                            frame.state.running.borrow_mut().truncate(running);
+                            // Not a failure: the any-hit program ended as it may.
+                            frame.state.failed_in.set(None);
                             match *end {
                                 AnyHitEnd::Ignore => return false,
                                 AnyHitEnd::Terminate => terminate = true,
