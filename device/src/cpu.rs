@@ -223,8 +223,8 @@ pub struct Invocation<'a> {
     pub world_ray_origin: Vec3,
     /// The ray's world direction (miss programs).
     pub world_ray_direction: Vec3,
-    /// The ray and the hit (hit stages).
-    pub hit: HitBuiltins,
+    /// The ray and the hit (hit stages; [`HitBuiltins::ZERO`] in others).
+    pub hit: &'a HitBuiltins,
     /// The launch params, of the type [`CpuProgram::params`] names.
     pub params: *const u8,
     /// The program's SBT record data, of the type [`CpuProgram::record`] names

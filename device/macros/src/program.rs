@@ -755,12 +755,12 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
                 quote!(unsafe { __inv.barycentrics() })
             };
             quote! {
-                ::raykit_device::#ctx_ty::__new(__inv.hit, #barycentrics, __inv.runtime, 0, &mut __raykit_exception_call)
+                ::raykit_device::#ctx_ty::__new(*__inv.hit, #barycentrics, __inv.runtime, 0, &mut __raykit_exception_call)
                     .__with_trace_depth(__inv.depth, __inv.max_trace_depth)
             }
         }
         Stage::AnyHit | Stage::Intersection => quote! {
-            ::raykit_device::#ctx_ty::__new(__inv.hit, __inv.runtime, 0)
+            ::raykit_device::#ctx_ty::__new(*__inv.hit, __inv.runtime, 0)
         },
     };
     let cpu_wrapper = format_ident!("__cpu{}", entry_name);

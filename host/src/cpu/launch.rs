@@ -375,7 +375,7 @@ fn invoke(state: &InvocationState<'_>, exceptions: &mut Vec<UserException>) -> O
     let raygen = job.pipeline.groups[record.group].general?;
     let frame = Frame { state, depth: 0, traversal: None };
     let result = catch_unwind(AssertUnwindSafe(|| {
-        let mut inv = frame.invocation(frame.no_hit());
+        let mut inv = frame.invocation(&HitBuiltins::ZERO);
         inv.record = record.data.ptr();
         frame.run(raygen, &mut inv);
     }));
@@ -432,7 +432,7 @@ impl<'j> Frame<'_, 'j> {
     /// An invocation of this frame with `hit` as its hit built-ins and every
     /// pointer null.
     #[inline(always)]
-    fn invocation(&self, hit: HitBuiltins) -> Invocation<'_> {
+    fn invocation<'a>(&'a self, hit: &'a HitBuiltins) -> Invocation<'a> {
         let job = self.job();
         Invocation {
             runtime: self,
@@ -450,15 +450,6 @@ impl<'j> Frame<'_, 'j> {
             depth: self.depth,
             max_trace_depth: job.pipeline.max_trace_depth,
             specialization: &job.pipeline.specialization,
-        }
-    }
-
-    /// The hit built-ins of a stage without a hit: the launch's, zeros else.
-    fn no_hit(&self) -> HitBuiltins {
-        HitBuiltins {
-            launch_index: self.state.launch_index,
-            launch_dimensions: UVec3::from_array(self.job().dims),
-            ..HitBuiltins::ZERO
         }
     }
 
@@ -619,16 +610,8 @@ impl Runtime for Frame<'_, '_> {
                 let record = frame.record(2, hit.record, "hit record");
                 let Some(program) = job.pipeline.groups[record.group].closest_hit else { return };
                 frame.check_type(program, "payload", program.cpu.payload, payload.ty);
-                let mut inv = frame.invocation(hit_builtins(
-                    job,
-                    self.state.launch_index,
-                    scene,
-                    &ray,
-                    call,
-                    &hit,
-                    hit.t,
-                    hit.hit_kind,
-                ));
+                let builtins = hit_builtins(job, self.state.launch_index, scene, &ray, call, &hit, hit.t, hit.hit_kind);
+                let mut inv = frame.invocation(&builtins);
                 inv.record = record.data.ptr();
                 inv.payload = payload.ptr;
                 inv.attributes = attributes.as_mut_ptr().cast();
@@ -638,7 +621,7 @@ impl Runtime for Frame<'_, '_> {
                 let record = frame.record(1, u64::from(call.miss_index), "miss index");
                 let Some(program) = job.pipeline.groups[record.group].general else { return };
                 frame.check_type(program, "payload", program.cpu.payload, payload.ty);
-                let mut inv = frame.invocation(frame.no_hit());
+                let mut inv = frame.invocation(&HitBuiltins::ZERO);
                 inv.world_ray_origin = ray.origin;
                 inv.world_ray_direction = ray.direction;
                 inv.record = record.data.ptr();
@@ -654,7 +637,7 @@ impl Runtime for Frame<'_, '_> {
         let Some(program) = job.pipeline.groups[record.group].general else { return };
         self.check_type(program, "callable data", program.cpu.callable_data, data.ty);
         let frame = Frame { state: self.state, depth: self.depth, traversal: None };
-        let mut inv = frame.invocation(frame.no_hit());
+        let mut inv = frame.invocation(&HitBuiltins::ZERO);
         inv.record = record.data.ptr();
         inv.callable_data = data.ptr;
         frame.run(program, &mut inv);
@@ -667,7 +650,7 @@ impl Runtime for Frame<'_, '_> {
         let Some(program) = job.pipeline.groups[group].general else { return };
         let record = job.sbt.regions[3].iter().find(|r| r.group == group);
         let frame = Frame { state: self.state, depth: self.depth, traversal: None };
-        let mut inv = frame.invocation(frame.no_hit());
+        let mut inv = frame.invocation(&HitBuiltins::ZERO);
         inv.exception = ExceptionDetails { code, launch_index };
         inv.record = record.map_or(std::ptr::null(), |r| r.data.ptr());
         frame.run(program, &mut inv);
@@ -973,7 +956,8 @@ impl<'f> Traversal<'f> {
             primitive: candidate.primitive,
             record: candidate.record,
         };
-        let mut inv = inner.invocation(self.builtins(&probe, self.t_max.get(), 0));
+        let builtins = self.builtins(&probe, self.t_max.get(), 0);
+        let mut inv = inner.invocation(&builtins);
         inv.record = record.data.ptr();
         inv.attributes = attributes.as_mut_ptr().cast();
         // The program writes its attributes here; `report` reads them from the cell.
@@ -1031,7 +1015,8 @@ impl<'f> Traversal<'f> {
                 frame.check_type(program, "payload", program.cpu.payload, self.payload_type);
                 let inner = Frame { state: frame.state, depth: self.depth, traversal: Some(self) };
                 let mut attrs = attributes;
-                let mut inv = inner.invocation(self.builtins(&hit, t, hit_kind));
+                let builtins = self.builtins(&hit, t, hit_kind);
+                let mut inv = inner.invocation(&builtins);
                 inv.record = record.data.ptr();
                 inv.payload = self.payload.get();
                 inv.attributes = attrs.as_mut_ptr().cast();
