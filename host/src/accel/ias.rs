@@ -314,16 +314,14 @@ impl Ias {
                 return Err(Error::ContextMismatch);
             }
             let object_to_world = crate::cpu::accel::affine_from_rows(&instance.transform);
-            scene.push(crate::cpu::accel::SceneInstance {
-                gas: gas.data(),
+            scene.push(crate::cpu::accel::SceneInstance::new(
+                gas.data(),
                 object_to_world,
-                world_to_object: object_to_world.inverse(),
-                custom_index: instance.custom_index,
-                mask: instance.mask,
-                sbt_offset: instance.sbt_offset,
-                flags: instance.flags,
-                identity: object_to_world == glam::Affine3A::IDENTITY,
-            });
+                instance.custom_index,
+                instance.mask,
+                instance.sbt_offset,
+                instance.flags,
+            ));
         }
         let data = Arc::new(crate::cpu::accel::SceneData::build(scene));
         let size = data.size();

@@ -14,6 +14,7 @@ use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::aabb::Aabb as BvhAabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::BvhBuildParams;
+use raykit_device::Matrix4x3;
 
 use crate::accel::input::{GeometryFlags, IndexKind};
 use crate::accel::{BuildInput, InstanceFlags};
@@ -208,6 +209,43 @@ pub(crate) struct SceneInstance {
     pub(crate) flags: InstanceFlags,
     /// The instance has no transform: object space is world space.
     pub(crate) identity: bool,
+    /// `object_to_world` and `world_to_object` as hit programs receive them.
+    pub(crate) builtin_matrices: [Matrix4x3; 2],
+}
+
+impl SceneInstance {
+    /// An instance of `gas` placed by `object_to_world`.
+    pub(crate) fn new(
+        gas: Arc<GasData>,
+        object_to_world: Affine3A,
+        custom_index: u32,
+        mask: u8,
+        sbt_offset: u32,
+        flags: InstanceFlags,
+    ) -> SceneInstance {
+        let world_to_object = object_to_world.inverse();
+        SceneInstance {
+            gas,
+            object_to_world,
+            world_to_object,
+            custom_index,
+            mask,
+            sbt_offset,
+            flags,
+            identity: object_to_world == Affine3A::IDENTITY,
+            builtin_matrices: [builtin_matrix(object_to_world), builtin_matrix(world_to_object)],
+        }
+    }
+}
+
+/// An affine transform as the 4×3 matrix built-ins.
+fn builtin_matrix(a: Affine3A) -> Matrix4x3 {
+    Matrix4x3 {
+        x_axis: a.matrix3.x_axis.into(),
+        y_axis: a.matrix3.y_axis.into(),
+        z_axis: a.matrix3.z_axis.into(),
+        w_axis: a.translation.into(),
+    }
 }
 
 /// A built IAS: what a trace of its `Traversable` runs through.

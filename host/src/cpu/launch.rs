@@ -26,7 +26,7 @@ use obvhs::ray::Ray as BvhRay;
 use raykit_device::cpu::{Erased, Invocation, Runtime, TraceCall, TypeInfo};
 use raykit_device::exception::{ExceptionDetails, EXCEPTION_CAPACITY, TRACE_DEPTH_EXCEEDED};
 use raykit_device::stage::HitBuiltins;
-use raykit_device::{Matrix4x3, Ray, Traversable, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE};
+use raykit_device::{Ray, Traversable, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE};
 
 use super::accel::{Geometry, Leaf, SceneData, SceneInstance};
 use super::buffers::Words;
@@ -1071,17 +1071,13 @@ fn hit_builtins(
     hit_kind: u32,
 ) -> HitBuiltins {
     let instance = &scene.instances[hit.instance as usize];
-    let (object_ray_origin, object_ray_direction, object_to_world, world_to_object) = if instance.identity {
-        (ray.origin, ray.direction, IDENTITY, IDENTITY)
+    let (object_ray_origin, object_ray_direction) = if instance.identity {
+        (ray.origin, ray.direction)
     } else {
         let w2o = instance.world_to_object;
-        (
-            w2o.transform_point3(ray.origin),
-            w2o.transform_vector3(ray.direction),
-            matrix(instance.object_to_world),
-            matrix(w2o),
-        )
+        (w2o.transform_point3(ray.origin), w2o.transform_vector3(ray.direction))
     };
+    let [object_to_world, world_to_object] = instance.builtin_matrices;
     HitBuiltins {
         launch_index,
         launch_dimensions: UVec3::from_array(job.dims),
@@ -1101,9 +1097,6 @@ fn hit_builtins(
         world_to_object,
     }
 }
-
-/// The identity as the 4×3 matrix built-ins use.
-const IDENTITY: Matrix4x3 = Matrix4x3 { x_axis: Vec3::X, y_axis: Vec3::Y, z_axis: Vec3::Z, w_axis: Vec3::ZERO };
 
 /// The hit mask of `node`'s children for `ray` (see [`CwBvhNode::intersect_ray`]);
 /// `AVX2` only where the CPU has the features of [`Traversal::run_avx2`].
@@ -1149,16 +1142,6 @@ unsafe fn intersect_node_avx2(node: &CwBvhNode, ray: &BvhRay, oct_inv4: u32) -> 
     let tmax = _mm256_min_ps(tmax, _mm256_set1_ps(ray.tmax));
     let hits = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tmin, tmax)) as u32;
     super::simd::child_mask(node, hits, oct_inv4)
-}
-
-/// An affine transform as the 4×3 matrix built-ins use.
-fn matrix(a: Affine3A) -> Matrix4x3 {
-    Matrix4x3 {
-        x_axis: a.matrix3.x_axis.into(),
-        y_axis: a.matrix3.y_axis.into(),
-        z_axis: a.matrix3.z_axis.into(),
-        w_axis: a.translation.into(),
-    }
 }
 
 /// Möller–Trumbore: `(t, u, v, determinant)` of a hit inside `[t_min, t_max]`.
