@@ -248,8 +248,8 @@ impl<'j> InvocationState<'j> {
 
 /// Runs the tile of `size × size` invocations from `[x0, y0, z]` in
 /// [`packet::WIDTH`] lanes, their camera rays traced in packets. Lane `i` runs
-/// the tile's invocations `i`, `i + WIDTH`, … in rows of blocks of 4 × 2
-/// invocations, so that the lanes' rays stay close together. Once an
+/// the tile's invocations `i`, `i + WIDTH`, … in rows of blocks of
+/// 4 × `WIDTH / 4` invocations, so that the lanes' rays stay close together. Once an
 /// invocation failed, lanes run only the invocations before it in launch
 /// order, so the tile reports its first failure in launch order.
 fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome: &mut Outcome) {
@@ -534,6 +534,23 @@ impl<'j> Frame<'_, 'j> {
         }
     }
 
+    /// Traces `ray` by itself; the committed hit and its attributes, if any.
+    /// Not inlined into [`Runtime::trace`], whose frame stays small for the
+    /// lanes' stacks.
+    #[inline(never)]
+    fn trace_alone(
+        &self,
+        scene: &SceneData,
+        ray: Ray,
+        call: TraceCall,
+        depth: u32,
+        payload: &Erased<'_>,
+    ) -> Option<(Committed, Attributes)> {
+        let traversal = Traversal::new(self, scene, ray, call, depth, payload);
+        traversal.run();
+        traversal.committed.get().map(|hit| (hit, traversal.committed_attributes.get()))
+    }
+
     /// Checks that `program` receives `what` of type `given`: at once when the
     /// pair was found equal before in this tile.
     #[inline(always)]
@@ -595,11 +612,7 @@ impl Runtime for Frame<'_, '_> {
         let traced = if self.packet_ready(scene, &ray, call) { self.trace_in_packet(scene, &ray, call) } else { None };
         let committed = match traced {
             Some(committed) => committed,
-            None => {
-                let traversal = Traversal::new(self, scene, ray, call, depth, &payload);
-                traversal.run();
-                traversal.committed.get().map(|hit| (hit, traversal.committed_attributes.get()))
-            }
+            None => self.trace_alone(scene, ray, call, depth, &payload),
         };
         let frame = Frame { state: self.state, depth, traversal: None };
         match committed {

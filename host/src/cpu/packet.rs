@@ -23,7 +23,7 @@ use super::simd::{child_mask, quantized};
 use crate::accel::{GeometryFlags, InstanceFlags};
 
 /// Rays in a packet: one AVX2 register of `f32` lanes per eight.
-pub(crate) const WIDTH: usize = 8;
+pub(crate) const WIDTH: usize = 16;
 const _: () = assert!(WIDTH.is_multiple_of(8) && WIDTH <= LaneMask::BITS as usize);
 
 /// A set of lanes, lane `i` at bit `i`.
