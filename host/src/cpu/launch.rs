@@ -505,13 +505,15 @@ impl<'j> Frame<'_, 'j> {
             cull_mask: call.cull_mask,
             first_hit: call.flags & ray_flags::TERMINATE_ON_FIRST_HIT != 0,
             traced: Cell::new(Traced::Pending),
+            hit: Cell::default(),
         };
         // SAFETY: `packet_ready` checked that the invocation runs in a lane,
         // whose coroutine set `lane` to its yielder and is running this call.
         let yielder = unsafe { &*self.state.lane.get() };
         yielder.suspend(&request);
         match request.traced.get() {
-            Traced::Hit(hit) => {
+            Traced::Hit => {
+                let hit = request.hit.get();
                 let instance = &scene.instances[hit.instance as usize];
                 let record = u64::from(instance.sbt_offset)
                     + u64::from(hit.geometry) * u64::from(call.sbt_stride)

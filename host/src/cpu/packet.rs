@@ -50,11 +50,12 @@ pub(crate) enum Traced {
     /// the invocation traces it alone.
     Alone,
     Miss,
-    Hit(PacketHit),
+    /// It hit [`PacketRay::hit`].
+    Hit,
 }
 
 /// The closest accepted triangle of a ray.
-#[derive(Copy, Clone, Debug, PartialEq)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub(crate) struct PacketHit {
     pub(crate) t: f32,
     pub(crate) u: f32,
@@ -77,6 +78,8 @@ pub(crate) struct PacketRay {
     /// `TERMINATE_ON_FIRST_HIT`: the first accepted hit ends the ray.
     pub(crate) first_hit: bool,
     pub(crate) traced: Cell<Traced>,
+    /// The closest hit, when `traced` is [`Traced::Hit`].
+    pub(crate) hit: Cell<PacketHit>,
 }
 
 /// Whether every primitive of a scene of `instances` is a triangle, and whether every one is
@@ -114,25 +117,17 @@ pub(crate) fn trace(scene: &SceneData, rays: &[&PacketRay]) {
     debug_assert!(rays.len() <= WIDTH);
     let mut packet = Packet::new(scene);
     for (lane, ray) in rays.iter().enumerate() {
-        let finite = ray.origin.is_finite() && ray.direction.is_finite();
-        if !finite {
-            ray.traced.set(Traced::Alone);
-            continue;
-        }
-        ray.traced.set(Traced::Miss);
-        // An empty or NaN interval hits nothing.
-        if ray.t_min.partial_cmp(&ray.t_max).is_none_or(|o| o == std::cmp::Ordering::Greater) {
-            continue;
-        }
         packet.world.set(lane, ray.origin, ray.direction);
         packet.t_min[lane] = ray.t_min;
         packet.t_max[lane] = ray.t_max;
         packet.cull_mask[lane] = ray.cull_mask;
-        if ray.first_hit {
-            packet.first_hit |= 1 << lane;
-        }
-        packet.active |= 1 << lane;
+        packet.first_hit |= LaneMask::from(ray.first_hit) << lane;
     }
+    // Rays with an infinite or NaN origin or direction are traced alone; an
+    // empty or NaN interval hits nothing.
+    let (finite, nonempty) = packet.finite_and_nonempty();
+    let present = ((1u32 << rays.len()) - 1) as LaneMask;
+    packet.active = present & finite & nonempty;
     if packet.active != 0 {
         match &scene.instances[..] {
             // One instance: its GAS's tree does every box test the IAS's would.
@@ -152,9 +147,15 @@ pub(crate) fn trace(scene: &SceneData, rays: &[&PacketRay]) {
         }
     }
     for (lane, ray) in rays.iter().enumerate() {
-        if let Some(hit) = packet.hits[lane] {
-            ray.traced.set(Traced::Hit(hit));
-        }
+        let traced = if finite >> lane & 1 == 0 {
+            Traced::Alone
+        } else if packet.hit_lanes >> lane & 1 != 0 {
+            ray.hit.set(packet.hits[lane]);
+            Traced::Hit
+        } else {
+            Traced::Miss
+        };
+        ray.traced.set(traced);
     }
 }
 
@@ -202,7 +203,9 @@ struct Packet<'s> {
     first_hit: LaneMask,
     /// Lanes still traversing.
     active: LaneMask,
-    hits: [Option<PacketHit>; WIDTH],
+    /// Lanes that hit something: their closest hit is in `hits`.
+    hit_lanes: LaneMask,
+    hits: [PacketHit; WIDTH],
 }
 
 /// The rays of one walk, in one octant: their lanes, and the interval holding
@@ -231,8 +234,35 @@ impl<'s> Packet<'s> {
             cull_mask: [0; WIDTH],
             first_hit: 0,
             active: 0,
-            hits: [None; WIDTH],
+            hit_lanes: 0,
+            hits: [PacketHit::default(); WIDTH],
         }
+    }
+
+    /// The lanes whose origin and direction are finite, and those whose `t`
+    /// interval is not empty.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    fn finite_and_nonempty(&self) -> (LaneMask, LaneMask) {
+        use std::arch::x86_64::*;
+        let (mut finite, mut nonempty) = (0, 0);
+        for half in 0..WIDTH / 8 {
+            let at = 8 * half;
+            // SAFETY: each row holds `WIDTH` `f32`s; eight are read from `at`,
+            // which is at most `WIDTH - 8`.
+            let load = |row: &[f32; WIDTH]| unsafe { _mm256_loadu_ps(row.as_ptr().add(at)) };
+            let zero = _mm256_setzero_ps();
+            // Zero times a finite number is zero, times an infinity or NaN is NaN.
+            let mut zeros = zero;
+            for axis in 0..3 {
+                let (o, d) = (load(&self.world.o[axis]), load(&self.world.d[axis]));
+                zeros = _mm256_add_ps(zeros, _mm256_add_ps(_mm256_mul_ps(o, zero), _mm256_mul_ps(d, zero)));
+            }
+            let lanes = |m: __m256| (_mm256_movemask_ps(m) as LaneMask) << at;
+            finite |= lanes(_mm256_cmp_ps::<_CMP_EQ_OQ>(zeros, zero));
+            nonempty |= lanes(_mm256_cmp_ps::<_CMP_LE_OQ>(load(&self.t_min), load(&self.t_max)));
+        }
+        (finite, nonempty)
     }
 
     /// Walks the IAS's tree with `group` (world space), visiting instances.
@@ -411,7 +441,8 @@ impl<'s> Packet<'s> {
             accepted &= accepted - 1;
             let lane = first + i;
             self.t_max[lane] = ts[i];
-            self.hits[lane] = Some(PacketHit {
+            self.hit_lanes |= 1 << lane;
+            self.hits[lane] = PacketHit {
                 t: ts[i],
                 u: us[i],
                 v: vs[i],
@@ -419,7 +450,7 @@ impl<'s> Packet<'s> {
                 instance,
                 geometry: leaf.geometry,
                 primitive: leaf.primitive,
-            });
+            };
             if self.first_hit & (1 << lane) != 0 {
                 self.active &= !(1 << lane);
             }
