@@ -1,8 +1,8 @@
 //! Blocks of invocations run side by side as coroutines (corosensei), so that
 //! their traces can be made together: an invocation that traces a ray a packet
-//! can take suspends with it; once every invocation of the block has suspended
-//! or finished, the block traces the suspended rays as one packet and resumes
-//! them. Everything else an invocation does runs as before, on its own stack.
+//! can take writes it into the block's packet and suspends; once every
+//! invocation of the block has suspended or finished, the block traces the
+//! packet and resumes them. Everything else an invocation does runs as before, on its own stack.
 //!
 //! Stacks are as deep as the pool's threads' and are kept per thread for the
 //! next block.
@@ -12,14 +12,14 @@ use std::cell::RefCell;
 use corosensei::stack::{DefaultStack, Stack, StackPointer};
 use corosensei::{Coroutine, CoroutineResult, Yielder};
 
-use super::packet::{PacketRay, WIDTH};
+use super::packet::WIDTH;
 use super::THREAD_STACK;
 use crate::error::{Error, Result};
 
 /// What an invocation running in a lane suspends through.
-pub(crate) type LaneYielder = Yielder<(), *const PacketRay>;
+pub(crate) type LaneYielder = Yielder<(), ()>;
 
-type Lane = Coroutine<(), *const PacketRay, (), LaneStack>;
+type Lane = Coroutine<(), (), (), LaneStack>;
 
 /// How far apart the lanes' stacks start, modulo a page: their hot frames then
 /// fall on different sets of the first-level cache instead of all on the same
@@ -44,7 +44,7 @@ unsafe impl Stack for LaneStack {
         self.stack.limit()
     }
 }
-const _: () = assert!(STAGGER % corosensei::stack::STACK_ALIGNMENT == 0 && STAGGER * WIDTH <= 4096);
+const _: () = assert!(STAGGER.is_multiple_of(corosensei::stack::STACK_ALIGNMENT) && STAGGER * WIDTH <= 4096);
 
 thread_local! {
     /// Stacks of finished lanes, for the next block on this thread.
@@ -53,12 +53,12 @@ thread_local! {
 
 /// Runs `body(lane, yielder)` for each lane of `0..count` (at most
 /// [`WIDTH`]), each in a coroutine of its own. Whenever every lane has
-/// suspended with a ray or returned, `trace` gets the rays (in lane order) and
-/// those lanes are resumed.
+/// suspended or returned, and some suspended, `trace` runs and those lanes
+/// are resumed.
 pub(crate) fn run_lanes<F, T>(count: usize, body: &F, mut trace: T) -> Result<()>
 where
     F: Fn(usize, &LaneYielder),
-    T: FnMut(&[&PacketRay]),
+    T: FnMut(),
 {
     debug_assert!(count <= WIDTH);
     let mut lanes: Vec<Lane> = Vec::with_capacity(count);
@@ -67,29 +67,23 @@ where
             Some(stack) => stack,
             None => DefaultStack::new(THREAD_STACK).map_err(|e| Error::CpuThreads { reason: e.to_string() })?,
         };
+        let stack = LaneStack { stack, offset: lane * STAGGER };
         // SAFETY: the coroutine borrows `body`, which outlives this function;
         // every lane is driven to completion below or dropped (unwound) before
         // it returns.
-        let stack = LaneStack { stack, offset: lane * STAGGER };
         lanes.push(unsafe {
             Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder))
         });
     }
-    let mut rays: Vec<&PacketRay> = Vec::with_capacity(count);
     loop {
-        rays.clear();
+        let mut suspended = false;
         for coroutine in lanes.iter_mut().filter(|lane| !lane.done()) {
-            if let CoroutineResult::Yield(ray) = coroutine.resume(()) {
-                // SAFETY: the ray lives on the lane's stack, in the trace call
-                // that suspended; the lane stays suspended until `trace` has
-                // returned and `rays` is cleared.
-                rays.push(unsafe { &*ray });
-            }
+            suspended |= matches!(coroutine.resume(()), CoroutineResult::Yield(()));
         }
-        if rays.is_empty() {
+        if !suspended {
             break;
         }
-        trace(&rays);
+        trace();
     }
     STACKS.with_borrow_mut(|stacks| stacks.extend(lanes.into_iter().map(|lane| lane.into_stack().stack)));
     Ok(())

@@ -15,7 +15,7 @@
 //! miss program. Hit records are found as on the device: `instance SBT offset +
 //! geometry index × stride + ray offset`.
 
-use std::cell::{Cell, RefCell};
+use std::cell::{Cell, RefCell, UnsafeCell};
 use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::Arc;
@@ -31,7 +31,7 @@ use raykit_device::{Ray, Traversable, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FR
 use super::accel::{Geometry, Leaf, SceneData, SceneInstance};
 use super::buffers::Words;
 use super::lanes::{self, LaneYielder};
-use super::packet::{self, PacketRay, Traced};
+use super::packet::{self, Packet, Traced};
 use super::program::{Aligned, PipelineData, Program, SbtData, ATTRIBUTE_BYTES};
 use super::{CpuContext, TILE};
 use crate::accel::InstanceFlags;
@@ -223,9 +223,9 @@ struct InvocationState<'j> {
     /// Pairs of types (declared, given) found equal by name, by identity: a
     /// program receiving what it received before is not compared by name again.
     same_types: Cell<[TypePair; 4]>,
-    /// While the invocation runs in a lane of a block: what its packet traces
-    /// suspend through (null otherwise).
-    lane: Cell<*const LaneYielder>,
+    /// While the invocation runs in a lane of a block: where its packet
+    /// traces go.
+    lane: Cell<Option<LaneSeat>>,
     /// Where the invocation's first trace a packet could take started: its
     /// traces from there (a camera's rays) go in packets.
     camera: Cell<Option<Vec3>>,
@@ -240,10 +240,21 @@ impl<'j> InvocationState<'j> {
             exceptions: RefCell::new(Vec::new()),
             // No name function is at address 0: nothing matches these.
             same_types: Cell::new([(0, 0); 4]),
-            lane: Cell::new(std::ptr::null()),
+            lane: Cell::new(None),
             camera: Cell::new(None),
         }
     }
+}
+
+/// Where an invocation running in a lane of a block sends its packet traces.
+#[derive(Copy, Clone)]
+struct LaneSeat {
+    /// What the lane suspends through.
+    yielder: *const LaneYielder,
+    /// The block's packet.
+    packet: *const UnsafeCell<Packet>,
+    /// The lane's index in the block and its packet.
+    index: usize,
 }
 
 /// Runs the tile of `size × size` invocations from `[x0, y0, z]` in
@@ -259,9 +270,10 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
     // The launch-order position of the first failure so far.
     let first_failure = Cell::new(u64::MAX);
     let outcomes: [RefCell<Outcome>; packet::WIDTH] = std::array::from_fn(|_| RefCell::default());
+    let packet = UnsafeCell::new(Packet::new());
     let body = |lane: usize, yielder: &LaneYielder| {
         let mut state = InvocationState::new(job);
-        state.lane.set(yielder);
+        state.lane.set(Some(LaneSeat { yielder, packet: &packet, index: lane }));
         let mut outcome = outcomes[lane].borrow_mut();
         // The lane's place in each block.
         let (dx, dy) = (lane as u32 % bw, lane as u32 / bw);
@@ -287,9 +299,12 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
         }
     };
     let mut packet_rays = 0;
-    let traced = lanes::run_lanes(packet::WIDTH, &body, |rays| {
-        trace_packet(rays);
-        packet_rays += rays.len() as u64;
+    let traced = lanes::run_lanes(packet::WIDTH, &body, || {
+        // SAFETY: every lane is suspended or finished: none holds a reference
+        // into the packet (they do only while they run).
+        let packet = unsafe { &mut *packet.get() };
+        packet_rays += u64::from(packet.waiting().count_ones());
+        packet.trace_waiting();
     });
     job.ctx.packet_rays.fetch_add(packet_rays, Ordering::Relaxed);
     if let Err(e) = traced {
@@ -306,46 +321,6 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
                 outcome.failure = Some(failure);
             }
         }
-    }
-}
-
-/// Traces the rays of a block's suspended lanes: those into one scene together.
-fn trace_packet(rays: &[&PacketRay]) {
-    let first = rays[0].scene;
-    if rays.iter().all(|ray| ray.scene == first) {
-        trace_group(rays);
-        return;
-    }
-    let mut left: u32 = (1 << rays.len()) - 1;
-    let mut group: Vec<&PacketRay> = Vec::with_capacity(rays.len());
-    while left != 0 {
-        let scene = rays[left.trailing_zeros() as usize].scene;
-        group.clear();
-        let mut rest = left;
-        while rest != 0 {
-            let i = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            if rays[i].scene == scene {
-                group.push(rays[i]);
-                left &= !(1 << i);
-            }
-        }
-        trace_group(&group);
-    }
-}
-
-/// Traces `rays`, all into one scene, as one packet.
-fn trace_group(rays: &[&PacketRay]) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: the scene is one of the launch's (`LaunchJob::scenes` holds it
-    // while the launch runs), and packets run only where the CPU has AVX2 and
-    // its companions (`LaunchJob::packets`).
-    unsafe {
-        packet::trace(&*rays[0].scene, rays)
-    };
-    #[cfg(not(target_arch = "x86_64"))]
-    for ray in rays {
-        ray.traced.set(packet::Traced::Alone);
     }
 }
 
@@ -471,7 +446,7 @@ impl<'j> Frame<'_, 'j> {
     fn packet_ready(&self, scene: &SceneData, ray: &Ray, call: TraceCall) -> bool {
         const PACKET_FLAGS: u32 =
             ray_flags::OPAQUE | ray_flags::TERMINATE_ON_FIRST_HIT | ray_flags::SKIP_CLOSEST_HIT | ray_flags::SKIP_AABBS;
-        if self.state.lane.get().is_null() || call.flags & !PACKET_FLAGS != 0 {
+        if self.state.lane.get().is_none() || call.flags & !PACKET_FLAGS != 0 {
             return false;
         }
         if !(scene.all_opaque_triangles || (scene.all_triangles && call.flags & ray_flags::OPAQUE != 0)) {
@@ -496,24 +471,33 @@ impl<'j> Frame<'_, 'j> {
         ray: &Ray,
         call: TraceCall,
     ) -> Option<Option<(Committed, Attributes)>> {
-        let request = PacketRay {
+        let seat = self.state.lane.get()?;
+        let first_hit = call.flags & ray_flags::TERMINATE_ON_FIRST_HIT != 0;
+        // SAFETY: the lanes of a block run one at a time on this thread, and
+        // while one runs nothing else holds a reference into their packet (the
+        // block's driver does only while every lane is suspended; a lane only
+        // within this call, not across its suspension).
+        unsafe { &mut *(*seat.packet).get() }.request(
+            seat.index,
             scene,
-            origin: ray.origin,
-            direction: ray.direction,
-            t_min: ray.t_min,
-            t_max: ray.t_max,
-            cull_mask: call.cull_mask,
-            first_hit: call.flags & ray_flags::TERMINATE_ON_FIRST_HIT != 0,
-            traced: Cell::new(Traced::Pending),
-            hit: Cell::default(),
+            ray.origin,
+            ray.direction,
+            ray.t_min,
+            ray.t_max,
+            call.cull_mask,
+            first_hit,
+        );
+        // SAFETY: the lane's coroutine made the yielder and is running this call.
+        unsafe { &*seat.yielder }.suspend(());
+        let (traced, hit) = {
+            // SAFETY: as for the request above; the hit is copied out before
+            // anything else runs.
+            let packet = unsafe { &*(*seat.packet).get() };
+            let (traced, hit) = packet.outcome(seat.index);
+            (traced, *hit)
         };
-        // SAFETY: `packet_ready` checked that the invocation runs in a lane,
-        // whose coroutine set `lane` to its yielder and is running this call.
-        let yielder = unsafe { &*self.state.lane.get() };
-        yielder.suspend(&request);
-        match request.traced.get() {
+        match traced {
             Traced::Hit => {
-                let hit = request.hit.get();
                 let instance = &scene.instances[hit.instance as usize];
                 let record = u64::from(instance.sbt_offset)
                     + u64::from(hit.geometry) * u64::from(call.sbt_stride)
@@ -532,7 +516,7 @@ impl<'j> Frame<'_, 'j> {
                 Some(Some((committed, attributes)))
             }
             Traced::Miss => Some(None),
-            Traced::Alone | Traced::Pending => None,
+            Traced::Alone => None,
         }
     }
 

@@ -12,8 +12,6 @@
 //! Rays far apart in direction or origin would make the interval loose, so such
 //! groups are walked one ray at a time by the same code.
 
-use std::cell::Cell;
-
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::cwbvh::CwBvh;
@@ -41,16 +39,14 @@ const COHERENT_ORIGIN: f32 = 1e-3;
 /// that rounding never loses a child a ray enters.
 const WIDEN: f32 = 1.0 / (1 << 16) as f32;
 
-/// What became of a [`PacketRay`].
+/// What became of a lane's request.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub(crate) enum Traced {
-    /// Not traced yet.
-    Pending,
     /// The packet could not take it (a NaN or infinite origin or direction):
     /// the invocation traces it alone.
     Alone,
     Miss,
-    /// It hit [`PacketRay::hit`].
+    /// It hit something.
     Hit,
 }
 
@@ -65,21 +61,6 @@ pub(crate) struct PacketHit {
     pub(crate) instance: u32,
     pub(crate) geometry: u32,
     pub(crate) primitive: u32,
-}
-
-/// A trace waiting in its invocation for the rest of its packet.
-pub(crate) struct PacketRay {
-    pub(crate) scene: *const SceneData,
-    pub(crate) origin: Vec3,
-    pub(crate) direction: Vec3,
-    pub(crate) t_min: f32,
-    pub(crate) t_max: f32,
-    pub(crate) cull_mask: u32,
-    /// `TERMINATE_ON_FIRST_HIT`: the first accepted hit ends the ray.
-    pub(crate) first_hit: bool,
-    pub(crate) traced: Cell<Traced>,
-    /// The closest hit, when `traced` is [`Traced::Hit`].
-    pub(crate) hit: Cell<PacketHit>,
 }
 
 /// Whether every primitive of a scene of `instances` is a triangle, and whether every one is
@@ -106,57 +87,6 @@ pub(crate) fn scene_kind(instances: &[SceneInstance]) -> (bool, bool) {
         }
     }
     (triangles, triangles && opaque)
-}
-
-/// Traces `rays` (all into `scene`, at most [`WIDTH`]) and sets each one's
-/// [`PacketRay::traced`]. Compiled for AVX2 and its companions: callers check
-/// that the CPU has them.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-pub(crate) fn trace(scene: &SceneData, rays: &[&PacketRay]) {
-    debug_assert!(rays.len() <= WIDTH);
-    let mut packet = Packet::new(scene);
-    for (lane, ray) in rays.iter().enumerate() {
-        packet.world.set(lane, ray.origin, ray.direction);
-        packet.t_min[lane] = ray.t_min;
-        packet.t_max[lane] = ray.t_max;
-        packet.cull_mask[lane] = ray.cull_mask;
-        packet.first_hit |= LaneMask::from(ray.first_hit) << lane;
-    }
-    // Rays with an infinite or NaN origin or direction are traced alone; an
-    // empty or NaN interval hits nothing.
-    let (finite, nonempty) = packet.finite_and_nonempty();
-    let present = ((1u32 << rays.len()) - 1) as LaneMask;
-    packet.active = present & finite & nonempty;
-    if packet.active != 0 {
-        match &scene.instances[..] {
-            // One instance: its GAS's tree does every box test the IAS's would.
-            [only] => {
-                if !only.gas.leaves.is_empty() {
-                    packet.instance(0, packet.active);
-                }
-            }
-            _ => {
-                let mut left = packet.active;
-                let world = packet.world;
-                while left != 0 {
-                    let group = Group::next(&mut left, &world, &packet.t_min);
-                    packet.walk_scene(&group);
-                }
-            }
-        }
-    }
-    for (lane, ray) in rays.iter().enumerate() {
-        let traced = if finite >> lane & 1 == 0 {
-            Traced::Alone
-        } else if packet.hit_lanes >> lane & 1 != 0 {
-            ray.hit.set(packet.hits[lane]);
-            Traced::Hit
-        } else {
-            Traced::Miss
-        };
-        ray.traced.set(traced);
-    }
 }
 
 /// Rays lane by lane, coordinate by coordinate: `o[axis][lane]`,
@@ -188,21 +118,30 @@ impl Rays {
     }
 }
 
-/// The rays of a packet, lane by lane, and what they hit so far (the rows
-/// first, on 32-byte boundaries).
+/// The rays of a block's lanes waiting to be traced together, lane by lane,
+/// and what they hit (the rows first, on 32-byte boundaries). A lane writes its
+/// request with [`Packet::request`] and suspends; once every lane has,
+/// [`Packet::trace_waiting`] traces them; each lane then reads its
+/// [`Packet::outcome`].
 #[repr(C, align(32))]
-struct Packet<'s> {
+pub(crate) struct Packet {
     /// The rays in world space.
     world: Rays,
     t_min: [f32; WIDTH],
     /// The closest accepted hit's distance, or the ray's `t_max`.
     t_max: [f32; WIDTH],
-    scene: &'s SceneData,
     cull_mask: [u32; WIDTH],
+    /// The scene each waiting lane's ray goes into.
+    scenes: [*const SceneData; WIDTH],
+    /// Lanes with a request not traced yet.
+    waiting: LaneMask,
     /// Lanes that end at their first accepted hit.
     first_hit: LaneMask,
     /// Lanes still traversing.
     active: LaneMask,
+    /// Lanes whose ray the packet could not take (an infinite or NaN origin
+    /// or direction, or no AVX2): their invocations trace them alone.
+    alone: LaneMask,
     /// Lanes that hit something: their closest hit is in `hits`.
     hit_lanes: LaneMask,
     hits: [PacketHit; WIDTH],
@@ -224,18 +163,126 @@ struct Group {
     octant: Vec3A,
 }
 
-impl<'s> Packet<'s> {
-    fn new(scene: &'s SceneData) -> Self {
+impl Packet {
+    pub(crate) fn new() -> Self {
         Packet {
-            scene,
             world: Rays::ZERO,
             t_min: [0.0; WIDTH],
             t_max: [0.0; WIDTH],
             cull_mask: [0; WIDTH],
+            scenes: [std::ptr::null(); WIDTH],
+            waiting: 0,
             first_hit: 0,
             active: 0,
+            alone: 0,
             hit_lanes: 0,
             hits: [PacketHit::default(); WIDTH],
+        }
+    }
+
+    /// Lane `lane`'s request: a ray into `scene` (which outlives the trace),
+    /// with `cull_mask`, ending at its first accepted hit with `first_hit`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) fn request(
+        &mut self,
+        lane: usize,
+        scene: &SceneData,
+        origin: Vec3,
+        direction: Vec3,
+        t_min: f32,
+        t_max: f32,
+        cull_mask: u32,
+        first_hit: bool,
+    ) {
+        self.world.set(lane, origin, direction);
+        self.t_min[lane] = t_min;
+        self.t_max[lane] = t_max;
+        self.cull_mask[lane] = cull_mask;
+        self.scenes[lane] = scene;
+        let bit: LaneMask = 1 << lane;
+        self.first_hit = if first_hit { self.first_hit | bit } else { self.first_hit & !bit };
+        self.waiting |= bit;
+    }
+
+    /// The lanes with a request.
+    pub(crate) fn waiting(&self) -> LaneMask {
+        self.waiting
+    }
+
+    /// What became of lane `lane`'s last request, and its closest hit.
+    #[inline(always)]
+    pub(crate) fn outcome(&self, lane: usize) -> (Traced, &PacketHit) {
+        let bit: LaneMask = 1 << lane;
+        let traced = if self.alone & bit != 0 {
+            Traced::Alone
+        } else if self.hit_lanes & bit != 0 {
+            Traced::Hit
+        } else {
+            Traced::Miss
+        };
+        (traced, &self.hits[lane])
+    }
+
+    /// Traces the waiting lanes' rays: those into one scene together.
+    pub(crate) fn trace_waiting(&mut self) {
+        let mut left = self.waiting;
+        while left != 0 {
+            let scene = self.scenes[left.trailing_zeros() as usize];
+            let mut lanes: LaneMask = 0;
+            let mut rest = left;
+            while rest != 0 {
+                let lane = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if self.scenes[lane] == scene {
+                    lanes |= 1 << lane;
+                }
+            }
+            left &= !lanes;
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the scene is one of the launch's (`LaunchJob::scenes`
+            // holds it while the launch runs, and requests come from its
+            // traces), and packets run only where the CPU has AVX2 and its
+            // companions (`LaunchJob::packets`).
+            unsafe {
+                self.trace_scene(&*scene, lanes)
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            {
+                self.alone |= lanes;
+            }
+        }
+        self.waiting = 0;
+    }
+
+    /// Traces the rays of `lanes`, all into `scene`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    fn trace_scene(&mut self, scene: &SceneData, lanes: LaneMask) {
+        // Rays with an infinite or NaN origin or direction are traced alone; an
+        // empty or NaN interval hits nothing.
+        let (finite, nonempty) = self.finite_and_nonempty();
+        self.alone = (self.alone & !lanes) | (lanes & !finite);
+        self.hit_lanes &= !lanes;
+        self.active = lanes & finite & nonempty;
+        if self.active == 0 {
+            return;
+        }
+        match &scene.instances[..] {
+            // One instance: its GAS's tree does every box test the IAS's would.
+            [only] => {
+                if !only.gas.leaves.is_empty() {
+                    self.instance(scene, 0, self.active);
+                }
+            }
+            _ => {
+                let mut left = self.active;
+                let world = self.world;
+                while left != 0 {
+                    let group = Group::next(&mut left, &world, &self.t_min);
+                    self.walk_scene(scene, &group);
+                }
+            }
         }
     }
 
@@ -268,8 +315,7 @@ impl<'s> Packet<'s> {
     /// Walks the IAS's tree with `group` (world space), visiting instances.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    fn walk_scene(&mut self, group: &Group) {
-        let scene = self.scene;
+    fn walk_scene(&mut self, scene: &SceneData, group: &Group) {
         let bvh: &CwBvh = &scene.bvh;
         let mut state = bvh.new_traversal(group.octant);
         let mut node: &CwBvhNode;
@@ -277,7 +323,7 @@ impl<'s> Packet<'s> {
         let mut far = self.far(group);
         obvhs::traverse!(bvh, node, state, self.node_mask(node, group, far, state.oct_inv4), {
             let index = bvh.primitive_indices[state.primitive_id as usize];
-            self.instance(index, group.lanes & self.active);
+            self.instance(scene, index, group.lanes & self.active);
             if group.lanes & self.active == 0 {
                 break;
             }
@@ -288,8 +334,8 @@ impl<'s> Packet<'s> {
     /// Traverses instance `index` with the rays of `lanes` its mask lets in.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    fn instance(&mut self, index: u32, lanes: LaneMask) {
-        let instance = &self.scene.instances[index as usize];
+    fn instance(&mut self, scene: &SceneData, index: u32, lanes: LaneMask) {
+        let instance = &scene.instances[index as usize];
         let mut lanes = lanes;
         let mut rest = lanes;
         while rest != 0 {
