@@ -50,13 +50,10 @@ fn srgb8_exact(c: f32) -> u32 {
 /// quantises it to 8 bits, packed as RGBA8 (red in the lowest byte, alpha 255).
 pub fn pack_srgb8(c: Vec3) -> u32 {
     #[cfg(not(target_arch = "spirv"))]
-    let q = {
-        let table = srgb8_table::get();
-        move |v: f32| srgb8_table::quantize(table, v)
-    };
+    let [r, g, b] = srgb8_table::quantize3(srgb8_table::get(), c);
     #[cfg(target_arch = "spirv")]
-    let q = srgb8_exact;
-    q(c.x) | (q(c.y) << 8) | (q(c.z) << 16) | (255 << 24)
+    let [r, g, b] = [srgb8_exact(c.x), srgb8_exact(c.y), srgb8_exact(c.z)];
+    r | (g << 8) | (b << 16) | (255 << 24)
 }
 
 /// Quantises a colour clamped to `[0, 1]` to RGBA8 without a transfer function
@@ -74,6 +71,8 @@ pub fn pack_unorm8(c: Vec3) -> u32 {
 #[cfg(not(target_arch = "spirv"))]
 mod srgb8_table {
     use std::sync::OnceLock;
+
+    use spirv_std::glam::{Vec3, Vec3A};
 
     /// Cells of the grid over `[0, 1]`.
     pub(super) const BUCKETS: usize = 4096;
@@ -160,6 +159,24 @@ mod srgb8_table {
         let k = table.at_cell[cell(c)];
         u32::from(k) + u32::from(c >= table.step_start[usize::from(k) + 1])
     }
+
+    /// [`quantize`] of three channels, clamped together.
+    #[inline(always)]
+    pub(super) fn quantize3(table: Option<&Table>, c: Vec3) -> [u32; 3] {
+        let Some(table) = table else {
+            return [c.x, c.y, c.z].map(super::srgb8_exact);
+        };
+        // Clamped to `[0, 1]`, NaN to 0 (where the formula gives 0 too).
+        let c = Vec3A::from(c);
+        let c = Vec3A::select(c.cmpge(Vec3A::ZERO), c.min(Vec3A::ONE), Vec3A::ZERO);
+        let cells = c * BUCKETS as f32;
+        [0, 1, 2].map(|i| {
+            // SAFETY: `cells[i]` is finite and within `0..=BUCKETS`, which `i32` holds.
+            let cell: i32 = unsafe { cells[i].to_int_unchecked() };
+            let k = table.at_cell[(cell as usize).min(BUCKETS)];
+            u32::from(k) + u32::from(c[i] >= table.step_start[usize::from(k) + 1])
+        })
+    }
 }
 
 #[cfg(all(test, not(target_arch = "spirv")))]
@@ -202,6 +219,15 @@ mod tests {
             check(f32::from_bits(bits));
         }
         assert!(srgb8_table::built(), "the table was not built: a cell holds two steps");
+        // Three channels at once give each one's value.
+        let special = [0.0, -0.0, 1.0, -1.0, 2.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.5, 0.0031308];
+        for (i, &r) in special.iter().enumerate() {
+            for bits in (0..=1.0f32.to_bits()).step_by(997_331) {
+                let (g, b) = (f32::from_bits(bits), special[(i + 3) % special.len()]);
+                let expected = srgb8_exact(r) | (srgb8_exact(g) << 8) | (srgb8_exact(b) << 16) | (255 << 24);
+                assert_eq!(pack_srgb8(Vec3::new(r, g, b)), expected, "{r:e} {g:e} {b:e}");
+            }
+        }
         assert_eq!(pack_unorm8(Vec3::new(0.5, 0.0, 1.0)), 0xffff_0080);
     }
 }
