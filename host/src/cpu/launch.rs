@@ -146,7 +146,7 @@ enum AnyHitEnd {
 pub(crate) fn run(job: &LaunchJob) -> Result<()> {
     let [w, h, d] = job.dims;
     // Lanes' tiles are larger: what a tile sets up is shared by more invocations.
-    let tile_size = if job.packets { 2 * TILE } else { TILE };
+    let tile_size = if job.packets { 4 * TILE } else { TILE };
     let (tiles_x, tiles_y) = (w.div_ceil(tile_size), h.div_ceil(tile_size));
     let tiles = u64::from(tiles_x) * u64::from(tiles_y) * u64::from(d);
     let stop = AtomicBool::new(false);

@@ -570,19 +570,11 @@ impl Group {
             octant: Vec3A::from(axis),
         };
         let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-        // Lowest and highest of `v` over the group's lanes of this half.
-        let low = |v: __m256, lanes: __m256| {
-            let v = _mm256_blendv_ps(set(f32::INFINITY), v, lanes);
-            let h = _mm_min_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
-            let h = _mm_min_ps(h, _mm_movehl_ps(h, h));
-            _mm_cvtss_f32(_mm_min_ss(h, _mm_shuffle_ps::<0b01>(h, h)))
-        };
-        let high = |v: __m256, lanes: __m256| {
-            let v = _mm256_blendv_ps(set(f32::NEG_INFINITY), v, lanes);
-            let h = _mm_max_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
-            let h = _mm_max_ps(h, _mm_movehl_ps(h, h));
-            _mm_cvtss_f32(_mm_max_ss(h, _mm_shuffle_ps::<0b01>(h, h)))
-        };
+        // Per axis, lane by lane over the halves: the lowest and highest origin
+        // and inverse direction of the group's rays; and the lowest `t_min`.
+        let (mut o_lo, mut o_hi) = ([set(f32::INFINITY); 3], [set(f32::NEG_INFINITY); 3]);
+        let (mut i_lo, mut i_hi) = ([set(f32::INFINITY); 3], [set(f32::NEG_INFINITY); 3]);
+        let mut near = set(f32::INFINITY);
         for half in 0..WIDTH / 8 {
             let at = 8 * half;
             let in_half = _mm256_set1_epi32(i32::from(together >> at) & 0xff);
@@ -592,18 +584,36 @@ impl Group {
             let lanes = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(in_half, bits), bits));
             // SAFETY: as above.
             let load = |row: &[f32; WIDTH]| unsafe { _mm256_loadu_ps(row.as_ptr().add(at)) };
+            let low = |acc: __m256, v: __m256| _mm256_min_ps(acc, _mm256_blendv_ps(set(f32::INFINITY), v, lanes));
+            let high = |acc: __m256, v: __m256| _mm256_max_ps(acc, _mm256_blendv_ps(set(f32::NEG_INFINITY), v, lanes));
             for axis in 0..3 {
                 let (o, d) = (load(&rays.o[axis]), load(&rays.d[axis]));
                 // `1 / d`, finite, with the sign `octant_of` gives `d` (zero is positive).
                 let inverse = _mm256_min_ps(_mm256_max_ps(_mm256_div_ps(set(1.0), d), set(-1e30)), set(1e30));
                 let inverse = _mm256_blendv_ps(inverse, set(1e30), _mm256_cmp_ps::<_CMP_EQ_OQ>(d, zero));
-                group.origin_lo[axis] = group.origin_lo[axis].min(low(o, lanes));
-                group.origin_hi[axis] = group.origin_hi[axis].max(high(o, lanes));
-                group.inverse_lo[axis] = group.inverse_lo[axis].min(low(inverse, lanes));
-                group.inverse_hi[axis] = group.inverse_hi[axis].max(high(inverse, lanes));
+                o_lo[axis] = low(o_lo[axis], o);
+                o_hi[axis] = high(o_hi[axis], o);
+                i_lo[axis] = low(i_lo[axis], inverse);
+                i_hi[axis] = high(i_hi[axis], inverse);
             }
-            group.near = group.near.min(low(load(t_min), lanes));
+            near = low(near, load(t_min));
         }
+        // The lowest and highest of the eight lanes.
+        let min = |v: __m256| {
+            let h = _mm_min_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
+            let h = _mm_min_ps(h, _mm_movehl_ps(h, h));
+            _mm_cvtss_f32(_mm_min_ss(h, _mm_shuffle_ps::<0b01>(h, h)))
+        };
+        let max = |v: __m256| {
+            let h = _mm_max_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
+            let h = _mm_max_ps(h, _mm_movehl_ps(h, h));
+            _mm_cvtss_f32(_mm_max_ss(h, _mm_shuffle_ps::<0b01>(h, h)))
+        };
+        group.origin_lo = Vec3A::from_array(o_lo.map(min));
+        group.origin_hi = Vec3A::from_array(o_hi.map(max));
+        group.inverse_lo = Vec3A::from_array(i_lo.map(min));
+        group.inverse_hi = Vec3A::from_array(i_hi.map(max));
+        group.near = min(near);
         group.shared_origin = group.origin_lo == group.origin_hi;
         group
     }
