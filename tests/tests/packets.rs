@@ -9,9 +9,10 @@
 //! geometries); the rays come from a pinhole camera (coherent), with directions
 //! scattered (incoherent: traced alone inside the packet code), and from two
 //! origins per pixel (the second is not where the invocation first traced from,
-//! so it is traced one ray at a time).
+//! so it is traced one ray at a time); and some rays are degenerate (a NaN or
+//! infinite direction, traced alone; an empty or NaN interval, a miss).
 
-use accel_test_device::{PacketParams, HIT_WORDS};
+use accel_test_device::{probe_interval_ray, PacketParams, HIT_WORDS};
 use raykit::glam::{Affine3A, Quat, Vec3};
 use raykit::{
     Backend, Context, ContextOptions, Gas, GeometryFlags, Ias, Instance, InstanceFlags, LinkOptions, Module, Pipeline,
@@ -56,7 +57,14 @@ fn cpu(packets: bool) -> anyhow::Result<Context> {
 }
 
 /// The hit records of `rays` rays per pixel into the scene `build` makes.
-fn trace(ctx: &Context, build: &SceneBuilder, rays: u32, spread: f32, shift: f32) -> anyhow::Result<Vec<[u32; 8]>> {
+fn trace(
+    ctx: &Context,
+    build: &SceneBuilder,
+    rays: u32,
+    spread: f32,
+    shift: f32,
+    degenerate: bool,
+) -> anyhow::Result<Vec<[u32; 8]>> {
     let module = Module::from_device_crate(ctx, "accel-test-device")?;
     let raygen = ProgramGroup::raygen(&module, accel_test_device::RG_PROBE)?;
     let miss = ProgramGroup::miss(&module, accel_test_device::MS_PROBE)?;
@@ -77,7 +85,7 @@ fn trace(ctx: &Context, build: &SceneBuilder, rays: u32, spread: f32, shift: f32
         eye: Vec3::new(0.05, -0.03, 0.0),
         spread,
         shift,
-        _pad: 0,
+        degenerate: u32::from(degenerate),
         scene: scene.handle(),
     };
     pipeline.launch(&sbt, &params, [W, H, 1])?;
@@ -128,11 +136,11 @@ fn several_instances(ctx: &Context) -> anyhow::Result<(Vec<Gas>, Ias)> {
 }
 
 /// Traces with packets and without, and compares the records.
-fn compare(build: &SceneBuilder, rays: u32, spread: f32, shift: f32) -> anyhow::Result<(usize, u64)> {
+fn compare(build: &SceneBuilder, rays: u32, spread: f32, shift: f32, degenerate: bool) -> anyhow::Result<(usize, u64)> {
     let packed = cpu(true)?;
     let alone = cpu(false)?;
-    let a = trace(&packed, build, rays, spread, shift)?;
-    let b = trace(&alone, build, rays, spread, shift)?;
+    let a = trace(&packed, build, rays, spread, shift, degenerate)?;
+    let b = trace(&alone, build, rays, spread, shift, degenerate)?;
     anyhow::ensure!(
         alone.packet_rays() == 0,
         "a context without packets traced {} rays in packets",
@@ -164,12 +172,12 @@ fn compare(build: &SceneBuilder, rays: u32, spread: f32, shift: f32) -> anyhow::
 
 #[test]
 fn camera_rays_in_packets_hit_what_they_hit_alone() -> anyhow::Result<()> {
-    let (hits, packed) = compare(&one_instance, 2, 0.0, 0.0)?;
+    let (hits, packed) = compare(&one_instance, 2, 0.0, 0.0, false)?;
     let rays = u64::from(W * H * 2);
     // Every ray starts at the camera: all go in packets.
     anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets");
     eprintln!("one instance, camera rays: {hits} of {rays} hit");
-    let (hits, packed) = compare(&several_instances, 2, 0.0, 0.0)?;
+    let (hits, packed) = compare(&several_instances, 2, 0.0, 0.0, false)?;
     anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets");
     eprintln!("several instances, camera rays: {hits} of {rays} hit");
     Ok(())
@@ -179,7 +187,7 @@ fn camera_rays_in_packets_hit_what_they_hit_alone() -> anyhow::Result<()> {
 fn scattered_rays_in_packets_hit_what_they_hit_alone() -> anyhow::Result<()> {
     let rays = u64::from(W * H * 4);
     for build in [&one_instance as &SceneBuilder, &several_instances] {
-        let (hits, packed) = compare(build, 4, 1.5, 0.0)?;
+        let (hits, packed) = compare(build, 4, 1.5, 0.0, false)?;
         anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets");
         eprintln!("scattered rays: {hits} of {rays} hit");
     }
@@ -190,10 +198,28 @@ fn scattered_rays_in_packets_hit_what_they_hit_alone() -> anyhow::Result<()> {
 fn rays_from_elsewhere_than_the_first_are_traced_alone_with_the_same_hits() -> anyhow::Result<()> {
     let rays = u64::from(W * H * 4);
     for build in [&one_instance as &SceneBuilder, &several_instances] {
-        let (hits, packed) = compare(build, 4, 0.02, 0.25)?;
+        let (hits, packed) = compare(build, 4, 0.02, 0.25, false)?;
         // Rays 0 and 2 of each pixel start at the camera; 1 and 3 elsewhere.
         anyhow::ensure!(packed == rays / 2, "{packed} of {rays} rays went in packets, not half");
         eprintln!("two origins: {hits} of {rays} hit");
+    }
+    Ok(())
+}
+
+#[test]
+fn degenerate_rays_get_in_packets_what_they_get_alone() -> anyhow::Result<()> {
+    let rays = 2;
+    // The packets take every camera ray with a finite direction (those with an
+    // empty or NaN interval miss there); the others are traced alone.
+    let taken = (0..W * H)
+        .flat_map(|pixel| (0..rays).map(move |k| (pixel, k)))
+        .filter(|&(pixel, k)| probe_interval_ray(pixel, k, 1, Vec3::ZERO, Vec3::NEG_Z).direction.is_finite())
+        .count() as u64;
+    let all = u64::from(W * H * rays);
+    for build in [&one_instance as &SceneBuilder, &several_instances] {
+        let (hits, packed) = compare(build, rays, 0.0, 0.0, true)?;
+        anyhow::ensure!(packed == taken && taken < all, "{packed} of {all} rays went in packets, not {taken}");
+        eprintln!("degenerate rays: {hits} of {all} hit");
     }
     Ok(())
 }

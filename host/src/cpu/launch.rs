@@ -303,8 +303,7 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
         // SAFETY: every lane is suspended or finished: none holds a reference
         // into the packet (they do only while they run).
         let packet = unsafe { &mut *packet.get() };
-        packet_rays += u64::from(packet.waiting().count_ones());
-        packet.trace_waiting();
+        packet_rays += u64::from(packet.trace_waiting());
     });
     job.ctx.packet_rays.fetch_add(packet_rays, Ordering::Relaxed);
     if let Err(e) = traced {

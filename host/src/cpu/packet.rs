@@ -205,11 +205,6 @@ impl Packet {
         self.waiting |= bit;
     }
 
-    /// The lanes with a request.
-    pub(crate) fn waiting(&self) -> LaneMask {
-        self.waiting
-    }
-
     /// What became of lane `lane`'s last request, and its closest hit.
     #[inline(always)]
     pub(crate) fn outcome(&self, lane: usize) -> (Traced, &PacketHit) {
@@ -224,8 +219,10 @@ impl Packet {
         (traced, &self.hits[lane])
     }
 
-    /// Traces the waiting lanes' rays: those into one scene together.
-    pub(crate) fn trace_waiting(&mut self) {
+    /// Traces the waiting lanes' rays: those into one scene together. Returns
+    /// how many rays the packet took (the others are traced alone).
+    pub(crate) fn trace_waiting(&mut self) -> u32 {
+        let waiting = self.waiting;
         let mut left = self.waiting;
         while left != 0 {
             let scene = self.scenes[left.trailing_zeros() as usize];
@@ -253,6 +250,7 @@ impl Packet {
             }
         }
         self.waiting = 0;
+        (waiting & !self.alone).count_ones()
     }
 
     /// Traces the rays of `lanes`, all into `scene`.

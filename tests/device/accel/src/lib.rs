@@ -9,7 +9,7 @@ use raykit_device::glam::{UVec2, UVec3, Vec2, Vec3};
 use raykit_device::math::sqrt;
 use raykit_device::{
     any_hit, closest_hit, intersection, miss, raygen, AnyHit, Buffer, ClosestHit, Intersection, LaunchParams, Miss,
-    RayFlags, RayType, Raygen, Traversable,
+    Ray, RayFlags, RayType, Raygen, Traversable,
 };
 
 /// Launch params.
@@ -278,8 +278,8 @@ pub struct PacketParams {
     pub spread: f32,
     /// Every odd ray of a pixel starts this far along x from `eye`.
     pub shift: f32,
-    /// Padding to keep the scene on 8 bytes.
-    pub _pad: u32,
+    /// Nonzero: some rays are degenerate (see [`probe_interval_ray`]).
+    pub degenerate: u32,
     /// The scene.
     pub scene: Traversable,
 }
@@ -339,6 +339,28 @@ pub fn probe_ray(index: UVec2, k: u32, params: &PacketParams) -> (Vec3, Vec3) {
     (origin, Vec3::new(fx + jx, fy + jy, -1.0))
 }
 
+/// The ray `k` of pixel `pixel` of the packet test, from `origin` along
+/// `direction` over `[0, 1e16]`; with `degenerate`, some are not: one in seven
+/// has a NaN or infinite direction component, one in five of the others an
+/// empty or NaN `t` interval.
+pub fn probe_interval_ray(pixel: u32, k: u32, degenerate: u32, origin: Vec3, direction: Vec3) -> Ray {
+    let ray = Ray::new(origin, direction);
+    let n = pixel.wrapping_mul(31).wrapping_add(k);
+    if degenerate == 0 {
+        ray
+    } else if n % 21 == 0 {
+        Ray { direction: Vec3::new(f32::NAN, direction.y, direction.z), ..ray }
+    } else if n % 7 == 0 {
+        Ray { direction: Vec3::new(direction.x, f32::INFINITY, direction.z), ..ray }
+    } else if n % 10 == 0 {
+        ray.with_interval(3.0, 2.0)
+    } else if n % 5 == 0 {
+        ray.with_interval(f32::NAN, 1e16)
+    } else {
+        ray
+    }
+}
+
 /// Traces the rays of the packet test and writes their records.
 #[raygen]
 fn rg_probe(ctx: &mut Raygen, #[params] params: &PacketParams, #[payload] hit: &mut HitRecord) {
@@ -348,7 +370,8 @@ fn rg_probe(ctx: &mut Raygen, #[params] params: &PacketParams, #[payload] hit: &
     while k < params.rays {
         let (origin, direction) = probe_ray(index.truncate(), k, params);
         *hit = HitRecord { t: -1.0, ..Default::default() };
-        ctx.trace_from::<Probe>(params.scene, origin, direction, hit);
+        let ray = probe_interval_ray(pixel, k, params.degenerate, origin, direction);
+        ctx.trace::<Probe>(params.scene, ray, hit);
         let at = (pixel * params.rays + k) * HIT_WORDS;
         let words = [
             hit.t.to_bits(),
