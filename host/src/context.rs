@@ -81,7 +81,7 @@ pub struct ContextOptions {
     /// Threads of the CPU backend's pool; `None` means `RAYKIT_CPU_THREADS`, else
     /// one per logical CPU. Results do not depend on it.
     pub cpu_threads: Option<usize>,
-    /// Whether the CPU backend traces camera rays in packets: eight invocations
+    /// Whether the CPU backend traces camera rays in packets: sixteen invocations
     /// run side by side, and their traces from the point each invocation first
     /// traced from, into scenes whose triangles run no program while a ray
     /// traverses, walk the tree together (several times faster for coherent

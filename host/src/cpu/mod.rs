@@ -32,16 +32,17 @@
 //! * GASes of at most 64 triangles are tested without their tree, one ray
 //!   against eight triangles at once (`cpu::flat`).
 //! * Camera rays are traced in packets (`cpu::packet`, `cpu::lanes`): sixteen
-//!   invocations of a tile run side by side as coroutines
+//!   invocations of a 32 × 32 tile run side by side as coroutines
 //!   ([corosensei](https://crates.io/crates/corosensei)), each on a stack as
 //!   deep as a pool thread's (their tops a quarter-kilobyte apart modulo a
-//!   page, so that their hot frames share the first-level cache). A trace from where its invocation first traced,
-//!   into a scene whose triangles run no program while rays traverse it,
-//!   suspends the invocation until the other lanes have suspended or finished;
-//!   then their rays walk the tree together, against interval bounds that hold
-//!   them all, and their triangles are tested eight rays at a time. Each ray gets
-//!   the same hit as alone, bit for bit; only which of two hits at exactly the
-//!   same distance is the closest may differ.
+//!   page, so that their hot frames share the first-level cache). A trace
+//!   from where its invocation first traced, into a scene whose triangles run
+//!   no program while rays traverse it, writes its ray into the block's packet
+//!   and suspends the invocation until the other lanes have suspended or
+//!   finished; then their rays walk the tree together, against interval
+//!   bounds that hold them all, and their triangles are tested eight rays at a
+//!   time. Each ray gets the same hit as alone, bit for bit; only which of two
+//!   hits at exactly the same distance is the closest may differ.
 //!   [`ContextOptions::cpu_packets`](crate::ContextOptions::cpu_packets) (or
 //!   `RAYKIT_CPU_PACKETS=0`) turns packets off;
 //!   [`Context::packet_rays`](crate::Context::packet_rays) counts the rays they
