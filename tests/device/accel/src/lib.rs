@@ -347,17 +347,14 @@ pub fn probe_interval_ray(pixel: u32, k: u32, degenerate: u32, origin: Vec3, dir
     let ray = Ray::new(origin, direction);
     let n = pixel.wrapping_mul(31).wrapping_add(k);
     if degenerate == 0 {
-        ray
-    } else if n % 21 == 0 {
-        Ray { direction: Vec3::new(f32::NAN, direction.y, direction.z), ..ray }
-    } else if n % 7 == 0 {
-        Ray { direction: Vec3::new(direction.x, f32::INFINITY, direction.z), ..ray }
-    } else if n % 10 == 0 {
-        ray.with_interval(3.0, 2.0)
-    } else if n % 5 == 0 {
-        ray.with_interval(f32::NAN, 1e16)
-    } else {
-        ray
+        return ray;
+    }
+    match (n % 7, n % 3, n % 5, n % 2) {
+        (0, 0, _, _) => Ray { direction: Vec3::new(f32::NAN, direction.y, direction.z), ..ray },
+        (0, _, _, _) => Ray { direction: Vec3::new(direction.x, f32::INFINITY, direction.z), ..ray },
+        (_, _, 0, 0) => ray.with_interval(3.0, 2.0),
+        (_, _, 0, _) => ray.with_interval(f32::NAN, 1e16),
+        _ => ray,
     }
 }
 
