@@ -145,8 +145,16 @@ enum AnyHitEnd {
 /// Runs the launch; returns its error, if any, after every invocation ran.
 pub(crate) fn run(job: &LaunchJob) -> Result<()> {
     let [w, h, d] = job.dims;
-    // Lanes' tiles are larger: what a tile sets up is shared by more invocations.
-    let tile_size = if job.packets { 4 * TILE } else { TILE };
+    // Lanes' tiles are larger, so that more invocations share what a tile
+    // sets up, but not so large that a thread gets fewer than 64 of them on
+    // average: the load would not balance.
+    let count = |size: u32| u64::from(w.div_ceil(size)) * u64::from(h.div_ceil(size)) * u64::from(d);
+    let enough = 64 * job.ctx.pool.current_num_threads() as u64;
+    let tile_size = match job.packets {
+        true if count(4 * TILE) >= enough => 4 * TILE,
+        true => 2 * TILE,
+        false => TILE,
+    };
     let (tiles_x, tiles_y) = (w.div_ceil(tile_size), h.div_ceil(tile_size));
     let tiles = u64::from(tiles_x) * u64::from(tiles_y) * u64::from(d);
     let stop = AtomicBool::new(false);

@@ -32,7 +32,7 @@
 //! * GASes of at most 64 triangles are tested without their tree, one ray
 //!   against eight triangles at once (`cpu::flat`).
 //! * Camera rays are traced in packets (`cpu::packet`, `cpu::lanes`): sixteen
-//!   invocations of a 32 × 32 tile run side by side as coroutines
+//!   invocations of a tile run side by side as coroutines
 //!   ([corosensei](https://crates.io/crates/corosensei)), each on a stack as
 //!   deep as a pool thread's (their tops a quarter-kilobyte apart modulo a
 //!   page, so that their hot frames share the first-level cache). A trace
@@ -51,7 +51,8 @@
 //!   the pipeline's `max_trace_depth` is not made and the launch returns
 //!   [`Error::RecursionTooDeep`].
 //! * A launch runs in parallel over tiles of its grid (8 × 8 invocations, or
-//!   16 × 16 in lanes) on a thread pool of the context
+//!   32 × 32 in lanes, 16 × 16 where that would leave a thread fewer than 64
+//!   tiles) on a thread pool of the context
 //!   ([rayon](https://crates.io/crates/rayon)); each invocation computes the
 //!   same values whatever the number of threads, user exceptions are reported
 //!   in launch-index order, and a failed launch reports the first failure of
