@@ -2,10 +2,11 @@
 //! their traces can be made together: an invocation that traces a ray a packet
 //! can take writes it into the block's packet and suspends; once every
 //! invocation of the block has suspended or finished, the block traces the
-//! packet and resumes them. Everything else an invocation does runs as before, on its own stack.
+//! packet and resumes them. Everything else an invocation does runs as before,
+//! on its own stack.
 //!
-//! Stacks are as deep as the pool's threads' and are kept per thread for the
-//! next block.
+//! Stacks are as deep as the pool's threads', start [`STAGGER`] bytes apart
+//! modulo a page, and are kept per thread for the next block.
 
 use std::cell::RefCell;
 
@@ -44,6 +45,8 @@ unsafe impl Stack for LaneStack {
         self.stack.limit()
     }
 }
+
+// The staggered tops stay aligned and within a page of the real ones.
 const _: () = assert!(STAGGER.is_multiple_of(corosensei::stack::STACK_ALIGNMENT) && STAGGER * WIDTH <= 4096);
 
 thread_local! {

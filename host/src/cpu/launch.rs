@@ -268,9 +268,9 @@ struct LaneSeat {
 /// Runs the tile of `size × size` invocations from `[x0, y0, z]` in
 /// [`packet::WIDTH`] lanes, their camera rays traced in packets. Lane `i` runs
 /// the tile's invocations `i`, `i + WIDTH`, … in rows of blocks of
-/// 4 × `WIDTH / 4` invocations, so that the lanes' rays stay close together. Once an
-/// invocation failed, lanes run only the invocations before it in launch
-/// order, so the tile reports its first failure in launch order.
+/// 4 × `WIDTH / 4` invocations, so that the lanes' rays stay close together.
+/// Once an invocation failed, lanes run only the invocations before it in
+/// launch order, so the tile reports its first failure in launch order.
 fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome: &mut Outcome) {
     let [w, h, _] = job.dims;
     let (x_end, y_end) = ((x0 + size).min(w), (y0 + size).min(h));
