@@ -85,10 +85,13 @@ mod srgb8_table {
         step_start: [f32; 257],
     }
 
-    /// The cell of `c` in `[0, 1]`.
-    fn cell(c: f32) -> usize {
-        debug_assert!((0.0..=1.0).contains(&c));
-        // SAFETY: `c * BUCKETS` is finite and within `0..=BUCKETS`, which `i32` holds.
+    /// The cell of `c`.
+    ///
+    /// # Safety
+    /// `c` is within `[0, 1]`.
+    #[inline(always)]
+    unsafe fn cell(c: f32) -> usize {
+        // SAFETY: the caller's: `c * BUCKETS` is within `0..=BUCKETS`, which `i32` holds.
         let cell: i32 = unsafe { (c * BUCKETS as f32).to_int_unchecked() };
         (cell as usize).min(BUCKETS)
     }
@@ -122,10 +125,15 @@ mod srgb8_table {
         step_start[0] = 0.0;
         let mut at_cell = [0u8; BUCKETS + 1];
         for (index, value) in at_cell.iter_mut().enumerate() {
-            let first = lowest(|c| cell(c) >= index);
+            // `lowest` tries values within `[0, 1]` only.
+            let cell_of = |c: f32| {
+                // SAFETY: `c` comes from `lowest`, within `[0, 1]`.
+                unsafe { cell(c) }
+            };
+            let first = lowest(|c| cell_of(c) >= index);
             let k = super::srgb8_exact(first);
             let last_of_cell =
-                if index == BUCKETS { 1.0 } else { f32::from_bits(lowest(|c| cell(c) > index).to_bits() - 1) };
+                if index == BUCKETS { 1.0 } else { f32::from_bits(lowest(|c| cell_of(c) > index).to_bits() - 1) };
             // At most one step may start inside the cell.
             if super::srgb8_exact(last_of_cell) > k + 1 {
                 return None;
@@ -156,7 +164,8 @@ mod srgb8_table {
         };
         // Clamped to `[0, 1]`, NaN to 0 (where the formula gives 0 too).
         let c = if c >= 0.0 { c.min(1.0) } else { 0.0 };
-        let k = table.at_cell[cell(c)];
+        // SAFETY: clamped just above.
+        let k = table.at_cell[unsafe { cell(c) }];
         u32::from(k) + u32::from(c >= table.step_start[usize::from(k) + 1])
     }
 
@@ -169,11 +178,9 @@ mod srgb8_table {
         // Clamped to `[0, 1]`, NaN to 0 (where the formula gives 0 too).
         let c = Vec3A::from(c);
         let c = Vec3A::select(c.cmpge(Vec3A::ZERO), c.min(Vec3A::ONE), Vec3A::ZERO);
-        let cells = c * BUCKETS as f32;
         [0, 1, 2].map(|i| {
-            // SAFETY: `cells[i]` is finite and within `0..=BUCKETS`, which `i32` holds.
-            let cell: i32 = unsafe { cells[i].to_int_unchecked() };
-            let k = table.at_cell[(cell as usize).min(BUCKETS)];
+            // SAFETY: clamped just above.
+            let k = table.at_cell[unsafe { cell(c[i]) }];
             u32::from(k) + u32::from(c[i] >= table.step_start[usize::from(k) + 1])
         })
     }
