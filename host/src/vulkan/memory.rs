@@ -10,6 +10,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::context::ContextInner;
 use crate::error::{Error, Result};
+use crate::vulkan::barrier::memory_barrier;
 use crate::vulkan::context::Submission;
 use crate::vulkan::timeline::Retired;
 
@@ -151,38 +152,30 @@ impl RawBuffer {
         )?;
         let (src, dst, size) = (self.buffer, staging.buffer, self.size);
         let submission = ctx.submit("a buffer readback", |cmd| {
-            let before = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
-            // Also orders the copy before every later command (a launch that
-            // writes the buffer next starts with no barrier of its own; see
-            // `crate::vulkan::pipeline::record`).
-            let after = vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(
-                vk::AccessFlags::HOST_READ | vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
-            );
             // SAFETY: both buffers are alive while the copy is pending (the caller
             // keeps `staging` until the submission has finished, and the source's
             // drop waits for this epoch); `cmd` is recording; the sizes match.
             unsafe {
                 let device = &ctx.device;
-                device.cmd_pipeline_barrier(
+                memory_barrier(
+                    device,
                     cmd,
                     vk::PipelineStageFlags::ALL_COMMANDS,
+                    vk::AccessFlags::MEMORY_WRITE,
                     vk::PipelineStageFlags::TRANSFER,
-                    vk::DependencyFlags::empty(),
-                    &[before],
-                    &[],
-                    &[],
+                    vk::AccessFlags::TRANSFER_READ,
                 );
                 device.cmd_copy_buffer(cmd, src, dst, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
-                device.cmd_pipeline_barrier(
+                // Also orders the copy before every later command (a launch that
+                // writes the buffer next starts with no barrier of its own; see
+                // `crate::vulkan::pipeline::record`).
+                memory_barrier(
+                    device,
                     cmd,
                     vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::TRANSFER_WRITE,
                     vk::PipelineStageFlags::HOST | vk::PipelineStageFlags::ALL_COMMANDS,
-                    vk::DependencyFlags::empty(),
-                    &[after],
-                    &[],
-                    &[],
+                    vk::AccessFlags::HOST_READ | vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
                 );
             }
         })?;

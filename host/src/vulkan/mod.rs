@@ -19,6 +19,8 @@
 //!   messages to the contexts they concern (see [`crate::log`]).
 //! * [`timeline`]: objects dropped while the device may use them, destroyed once
 //!   their epoch has finished (public as [`crate::timeline`]).
+//! * `barrier`: the global memory barriers that order commands within a
+//!   submission.
 //! * `memory`: a `VkBuffer` with its gpu-allocator allocation, under
 //!   [`DeviceBuffer`](crate::DeviceBuffer) (its slot in the buffer table and its
 //!   readback copy too), SBTs and acceleration structures.
@@ -48,6 +50,7 @@
 //! and through and keeps its public place.
 
 pub(crate) mod accel;
+pub(crate) mod barrier;
 pub(crate) mod buffer_table;
 pub(crate) mod cache;
 pub(crate) mod context;

@@ -13,6 +13,7 @@ use crate::accel::input::{BuildInput, Shape};
 use crate::accel::AccelSizes;
 use crate::context::ContextInner;
 use crate::error::{Error, Result};
+use crate::vulkan::barrier::memory_barrier;
 use crate::vulkan::context::Submission;
 use crate::vulkan::memory::RawBuffer;
 
@@ -293,21 +294,15 @@ impl Drop for QueryPool {
 /// The memory barrier after builds: their writes are visible to later builds,
 /// copies, queries and ray-tracing shaders.
 pub(crate) fn build_barrier(ctx: &ContextInner, cmd: vk::CommandBuffer) {
-    let barrier = vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR)
-        .dst_access_mask(
-            vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
-        );
     // SAFETY: `cmd` is in the recording state.
     unsafe {
-        ctx.device.cmd_pipeline_barrier(
+        memory_barrier(
+            &ctx.device,
             cmd,
             vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+            vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
             vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR | vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
-            vk::DependencyFlags::empty(),
-            &[barrier],
-            &[],
-            &[],
+            vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
         )
     };
 }
@@ -317,21 +312,15 @@ pub(crate) fn build_barrier(ctx: &ContextInner, cmd: vk::CommandBuffer) {
 /// finished reading and writing, so a refit never changes a structure under a
 /// trace in flight.
 pub(crate) fn after_earlier_work_barrier(ctx: &ContextInner, cmd: vk::CommandBuffer) {
-    let barrier = vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE)
-        .dst_access_mask(
-            vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
-        );
     // SAFETY: `cmd` is in the recording state.
     unsafe {
-        ctx.device.cmd_pipeline_barrier(
+        memory_barrier(
+            &ctx.device,
             cmd,
             vk::PipelineStageFlags::ALL_COMMANDS,
+            vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
             vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
-            vk::DependencyFlags::empty(),
-            &[barrier],
-            &[],
-            &[],
+            vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
         )
     };
 }

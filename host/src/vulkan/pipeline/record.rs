@@ -10,6 +10,7 @@ use ash::vk;
 use crate::error::{Error, Result};
 use crate::pipeline::PipelineInner;
 use crate::sbt::{Sbt, SbtDevice};
+use crate::vulkan::barrier::memory_barrier;
 use crate::vulkan::buffer_table::RT_STAGES;
 use crate::vulkan::context::Submission;
 use crate::vulkan::memory::RawBuffer;
@@ -139,7 +140,7 @@ pub(crate) fn submit(
             // exception counters) or resets timestamp queries waits here for
             // earlier work.
             if transfers || timestamps.is_some() {
-                full_barrier(
+                memory_barrier(
                     device,
                     cmd,
                     vk::PipelineStageFlags::ALL_COMMANDS,
@@ -159,7 +160,7 @@ pub(crate) fn submit(
                 if let Some((_, buffer, bytes)) = &uniform {
                     device.cmd_update_buffer(cmd, *buffer, 0, bytes);
                 }
-                full_barrier(
+                memory_barrier(
                     device,
                     cmd,
                     vk::PipelineStageFlags::TRANSFER,
@@ -204,7 +205,7 @@ pub(crate) fn submit(
             // to the exception copies below, and to everything submitted later,
             // which also starts only once the programs are done with what they
             // read (see above).
-            full_barrier(
+            memory_barrier(
                 device,
                 cmd,
                 vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
@@ -221,7 +222,7 @@ pub(crate) fn submit(
                     };
                     device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]);
                 }
-                full_barrier(
+                memory_barrier(
                     device,
                     cmd,
                     vk::PipelineStageFlags::TRANSFER,
@@ -243,22 +244,3 @@ const SHADER_ACCESS: vk::AccessFlags = vk::AccessFlags::from_raw(
         | vk::AccessFlags::SHADER_READ.as_raw()
         | vk::AccessFlags::SHADER_WRITE.as_raw(),
 );
-
-/// A global memory barrier.
-///
-/// # Safety
-/// `cmd` must be a command buffer of `device` in the recording state.
-unsafe fn full_barrier(
-    device: &ash::Device,
-    cmd: vk::CommandBuffer,
-    src_stage: vk::PipelineStageFlags,
-    src_access: vk::AccessFlags,
-    dst_stage: vk::PipelineStageFlags,
-    dst_access: vk::AccessFlags,
-) {
-    let barrier = vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access);
-    // SAFETY: per the contract above.
-    unsafe {
-        device.cmd_pipeline_barrier(cmd, src_stage, dst_stage, vk::DependencyFlags::empty(), &[barrier], &[], &[])
-    };
-}
