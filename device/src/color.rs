@@ -143,6 +143,20 @@ mod srgb8_table {
         Some(Table { at_cell, step_start })
     }
 
+    impl Table {
+        /// The value at `c`: its cell's, or the next step's if that starts at
+        /// or below `c`.
+        ///
+        /// # Safety
+        /// `c` is within `[0, 1]`.
+        #[inline(always)]
+        unsafe fn value(&self, c: f32) -> u32 {
+            // SAFETY: the caller's.
+            let k = self.at_cell[unsafe { cell(c) }];
+            u32::from(k) + u32::from(c >= self.step_start[usize::from(k) + 1])
+        }
+    }
+
     static TABLE: OnceLock<Option<Table>> = OnceLock::new();
 
     /// Whether the table is in use (rather than the formula).
@@ -165,8 +179,7 @@ mod srgb8_table {
         // Clamped to `[0, 1]`, NaN to 0 (where the formula gives 0 too).
         let c = if c >= 0.0 { c.min(1.0) } else { 0.0 };
         // SAFETY: clamped just above.
-        let k = table.at_cell[unsafe { cell(c) }];
-        u32::from(k) + u32::from(c >= table.step_start[usize::from(k) + 1])
+        unsafe { table.value(c) }
     }
 
     /// [`quantize`] of three channels, clamped together.
@@ -178,11 +191,8 @@ mod srgb8_table {
         // Clamped to `[0, 1]`, NaN to 0 (where the formula gives 0 too).
         let c = Vec3A::from(c);
         let c = Vec3A::select(c.cmpge(Vec3A::ZERO), c.min(Vec3A::ONE), Vec3A::ZERO);
-        [0, 1, 2].map(|i| {
-            // SAFETY: clamped just above.
-            let k = table.at_cell[unsafe { cell(c[i]) }];
-            u32::from(k) + u32::from(c[i] >= table.step_start[usize::from(k) + 1])
-        })
+        // SAFETY: clamped just above.
+        [0, 1, 2].map(|i| unsafe { table.value(c[i]) })
     }
 }
 
