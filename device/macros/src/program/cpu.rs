@@ -3,9 +3,10 @@
 
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
+use raykit_abi::ProgramPrefix;
 use syn::Type;
 
-use super::{Param, Program, Role, Stage};
+use super::{Param, Program, Role};
 
 /// The types a program receives, which the CPU backend checks before it calls it.
 #[derive(Default)]
@@ -81,7 +82,7 @@ fn type_info(ty: &Option<Type>) -> TokenStream {
 
 impl Arguments {
     /// Adds the local that holds `param`, and its argument.
-    fn bind(&mut self, stage: Stage, param: &Param) {
+    fn bind(&mut self, stage: ProgramPrefix, param: &Param) {
         let name = &param.name;
         let storage = format_ident!("__raykit_storage_{}", name);
         let zeroed = |ty: &Type| {
@@ -117,7 +118,7 @@ impl Arguments {
                 });
             }
             Role::TracePayload(ty) | Role::CallData(ty) => lets.push(zeroed(ty)),
-            Role::Payload(ty) if stage == Stage::Raygen => lets.push(zeroed(ty)),
+            Role::Payload(ty) if stage == ProgramPrefix::Raygen => lets.push(zeroed(ty)),
             Role::Payload(ty) => {
                 types.payload = Some(ty.clone());
                 lets.push(quote! { let #name: &mut #ty = unsafe { &mut *(__inv.payload as *mut #ty) }; });
@@ -128,7 +129,7 @@ impl Arguments {
             }
             Role::Attributes(ty) => {
                 types.attributes = Some(ty.clone());
-                if stage == Stage::Intersection {
+                if stage == ProgramPrefix::Intersection {
                     lets.push(quote! { let #name: &mut #ty = unsafe { &mut *(__inv.attributes as *mut #ty) }; });
                 } else {
                     lets.push(quote! { let #name: &#ty = unsafe { &*(__inv.attributes as *const #ty) }; });
@@ -143,13 +144,13 @@ impl Arguments {
 fn context(program: &Program) -> TokenStream {
     let ctx_ty = &program.ctx_ty;
     match program.stage {
-        Stage::Raygen | Stage::DirectCallable | Stage::ContinuationCallable => quote! {
+        ProgramPrefix::Raygen | ProgramPrefix::DirectCallable | ProgramPrefix::ContinuationCallable => quote! {
             ::raykit_device::#ctx_ty::__new(__inv.launch_index, __inv.launch_dimensions, __inv.runtime, 0, &mut __raykit_exception_call)
         },
-        Stage::Exception => quote! {
+        ProgramPrefix::Exception => quote! {
             ::raykit_device::#ctx_ty::__new(__inv.exception, __inv.launch_dimensions, __inv.runtime)
         },
-        Stage::Miss => quote! {
+        ProgramPrefix::Miss => quote! {
             ::raykit_device::#ctx_ty::__new(
                 __inv.launch_index,
                 __inv.launch_dimensions,
@@ -161,7 +162,7 @@ fn context(program: &Program) -> TokenStream {
             )
             .__with_trace_depth(__inv.depth, __inv.max_trace_depth)
         },
-        Stage::ClosestHit => {
+        ProgramPrefix::ClosestHit => {
             let barycentrics = if program.has_attributes() {
                 quote!(::raykit_device::glam::Vec2::ZERO)
             } else {
@@ -172,7 +173,7 @@ fn context(program: &Program) -> TokenStream {
                     .__with_trace_depth(__inv.depth, __inv.max_trace_depth)
             }
         }
-        Stage::AnyHit | Stage::Intersection => quote! {
+        ProgramPrefix::AnyHit | ProgramPrefix::Intersection => quote! {
             ::raykit_device::#ctx_ty::__new(*__inv.hit, __inv.runtime, 0)
         },
     }

@@ -6,12 +6,13 @@ mod parse;
 mod spirv;
 mod stage;
 
-pub use stage::Stage;
-
-use parse::{Args, Param, Role};
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
+use raykit_abi::ProgramPrefix;
 use syn::{Ident, ItemFn};
+
+use parse::{Args, Param, Role};
+use stage::ProgramMacro;
 
 /// An ABI number as an unsuffixed literal, as `#[spirv(...)]` attributes need.
 fn unsuffixed(value: u32) -> proc_macro2::Literal {
@@ -20,7 +21,7 @@ fn unsuffixed(value: u32) -> proc_macro2::Literal {
 
 /// A parsed program function and the names its expansions share.
 struct Program {
-    stage: Stage,
+    stage: ProgramPrefix,
     args: Args,
     params: Vec<Param>,
     /// The user's function.
@@ -43,21 +44,21 @@ impl Program {
     }
 }
 
-pub fn expand(stage: Stage, attr: TokenStream, item: TokenStream) -> TokenStream {
+pub fn expand(stage: ProgramPrefix, attr: TokenStream, item: TokenStream) -> TokenStream {
     match try_expand(stage, attr, item) {
         Ok(tokens) => tokens,
         Err(e) => e.to_compile_error(),
     }
 }
 
-fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result<TokenStream> {
+fn try_expand(stage: ProgramPrefix, attr: TokenStream, item: TokenStream) -> syn::Result<TokenStream> {
     let args = parse::parse_args(stage, attr)?;
     let mut func: ItemFn = syn::parse2(item)?;
     parse::check_signature(stage, &func)?;
     let params = parse::parse_params(stage, &mut func)?;
 
     let fn_name = func.sig.ident.clone();
-    let entry_name = format!("{}{}", stage.prefix().as_str(), fn_name);
+    let entry_name = format!("{}{}", stage.as_str(), fn_name);
     let ctx_ty = format_ident!("{}", stage.context_type());
     let program = Program { stage, args, params, fn_name, entry_name, ctx_ty };
 
@@ -81,7 +82,7 @@ fn try_expand(stage: Stage, attr: TokenStream, item: TokenStream) -> syn::Result
 fn entry_point_const(program: &Program) -> TokenStream {
     let Program { stage, fn_name, entry_name, .. } = program;
     let entry_const = format_ident!("{}", fn_name.to_string().to_uppercase(), span = fn_name.span());
-    let kind = stage.kind();
+    let kind = stage.kind_path();
     let cpu_program = program.cpu_program();
     let doc = format!("The entry point `{entry_name}` (a {} program), for the host.", stage.context_type());
     let ray_info = match &program.args.ray {

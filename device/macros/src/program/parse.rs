@@ -1,10 +1,11 @@
 //! Reading a program function: the macro's arguments, its signature and the role of each parameter.
 
 use proc_macro2::{Span, TokenStream};
+use raykit_abi::ProgramPrefix;
 use syn::spanned::Spanned;
 use syn::{FnArg, Ident, ItemFn, Pat, PatType, Type};
 
-use super::Stage;
+use super::ProgramMacro;
 
 /// The role of one parameter of the user's function.
 pub enum Role {
@@ -70,7 +71,7 @@ impl Errors {
     }
 }
 
-pub fn parse_args(stage: Stage, attr: TokenStream) -> syn::Result<Args> {
+pub fn parse_args(stage: ProgramPrefix, attr: TokenStream) -> syn::Result<Args> {
     let mut args = Args { ray: None, skip_params_check: false };
     if attr.is_empty() {
         return Ok(args);
@@ -79,7 +80,9 @@ pub fn parse_args(stage: Stage, attr: TokenStream) -> syn::Result<Args> {
         if meta.path.is_ident("skip_params_check") {
             args.skip_params_check = true;
             Ok(())
-        } else if meta.path.is_ident("ray") && matches!(stage, Stage::Miss | Stage::ClosestHit | Stage::AnyHit) {
+        } else if meta.path.is_ident("ray")
+            && matches!(stage, ProgramPrefix::Miss | ProgramPrefix::ClosestHit | ProgramPrefix::AnyHit)
+        {
             let value: syn::Path = meta.value()?.parse()?;
             args.ray = Some(value);
             Ok(())
@@ -171,8 +174,8 @@ fn take_role_attribute(arg: &mut PatType, errors: &mut Errors) -> Option<RoleAtt
 
 /// The role a parameter of type `ty` has in `stage`, given its role attribute;
 /// `None` for a `#[spec_constant]` whose arguments did not parse (already reported).
-fn role_of(stage: Stage, ty: &Type, attribute: Option<&RoleAttribute>) -> Option<syn::Result<Role>> {
-    let attributes_mutable = stage == Stage::Intersection;
+fn role_of(stage: ProgramPrefix, ty: &Type, attribute: Option<&RoleAttribute>) -> Option<syn::Result<Role>> {
+    let attributes_mutable = stage == ProgramPrefix::Intersection;
     let role = match attribute.map(|a| a.name) {
         None => {
             let by_ref = matches!(ty, Type::Reference(_));
@@ -203,7 +206,7 @@ fn role_of(stage: Stage, ty: &Type, attribute: Option<&RoleAttribute>) -> Option
 
 /// The parameter `input` of a program of `stage`, with its role attributes removed;
 /// `None` where it has an error, which goes to `errors`.
-fn parse_param(stage: Stage, input: &mut FnArg, errors: &mut Errors) -> Option<Param> {
+fn parse_param(stage: ProgramPrefix, input: &mut FnArg, errors: &mut Errors) -> Option<Param> {
     let FnArg::Typed(arg) = input else {
         errors.push(syn::Error::new(input.span(), "device programs are free functions, not methods"));
         return None;
@@ -233,7 +236,7 @@ fn parse_param(stage: Stage, input: &mut FnArg, errors: &mut Errors) -> Option<P
 }
 
 /// Reports roles that appear more often than a program of `stage` allows.
-fn check_role_counts(stage: Stage, func: &ItemFn, params: &[Param], errors: &mut Errors) {
+fn check_role_counts(stage: ProgramPrefix, func: &ItemFn, params: &[Param], errors: &mut Errors) {
     let count = |f: fn(&Role) -> bool| params.iter().filter(|p| f(&p.role)).count();
     if count(|r| matches!(r, Role::Context { .. })) > 1 {
         errors.push(syn::Error::new(
@@ -255,7 +258,7 @@ fn check_role_counts(stage: Stage, func: &ItemFn, params: &[Param], errors: &mut
             errors.push(syn::Error::new(func.sig.inputs.span(), format!("at most one {what} parameter")));
         }
     }
-    if stage != Stage::Raygen && count(|r| matches!(r, Role::Payload(_))) > 1 {
+    if stage != ProgramPrefix::Raygen && count(|r| matches!(r, Role::Payload(_))) > 1 {
         errors.push(syn::Error::new(
             func.sig.inputs.span(),
             "a miss or hit program has one incoming #[payload]; declare outgoing ones as #[trace_payload]",
@@ -264,7 +267,7 @@ fn check_role_counts(stage: Stage, func: &ItemFn, params: &[Param], errors: &mut
 }
 
 /// The parameters of `func` with their roles; removes raykit's role attributes from it.
-pub fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
+pub fn parse_params(stage: ProgramPrefix, func: &mut ItemFn) -> syn::Result<Vec<Param>> {
     let mut errors = Errors::default();
     let params: Vec<Param> =
         func.sig.inputs.iter_mut().filter_map(|input| parse_param(stage, input, &mut errors)).collect();
@@ -273,7 +276,7 @@ pub fn parse_params(stage: Stage, func: &mut ItemFn) -> syn::Result<Vec<Param>> 
 }
 
 /// Refuses generic, async and value-returning functions.
-pub fn check_signature(stage: Stage, func: &ItemFn) -> syn::Result<()> {
+pub fn check_signature(stage: ProgramPrefix, func: &ItemFn) -> syn::Result<()> {
     let sig = &func.sig;
     if !sig.generics.params.is_empty() {
         return Err(syn::Error::new(

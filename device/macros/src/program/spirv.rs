@@ -3,10 +3,11 @@
 
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote, quote_spanned};
+use raykit_abi::ProgramPrefix;
 use syn::spanned::Spanned;
 use syn::{Ident, Type};
 
-use super::{unsuffixed, Param, Program, Role, Stage};
+use super::{unsuffixed, Param, Program, ProgramMacro, Role};
 
 /// The SPIR-V side of a program: compile-time and build-time checks, and the entry point.
 pub struct EntryPoint {
@@ -80,19 +81,19 @@ fn launch_builtins() -> TokenStream {
 
 /// The built-ins each stage's context is made of: the entry point's parameters that
 /// read them, and the arguments that make the context of them.
-fn builtins(stage: Stage, has_attributes: bool) -> (TokenStream, TokenStream) {
+fn builtins(stage: ProgramPrefix, has_attributes: bool) -> (TokenStream, TokenStream) {
     match stage {
-        Stage::Raygen | Stage::DirectCallable | Stage::ContinuationCallable => {
+        ProgramPrefix::Raygen | ProgramPrefix::DirectCallable | ProgramPrefix::ContinuationCallable => {
             (launch_builtins(), quote! { __launch_id, __launch_size })
         }
-        Stage::Exception => (
+        ProgramPrefix::Exception => (
             quote! {
                 #[spirv(launch_size)] __launch_size: ::raykit_device::glam::UVec3,
                 #[spirv(incoming_callable_data)] __raykit_exception: &mut ::raykit_device::exception::ExceptionDetails,
             },
             quote! { *__raykit_exception, __launch_size },
         ),
-        Stage::Miss => {
+        ProgramPrefix::Miss => {
             let launch = launch_builtins();
             (
                 quote! {
@@ -103,14 +104,16 @@ fn builtins(stage: Stage, has_attributes: bool) -> (TokenStream, TokenStream) {
                 quote! { __launch_id, __launch_size, __world_ray_origin, __world_ray_direction },
             )
         }
-        Stage::ClosestHit | Stage::AnyHit | Stage::Intersection => hit_builtins(stage, has_attributes),
+        ProgramPrefix::ClosestHit | ProgramPrefix::AnyHit | ProgramPrefix::Intersection => {
+            hit_builtins(stage, has_attributes)
+        }
     }
 }
 
 /// [`builtins`] of closest-hit, any-hit and intersection programs.
-fn hit_builtins(stage: Stage, has_attributes: bool) -> (TokenStream, TokenStream) {
+fn hit_builtins(stage: ProgramPrefix, has_attributes: bool) -> (TokenStream, TokenStream) {
     // Vulkan has no hit kind in intersection programs (it is what they report).
-    let (hit_kind_param, hit_kind) = if stage == Stage::Intersection {
+    let (hit_kind_param, hit_kind) = if stage == ProgramPrefix::Intersection {
         (quote!(), quote!(0))
     } else {
         (quote! { #[spirv(hit_kind)] __hit_kind: u32, }, quote!(__hit_kind))
@@ -156,11 +159,11 @@ fn hit_builtins(stage: Stage, has_attributes: bool) -> (TokenStream, TokenStream
     match stage {
         // Triangles' barycentrics are the hit attributes unless the
         // program declares its own.
-        Stage::ClosestHit if !has_attributes => (
+        ProgramPrefix::ClosestHit if !has_attributes => (
             quote! { #params #[spirv(hit_attribute)] __barycentrics: &mut ::raykit_device::glam::Vec2, },
             quote! { #hit, *__barycentrics },
         ),
-        Stage::ClosestHit => (params, quote! { #hit, ::raykit_device::glam::Vec2::ZERO }),
+        ProgramPrefix::ClosestHit => (params, quote! { #hit, ::raykit_device::glam::Vec2::ZERO }),
         _ => (params, hit),
     }
 }
@@ -230,7 +233,7 @@ impl Variables {
                 self.call_args.push(quote!(#name));
             }
             Role::Attributes(ty) => {
-                if program.stage == Stage::Intersection {
+                if program.stage == ProgramPrefix::Intersection {
                     self.params.push(quote! { #[spirv(hit_attribute)] #name: &mut #ty });
                 } else {
                     self.params.push(quote! { #[spirv(hit_attribute)] #name: &#ty });
@@ -238,8 +241,11 @@ impl Variables {
                 self.call_args.push(quote!(#name));
             }
             Role::Payload(ty) => {
-                let storage =
-                    if program.stage == Stage::Raygen { quote!(ray_payload) } else { quote!(incoming_ray_payload) };
+                let storage = if program.stage == ProgramPrefix::Raygen {
+                    quote!(ray_payload)
+                } else {
+                    quote!(incoming_ray_payload)
+                };
                 self.params.push(quote! { #[spirv(#storage)] #name: &mut #ty });
                 self.call_args.push(quote!(#name));
                 if let Some(ray) = &program.args.ray {
@@ -326,14 +332,14 @@ fn payload_of_ray(program: &Program, ty: &Type, ray: &syn::Path) -> TokenStream 
 /// The context's trailing constructor arguments for exceptions, and the entry point's
 /// parameter they need. Stages that may call callables run the exception program
 /// through a hidden callable-data variable; any-hit and intersection only record.
-fn exception_variables(stage: Stage) -> (TokenStream, TokenStream) {
+fn exception_variables(stage: ProgramPrefix) -> (TokenStream, TokenStream) {
     let exception_args = match stage {
-        Stage::Exception => quote!(),
-        Stage::AnyHit | Stage::Intersection => quote!(, __exception_slot),
+        ProgramPrefix::Exception => quote!(),
+        ProgramPrefix::AnyHit | ProgramPrefix::Intersection => quote!(, __exception_slot),
         _ => quote!(, __exception_slot, __raykit_exception_call),
     };
     let exception_call_param = match stage {
-        Stage::Exception | Stage::AnyHit | Stage::Intersection => quote!(),
+        ProgramPrefix::Exception | ProgramPrefix::AnyHit | ProgramPrefix::Intersection => quote!(),
         _ => quote! {
             #[spirv(callable_data)] __raykit_exception_call: &mut ::raykit_device::exception::ExceptionDetails,
         },
@@ -348,7 +354,7 @@ fn exception_variables(stage: Stage) -> (TokenStream, TokenStream) {
 /// when their ray type carries it (`RayType::CHECK_DEPTH`), and the pipeline's
 /// `max_trace_depth` from a reserved specialization constant: their traces stop there.
 fn trace_depth(program: &Program) -> (TokenStream, TokenStream) {
-    if !matches!(program.stage, Stage::Miss | Stage::ClosestHit) {
+    if !matches!(program.stage, ProgramPrefix::Miss | ProgramPrefix::ClosestHit) {
         return (quote!(), quote!());
     }
     let incoming = program.params.iter().find_map(|p| match p.role {
