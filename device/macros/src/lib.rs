@@ -28,6 +28,8 @@
 //! cannot have (a payload in an intersection program, tracing from a direct
 //! callable) is a compile error that says so.
 
+#![forbid(unsafe_code)]
+
 mod launch_params;
 mod program;
 mod root;
