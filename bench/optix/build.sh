@@ -13,6 +13,16 @@ out=${1:-$here/build}
 nvcc=${NVCC:-nvcc}
 arch=${OPTIX_ARCH:-sm_90}
 
+# Leaves the reason in OUT_DIR/NOT_BUILT, which raykit-bench's `optix` suite
+# reports, and stops.
+not_built() {
+    mkdir -p "$out"
+    printf '%s\n' "$1" >"$out/NOT_BUILT"
+    echo "build.sh: $1" >&2
+    exit 2
+}
+
+rm -f "$out/NOT_BUILT"
 if [ -z "${OPTIX_INCLUDE:-}" ]; then
     cat >&2 <<'MSG'
 build.sh: OPTIX_INCLUDE is not set. The OptiX headers are not in this
@@ -22,15 +32,13 @@ include/) and point OPTIX_INCLUDE at that folder, e.g.
     git clone --depth 1 --branch v9.0.0 https://github.com/NVIDIA/optix-dev .optix
     OPTIX_INCLUDE=$PWD/.optix/include bench/optix/build.sh
 MSG
-    exit 2
+    not_built "OPTIX_INCLUDE was not set when bench/optix/build.sh ran (the OptiX 9.0 headers)"
 fi
 if [ ! -f "$OPTIX_INCLUDE/optix.h" ]; then
-    echo "build.sh: no optix.h in OPTIX_INCLUDE=$OPTIX_INCLUDE" >&2
-    exit 2
+    not_built "no optix.h in OPTIX_INCLUDE=$OPTIX_INCLUDE"
 fi
 if ! command -v "$nvcc" >/dev/null 2>&1; then
-    echo "build.sh: $nvcc not found (CUDA's compiler; set NVCC)" >&2
-    exit 2
+    not_built "$nvcc (CUDA's compiler) was not found; set NVCC"
 fi
 
 mkdir -p "$out"
