@@ -5,13 +5,17 @@
 # and primary.optixir, path.optixir (the device programs; .ptx where this nvcc
 # cannot write OptiX IR). Needs CUDA's nvcc; at run time the NVIDIA driver's
 # libnvoptix. NVCC, OPTIX_ARCH (default sm_90) and NVCC_FLAGS override the
-# compiler, the device code's target and extra flags.
+# compiler, the device code's target and extra flags; OPTIX_FAST_MATH=0 leaves
+# out --use_fast_math (which the device programs get by default, as the OptiX
+# SDK's samples do).
 set -eu
 
 here=$(cd "$(dirname "$0")" && pwd)
 out=${1:-$here/build}
 nvcc=${NVCC:-nvcc}
 arch=${OPTIX_ARCH:-sm_90}
+fast_math=--use_fast_math
+[ "${OPTIX_FAST_MATH:-1}" = 0 ] && fast_math=
 
 # Leaves the reason in OUT_DIR/NOT_BUILT, which raykit-bench's `optix` suite
 # reports, and stops.
@@ -48,11 +52,11 @@ for program in primary path; do
     rm -f "$out/$program.optixir" "$out/$program.ptx"
     # As the OptiX SDK's samples: fast math, relocatable device code.
     # shellcheck disable=SC2086
-    if ! "$nvcc" -optix-ir -arch="$arch" -std=c++17 --use_fast_math -rdc=true -I"$OPTIX_INCLUDE" -I"$here" \
+    if ! "$nvcc" -optix-ir -arch="$arch" -std=c++17 $fast_math -rdc=true -I"$OPTIX_INCLUDE" -I"$here" \
         ${NVCC_FLAGS:-} "$here/$program.cu" -o "$out/$program.optixir"; then
         echo "build.sh: no OptiX IR from $nvcc; compiling $program.cu to PTX" >&2
         # shellcheck disable=SC2086
-        "$nvcc" -ptx -arch="$arch" -std=c++17 --use_fast_math -rdc=true -I"$OPTIX_INCLUDE" -I"$here" \
+        "$nvcc" -ptx -arch="$arch" -std=c++17 $fast_math -rdc=true -I"$OPTIX_INCLUDE" -I"$here" \
             ${NVCC_FLAGS:-} "$here/$program.cu" -o "$out/$program.ptx"
     fi
 done
