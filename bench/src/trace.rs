@@ -5,7 +5,9 @@
 //!   (`--triangles`, default 1,000,000) at `--primary-size` (default 1920x1080),
 //!   with optixTriangle's programs (`triangle-device`;
 //!   `examples/triangle/glsl` through `spirv-opt -O`, in `bench/glsl/`;
-//!   `examples/triangle/wgsl`, compiled by naga when the suite starts).
+//!   `examples/triangle/wgsl`, compiled by naga when the suite starts), and the
+//!   hand-written ash launch of the Rust pipeline with a device-local output
+//!   buffer ([`AshTracer`]; `vs ash`), whose picture must be raykit's.
 //! * `path`: the path tracer (`path-tracer-device`, `examples/path_tracer/glsl`
 //!   and `examples/path_tracer/wgsl`) on the Cornell box at `--path-size`
 //!   (default 512) with `--spp` paths per pixel in one launch (default 1).
