@@ -1,5 +1,5 @@
 // The float3 arithmetic the device programs use (what glam does in the Rust
-// programs), written out so no SDK helper header is needed.
+// programs), written out here rather than taken from the SDK samples' vec_math.h.
 #pragma once
 
 static __forceinline__ __device__ float3 operator+(float3 a, float3 b) { return make_float3(a.x + b.x, a.y + b.y, a.z + b.z); }
