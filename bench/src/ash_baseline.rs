@@ -5,6 +5,14 @@
 //! structure storage from `vkAllocateMemory`, reused after a structure is
 //! destroyed (as an allocator reuses freed memory); one submission with the
 //! compacted-size query; fence wait.
+//!
+//! [`AshTracer`] is the hand-written launch of the primary-ray programs that the
+//! `primary` and `optix` suites time against raykit's: the same compiled
+//! `VkPipeline` and SBT regions, and the TLAS, but its own descriptor set (raykit's
+//! buffer-table layout, one slot written) whose output buffer is device-local,
+//! as the fastest Vulkan program keeps it; the picture is copied out to a
+//! host-visible buffer after the launch, outside the timed part. GPU timestamps
+//! bracket `vkCmdTraceRaysKHR`, as raykit's `launch_timed` does.
 
 use std::cell::RefCell;
 use std::ffi::CStr;
@@ -476,4 +484,300 @@ impl Drop for AshDevice {
 fn as_bytes<T: Copy>(data: &[T]) -> &[u8] {
     // SAFETY: `T` is plain data here (f32 arrays, u32) without padding.
     unsafe { std::slice::from_raw_parts(data.as_ptr() as *const u8, std::mem::size_of_val(data)) }
+}
+
+/// Memory properties, timestamp bits and timestamp period (ns) of raykit's physical
+/// device (matched by name).
+fn raykit_physical(ctx: &raykit::Context) -> anyhow::Result<(vk::PhysicalDeviceMemoryProperties, u32, f64)> {
+    let instance = ctx.raw_instance().context("the ash tracer needs a Vulkan context")?;
+    let family = ctx.queue_family().context("the ash tracer needs a Vulkan context")? as usize;
+    // SAFETY: live instance.
+    for physical in unsafe { instance.enumerate_physical_devices() }? {
+        // SAFETY: `physical` came from this instance.
+        let props = unsafe { instance.get_physical_device_properties(physical) };
+        if props.device_name_as_c_str().is_ok_and(|n| n.to_string_lossy() == ctx.device_name()) {
+            // SAFETY: as above.
+            let memory = unsafe { instance.get_physical_device_memory_properties(physical) };
+            // SAFETY: as above.
+            let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+            let bits = families.get(family).map_or(0, |f| f.timestamp_valid_bits);
+            return Ok((memory, bits, props.limits.timestamp_period as f64));
+        }
+    }
+    bail!("raykit's device is not among the instance's devices")
+}
+
+/// Slots of raykit's buffer table (binding 0) and texture table (binding 1).
+const TABLE_SLOTS: u32 = raykit_abi::BUFFER_TABLE_SLOTS;
+const TEXTURE_SLOTS: u32 = raykit_abi::TEXTURE_TABLE_SLOTS;
+/// The slot of the tracer's output buffer in its own descriptor set.
+const OUTPUT_SLOT: u32 = 1;
+
+/// A hand-written launcher of raykit's compiled primary-ray pipeline with a
+/// device-local output buffer (see the module docs).
+pub struct AshTracer<'c> {
+    device: &'c ash::Device,
+    rt: &'c ash::khr::ray_tracing_pipeline::Device,
+    queue: vk::Queue,
+    pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+    descriptor_pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    /// The programs' output, device-local.
+    output: Buffer,
+    /// Host-visible, coherent copy of the output, mapped.
+    readback: Buffer,
+    readback_ptr: *const u8,
+    bytes: u64,
+    timestamps: Option<vk::QueryPool>,
+    period_ns: f64,
+    mask: u64,
+}
+
+impl<'c> AshTracer<'c> {
+    /// A tracer writing `words` 32-bit words of output on raykit's device.
+    pub fn new(ctx: &'c raykit::Context, words: usize) -> anyhow::Result<AshTracer<'c>> {
+        let device = ctx.raw_device().context("the ash tracer needs a Vulkan context")?;
+        let rt = ctx.raw_ray_tracing().context("the ash tracer needs a Vulkan context")?;
+        let family = ctx.queue_family().context("the ash tracer needs a Vulkan context")?;
+        let layout = ctx.raw_buffer_table_layout().context("the ash tracer needs a Vulkan context")?;
+        let (memory, valid_bits, period_ns) = raykit_physical(ctx)?;
+        let bytes = (words as u64 * 4).max(4);
+        let buffer =
+            |size: u64, usage: vk::BufferUsageFlags, flags: vk::MemoryPropertyFlags| -> anyhow::Result<Buffer> {
+                let info = vk::BufferCreateInfo::default().size(size).usage(usage);
+                // SAFETY: valid create info.
+                let buffer = unsafe { device.create_buffer(&info, None) }?;
+                // SAFETY: live buffer.
+                let req = unsafe { device.get_buffer_memory_requirements(buffer) };
+                let types = &memory.memory_types[..memory.memory_type_count as usize];
+                let index = types
+                    .iter()
+                    .enumerate()
+                    .position(|(i, t)| req.memory_type_bits & (1 << i) != 0 && t.property_flags.contains(flags))
+                    .with_context(|| format!("no {flags:?} memory for the ash tracer"))?;
+                let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(index as u32);
+                // SAFETY: valid allocate info; bound right away to the fresh buffer.
+                let memory = unsafe { device.allocate_memory(&alloc, None) }?;
+                // SAFETY: as above.
+                unsafe { device.bind_buffer_memory(buffer, memory, 0) }?;
+                Ok(Buffer { buffer, memory, address: 0 })
+            };
+        let output = buffer(
+            bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            vk::MemoryPropertyFlags::DEVICE_LOCAL,
+        )?;
+        let readback = buffer(
+            bytes,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+        )?;
+        // SAFETY: host-visible memory, mapped for the tracer's lifetime.
+        let readback_ptr =
+            unsafe { device.map_memory(readback.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }? as *const u8;
+
+        // A set of raykit's buffer-table layout, with the output in one slot.
+        let sizes = [
+            vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: TABLE_SLOTS },
+            vk::DescriptorPoolSize { ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, descriptor_count: TEXTURE_SLOTS },
+        ];
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .flags(vk::DescriptorPoolCreateFlags::UPDATE_AFTER_BIND)
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // SAFETY: valid create info.
+        let descriptor_pool = unsafe { device.create_descriptor_pool(&pool_info, None) }?;
+        let layouts = [layout];
+        let alloc = vk::DescriptorSetAllocateInfo::default().descriptor_pool(descriptor_pool).set_layouts(&layouts);
+        // SAFETY: the pool has room for this one set of that layout.
+        let set = unsafe { device.allocate_descriptor_sets(&alloc) }?[0];
+        let infos = [vk::DescriptorBufferInfo::default().buffer(output.buffer).offset(0).range(vk::WHOLE_SIZE)];
+        let write = vk::WriteDescriptorSet::default()
+            .dst_set(set)
+            .dst_binding(raykit_abi::BUFFER_TABLE_BINDING)
+            .dst_array_element(OUTPUT_SLOT)
+            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+            .buffer_info(&infos);
+        // SAFETY: the set and the buffer are live; no launch uses the set yet.
+        unsafe { device.update_descriptor_sets(&[write], &[]) };
+
+        // SAFETY: queue 0 of raykit's family exists; the bench is single-threaded,
+        // so raykit never submits to it at the same time.
+        let queue = unsafe { device.get_device_queue(family, 0) };
+        let info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: valid create info.
+        let pool = unsafe { device.create_command_pool(&info, None) }?;
+        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1);
+        // SAFETY: the pool was just created.
+        let cmd = unsafe { device.allocate_command_buffers(&alloc) }?[0];
+        // SAFETY: valid create info.
+        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }?;
+        let timestamps = if valid_bits > 0 && period_ns > 0.0 {
+            let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2);
+            // SAFETY: valid create info.
+            Some(unsafe { device.create_query_pool(&info, None) }?)
+        } else {
+            None
+        };
+        let mask = if valid_bits >= 64 { u64::MAX } else { (1u64 << valid_bits) - 1 };
+        Ok(AshTracer {
+            device,
+            rt,
+            queue,
+            pool,
+            cmd,
+            fence,
+            descriptor_pool,
+            set,
+            output,
+            readback,
+            readback_ptr,
+            bytes,
+            timestamps,
+            period_ns,
+            mask,
+        })
+    }
+
+    /// `params` (push constants) with their first word, the output buffer's
+    /// handle, pointing at the tracer's own output slot.
+    pub fn params_with_output(params: &[u8]) -> Vec<u8> {
+        let mut bytes = params.to_vec();
+        if let Some(first) = bytes.get_mut(0..4) {
+            first.copy_from_slice(&OUTPUT_SLOT.to_ne_bytes());
+        }
+        bytes
+    }
+
+    /// Records `record` into the command buffer, submits it and waits.
+    fn submit(&self, record: impl FnOnce(vk::CommandBuffer)) -> anyhow::Result<()> {
+        let d = self.device;
+        // SAFETY: the command buffer is not in use (the last submission was waited for).
+        unsafe {
+            d.begin_command_buffer(
+                self.cmd,
+                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )?;
+            record(self.cmd);
+            d.end_command_buffer(self.cmd)?;
+            let cmds = [self.cmd];
+            d.queue_submit(self.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], self.fence)?;
+            d.wait_for_fences(&[self.fence], true, u64::MAX)?;
+            d.reset_fences(&[self.fence])?;
+        }
+        Ok(())
+    }
+
+    /// One launch of `pipeline` (raykit's `VkPipeline`, `layout` its layout) with
+    /// raykit's SBT `regions`, `params` as push constants (see
+    /// [`AshTracer::params_with_output`]); returns the seconds of the trace (GPU
+    /// timestamps, else the wall time of the submission).
+    pub fn launch(
+        &self,
+        pipeline: vk::Pipeline,
+        layout: vk::PipelineLayout,
+        regions: &[vk::StridedDeviceAddressRegionKHR; 4],
+        params: &[u8],
+        dims: [u32; 3],
+    ) -> anyhow::Result<f64> {
+        let d = self.device;
+        let [raygen, miss, hit, callable] = regions;
+        let start = std::time::Instant::now();
+        self.submit(|cmd| {
+            // SAFETY: the pipeline, layout and SBT belong to live raykit objects; the
+            // set and the query pool are the tracer's.
+            unsafe {
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, pipeline);
+                d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, layout, 0, &[self.set], &[]);
+                d.cmd_push_constants(cmd, layout, rt_stages(), 0, params);
+                if let Some(pool) = self.timestamps {
+                    d.cmd_reset_query_pool(cmd, pool, 0, 2);
+                    d.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0);
+                }
+                self.rt.cmd_trace_rays(cmd, raygen, miss, hit, callable, dims[0], dims[1], dims[2]);
+                if let Some(pool) = self.timestamps {
+                    d.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
+                }
+            }
+        })?;
+        let wall = start.elapsed().as_secs_f64();
+        let Some(pool) = self.timestamps else { return Ok(wall) };
+        let mut ticks = [0u64; 2];
+        // SAFETY: both queries were written by the finished submission.
+        unsafe {
+            d.get_query_pool_results(pool, 0, &mut ticks, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT)
+        }?;
+        Ok((ticks[1].wrapping_sub(ticks[0]) & self.mask) as f64 * self.period_ns * 1e-9)
+    }
+
+    /// The output buffer's words, copied out of device-local memory.
+    pub fn picture(&self) -> anyhow::Result<Vec<u32>> {
+        let d = self.device;
+        self.submit(|cmd| {
+            let before = vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
+            let after = vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::HOST_READ);
+            let region = [vk::BufferCopy::default().size(self.bytes)];
+            // SAFETY: both buffers are the tracer's and live.
+            unsafe {
+                d.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::DependencyFlags::empty(),
+                    &[before],
+                    &[],
+                    &[],
+                );
+                d.cmd_copy_buffer(cmd, self.output.buffer, self.readback.buffer, &region);
+                d.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::HOST,
+                    vk::DependencyFlags::empty(),
+                    &[after],
+                    &[],
+                    &[],
+                );
+            }
+        })?;
+        // SAFETY: the mapping covers `bytes` bytes of coherent memory the finished copy wrote.
+        let bytes = unsafe { std::slice::from_raw_parts(self.readback_ptr, self.bytes as usize) };
+        Ok(bytes.chunks_exact(4).map(|c| u32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect())
+    }
+}
+
+impl Drop for AshTracer<'_> {
+    fn drop(&mut self) {
+        // SAFETY: nothing is in flight (every submission was waited for); children first.
+        unsafe {
+            if let Some(pool) = self.timestamps {
+                self.device.destroy_query_pool(pool, None);
+            }
+            self.device.destroy_fence(self.fence, None);
+            self.device.destroy_command_pool(self.pool, None);
+            self.device.destroy_descriptor_pool(self.descriptor_pool, None);
+            self.device.unmap_memory(self.readback.memory);
+            for b in [&self.output, &self.readback] {
+                self.device.destroy_buffer(b.buffer, None);
+                self.device.free_memory(b.memory, None);
+            }
+        }
+    }
+}
+
+fn rt_stages() -> vk::ShaderStageFlags {
+    vk::ShaderStageFlags::RAYGEN_KHR
+        | vk::ShaderStageFlags::MISS_KHR
+        | vk::ShaderStageFlags::CLOSEST_HIT_KHR
+        | vk::ShaderStageFlags::ANY_HIT_KHR
+        | vk::ShaderStageFlags::INTERSECTION_KHR
+        | vk::ShaderStageFlags::CALLABLE_KHR
 }

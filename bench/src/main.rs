@@ -23,6 +23,12 @@
 //! split across a device group (`--devices all`, every ray-tracing GPU, or a
 //! count), with the speed-up (see `devices.rs`). Not run unless named.
 //!
+//! `optix` — raykit's primary rays (at each `--optix-sizes`) and path tracer
+//! against their OptiX twin (`bench/optix`, a separate CUDA program that
+//! `--optix-bin` names), with the GLSL twin and the hand-written ash launch
+//! beside them, and checks that the pictures agree (see `optix.rs`). Not run
+//! unless named.
+//!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
 //!   `$RAYKIT_SPIRV_DIR`); suites that trace need them, `accel` does not.
@@ -34,6 +40,9 @@
 //!   the tracing suites (defaults 1000000, 1920x1080, 512, 1, 1000).
 //! * `--devices all|N`, `--spp-per-launch N` — the `devices` suite's group (default `all`) and
 //!   launches (default 16 paths per pixel each; `--spp` 1 means 64 in all there).
+//! * `--optix-bin PATH`, `--optix-sizes WxH,WxH` — the `optix` suite's OptiX executable
+//!   (default `optix/raykit-optix` next to this binary) and primary-ray sizes
+//!   (default 1920x1080,3840x2160).
 //!
 //! The binary needs only the Vulkan loader (and the SPIR-V files for suites that
 //! trace): build it here with `cargo build --release -p raykit-bench` and copy
@@ -45,6 +54,7 @@ mod cpu;
 mod devices;
 mod launch;
 mod materials;
+mod optix;
 mod pipeline;
 mod shaders;
 mod soak;
@@ -58,7 +68,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 12] = [
+const SUITES: [&str; 13] = [
     "accel",
     "stack",
     "pipeline",
@@ -71,10 +81,12 @@ const SUITES: [&str; 12] = [
     "cpu",
     "materials",
     "devices",
+    "optix",
 ];
 
-/// Suites run only when named: `devices` splits work across every GPU of the host.
-const ONLY_WHEN_NAMED: [&str; 1] = ["devices"];
+/// Suites run only when named: `devices` splits work across every GPU of the host;
+/// `optix` needs the OptiX twin built beside the binary.
+const ONLY_WHEN_NAMED: [&str; 2] = ["devices", "optix"];
 
 struct Args {
     suites: Vec<String>,

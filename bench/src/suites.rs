@@ -19,12 +19,15 @@ pub fn default_options() -> Options {
         launches: 1000,
         devices: "all".to_owned(),
         spp_per_launch: 16,
+        optix_bin: None,
+        optix_sizes: vec![(1920, 1080), (3840, 2160)],
     }
 }
 
 /// Parses one option of these suites (`--triangles`, `--primary-size WxH`,
 /// `--path-size N`, `--spp N`, `--launches N`, `--devices all|N`,
-/// `--spp-per-launch N`); returns false when `name` is not one.
+/// `--spp-per-launch N`, `--optix-bin PATH`, `--optix-sizes WxH,WxH`); returns
+/// false when `name` is not one.
 pub fn parse_option(
     opts: &mut Options,
     name: &str,
@@ -44,6 +47,17 @@ pub fn parse_option(
         "--spp-per-launch" => {
             opts.spp_per_launch = value()?.parse().context("--spp-per-launch takes a number")?;
             anyhow::ensure!(opts.spp_per_launch > 0, "--spp-per-launch must be at least 1");
+        }
+        "--optix-bin" => opts.optix_bin = Some(value()?.into()),
+        "--optix-sizes" => {
+            opts.optix_sizes = value()?
+                .split(',')
+                .map(|size| {
+                    let (w, h) = size.trim().split_once('x').context("--optix-sizes takes WIDTHxHEIGHT,...")?;
+                    Ok((w.parse()?, h.parse()?))
+                })
+                .collect::<anyhow::Result<_>>()?;
+            anyhow::ensure!(!opts.optix_sizes.is_empty(), "--optix-sizes needs at least one size");
         }
         _ => return Ok(false),
     }
@@ -76,6 +90,7 @@ pub fn run(suite: &str, ctx: &Context, opts: &Options, out: &Path) -> anyhow::Re
         }
         "shaders" => crate::shaders::markdown(&crate::shaders::sizes()?, out),
         "materials" => crate::materials::run(ctx, timer.as_ref(), opts)?,
+        "optix" => crate::optix::run(ctx, timer.as_ref(), opts, out)?,
         other => anyhow::bail!("unknown suite {other}"),
     })
 }

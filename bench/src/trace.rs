@@ -5,7 +5,9 @@
 //!   (`--triangles`, default 1,000,000) at `--primary-size` (default 1920x1080),
 //!   with optixTriangle's programs (`triangle-device`;
 //!   `examples/triangle/glsl` through `spirv-opt -O`, in `bench/glsl/`;
-//!   `examples/triangle/wgsl`, compiled by naga when the suite starts).
+//!   `examples/triangle/wgsl`, compiled by naga when the suite starts), and the
+//!   hand-written ash launch of the Rust pipeline with a device-local output
+//!   buffer ([`AshTracer`]; `vs ash`), whose picture must be raykit's.
 //! * `path`: the path tracer (`path-tracer-device`, `examples/path_tracer/glsl`
 //!   and `examples/path_tracer/wgsl`) on the Cornell box at `--path-size`
 //!   (default 512) with `--spp` paths per pixel in one launch (default 1).
@@ -24,6 +26,9 @@ use raykit::glam::{UVec2, Vec3};
 use raykit::{Context, Gas, Ias, LaunchTimer, LinkOptions, Module, Pipeline, ProgramGroup, Sbt, Triangles};
 use triangle_device::{MissData, Params as PrimaryParams};
 
+use anyhow::Context as _;
+
+use crate::ash_baseline::AshTracer;
 use crate::stats::Summary;
 
 /// Options of the tracing suites.
@@ -44,6 +49,11 @@ pub struct Options {
     pub devices: String,
     /// Paths per pixel of each launch of the `devices` suite's progressive renders.
     pub spp_per_launch: u32,
+    /// The OptiX twin's executable (or its folder) for the `optix` suite; else
+    /// `optix/raykit-optix` next to this binary.
+    pub optix_bin: Option<std::path::PathBuf>,
+    /// Image sizes of the `optix` suite's primary rays.
+    pub optix_sizes: Vec<(u32, u32)>,
 }
 
 /// One variant's results.
@@ -64,16 +74,19 @@ pub struct Row {
     pub mrays: Summary,
     /// Per-repetition ratio of this variant's Mrays/s to the GLSL twin's.
     pub vs_glsl: Summary,
+    /// Per-repetition ratio of this variant's Mrays/s to the hand-written ash
+    /// launch's, where the suite has one.
+    pub vs_ash: Option<Summary>,
     /// `GPU timestamps` or `wall clock`.
     pub timing: &'static str,
 }
 
 /// A variant: a name and a launch returning its time and its rays.
-type Variant<'a> = (&'static str, Box<dyn FnMut() -> anyhow::Result<(f64, u64)> + 'a>);
+pub(crate) type Variant<'a> = (&'static str, Box<dyn FnMut() -> anyhow::Result<(f64, u64)> + 'a>);
 
 /// Runs every variant once to warm up, then `reps` rounds in rotating order;
 /// returns per variant the (seconds, rays) of each round.
-fn interleave(variants: &mut [Variant<'_>], reps: usize) -> anyhow::Result<Vec<Vec<(f64, u64)>>> {
+pub(crate) fn interleave(variants: &mut [Variant<'_>], reps: usize) -> anyhow::Result<Vec<Vec<(f64, u64)>>> {
     for (_, run) in variants.iter_mut() {
         run()?;
     }
@@ -99,12 +112,17 @@ fn rows(
     let glsl = names.iter().position(|n| *n == "GLSL").unwrap_or(0);
     let mrays_of = |r: &[(f64, u64)]| -> Vec<f64> { r.iter().map(|(s, rays)| *rays as f64 / s / 1e6).collect() };
     let glsl_mrays = mrays_of(&results[glsl]);
+    let ash_mrays = names.iter().position(|n| *n == "ash").map(|i| mrays_of(&results[i]));
     names
         .iter()
         .zip(results)
         .map(|(name, r)| {
             let mrays = mrays_of(r);
             let ratios: Vec<f64> = mrays.iter().zip(&glsl_mrays).map(|(a, b)| a / b).collect();
+            let vs_ash = ash_mrays.as_ref().map(|ash| {
+                let ratios: Vec<f64> = mrays.iter().zip(ash).map(|(a, b)| a / b).collect();
+                Summary::of(&ratios)
+            });
             let mut rays: Vec<u64> = r.iter().map(|(_, n)| *n).collect();
             rays.sort_unstable();
             Row {
@@ -116,6 +134,7 @@ fn rows(
                 seconds: Summary::of(&r.iter().map(|(s, _)| *s).collect::<Vec<_>>()),
                 mrays: Summary::of(&mrays),
                 vs_glsl: Summary::of(&ratios),
+                vs_ash,
                 timing,
             }
         })
@@ -232,6 +251,8 @@ pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> an
     let rust = primary_pipeline(ctx, Language::Rust)?;
     let glsl = primary_pipeline(ctx, Language::Glsl)?;
     let wgsl = primary_pipeline(ctx, Language::Wgsl)?;
+    let ash = AshTracer::new(ctx, width as usize * height as usize)?;
+    let ash_params = AshTracer::params_with_output(bytemuck::bytes_of(&scene.params));
     let rays = width as u64 * height as u64;
     let launch = |p: &PrimaryPipeline| -> anyhow::Result<(f64, u64)> {
         let dims = [width, height, 1];
@@ -249,13 +270,28 @@ pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> an
         ("Rust", Box::new(|| launch(&rust))),
         ("GLSL", Box::new(|| launch(&glsl))),
         ("WGSL", Box::new(|| launch(&wgsl))),
+        ("ash", Box::new(|| Ok((ash_launch(&ash, &rust, &ash_params, [width, height, 1])?, rays)))),
     ];
     let results = interleave(&mut variants, opts.reps)?;
-    // The programs drew a picture.
+    drop(variants);
+    // The programs drew a picture, and the ash launch the same one.
+    rust.pipeline.launch(&rust.sbt, &scene.params, [width, height, 1])?;
     let picture = scene.image.read()?;
     anyhow::ensure!(picture.iter().any(|&p| p != picture[0]), "the primary-ray image is uniform");
+    let differing = picture.iter().zip(ash.picture()?).filter(|(a, b)| **a != *b).count();
+    anyhow::ensure!(differing == 0, "the ash launch drew {differing} pixels unlike raykit's");
     let setup = format!("{} triangles, {width}x{height}, 1 ray/pixel", opts.triangles);
-    Ok(rows("primary", &setup, timing_name(timer), &["Rust", "GLSL", "WGSL"], &results))
+    Ok(rows("primary", &setup, timing_name(timer), &["Rust", "GLSL", "WGSL", "ash"], &results))
+}
+
+/// One launch of the Rust primary-ray pipeline `p` through the hand-written
+/// ash tracer (device-local output); its seconds.
+pub fn ash_launch(ash: &AshTracer<'_>, p: &PrimaryPipeline, params: &[u8], dims: [u32; 3]) -> anyhow::Result<f64> {
+    let pipeline = p.pipeline.raw_pipeline().context("the ash launch needs a Vulkan context")?;
+    let layout = p.pipeline.raw_layout().context("the ash launch needs a Vulkan context")?;
+    let regions = p.sbt.raw_regions().context("the ash launch needs a Vulkan context")?;
+    anyhow::ensure!(p.pipeline.raw_push_constant_size() as usize == params.len(), "the params are not push constants");
+    ash.launch(pipeline, layout, &regions, params, dims)
 }
 
 /// The `path` suite.
@@ -302,13 +338,23 @@ pub fn markdown(rows: &[Row]) -> String {
     let mut s = String::from(
         "Same host code, same acceleration structures; variants interleaved in rotating order after one warm-up launch each; median (± half the interquartile range); `vs GLSL` is the median of per-repetition ratios of Mrays/s (> 1: faster than the GLSL twin).\n\n",
     );
-    s.push_str(
-        "| suite | setup | programs | reps | rays/launch | ms/launch | Mrays/s | vs GLSL (min–max) | timing |\n",
-    );
-    s.push_str("|---|---|---|---:|---:|---:|---:|---:|---|\n");
+    let with_ash = rows.iter().any(|r| r.vs_ash.is_some());
+    if with_ash {
+        s.push_str("`ash` is the hand-written launch of the Rust programs' `VkPipeline` and SBT with a device-local output buffer (`ash_baseline.rs`); `vs ash` is the median of per-repetition ratios of Mrays/s to it (the Rust row: raykit / ash).\n\n");
+    }
+    let (ash_head, ash_rule) = if with_ash { (" vs ash (min–max) |", "---:|") } else { ("", "") };
+    s.push_str(&format!(
+        "| suite | setup | programs | reps | rays/launch | ms/launch | Mrays/s | vs GLSL (min–max) |{ash_head} timing |\n"
+    ));
+    s.push_str(&format!("|---|---|---|---:|---:|---:|---:|---:|{ash_rule}---|\n"));
     for r in rows {
+        let ash = match (&r.vs_ash, with_ash) {
+            (Some(a), _) => format!(" {:.3} ({:.3}–{:.3}) |", a.median, a.min, a.max),
+            (None, true) => " – |".to_owned(),
+            (None, false) => String::new(),
+        };
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {:.2} ± {:.1}% | {:.2} | {:.3} ({:.3}–{:.3}) | {} |\n",
+            "| {} | {} | {} | {} | {} | {:.2} ± {:.1}% | {:.2} | {:.3} ({:.3}–{:.3}) |{ash} {} |\n",
             r.suite,
             r.setup,
             r.variant,
@@ -333,7 +379,8 @@ pub fn json(rows: &[Row]) -> serde_json::Value {
             .map(|r| {
                 serde_json::json!({
                     "suite": r.suite, "setup": r.setup, "programs": r.variant, "reps": r.reps, "rays_per_launch": r.rays,
-                    "seconds": r.seconds.json(), "mrays_per_s": r.mrays.json(), "vs_glsl": r.vs_glsl.json(), "timing": r.timing,
+                    "seconds": r.seconds.json(), "mrays_per_s": r.mrays.json(), "vs_glsl": r.vs_glsl.json(),
+                    "vs_ash": r.vs_ash.map(|a| a.json()), "timing": r.timing,
                 })
             })
             .collect(),

@@ -31,6 +31,7 @@
 //! (`shader-builder/`, on rust-gpu's `spirv-builder`) built into the cache, and
 //! this crate runs it.
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 mod codegen;
 mod device;

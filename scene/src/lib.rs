@@ -6,6 +6,7 @@
 //! linear radiance to OpenEXR (through the `exr` crate) and PFM; and
 //! importance-sampled equirectangular [`EnvironmentMap`]s; and glTF 2.0 scenes ([`gltf::GltfScene`]).
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 pub mod camera;
 pub mod environment;

@@ -37,6 +37,7 @@
 //! at run time.
 
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 mod fixup;
 

@@ -12,6 +12,7 @@
 //! dependencies.
 #![no_std]
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 pub mod params;
 pub mod program;

@@ -28,59 +28,62 @@
 //! cannot have (a payload in an intersection program, tracing from a direct
 //! callable) is a compile error that says so.
 
+#![forbid(unsafe_code)]
+
 mod launch_params;
 mod program;
 mod root;
 
 use proc_macro::TokenStream;
+use raykit_abi::ProgramPrefix;
 
 /// Marks a ray-generation program (`__raygen__<name>`).
 #[proc_macro_attribute]
 pub fn raygen(attr: TokenStream, item: TokenStream) -> TokenStream {
-    root::resolve(program::expand(program::Stage::Raygen, attr.into(), item.into())).into()
+    root::resolve(program::expand(ProgramPrefix::Raygen, attr.into(), item.into())).into()
 }
 
 /// Marks a miss program (`__miss__<name>`). Optional `ray = RayType`.
 #[proc_macro_attribute]
 pub fn miss(attr: TokenStream, item: TokenStream) -> TokenStream {
-    root::resolve(program::expand(program::Stage::Miss, attr.into(), item.into())).into()
+    root::resolve(program::expand(ProgramPrefix::Miss, attr.into(), item.into())).into()
 }
 
 /// Marks a closest-hit program (`__closesthit__<name>`). Optional `ray = RayType`.
 #[proc_macro_attribute]
 pub fn closest_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
-    root::resolve(program::expand(program::Stage::ClosestHit, attr.into(), item.into())).into()
+    root::resolve(program::expand(ProgramPrefix::ClosestHit, attr.into(), item.into())).into()
 }
 
 /// Marks an any-hit program (`__anyhit__<name>`). Optional `ray = RayType`.
 #[proc_macro_attribute]
 pub fn any_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
-    root::resolve(program::expand(program::Stage::AnyHit, attr.into(), item.into())).into()
+    root::resolve(program::expand(ProgramPrefix::AnyHit, attr.into(), item.into())).into()
 }
 
 /// Marks an intersection program (`__intersection__<name>`).
 #[proc_macro_attribute]
 pub fn intersection(attr: TokenStream, item: TokenStream) -> TokenStream {
-    root::resolve(program::expand(program::Stage::Intersection, attr.into(), item.into())).into()
+    root::resolve(program::expand(ProgramPrefix::Intersection, attr.into(), item.into())).into()
 }
 
 /// Marks a direct callable (`__direct_callable__<name>`): may not trace.
 #[proc_macro_attribute]
 pub fn direct_callable(attr: TokenStream, item: TokenStream) -> TokenStream {
-    root::resolve(program::expand(program::Stage::DirectCallable, attr.into(), item.into())).into()
+    root::resolve(program::expand(ProgramPrefix::DirectCallable, attr.into(), item.into())).into()
 }
 
 /// Marks a continuation callable (`__continuation_callable__<name>`): may trace.
 #[proc_macro_attribute]
 pub fn continuation_callable(attr: TokenStream, item: TokenStream) -> TokenStream {
-    root::resolve(program::expand(program::Stage::ContinuationCallable, attr.into(), item.into())).into()
+    root::resolve(program::expand(ProgramPrefix::ContinuationCallable, attr.into(), item.into())).into()
 }
 
 /// Marks an exception program (`__exception__<name>`), run after a user
 /// exception is thrown (see `raykit_device::exception`).
 #[proc_macro_attribute]
 pub fn exception(attr: TokenStream, item: TokenStream) -> TokenStream {
-    root::resolve(program::expand(program::Stage::Exception, attr.into(), item.into())).into()
+    root::resolve(program::expand(ProgramPrefix::Exception, attr.into(), item.into())).into()
 }
 
 /// Records the layout of a launch-params struct (`#[repr(C)]`, `Copy`,

@@ -15,6 +15,7 @@
 //! The runtime (`raykit`) uses it when it loads modules and links pipelines; build
 //! tooling uses it to check freshly built SPIR-V before anything runs.
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 pub mod bindings;
 pub mod generate;

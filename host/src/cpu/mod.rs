@@ -70,13 +70,16 @@
 pub(crate) mod accel;
 pub(crate) mod buffers;
 pub(crate) mod flat;
+mod intersect;
 pub(crate) mod lanes;
 pub(crate) mod launch;
 pub(crate) mod packet;
 pub(crate) mod program;
+mod runtime;
 pub(crate) mod simd;
 pub(crate) mod slots;
 pub(crate) mod textures;
+mod traverse;
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
