@@ -4,8 +4,8 @@
 use ash::vk;
 use raykit_device::ProgramKind;
 
-use crate::program_group::kind::GroupKind;
-use crate::sbt::region::SbtRegion;
+use crate::types::group::GroupKind;
+use crate::types::sbt::SbtRegion;
 
 /// Result with raykit's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;

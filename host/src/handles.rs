@@ -33,9 +33,9 @@ use std::sync::{Arc, Mutex};
 
 use raykit_device::{FieldLayout, ParamsLayout, Shape};
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
-use crate::sbt::SbtRegion;
+use crate::types::sbt::SbtRegion;
+use crate::vulkan::context::ContextInner;
 
 /// Bits of a handle that name the slot; the bits above carry the generation.
 pub(crate) const SLOT_BITS: u32 = raykit_abi::BUFFER_TABLE_SLOTS.trailing_zeros();

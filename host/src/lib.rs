@@ -21,6 +21,7 @@ pub mod program_group;
 pub mod sbt;
 pub mod stack;
 pub mod texture;
+mod types;
 pub mod validate;
 mod vulkan;
 pub mod wgsl;

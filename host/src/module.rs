@@ -13,34 +13,13 @@ use std::sync::Arc;
 
 use raykit_abi::ProgramPrefix;
 use raykit_device::ProgramKind;
-use rspirv::spirv::{ExecutionModel, Op, MAGIC_NUMBER as SPIRV_MAGIC};
+use rspirv::spirv::{Op, MAGIC_NUMBER as SPIRV_MAGIC};
 
 use crate::context::Context;
 use crate::error::{Error, Result};
-pub(crate) use crate::vulkan::module::ModuleInner;
-use raykit_spirv::{InterfaceSizes, ParamsBlock};
-
-/// One entry point of a module.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct EntryPointInfo {
-    /// Its name, e.g. `__raygen__rg` (or `main` for GLSL).
-    pub name: String,
-    /// The ray-tracing program kind of its execution model; `None` for other
-    /// stages (vertex, compute, …).
-    pub kind: Option<ProgramKind>,
-    /// The SPIR-V execution model, as text (`RayGenerationKHR`, …).
-    pub execution_model: String,
-    /// The launch-params blocks it declares (push constants, or the uniform
-    /// buffer at set 1), with their layouts; empty when it takes no params.
-    pub params: Vec<ParamsBlock>,
-    /// The bytes of ray payload and hit attributes it declares, which a
-    /// [`crate::PipelineLibrary`]'s interface must cover.
-    pub interface: InterfaceSizes,
-    /// The rays it traces (through its call graph), with their constant SBT operands.
-    pub traces: raykit_spirv::EntryTraces,
-    /// The descriptor bindings it declares.
-    pub bindings: Vec<raykit_spirv::DescriptorBinding>,
-}
+use crate::types::program::kind_of;
+pub use crate::types::program::EntryPointInfo;
+use crate::vulkan::module::ModuleInner;
 
 /// A SPIR-V module on the device, with its entry points; on the CPU backend,
 /// the device crate linked into the program, whose programs the
@@ -97,11 +76,6 @@ fn spirv_on_cpu() -> Error {
         why: "the CPU backend runs the Rust device programs linked into this program, not SPIR-V (GLSL, WGSL and .spv files have no host code)",
         fix: "load a Rust device crate with Module::from_device_crate (or from_embedded) and name its programs by their EntryPoint constants, or use Backend::Vulkan for SPIR-V modules",
     }
-}
-
-/// The program kind of a ray-tracing execution model; `None` for other stages.
-pub(crate) fn kind_of(model: ExecutionModel) -> Option<ProgramKind> {
-    raykit_abi::ExecutionModel::from_u32(model as u32).map(raykit_abi::ExecutionModel::kind)
 }
 
 /// The opcode of an instruction, from its first word (`None` for opcodes rspirv does not know).

@@ -8,13 +8,15 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::input::{self, Aabb, Aabbs, BuildInput, Shape, Triangles};
 use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
-use crate::context::{Context, ContextInner};
+use crate::context::Context;
 use crate::error::{Error, Result};
+use crate::types::accel::{Aabb, Aabbs, BuildInput, Shape, Triangles};
+use crate::validate::accel as input;
 use crate::vulkan::accel::build;
 use crate::vulkan::accel::structure::AccelStructure;
+use crate::vulkan::context::ContextInner;
 
 /// Sizes before and after [`Gas::compact`].
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]

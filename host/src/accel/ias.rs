@@ -12,51 +12,18 @@ use raykit_device::Traversable;
 use super::gas::{Gas, GasAccel};
 use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
-use crate::context::{Context, ContextInner};
+use crate::context::Context;
 use crate::error::{Error, Result};
-use crate::vulkan::accel::build;
+use crate::types::accel::{transform_rows, InstanceFlags, InstancePlacement};
 use crate::vulkan::accel::structure::AccelStructure;
-
-/// Per-instance flags (`VkGeometryInstanceFlagsKHR`, OptiX's `OPTIX_INSTANCE_FLAG_*`).
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
-pub struct InstanceFlags(pub(crate) u8);
-
-impl InstanceFlags {
-    /// No flags.
-    pub const NONE: InstanceFlags = InstanceFlags(0);
-    /// Disable face culling for this instance's triangles.
-    pub const DISABLE_TRIANGLE_CULLING: InstanceFlags =
-        InstanceFlags(crate::vulkan::accel::ias::TRIANGLE_FACING_CULL_DISABLE);
-    /// Swap front and back faces.
-    pub const FLIP_TRIANGLE_FACING: InstanceFlags = InstanceFlags(crate::vulkan::accel::ias::TRIANGLE_FLIP_FACING);
-    /// Treat every geometry as opaque (no any-hit).
-    pub const FORCE_OPAQUE: InstanceFlags = InstanceFlags(crate::vulkan::accel::ias::FORCE_OPAQUE);
-    /// Treat every geometry as non-opaque (any-hit runs).
-    pub const FORCE_NON_OPAQUE: InstanceFlags = InstanceFlags(crate::vulkan::accel::ias::FORCE_NO_OPAQUE);
-
-    /// Whether every flag of `other` is set.
-    pub fn contains(self, other: InstanceFlags) -> bool {
-        self.0 & other.0 == other.0
-    }
-}
-
-impl std::ops::BitOr for InstanceFlags {
-    type Output = InstanceFlags;
-    fn bitor(self, rhs: InstanceFlags) -> InstanceFlags {
-        InstanceFlags(self.0 | rhs.0)
-    }
-}
+use crate::vulkan::context::ContextInner;
 
 /// One instance of a [`Gas`] in an [`Ias`] (OptiX's `OptixInstance`).
 #[derive(Clone)]
 #[must_use]
 pub struct Instance {
     pub(crate) accel: GasAccel,
-    pub(crate) transform: [f32; 12],
-    pub(crate) custom_index: u32,
-    pub(crate) mask: u8,
-    pub(crate) sbt_offset: u32,
-    pub(crate) flags: InstanceFlags,
+    pub(crate) placement: InstancePlacement,
     /// Geometries of its GAS: the hit records it spans per ray type.
     geometries: u32,
 }
@@ -66,36 +33,38 @@ impl Instance {
     pub fn new(gas: &Gas) -> Instance {
         Instance {
             accel: gas.accel.clone(),
-            transform: build::transform_rows(&Affine3A::IDENTITY),
-            custom_index: 0,
-            mask: 0xff,
-            sbt_offset: 0,
-            flags: InstanceFlags::NONE,
+            placement: InstancePlacement {
+                transform: transform_rows(&Affine3A::IDENTITY),
+                custom_index: 0,
+                mask: 0xff,
+                sbt_offset: 0,
+                flags: InstanceFlags::NONE,
+            },
             geometries: u32::try_from(gas.geometry_count()).unwrap_or(u32::MAX),
         }
     }
 
     /// Object-to-world transform.
     pub fn transform(mut self, transform: Affine3A) -> Self {
-        self.transform = build::transform_rows(&transform);
+        self.placement.transform = transform_rows(&transform);
         self
     }
 
     /// Object-to-world transform as a row-major 3×4 matrix (OptiX's `transform[12]`).
     pub fn transform_rows(mut self, rows: [[f32; 4]; 3]) -> Self {
-        self.transform = bytemuck::cast(rows);
+        self.placement.transform = bytemuck::cast(rows);
         self
     }
 
     /// The value device programs read as the instance's custom index (24 bits).
     pub fn custom_index(mut self, index: u32) -> Self {
-        self.custom_index = index;
+        self.placement.custom_index = index;
         self
     }
 
     /// Visibility mask, tested against each ray's cull mask.
     pub fn mask(mut self, mask: u8) -> Self {
-        self.mask = mask;
+        self.placement.mask = mask;
         self
     }
 
@@ -110,13 +79,13 @@ impl Instance {
     /// instances and the pipeline's traces, must be below the SBT's hit record
     /// count ([`Error::SbtTooSmallForScene`] otherwise; see [`Ias::hit_records_for`]).
     pub fn sbt_offset(mut self, offset: u32) -> Self {
-        self.sbt_offset = offset;
+        self.placement.sbt_offset = offset;
         self
     }
 
     /// Instance flags.
     pub fn flags(mut self, flags: InstanceFlags) -> Self {
-        self.flags = flags;
+        self.placement.flags = flags;
         self
     }
 }
@@ -124,14 +93,23 @@ impl Instance {
 impl std::fmt::Debug for Instance {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Instance")
-            .field("transform", &self.transform)
-            .field("custom_index", &self.custom_index)
-            .field("mask", &self.mask)
-            .field("sbt_offset", &self.sbt_offset)
-            .field("flags", &self.flags)
+            .field("transform", &self.placement.transform)
+            .field("custom_index", &self.placement.custom_index)
+            .field("mask", &self.placement.mask)
+            .field("sbt_offset", &self.placement.sbt_offset)
+            .field("flags", &self.placement.flags)
             .field("geometries", &self.geometries)
             .finish_non_exhaustive()
     }
+}
+
+/// What the Vulkan backend records of `instances`: each placement and its GAS's device address.
+fn placements(instances: &[Instance]) -> Vec<(InstancePlacement, u64)> {
+    let address = |accel: &GasAccel| match accel {
+        GasAccel::Vulkan(accel) => accel.address,
+        GasAccel::Cpu(_) => 0,
+    };
+    instances.iter().map(|i| (i.placement, address(&i.accel))).collect()
 }
 
 /// Checks instances for a Vulkan IAS of `ctx`.
@@ -158,12 +136,14 @@ fn check_fields(instances: &[Instance], limit: u64) -> Result<()> {
         });
     }
     for (i, instance) in instances.iter().enumerate() {
-        for (field, value) in [("custom_index", instance.custom_index), ("sbt_offset", instance.sbt_offset)] {
+        for (field, value) in
+            [("custom_index", instance.placement.custom_index), ("sbt_offset", instance.placement.sbt_offset)]
+        {
             if value >= 1 << 24 {
                 return Err(Error::InstanceField { instance: i, field, value, max: (1 << 24) - 1 });
             }
         }
-        if !instance.transform.iter().all(|c| c.is_finite()) {
+        if !instance.placement.transform.iter().all(|c| c.is_finite()) {
             return Err(Error::NonFiniteTransform { what: format!("the transform of instance {i}") });
         }
     }
@@ -206,7 +186,8 @@ impl IasBuilder<'_> {
         }
         let inner = ctx.vulkan("an IAS build")?;
         validate(inner, self.instances)?;
-        let (accel, sizes, in_flight) = crate::vulkan::accel::ias::submit(inner, self.instances, self.options)?;
+        let (accel, sizes, in_flight) =
+            crate::vulkan::accel::ias::submit(inner, &placements(self.instances), self.options)?;
         let ias = Ias {
             accel: IasAccel::Vulkan(accel),
             gases: self.instances.iter().map(|i| i.accel.clone()).collect(),
@@ -285,7 +266,7 @@ impl Ias {
             IasAccel::Cpu { .. } => return self.build_cpu(instances),
         };
         validate(&accel.ctx, instances)?;
-        crate::vulkan::accel::ias::refit(accel, instances, self.options)?;
+        crate::vulkan::accel::ias::refit(accel, &placements(instances), self.options)?;
         self.gases = instances.iter().map(|i| i.accel.clone()).collect();
         self.reach = Arc::new(HitReach::of(instances));
         self.register();
@@ -313,14 +294,14 @@ impl Ias {
             if !Arc::ptr_eq(&gas.ctx, ctx) {
                 return Err(Error::ContextMismatch);
             }
-            let object_to_world = crate::cpu::accel::affine_from_rows(&instance.transform);
+            let object_to_world = crate::cpu::accel::affine_from_rows(&instance.placement.transform);
             scene.push(crate::cpu::accel::SceneInstance::new(
                 gas.data(),
                 object_to_world,
-                instance.custom_index,
-                instance.mask,
-                instance.sbt_offset,
-                instance.flags,
+                instance.placement.custom_index,
+                instance.placement.mask,
+                instance.placement.sbt_offset,
+                instance.placement.flags,
             ));
         }
         let data = Arc::new(crate::cpu::accel::SceneData::build(scene));
@@ -414,7 +395,7 @@ impl HitReach {
     /// The reach of `instances`. Instances with a mask of 0 are never hit and
     /// select no record.
     pub(crate) fn of(instances: &[Instance]) -> HitReach {
-        HitReach::from_parts(instances.iter().map(|i| (i.sbt_offset, i.geometries, i.mask)))
+        HitReach::from_parts(instances.iter().map(|i| (i.placement.sbt_offset, i.geometries, i.placement.mask)))
     }
 
     /// The reach of instances given as `(SBT offset, geometry count, mask)`.

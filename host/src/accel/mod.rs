@@ -57,13 +57,13 @@
 
 pub(crate) mod gas;
 mod ias;
-pub mod input;
-mod options;
 mod pending;
 
+pub use crate::types::accel::{
+    Aabb, Aabbs, AccelSizes, BuildInput, BuildOptions, BuildPreference, GeometryFlags, Indices, InstanceFlags,
+    Triangles,
+};
 pub use gas::{Compaction, Gas, GasBuilder};
 pub(crate) use ias::HitReach;
-pub use ias::{Ias, IasBuilder, Instance, InstanceFlags};
-pub use input::{Aabb, Aabbs, BuildInput, GeometryFlags, Indices, Triangles};
-pub use options::{AccelSizes, BuildOptions, BuildPreference};
+pub use ias::{Ias, IasBuilder, Instance};
 pub use pending::PendingBuild;

@@ -16,8 +16,8 @@ use obvhs::cwbvh::CwBvh;
 use obvhs::BvhBuildParams;
 use raykit_device::Matrix4x3;
 
-use crate::accel::input::{GeometryFlags, IndexKind};
-use crate::accel::{BuildInput, InstanceFlags};
+use crate::types::accel::{BuildInput, InstanceFlags};
+use crate::types::accel::{GeometryFlags, IndexKind};
 
 /// One triangle as the intersection test wants it: a vertex and two edges.
 #[derive(Copy, Clone, Debug)]
@@ -324,9 +324,9 @@ impl CpuGas {
 pub(crate) fn build_gas(
     ctx: &Arc<super::CpuContext>,
     inputs: &[BuildInput<'_>],
-    options: crate::accel::BuildOptions,
+    options: crate::types::accel::BuildOptions,
 ) -> crate::Result<crate::Gas> {
-    let shapes = crate::accel::input::validate(inputs, &super::LIMITS, options.allow_update)?;
+    let shapes = crate::validate::accel::validate(inputs, &super::LIMITS, options.allow_update)?;
     let data = GasData::build(inputs);
     let size = data.size();
     let gas = CpuGas { ctx: ctx.clone(), data: std::sync::Mutex::new(Arc::new(data)), version: Default::default() };

@@ -85,10 +85,10 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
-use crate::context::{ContextOptions, DeviceLimits};
 use crate::error::{Error, Result};
 use crate::handles::LiveIas;
 use crate::log::MessageLog;
+use crate::types::context::{ContextOptions, DeviceLimits};
 
 /// The invocations of one launch tile: 8 × 8.
 pub(crate) const TILE: u32 = 8;

@@ -18,7 +18,7 @@ use obvhs::cwbvh::CwBvh;
 
 use super::accel::{GasData, Geometry, SceneData, SceneInstance};
 use super::simd::{child_mask, quantized};
-use crate::accel::{GeometryFlags, InstanceFlags};
+use crate::types::accel::{GeometryFlags, InstanceFlags};
 
 /// Rays in a packet: one AVX2 register of `f32` lanes per eight.
 pub(crate) const WIDTH: usize = 16;

@@ -7,7 +7,7 @@ use raykit_device::cpu::{CpuProgram, TypeInfo};
 
 use super::CpuContext;
 use crate::error::{Error, Result};
-use crate::program_group::GroupKind;
+use crate::types::group::GroupKind;
 
 /// One program of a group: what runs and its name for errors.
 #[derive(Copy, Clone, Debug)]

@@ -33,7 +33,7 @@ use glam::{Vec2, Vec4};
 
 use super::slots::{SlotTable, SlotValue};
 use crate::error::Error;
-use crate::texture::{AddressMode, Filter, MipLevel, SamplerOptions, TextureFormat};
+use crate::types::texture::{AddressMode, Filter, MipLevel, SamplerOptions, TextureFormat};
 
 const SLOTS: u32 = raykit_abi::TEXTURE_TABLE_SLOTS;
 
@@ -61,7 +61,7 @@ pub(crate) struct CpuTexture {
 
 impl CpuTexture {
     /// A texture of `levels`, already checked: at least one, each of the size
-    /// [`crate::texture::mip_size`] gives, with `width × height ×
+    /// [`crate::types::texture::mip_size`] gives, with `width × height ×
     /// bytes_per_texel` bytes.
     pub(crate) fn new(format: TextureFormat, levels: Vec<MipLevel>, options: SamplerOptions) -> CpuTexture {
         CpuTexture { format, options, levels }

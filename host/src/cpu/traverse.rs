@@ -28,7 +28,7 @@ use super::intersect::{intersect_node, intersect_triangle};
 use super::launch::LaunchJob;
 use super::program::ATTRIBUTE_BYTES;
 use super::runtime::{fault, AnyHitEnd, Frame};
-use crate::accel::InstanceFlags;
+use crate::types::accel::InstanceFlags;
 
 /// `SpvRayFlags…KHR` bits.
 pub(super) mod ray_flags {

@@ -169,7 +169,11 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
 /// Checks a launch's `dims` against the device's limits: every dimension at
 /// least 1, at most `invocation limit` invocations in all, and each dimension
 /// within `dimension_limits`.
-fn check_dimensions(dims: [u32; 3], limits: &crate::context::DeviceLimits, dimension_limits: [u64; 3]) -> Result<()> {
+fn check_dimensions(
+    dims: [u32; 3],
+    limits: &crate::types::context::DeviceLimits,
+    dimension_limits: [u64; 3],
+) -> Result<()> {
     if dims.contains(&0) {
         return Err(Error::LaunchDimensions { dims, reason: "every dimension must be at least 1".to_owned() });
     }

@@ -26,7 +26,7 @@
 pub mod launch;
 pub mod library;
 pub mod raw;
-mod specialization;
+
 pub mod timing;
 
 use std::fmt;
@@ -41,19 +41,11 @@ use crate::context::Context;
 use crate::error::{Error, Result, UserException};
 use crate::program_group::{GroupKind, ProgramGroup};
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
-pub(crate) use crate::vulkan::pipeline::link::PipelineInner;
+pub use crate::types::program::params_delivery;
+pub use crate::types::specialization::Specialization;
+use crate::vulkan::pipeline::link::PipelineInner;
 use crate::vulkan::pipeline::shader_groups::{check_groups, LinkedGroup};
 use library::{LibraryInner, PipelineLibrary};
-pub use specialization::Specialization;
-
-/// How raykit delivers params of type `P`.
-pub fn params_delivery<P: LaunchParams>() -> ParamsDelivery {
-    if raykit_device::uses_push_constants::<P>() {
-        ParamsDelivery::PushConstants
-    } else {
-        ParamsDelivery::UniformBuffer { set: raykit_device::PARAMS_SET, binding: raykit_device::PARAMS_BINDING }
-    }
-}
 
 /// What the groups of a launchable pipeline must have: a raygen group, and at
 /// most one exception group.

@@ -8,8 +8,6 @@
 //! [`VkRayTracingShaderGroupCreateInfoKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkRayTracingShaderGroupCreateInfoKHR.html)
 //! when a [`crate::Pipeline`] is linked.
 
-pub mod kind;
-
 use std::ffi::CString;
 use std::fmt;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -18,8 +16,9 @@ use std::sync::Arc;
 use raykit_device::{EntryPoint, ProgramKind};
 
 use crate::error::{Error, Result};
-use crate::module::{Module, ModuleInner};
-pub use kind::GroupKind;
+use crate::module::Module;
+pub use crate::types::group::GroupKind;
+use crate::vulkan::module::ModuleInner;
 
 /// Names an entry point: a macro-generated [`EntryPoint`] constant (preferred) or
 /// a name such as `"main"`.
@@ -87,7 +86,7 @@ pub(crate) struct Program {
 
 impl Program {
     /// What reflection found for this program's entry point.
-    pub(crate) fn entry_info(&self) -> Option<&crate::module::EntryPointInfo> {
+    pub(crate) fn entry_info(&self) -> Option<&crate::types::program::EntryPointInfo> {
         let name = self.name.to_str().ok()?;
         self.module()?.entry_points.iter().find(|e| e.name == name)
     }

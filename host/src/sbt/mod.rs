@@ -17,22 +17,19 @@
 //! Handles in records of plain `Pod` types, and handles stored inside buffers,
 //! reach the device unchecked.
 
-pub mod region;
-
 use std::collections::BTreeMap;
 use std::fmt;
 use std::sync::Arc;
 
 use ash::vk;
 
-use crate::context::DeviceLimits;
 use crate::error::{Error, Result};
 use crate::handles::HandleField;
 use crate::pipeline::{Pipeline, PipelineRepr};
 use crate::program_group::{GroupKind, ProgramGroup};
+pub use crate::types::sbt::{region_layout, RegionLayout, SbtRegion};
 use crate::vulkan::sbt::VulkanSbt;
 use raykit_device::{RayType, SbtRecordData};
-pub use region::SbtRegion;
 
 /// One SBT record before packing: a group and its data.
 #[derive(Debug)]
@@ -81,37 +78,6 @@ struct DataType {
 impl DataType {
     fn of<T: 'static>() -> DataType {
         DataType { id: std::any::TypeId::of::<T>(), name: std::any::type_name::<T>() }
-    }
-}
-
-/// Byte layout of one region.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub struct RegionLayout {
-    /// Offset of the region from the start of the SBT buffer.
-    pub offset: u64,
-    /// Distance between consecutive records.
-    pub stride: u64,
-    /// Size of the region.
-    pub size: u64,
-}
-
-/// Computes a region's layout for records with the largest data `max_data`,
-/// starting at or after `start`. Pure, so it is unit-tested.
-pub fn region_layout(limits: &DeviceLimits, start: u64, count: usize, max_data: usize) -> RegionLayout {
-    if count == 0 {
-        return RegionLayout { offset: start, stride: 0, size: 0 };
-    }
-    let stride =
-        align_up(limits.shader_group_handle_size as u64 + max_data as u64, limits.shader_group_handle_alignment as u64);
-    let offset = align_up(start, limits.shader_group_base_alignment as u64);
-    RegionLayout { offset, stride, size: stride * count as u64 }
-}
-
-fn align_up(x: u64, a: u64) -> u64 {
-    if a <= 1 {
-        x
-    } else {
-        x.div_ceil(a) * a
     }
 }
 

@@ -20,6 +20,7 @@
 //! (geometries − 1) × stride + offset must be below the hit record count
 //! ([`Error::SbtTooSmallForScene`]).
 
+pub(crate) mod accel;
 pub(crate) mod scene;
 pub mod spirv;
 
@@ -28,7 +29,7 @@ use raykit_spirv::{DescriptorBinding, DescriptorKind, ParamsDelivery};
 
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
-use crate::sbt::SbtRegion;
+use crate::types::sbt::SbtRegion;
 
 /// Vulkan uses the low 16 bits of a trace's `missIndex`: the miss region holds at
 /// most this many records a trace can select.

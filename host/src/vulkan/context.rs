@@ -8,10 +8,10 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use ash::vk;
 
-use crate::context::{ContextOptions, DeviceLimits, MemoryUsage};
 use crate::error::{Error, Result};
 use crate::handles::LiveTraversables;
 use crate::log::MessageLog;
+use crate::types::context::{ContextOptions, DeviceLimits, MemoryUsage};
 use crate::vulkan::buffer_table::BufferTable;
 use crate::vulkan::cache::{CacheKey, DiskCache};
 use crate::vulkan::device_registry::{SharedDevice, SharedInstance};
@@ -87,7 +87,7 @@ pub(crate) fn device_indices(options: &ContextOptions) -> Result<Vec<usize>> {
 pub(crate) fn create(options: &ContextOptions) -> Result<Arc<ContextInner>> {
     let validation = validation(options);
     let instance = crate::vulkan::device_registry::instance(validation)?;
-    let id = crate::context::next_context_id();
+    let id = crate::types::context::next_context_id();
     let log = MessageLog::with_callback(options.log_callback.clone());
     // Routed before the device is made, so messages of its creation reach the log.
     instance.routes.add(id, log.clone());

@@ -9,9 +9,9 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use ash::vk;
 
-use crate::context::DeviceLimits;
 use crate::error::{DeviceReport, Error, Result};
 use crate::log::Routes;
+use crate::types::context::DeviceLimits;
 use crate::vulkan::messenger::debug_callback;
 
 /// Device extensions raykit needs.

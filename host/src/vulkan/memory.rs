@@ -8,9 +8,9 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
 use crate::vulkan::barrier::memory_barrier;
+use crate::vulkan::context::ContextInner;
 use crate::vulkan::context::Submission;
 use crate::vulkan::timeline::Retired;
 

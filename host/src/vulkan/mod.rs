@@ -54,6 +54,7 @@ pub(crate) mod barrier;
 pub(crate) mod buffer_table;
 pub(crate) mod cache;
 pub(crate) mod context;
+pub(crate) mod conv;
 pub(crate) mod device_registry;
 pub(crate) mod driver_lock;
 pub(crate) mod memory;

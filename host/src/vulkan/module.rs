@@ -5,9 +5,9 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
-use crate::module::EntryPointInfo;
+use crate::types::program::EntryPointInfo;
+use crate::vulkan::context::ContextInner;
 
 /// A SPIR-V module on a Vulkan device: its shader module, entry points and words.
 pub(crate) struct ModuleInner {
@@ -56,7 +56,7 @@ mod tests {
     use ash::vk;
     use rspirv::spirv::ExecutionModel;
 
-    use crate::module::kind_of;
+    use crate::types::program::kind_of;
 
     /// raykit-abi types its numbers in (it has no dependencies): they must be
     /// rspirv's execution models and ash's shader stages.

@@ -8,9 +8,9 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::error::{Error, Result};
-use crate::pipeline::PipelineInner;
-use crate::sbt::{RegionLayout, SbtRegion};
+use crate::types::sbt::{RegionLayout, SbtRegion};
 use crate::vulkan::memory::RawBuffer;
+use crate::vulkan::pipeline::link::PipelineInner;
 
 /// An SBT's records in a Vulkan buffer, and its regions' device addresses.
 pub(crate) struct VulkanSbt {

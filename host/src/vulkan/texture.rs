@@ -8,9 +8,10 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
-use crate::texture::{AddressMode, Filter, MipLevel, SamplerOptions, TextureFormat};
+use crate::types::texture::{Filter, MipLevel, SamplerOptions, TextureFormat};
+use crate::vulkan::context::ContextInner;
+use crate::vulkan::conv;
 use crate::vulkan::memory::RawBuffer;
 use crate::vulkan::timeline::Retired;
 
@@ -55,7 +56,7 @@ pub(crate) fn max_texture_size(inner: &ContextInner) -> u32 {
 pub(crate) fn check_format(inner: &ContextInner, format: TextureFormat, sampler: SamplerOptions) -> Result<()> {
     // SAFETY: the physical device belongs to this instance.
     let props =
-        unsafe { inner.instance.get_physical_device_format_properties(inner.shared.physical, format.vk_format()) };
+        unsafe { inner.instance.get_physical_device_format_properties(inner.shared.physical, conv::format(format)) };
     let features = props.optimal_tiling_features;
     let needed = vk::FormatFeatureFlags::SAMPLED_IMAGE | vk::FormatFeatureFlags::TRANSFER_DST;
     if !features.contains(needed) {
@@ -74,21 +75,6 @@ pub(crate) fn check_format(inner: &ContextInner, format: TextureFormat, sampler:
         });
     }
     Ok(())
-}
-
-fn vk_filter(f: Filter) -> vk::Filter {
-    match f {
-        Filter::Nearest => vk::Filter::NEAREST,
-        Filter::Linear => vk::Filter::LINEAR,
-    }
-}
-
-fn vk_address(a: AddressMode) -> vk::SamplerAddressMode {
-    match a {
-        AddressMode::Repeat => vk::SamplerAddressMode::REPEAT,
-        AddressMode::ClampToEdge => vk::SamplerAddressMode::CLAMP_TO_EDGE,
-        AddressMode::MirroredRepeat => vk::SamplerAddressMode::MIRRORED_REPEAT,
-    }
 }
 
 /// Creates the Vulkan image, uploads `levels` (checked), makes the view and
@@ -113,7 +99,7 @@ pub(crate) fn create(
     };
     let info = vk::ImageCreateInfo::default()
         .image_type(vk::ImageType::TYPE_2D)
-        .format(format.vk_format())
+        .format(conv::format(format))
         .extent(vk::Extent3D { width, height, depth: 1 })
         .mip_levels(level_count)
         .array_layers(1)
@@ -240,19 +226,19 @@ pub(crate) fn create(
     let view_info = vk::ImageViewCreateInfo::default()
         .image(texture.image)
         .view_type(vk::ImageViewType::TYPE_2D)
-        .format(format.vk_format())
+        .format(conv::format(format))
         .subresource_range(range);
     // SAFETY: a live, bound image with this format and range.
     texture.view = unsafe { device.create_image_view(&view_info, None) }.map_err(Error::vk("vkCreateImageView"))?;
     let sampler_info = vk::SamplerCreateInfo::default()
-        .mag_filter(vk_filter(options.filter))
-        .min_filter(vk_filter(options.filter))
+        .mag_filter(conv::filter(options.filter))
+        .min_filter(conv::filter(options.filter))
         .mipmap_mode(match options.mip_filter {
             Filter::Nearest => vk::SamplerMipmapMode::NEAREST,
             Filter::Linear => vk::SamplerMipmapMode::LINEAR,
         })
-        .address_mode_u(vk_address(options.address_u))
-        .address_mode_v(vk_address(options.address_v))
+        .address_mode_u(conv::address_mode(options.address_u))
+        .address_mode_v(conv::address_mode(options.address_v))
         .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
         .min_lod(0.0)
         .max_lod(level_count as f32);

@@ -25,8 +25,8 @@ use std::sync::{Mutex, MutexGuard};
 use ash::vk;
 use gpu_allocator::vulkan::Allocation;
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
+use crate::vulkan::context::ContextInner;
 
 /// A Vulkan object (or a bindless slot) whose owner was dropped, waiting for the
 /// epoch after which no pending work can use it.

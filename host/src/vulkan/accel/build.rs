@@ -9,12 +9,14 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use crate::accel::input::{BuildInput, Shape};
-use crate::accel::AccelSizes;
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
+use crate::types::accel::transform_rows;
+use crate::types::accel::AccelSizes;
+use crate::types::accel::{BuildInput, Shape};
 use crate::vulkan::barrier::memory_barrier;
+use crate::vulkan::context::ContextInner;
 use crate::vulkan::context::Submission;
+use crate::vulkan::conv;
 use crate::vulkan::memory::RawBuffer;
 
 /// A geometry whose data is on the device: what `VkAccelerationStructureGeometryKHR` needs.
@@ -155,7 +157,7 @@ pub(crate) fn upload_gas_inputs<'a>(
                     packer.push(bytemuck::cast_slice::<f32, u8>(&rows).to_vec(), 16)
                 });
                 let index_type = match shape {
-                    Shape::Triangles { index, .. } => index.vk(),
+                    Shape::Triangles { index, .. } => conv::index_type(*index),
                     Shape::Aabbs { .. } => vk::IndexType::NONE_KHR,
                 };
                 pending.push(Pending::Triangles {
@@ -165,13 +167,13 @@ pub(crate) fn upload_gas_inputs<'a>(
                     index_type,
                     indices,
                     transform,
-                    flags: t.flags.vk(),
+                    flags: conv::geometry_flags(t.flags),
                 });
             }
             BuildInput::Aabbs(a) => {
                 let used = ((a.count as u64 - 1) * a.stride + 24) as usize;
                 let data = packer.push(&a.bytes[..used], 16);
-                pending.push(Pending::Aabbs { data, stride: a.stride, flags: a.flags.vk() });
+                pending.push(Pending::Aabbs { data, stride: a.stride, flags: conv::geometry_flags(a.flags) });
             }
         }
     }
@@ -195,12 +197,6 @@ pub(crate) fn upload_gas_inputs<'a>(
         })
         .collect();
     Ok((buffer, geometries))
-}
-
-/// A 3×4 row-major matrix (`VkTransformMatrixKHR`) from an affine transform.
-pub(crate) fn transform_rows(m: &glam::Affine3A) -> [f32; 12] {
-    let (x, y, z, t) = (m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis, m.translation);
-    [x.x, y.x, z.x, t.x, x.y, y.y, z.y, t.y, x.z, y.z, z.z, t.z]
 }
 
 /// Queries the sizes a build of `geometries` needs.

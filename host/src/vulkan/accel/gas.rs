@@ -5,12 +5,13 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::accel::input::{BuildInput, Shape};
-use crate::accel::{AccelSizes, BuildOptions};
-use crate::context::ContextInner;
 use crate::error::Result;
+use crate::types::accel::{AccelSizes, BuildOptions};
+use crate::types::accel::{BuildInput, Shape};
 use crate::vulkan::accel::build::{self, Geometry, Job};
 use crate::vulkan::accel::structure::AccelStructure;
+use crate::vulkan::context::ContextInner;
+use crate::vulkan::conv;
 use crate::vulkan::memory::RawBuffer;
 
 const BOTTOM: vk::AccelerationStructureTypeKHR = vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL;
@@ -33,7 +34,7 @@ fn prepare(
 ) -> Result<Prepared> {
     let counts: Vec<u32> = shapes.iter().map(Shape::primitives).collect();
     let (input_buffer, geometries) = build::upload_gas_inputs(ctx, inputs, &shapes)?;
-    let sizes = build::query_sizes(ctx, BOTTOM, options.vk_flags(), &geometries, &counts);
+    let sizes = build::query_sizes(ctx, BOTTOM, conv::build_flags(options), &geometries, &counts);
     Ok(Prepared { shapes, counts, input_buffer, geometries, sizes })
 }
 
@@ -49,7 +50,7 @@ pub(crate) fn sizes(
     // The size query ignores addresses (only a transform's presence counts):
     // describe the geometry without uploading it.
     let geometries: Vec<Geometry> = inputs.iter().zip(shapes).map(|(i, s)| describe(i, s)).collect();
-    build::query_sizes(ctx, BOTTOM, options.vk_flags(), &geometries, &counts)
+    build::query_sizes(ctx, BOTTOM, conv::build_flags(options), &geometries, &counts)
 }
 
 /// A geometry as the size query sees it: formats, counts and strides, no data.
@@ -60,14 +61,14 @@ fn describe(input: &BuildInput<'_>, shape: &Shape) -> Geometry {
             stride: t.stride,
             max_vertex: t.vertex_count.saturating_sub(1) as u32,
             index_type: match shape {
-                Shape::Triangles { index, .. } => index.vk(),
+                Shape::Triangles { index, .. } => conv::index_type(*index),
                 Shape::Aabbs { .. } => vk::IndexType::NONE_KHR,
             },
             indices: 0,
             transform: u64::from(t.transform.is_some()),
-            flags: t.flags.vk(),
+            flags: conv::geometry_flags(t.flags),
         },
-        BuildInput::Aabbs(a) => Geometry::Aabbs { data: 0, stride: a.stride, flags: a.flags.vk() },
+        BuildInput::Aabbs(a) => Geometry::Aabbs { data: 0, stride: a.stride, flags: conv::geometry_flags(a.flags) },
     }
 }
 
@@ -91,7 +92,7 @@ pub(crate) fn submit<'i, 'a: 'i>(
         let accel = AccelStructure::new(ctx, BOTTOM, p.sizes.structure)?;
         jobs.push(Job {
             ty: BOTTOM,
-            flags: options.vk_flags(),
+            flags: conv::build_flags(options),
             update_from: None,
             dst: accel.handle,
             geometries: p.geometries,
@@ -117,7 +118,7 @@ pub(crate) fn refit(
     let p = prepare(ctx, inputs, shapes, options)?;
     let job = Job {
         ty: BOTTOM,
-        flags: options.vk_flags(),
+        flags: conv::build_flags(options),
         update_from: Some(accel.handle),
         dst: accel.handle,
         geometries: p.geometries,

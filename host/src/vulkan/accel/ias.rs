@@ -5,41 +5,25 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::accel::gas::GasAccel;
-use crate::accel::Instance;
-use crate::accel::{AccelSizes, BuildOptions};
-use crate::context::ContextInner;
+use super::build::{self, Geometry, InputPacker, Job};
+use super::structure::AccelStructure;
 use crate::error::Result;
-use crate::vulkan::accel::build::{self, Geometry, InputPacker, Job};
-use crate::vulkan::accel::structure::AccelStructure;
+use crate::types::accel::{AccelSizes, BuildOptions, InstancePlacement};
+use crate::vulkan::context::ContextInner;
+use crate::vulkan::conv;
 
 const TOP: vk::AccelerationStructureTypeKHR = vk::AccelerationStructureTypeKHR::TOP_LEVEL;
 
-/// `VK_GEOMETRY_INSTANCE_TRIANGLE_FACING_CULL_DISABLE_BIT_KHR`, as [`crate::InstanceFlags`] holds it.
-pub(crate) const TRIANGLE_FACING_CULL_DISABLE: u8 =
-    vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE.as_raw() as u8;
-/// `VK_GEOMETRY_INSTANCE_TRIANGLE_FLIP_FACING_BIT_KHR`.
-pub(crate) const TRIANGLE_FLIP_FACING: u8 = vk::GeometryInstanceFlagsKHR::TRIANGLE_FLIP_FACING.as_raw() as u8;
-/// `VK_GEOMETRY_INSTANCE_FORCE_OPAQUE_BIT_KHR`.
-pub(crate) const FORCE_OPAQUE: u8 = vk::GeometryInstanceFlagsKHR::FORCE_OPAQUE.as_raw() as u8;
-/// `VK_GEOMETRY_INSTANCE_FORCE_NO_OPAQUE_BIT_KHR`.
-pub(crate) const FORCE_NO_OPAQUE: u8 = vk::GeometryInstanceFlagsKHR::FORCE_NO_OPAQUE.as_raw() as u8;
-
-/// The device record of `instance` (checked).
-fn record(instance: &Instance) -> vk::AccelerationStructureInstanceKHR {
+/// The device record of an instance placing the GAS at device address `gas`.
+fn record(&(placement, gas): &(InstancePlacement, u64)) -> vk::AccelerationStructureInstanceKHR {
     vk::AccelerationStructureInstanceKHR {
-        transform: vk::TransformMatrixKHR { matrix: instance.transform },
-        instance_custom_index_and_mask: vk::Packed24_8::new(instance.custom_index, instance.mask),
+        transform: vk::TransformMatrixKHR { matrix: placement.transform },
+        instance_custom_index_and_mask: vk::Packed24_8::new(placement.custom_index, placement.mask),
         instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
-            instance.sbt_offset,
-            instance.flags.0,
+            placement.sbt_offset,
+            conv::instance_flags(placement.flags),
         ),
-        acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
-            device_handle: match &instance.accel {
-                GasAccel::Vulkan(accel) => accel.address,
-                GasAccel::Cpu(_) => 0,
-            },
-        },
+        acceleration_structure_reference: vk::AccelerationStructureReferenceKHR { device_handle: gas },
     }
 }
 
@@ -62,17 +46,17 @@ fn upload(
 /// submits its build; returns the structure, its sizes and the work in flight.
 pub(crate) fn submit(
     inner: &Arc<ContextInner>,
-    instances: &[Instance],
+    instances: &[(InstancePlacement, u64)],
     options: BuildOptions,
 ) -> Result<(AccelStructure, AccelSizes, build::InFlight)> {
     let records: Vec<_> = instances.iter().map(record).collect();
     let (buffer, geometry) = upload(inner, &records)?;
     let counts = [records.len() as u32];
-    let sizes = build::query_sizes(inner, TOP, options.vk_flags(), &[geometry], &counts);
+    let sizes = build::query_sizes(inner, TOP, conv::build_flags(options), &[geometry], &counts);
     let accel = AccelStructure::new(inner, TOP, sizes.structure)?;
     let job = Job {
         ty: TOP,
-        flags: options.vk_flags(),
+        flags: conv::build_flags(options),
         update_from: None,
         dst: accel.handle,
         geometries: vec![geometry],
@@ -85,15 +69,19 @@ pub(crate) fn submit(
 }
 
 /// Refits `accel` in place to validated `instances` (as many as it was built over) and waits.
-pub(crate) fn refit(accel: &AccelStructure, instances: &[Instance], options: BuildOptions) -> Result<()> {
+pub(crate) fn refit(
+    accel: &AccelStructure,
+    instances: &[(InstancePlacement, u64)],
+    options: BuildOptions,
+) -> Result<()> {
     let (ctx, handle) = (&accel.ctx, accel.handle);
     let records: Vec<_> = instances.iter().map(record).collect();
     let (buffer, geometry) = upload(ctx, &records)?;
     let counts = [records.len() as u32];
-    let sizes = build::query_sizes(ctx, TOP, options.vk_flags(), &[geometry], &counts);
+    let sizes = build::query_sizes(ctx, TOP, conv::build_flags(options), &[geometry], &counts);
     let job = Job {
         ty: TOP,
-        flags: options.vk_flags(),
+        flags: conv::build_flags(options),
         update_from: Some(handle),
         dst: handle,
         geometries: vec![geometry],

@@ -7,9 +7,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::accel::input::IndexKind;
-use crate::accel::{BuildOptions, BuildPreference, GeometryFlags};
-use crate::context::ContextInner;
+use crate::vulkan::context::ContextInner;
 use crate::vulkan::memory::RawBuffer;
 
 /// An acceleration structure with its storage; destroyed on drop.
@@ -54,45 +52,5 @@ impl Drop for AccelStructure {
         // after this, waits for the same epoch). Instances that reference it hold
         // an `Arc` to it.
         self.ctx.retire(crate::vulkan::timeline::Retired::Accel(self.handle));
-    }
-}
-
-impl BuildOptions {
-    pub(crate) fn vk_flags(self) -> vk::BuildAccelerationStructureFlagsKHR {
-        type F = vk::BuildAccelerationStructureFlagsKHR;
-        let mut flags = match self.preference {
-            BuildPreference::FastTrace => F::PREFER_FAST_TRACE,
-            BuildPreference::FastBuild => F::PREFER_FAST_BUILD,
-            BuildPreference::Neither => F::empty(),
-        };
-        if self.allow_update {
-            flags |= F::ALLOW_UPDATE;
-        }
-        if self.allow_compaction {
-            flags |= F::ALLOW_COMPACTION;
-        }
-        flags
-    }
-}
-
-/// `VK_GEOMETRY_OPAQUE_BIT_KHR`, as [`GeometryFlags`] holds it.
-pub(crate) const GEOMETRY_OPAQUE: u32 = vk::GeometryFlagsKHR::OPAQUE.as_raw();
-/// `VK_GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION_BIT_KHR`, as [`GeometryFlags`] holds it.
-pub(crate) const GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION: u32 =
-    vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION.as_raw();
-
-impl GeometryFlags {
-    pub(crate) fn vk(self) -> vk::GeometryFlagsKHR {
-        vk::GeometryFlagsKHR::from_raw(self.0)
-    }
-}
-
-impl IndexKind {
-    pub(crate) fn vk(self) -> vk::IndexType {
-        match self {
-            IndexKind::None => vk::IndexType::NONE_KHR,
-            IndexKind::U16 => vk::IndexType::UINT16,
-            IndexKind::U32 => vk::IndexType::UINT32,
-        }
     }
 }

@@ -5,10 +5,10 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::context::ContextInner;
 use crate::error::{Result, UserException};
 use crate::program_group::ProgramGroup;
 use crate::vulkan::buffer_table::SlotReuse;
+use crate::vulkan::context::ContextInner;
 use crate::vulkan::memory::RawBuffer;
 
 /// A user-exception buffer: a device buffer in the bindless table, one per set of

@@ -6,9 +6,9 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
 use crate::log::ValidationMessage;
+use crate::vulkan::context::ContextInner;
 
 /// A created ray-tracing pipeline (or library), with what the validation layer
 /// reported while it was created.

@@ -11,10 +11,10 @@ use ash::vk;
 use raykit_device::LaunchParams;
 use raykit_spirv::ParamsDelivery;
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
-use crate::pipeline::params_delivery;
+use crate::types::program::params_delivery;
 use crate::vulkan::buffer_table::RT_STAGES;
+use crate::vulkan::context::ContextInner;
 use crate::vulkan::memory::RawBuffer;
 
 /// The set layout of the params uniform buffer (set 1). Its one owner is the

@@ -9,11 +9,11 @@ use ash::vk;
 use raykit_device::LaunchParams;
 use raykit_spirv::InterfaceSizes;
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
-use crate::pipeline::{params_delivery, Specialization};
 use crate::program_group::ProgramGroup;
 use crate::stack;
+use crate::types::{program::params_delivery, specialization::Specialization};
+use crate::vulkan::context::ContextInner;
 use crate::vulkan::memory::RawBuffer;
 use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
 use crate::vulkan::pipeline::handle::PipelineHandle;

@@ -8,13 +8,13 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::{Error, Result};
-use crate::pipeline::PipelineInner;
 use crate::sbt::{Sbt, SbtDevice};
 use crate::vulkan::barrier::memory_barrier;
 use crate::vulkan::buffer_table::RT_STAGES;
 use crate::vulkan::context::Submission;
 use crate::vulkan::memory::RawBuffer;
 use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
+use crate::vulkan::pipeline::link::PipelineInner;
 use crate::vulkan::sbt::VulkanSbt;
 
 /// A launch submitted to a Vulkan queue.

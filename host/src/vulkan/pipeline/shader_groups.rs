@@ -7,14 +7,15 @@
 use std::sync::Arc;
 
 use ash::vk;
-use raykit_device::{LaunchParams, ProgramKind};
+use raykit_device::LaunchParams;
 use raykit_spirv::ParamsDelivery;
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
-use crate::pipeline::{params_delivery, Specialization};
 use crate::program_group::{GroupKind, GroupPrograms, Program, ProgramGroup};
 use crate::stack::{GroupRole, GroupStackSizes};
+use crate::types::{program::params_delivery, specialization::Specialization};
+use crate::vulkan::context::ContextInner;
+use crate::vulkan::conv;
 
 /// The shader stages and groups of a set of program groups compiled together,
 /// with the specialization every stage gets: the exception buffer's slot, the
@@ -119,7 +120,7 @@ impl ShaderGroups {
             .iter()
             .map(|p| {
                 vk::PipelineShaderStageCreateInfo::default()
-                    .stage(stage_flag(p.kind))
+                    .stage(conv::stage(p.kind))
                     .module(p.module().map_or(vk::ShaderModule::null(), |m| m.shader))
                     .name(&p.name)
                     .specialization_info(specialization)
@@ -246,8 +247,4 @@ fn query_group_stack_sizes(
             intersection: if intersection.is_some() { query(vk::ShaderGroupShaderKHR::INTERSECTION) } else { 0 },
         },
     }
-}
-
-fn stage_flag(kind: ProgramKind) -> vk::ShaderStageFlags {
-    vk::ShaderStageFlags::from_raw(kind.vulkan_stage())
 }

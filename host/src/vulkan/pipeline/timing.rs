@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::context::ContextInner;
 use crate::error::{Error, Result};
+use crate::vulkan::context::ContextInner;
 
 /// A timestamp query pool of two queries: written before and after a trace.
 pub(crate) struct TimestampPool {

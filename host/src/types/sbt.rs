@@ -2,7 +2,8 @@
 
 use std::fmt;
 
-use crate::program_group::kind::GroupKind;
+use crate::types::context::DeviceLimits;
+use crate::types::group::GroupKind;
 
 /// An SBT region: where [`SbtBuilder`](crate::SbtBuilder) places records, and what
 /// [`Sbt::update`](crate::Sbt::update) and errors name.
@@ -68,5 +69,35 @@ mod tests {
             names,
             [(0, "raygen".to_owned()), (1, "miss".to_owned()), (2, "hit".to_owned()), (3, "callable".to_owned())]
         );
+    }
+}
+/// Byte layout of one region.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct RegionLayout {
+    /// Offset of the region from the start of the SBT buffer.
+    pub offset: u64,
+    /// Distance between consecutive records.
+    pub stride: u64,
+    /// Size of the region.
+    pub size: u64,
+}
+
+/// Computes a region's layout for records with the largest data `max_data`,
+/// starting at or after `start`. Pure, so it is unit-tested.
+pub fn region_layout(limits: &DeviceLimits, start: u64, count: usize, max_data: usize) -> RegionLayout {
+    if count == 0 {
+        return RegionLayout { offset: start, stride: 0, size: 0 };
+    }
+    let stride =
+        align_up(limits.shader_group_handle_size as u64 + max_data as u64, limits.shader_group_handle_alignment as u64);
+    let offset = align_up(start, limits.shader_group_base_alignment as u64);
+    RegionLayout { offset, stride, size: stride * count as u64 }
+}
+
+fn align_up(x: u64, a: u64) -> u64 {
+    if a <= 1 {
+        x
+    } else {
+        x.div_ceil(a) * a
     }
 }
