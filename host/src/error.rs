@@ -977,3 +977,24 @@ mod tests {
         assert!(!text.contains("robustness2"), "{text}");
     }
 }
+
+/// The error of a launch whose programs threw `total` exceptions, `recorded` of
+/// them recorded, in a pipeline linked with `max_trace_depth`: the traces refused
+/// past the depth ([`Error::RecursionTooDeep`]) if any were recorded, otherwise
+/// the user exceptions ([`Error::UserExceptions`]).
+pub(crate) fn exceptions_error(total: u32, recorded: Vec<UserException>, max_trace_depth: u32) -> Error {
+    use raykit_device::exception::TRACE_DEPTH_EXCEEDED;
+    let (refused, user): (Vec<UserException>, Vec<UserException>) =
+        recorded.into_iter().partition(|e| e.code == TRACE_DEPTH_EXCEEDED);
+    if refused.is_empty() {
+        return Error::UserExceptions { total, exceptions: user };
+    }
+    Error::RecursionTooDeep {
+        max_trace_depth,
+        depth: max_trace_depth.saturating_add(1),
+        refused: refused.len(),
+        launch_indices: refused.iter().map(|e| e.launch_index).collect(),
+        user_exceptions: user,
+        total,
+    }
+}

@@ -12,7 +12,7 @@ pub mod device_group;
 pub mod error;
 #[cfg(feature = "fault-injection")]
 pub mod gate;
-pub mod handles;
+pub use validate::handles;
 pub mod log;
 pub mod memory;
 pub mod module;

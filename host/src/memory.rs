@@ -24,7 +24,7 @@ pub struct DeviceBuffer<T: Element> {
     storage: Storage,
     slot: u32,
     /// The handle's value: the slot, and the generation that tells this buffer
-    /// from earlier and later ones in the slot (see [`crate::handles`]).
+    /// from earlier and later ones in the slot (see [`crate::validate::handles`]).
     handle: u32,
     len: usize,
     _element: PhantomData<T>,

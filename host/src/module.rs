@@ -511,6 +511,7 @@ pub fn spirv_candidates(crate_name: &str) -> Vec<PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rspirv::spirv::ExecutionModel;
 
     const OP_ENTRY_POINT: u32 = Op::EntryPoint as u32;
 

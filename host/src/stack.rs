@@ -601,6 +601,12 @@ pub enum StackSize<'g> {
     Explicit(u32),
 }
 
+/// A stack size as `vkCmdSetRayTracingPipelineStackSizeKHR` takes it.
+pub(crate) fn stack_bytes(bytes: u64) -> Result<u32> {
+    u32::try_from(bytes)
+        .map_err(|_| Error::StackSize { reason: format!("{bytes} bytes do not fit the 32 bits Vulkan takes") })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -49,7 +49,7 @@ pub(crate) enum GasAccel {
 }
 
 impl GasAccel {
-    /// The version every refit bumps (see [`crate::handles`]).
+    /// The version every refit bumps (see [`crate::validate::handles`]).
     pub(crate) fn version(&self) -> &Arc<std::sync::atomic::AtomicU64> {
         match self {
             GasAccel::Vulkan(accel) => &accel.version,

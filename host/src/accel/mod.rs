@@ -64,6 +64,5 @@ pub use crate::types::accel::{
     Triangles,
 };
 pub use gas::{Compaction, Gas, GasBuilder};
-pub(crate) use ias::HitReach;
 pub use ias::{Ias, IasBuilder, Instance};
 pub use pending::PendingBuild;

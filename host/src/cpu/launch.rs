@@ -18,9 +18,10 @@ use super::lanes::{self, LaneYielder};
 use super::packet::{self, Packet};
 use super::program::{Aligned, PipelineData, SbtData};
 use super::runtime::{Fault, Frame};
+use super::CpuLiveness;
 use super::{CpuContext, TILE};
 use crate::error::{Error, Result, UserException};
-use crate::handles::{check_handles, TraversableState};
+use crate::validate::launch::{check_launch, SbtChecks};
 
 /// Everything a launch reads, fixed when it starts.
 pub(crate) struct LaunchJob {
@@ -178,7 +179,7 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
     exceptions.sort_by_key(|e| linear_index(job.dims, e.launch_index));
     let total = u32::try_from(exceptions.len()).unwrap_or(u32::MAX);
     exceptions.truncate(EXCEPTION_CAPACITY as usize);
-    Err(crate::pipeline::exceptions_error(total, exceptions, job.pipeline.max_trace_depth))
+    Err(crate::error::exceptions_error(total, exceptions, job.pipeline.max_trace_depth))
 }
 
 /// The state of one invocation, shared by its nested program calls.
@@ -347,29 +348,20 @@ pub(crate) struct CpuLaunch {
 impl CpuLaunch {
     /// Checks the handles of `params` and of the SBT's checked records against
     /// the context's live objects, and the scenes of `params` against the SBT's
-    /// hit records, as Vulkan launches do (see [`crate::handles`] and
+    /// hit records, as Vulkan launches do (see [`crate::validate::handles`] and
     /// [`crate::validate::scene`]), then starts the launch.
     pub(crate) fn submit<P: raykit_device::LaunchParams>(
         pipeline: &Arc<PipelineData>,
-        sbt: &crate::Sbt,
+        checks: SbtChecks<'_>,
         records: &Arc<SbtData>,
         params: &P,
         dims: [u32; 3],
     ) -> Result<CpuLaunch> {
         let ctx = &pipeline.ctx;
         let params = bytemuck::bytes_of(params);
-        let live = |handle| ctx.buffers.is_live(handle);
-        let texture = |handle| ctx.textures.is_live(handle);
-        let scenes = ctx.scenes();
-        let traversable = |address| scenes.get(&address).map_or(TraversableState::Unknown, |s| s.check.state());
-        check_handles(&pipeline.handle_fields, params, None, live, texture, traversable)?;
-        for record in &sbt.checked {
-            let region = Some((record.region, record.index));
-            check_handles(&record.fields, &record.data, region, live, texture, traversable)?;
-        }
-        let hit_reach = |address| scenes.get(&address).map(|s| s.check.reach.clone());
-        crate::validate::scene::check_scene(hit_reach, &pipeline.handle_fields, params, sbt, &pipeline.reach)?;
-        drop(scenes);
+        let live = CpuLiveness { ctx, scenes: ctx.scenes() };
+        check_launch(&live, &pipeline.handle_fields, params, checks, &pipeline.reach)?;
+        drop(live);
         Ok(CpuLaunch::start(LaunchJob::new(pipeline.clone(), records.clone(), params, dims)))
     }
 

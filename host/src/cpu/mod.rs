@@ -86,9 +86,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
 use crate::error::{Error, Result};
-use crate::handles::LiveIas;
 use crate::log::MessageLog;
 use crate::types::context::{ContextOptions, DeviceLimits};
+use crate::validate::handles::{LiveIas, TraversableState};
+use crate::validate::launch::Liveness;
+use crate::validate::scene::HitReach;
 
 /// The invocations of one launch tile: 8 × 8.
 pub(crate) const TILE: u32 = 8;
@@ -297,4 +299,29 @@ impl Drop for RunningLaunch {
 pub(crate) fn next_scene_address() -> u64 {
     static NEXT: AtomicU64 = AtomicU64::new(1);
     (NEXT.fetch_add(1, Ordering::Relaxed) << 8) | 0x0c00_0000_0000_0000
+}
+
+/// What launch checks see of a CPU context: its buffer and texture tables, and
+/// its scenes under their lock, held from the check until the launch has started.
+pub(crate) struct CpuLiveness<'a> {
+    pub(crate) ctx: &'a CpuContext,
+    pub(crate) scenes: MutexGuard<'a, HashMap<u64, LiveScene>>,
+}
+
+impl Liveness for CpuLiveness<'_> {
+    fn buffer(&self, handle: u32) -> bool {
+        self.ctx.buffers.is_live(handle)
+    }
+
+    fn texture(&self, handle: u32) -> bool {
+        self.ctx.textures.is_live(handle)
+    }
+
+    fn traversable(&self, address: u64) -> TraversableState {
+        self.scenes.get(&address).map_or(TraversableState::Unknown, |s| s.check.state())
+    }
+
+    fn hit_reach(&self, address: u64) -> Option<Arc<HitReach>> {
+        self.scenes.get(&address).map(|s| s.check.reach.clone())
+    }
 }

@@ -55,7 +55,7 @@ pub(crate) struct PipelineData {
     /// The index of the exception group, if there is one.
     pub(crate) exception_group: Option<usize>,
     /// Where the params' handles are, checked by every launch.
-    pub(crate) handle_fields: Vec<crate::handles::HandleField>,
+    pub(crate) handle_fields: Vec<crate::validate::handles::HandleField>,
     /// The SBT records its programs' traces may select, checked against the
     /// scene by every launch (see [`crate::validate::scene`]).
     pub(crate) reach: crate::validate::TraceReach,
@@ -152,7 +152,7 @@ pub(crate) fn link<P: raykit_device::LaunchParams>(
     if groups.iter().any(|g| g.ctx.cpu().is_none_or(|c| !Arc::ptr_eq(c, ctx))) {
         return Err(Error::ContextMismatch);
     }
-    crate::pipeline::check_linkable(groups.iter().copied())?;
+    crate::validate::check_linkable(groups.iter().map(|g| g.kind()))?;
     let linked: Vec<Group> = groups.iter().map(|g| group(g)).collect();
     PipelineData::check(&linked, TypeInfo::of::<P>())?;
     Ok(PipelineData {
@@ -161,7 +161,7 @@ pub(crate) fn link<P: raykit_device::LaunchParams>(
         groups: linked,
         max_trace_depth,
         specialization: constants.values().to_vec(),
-        handle_fields: crate::handles::handle_fields(&P::LAYOUT),
+        handle_fields: crate::validate::handles::handle_fields(&P::LAYOUT),
         reach: crate::validate::TraceReach::of(groups.iter().copied()),
     })
 }

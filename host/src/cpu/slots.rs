@@ -1,5 +1,5 @@
 //! The CPU backend's handle tables (buffers and textures): slots numbered as on
-//! Vulkan, a slot and a generation (see [`crate::handles`]), so that launches
+//! Vulkan, a slot and a generation (see [`crate::validate::handles`]), so that launches
 //! check handles the same way on both backends.
 //!
 //! Slot 0 stays empty: it is the null handle. A launch takes a snapshot of the
@@ -10,7 +10,7 @@
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use crate::error::{Error, Result};
-use crate::handles::{handle_value, next_generation};
+use crate::validate::handles::{handle_value, next_generation};
 
 /// What a table holds.
 pub(crate) trait SlotValue: Clone {

@@ -4,7 +4,7 @@
 //!
 //! A texture keeps its mip levels as the host gave them (the texel bytes of
 //! its [`TextureFormat`]) and its [`SamplerOptions`]. Handles are numbered as
-//! on Vulkan, a slot and a generation (see [`crate::handles`]), so launches
+//! on Vulkan, a slot and a generation (see [`crate::validate::handles`]), so launches
 //! check them the same way; a launch takes a snapshot of the table when it
 //! starts, so a texture dropped while it runs stays alive until it ends.
 //!

@@ -143,26 +143,32 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         dims: [u32; 3],
         timestamps: Option<&TimestampPool>,
     ) -> Result<Launch> {
-        let inner = match (&self.repr, &sbt.device) {
-            (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan(sbt)) if Arc::ptr_eq(&sbt.pipeline, inner) => inner,
+        // The one match of the pipeline with its SBT: each backend gets its own halves.
+        match (&self.repr, &sbt.device) {
+            (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan(device_sbt))
+                if Arc::ptr_eq(&device_sbt.pipeline, inner) =>
+            {
+                let ctx = &inner.ctx;
+                check_dimensions(dims, &ctx.limits, ctx.launch_dimension_limits)?;
+                let launch = crate::vulkan::pipeline::record::submit(
+                    inner,
+                    device_sbt,
+                    sbt.checks(),
+                    sbt.exception_index,
+                    bytemuck::bytes_of(params),
+                    dims,
+                    self.stack_size(),
+                    timestamps.map(|t| t.pool),
+                )?;
+                Ok(Launch { repr: LaunchRepr::Vulkan(launch) })
+            }
             (PipelineRepr::Cpu(data), SbtDevice::Cpu { pipeline, data: records }) if Arc::ptr_eq(pipeline, data) => {
                 check_dimensions(dims, &crate::cpu::LIMITS, crate::cpu::LAUNCH_DIMENSION_LIMITS)?;
-                let launch = crate::cpu::launch::CpuLaunch::submit(data, sbt, records, params, dims)?;
-                return Ok(Launch { repr: LaunchRepr::Cpu(launch) });
+                let launch = crate::cpu::launch::CpuLaunch::submit(data, sbt.checks(), records, params, dims)?;
+                Ok(Launch { repr: LaunchRepr::Cpu(launch) })
             }
-            _ => return Err(Error::SbtOfAnotherPipeline),
-        };
-        let ctx = &inner.ctx;
-        check_dimensions(dims, &ctx.limits, ctx.launch_dimension_limits)?;
-        let launch = crate::vulkan::pipeline::record::submit(
-            inner,
-            sbt,
-            bytemuck::bytes_of(params),
-            dims,
-            self.stack_size(),
-            timestamps.map(|t| t.pool),
-        )?;
-        Ok(Launch { repr: LaunchRepr::Vulkan(launch) })
+            _ => Err(Error::SbtOfAnotherPipeline),
+        }
     }
 }
 

@@ -38,47 +38,14 @@ use raykit_device::LaunchParams;
 use raykit_spirv::{InterfaceSizes, ParamsDelivery};
 
 use crate::context::Context;
-use crate::error::{Error, Result, UserException};
-use crate::program_group::{GroupKind, ProgramGroup};
+use crate::error::{Error, Result};
+use crate::program_group::ProgramGroup;
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
 pub use crate::types::program::params_delivery;
 pub use crate::types::specialization::Specialization;
 use crate::vulkan::pipeline::link::PipelineInner;
-use crate::vulkan::pipeline::shader_groups::{check_groups, LinkedGroup};
+use crate::vulkan::pipeline::shader_groups::check_groups;
 use library::{LibraryInner, PipelineLibrary};
-
-/// What the groups of a launchable pipeline must have: a raygen group, and at
-/// most one exception group.
-pub(crate) fn check_linkable<'g>(groups: impl Iterator<Item = &'g ProgramGroup> + Clone) -> Result<()> {
-    if groups.clone().filter(|g| g.kind() == GroupKind::Exception).count() > 1 {
-        return Err(Error::SeveralExceptionPrograms);
-    }
-    if !groups.clone().any(|g| g.kind() == GroupKind::Raygen) {
-        return Err(Error::NoRaygen);
-    }
-    Ok(())
-}
-
-/// The error of a launch whose programs threw `total` exceptions, `recorded` of
-/// them recorded, in a pipeline linked with `max_trace_depth`: the traces refused
-/// past the depth ([`Error::RecursionTooDeep`]) if any were recorded, otherwise
-/// the user exceptions ([`Error::UserExceptions`]).
-pub(crate) fn exceptions_error(total: u32, recorded: Vec<UserException>, max_trace_depth: u32) -> Error {
-    use raykit_device::exception::TRACE_DEPTH_EXCEEDED;
-    let (refused, user): (Vec<UserException>, Vec<UserException>) =
-        recorded.into_iter().partition(|e| e.code == TRACE_DEPTH_EXCEEDED);
-    if refused.is_empty() {
-        return Error::UserExceptions { total, exceptions: user };
-    }
-    Error::RecursionTooDeep {
-        max_trace_depth,
-        depth: max_trace_depth.saturating_add(1),
-        refused: refused.len(),
-        launch_indices: refused.iter().map(|e| e.launch_index).collect(),
-        user_exceptions: user,
-        total,
-    }
-}
 
 /// Link options (OptiX's `OptixPipelineLinkOptions`).
 #[derive(Copy, Clone, Debug)]
@@ -116,11 +83,6 @@ fn no_stack_on_cpu() -> Error {
     }
 }
 
-/// The maxima of `groups`' stack sizes by program kind.
-pub(crate) fn stack_sizes(groups: &[LinkedGroup]) -> StackSizes {
-    StackSizes::from_groups(groups.iter().map(|g| (g.role, g.stack_sizes)))
-}
-
 impl<P: LaunchParams> Pipeline<P> {
     /// Links `groups` into a pipeline. There must be a raygen group.
     pub fn new(ctx: &Context, groups: &[&ProgramGroup], options: LinkOptions) -> Result<Pipeline<P>> {
@@ -144,7 +106,7 @@ impl<P: LaunchParams> Pipeline<P> {
         }
         let inner = ctx.vulkan("a pipeline")?;
         check_groups::<P>(inner, groups, options.max_trace_depth)?;
-        check_linkable(groups.iter().copied())?;
+        crate::validate::check_linkable(groups.iter().map(|g| g.kind()))?;
         let inner = crate::vulkan::pipeline::link::link_groups::<P>(inner, groups, options.max_trace_depth, constants)?;
         Ok(Pipeline::from_inner(inner))
     }
@@ -195,7 +157,7 @@ impl<P: LaunchParams> Pipeline<P> {
                 }
             }
         }
-        check_linkable(groups.iter().copied())?;
+        crate::validate::check_linkable(groups.iter().map(|g| g.kind()))?;
         let libraries: Vec<&Arc<LibraryInner>> = libraries.iter().map(|l| &l.inner).collect();
         let inner =
             crate::vulkan::pipeline::link::link_libraries::<P>(inner, &libraries, options.max_trace_depth, interface)?;
@@ -223,7 +185,9 @@ impl<P: LaunchParams> Pipeline<P> {
     /// [`stack::conservative`], [`stack::refined`] and [`stack::vulkan_default`]
     /// (zeros on the CPU backend).
     pub fn stack_sizes(&self) -> StackSizes {
-        self.vulkan_inner().map_or_else(StackSizes::default, |inner| stack_sizes(&inner.groups))
+        self.vulkan_inner().map_or_else(StackSizes::default, |inner| {
+            crate::vulkan::pipeline::shader_groups::stack_sizes(&inner.groups)
+        })
     }
 
     /// What the validation layer reported while the pipeline was linked (OptiX's
@@ -279,7 +243,7 @@ impl<P: LaunchParams> Pipeline<P> {
                 u64::from(*bytes)
             }
         };
-        stack_bytes(bytes)
+        crate::stack::stack_bytes(bytes)
     }
 
     /// Chooses the stack size every later launch sets
@@ -366,10 +330,4 @@ impl<P: LaunchParams> fmt::Debug for Pipeline<P> {
 
 fn describe_interface(sizes: InterfaceSizes) -> String {
     format!("an interface of {} B of ray payload and {} B of hit attributes", sizes.payload, sizes.hit_attributes)
-}
-
-/// A stack size as `vkCmdSetRayTracingPipelineStackSizeKHR` takes it.
-pub(crate) fn stack_bytes(bytes: u64) -> Result<u32> {
-    u32::try_from(bytes)
-        .map_err(|_| Error::StackSize { reason: format!("{bytes} bytes do not fit the 32 bits Vulkan takes") })
 }

@@ -12,7 +12,7 @@
 //! The `Buffer<T>` and `Traversable` fields of records whose data type derives
 //! `SbtRecordData` are recorded by the builder and by [`Sbt::update`], and every
 //! launch checks them against the context's live objects as it checks the launch
-//! params' (see [`crate::handles`]): a dropped, foreign or stale handle is
+//! params' (see [`crate::validate::handles`]): a dropped, foreign or stale handle is
 //! [`Error::InvalidHandle`] naming the region, the record's index and the field.
 //! Handles in records of plain `Pod` types, and handles stored inside buffers,
 //! reach the device unchecked.
@@ -24,10 +24,11 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::{Error, Result};
-use crate::handles::HandleField;
 use crate::pipeline::{Pipeline, PipelineRepr};
 use crate::program_group::{GroupKind, ProgramGroup};
 pub use crate::types::sbt::{region_layout, RegionLayout, SbtRegion};
+use crate::validate::handles::HandleField;
+use crate::validate::launch::{CheckedRecord, SbtChecks};
 use crate::vulkan::sbt::VulkanSbt;
 use raykit_device::{RayType, SbtRecordData};
 
@@ -56,16 +57,6 @@ struct PackedRecord {
     data_type: DataType,
     /// The handle fields of the data, which launches check.
     handles: Vec<HandleField>,
-}
-
-/// A record whose data holds handles: where it is, where its handles are, and a
-/// host copy of its data (the SBT buffer may be slow for the host to read).
-#[derive(Debug)]
-pub(crate) struct CheckedRecord {
-    pub(crate) region: SbtRegion,
-    pub(crate) index: usize,
-    pub(crate) fields: Vec<HandleField>,
-    pub(crate) data: Vec<u8>,
 }
 
 /// The type of a record's data: its id and its name for errors.
@@ -159,7 +150,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             group_index,
             data: data.record_bytes().to_vec(),
             data_type: DataType::of::<T>(),
-            handles: crate::handles::record_handle_fields::<T>(),
+            handles: crate::validate::handles::record_handle_fields::<T>(),
         })
     }
 
@@ -536,6 +527,11 @@ impl Sbt {
     pub fn record_count(&self, region: SbtRegion) -> usize {
         self.counts[region.index()]
     }
+
+    /// What a launch with this SBT checks: its records with handles and its hit record count.
+    pub(crate) fn checks(&self) -> SbtChecks<'_> {
+        SbtChecks { records: &self.checked, hit_records: self.record_count(SbtRegion::Hit) }
+    }
 }
 
 impl fmt::Debug for Sbt {
@@ -552,6 +548,7 @@ impl fmt::Debug for Sbt {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::types::context::DeviceLimits;
 
     fn limits(handle: u32, handle_align: u32, base_align: u32) -> DeviceLimits {
         DeviceLimits {

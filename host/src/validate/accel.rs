@@ -212,6 +212,8 @@ pub(crate) fn update_refusal(old: &[Shape], new: &[Shape]) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::types::accel::Aabb;
+    use glam::Vec3;
 
     fn limits() -> DeviceLimits {
         DeviceLimits {

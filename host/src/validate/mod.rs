@@ -21,6 +21,8 @@
 //! ([`Error::SbtTooSmallForScene`]).
 
 pub(crate) mod accel;
+pub mod handles;
+pub(crate) mod launch;
 pub(crate) mod scene;
 pub mod spirv;
 
@@ -29,6 +31,7 @@ use raykit_spirv::{DescriptorBinding, DescriptorKind, ParamsDelivery};
 
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
+use crate::types::group::GroupKind;
 use crate::types::sbt::SbtRegion;
 
 /// Vulkan uses the low 16 bits of a trace's `missIndex`: the miss region holds at
@@ -285,6 +288,17 @@ pub(crate) fn check_explicit_stack(bytes: u32, sizes: &crate::stack::StackSizes)
 pub(crate) fn check_storage_buffer(bytes: u64, limit: u32) -> Result<()> {
     if bytes > u64::from(limit) {
         return Err(Error::BufferTooLarge { bytes, limit });
+    }
+    Ok(())
+}
+/// What the groups of a launchable pipeline must have: a raygen group, and at
+/// most one exception group.
+pub(crate) fn check_linkable(kinds: impl Iterator<Item = GroupKind> + Clone) -> Result<()> {
+    if kinds.clone().filter(|&k| k == GroupKind::Exception).count() > 1 {
+        return Err(Error::SeveralExceptionPrograms);
+    }
+    if !kinds.clone().any(|k| k == GroupKind::Raygen) {
+        return Err(Error::NoRaygen);
     }
     Ok(())
 }

@@ -25,7 +25,7 @@ use ash::vk;
 use std::mem::ManuallyDrop;
 
 use crate::error::{Error, Result};
-use crate::handles::{handle_value, next_generation, SLOT_BITS};
+use crate::validate::handles::{handle_value, next_generation, SLOT_BITS};
 use crate::vulkan::texture_table::TextureTable;
 
 /// The table's size.

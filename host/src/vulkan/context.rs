@@ -9,9 +9,11 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use ash::vk;
 
 use crate::error::{Error, Result};
-use crate::handles::LiveTraversables;
 use crate::log::MessageLog;
 use crate::types::context::{ContextOptions, DeviceLimits, MemoryUsage};
+use crate::validate::handles::{LiveTraversables, TraversableState};
+use crate::validate::launch::Liveness;
+use crate::validate::scene::HitReach;
 use crate::vulkan::buffer_table::BufferTable;
 use crate::vulkan::cache::{CacheKey, DiskCache};
 use crate::vulkan::device_registry::{SharedDevice, SharedInstance};
@@ -41,7 +43,7 @@ pub(crate) struct ContextInner {
     pub(crate) buffer_table: ManuallyDrop<BufferTable>,
     /// Epochs of submissions and the objects waiting for them (see [`crate::timeline`]).
     pub(crate) timeline: Timeline,
-    /// The live IASes, which launches check `Traversable`s against (see [`crate::handles`]).
+    /// The live IASes, which launches check `Traversable`s against (see [`crate::validate::handles`]).
     pub(crate) traversables: LiveTraversables,
     pub(crate) limits: DeviceLimits,
     /// Largest launch width, height and depth: `maxComputeWorkGroupCount[i] ×
@@ -59,7 +61,7 @@ pub(crate) struct ContextInner {
     pub(crate) pipeline_cache: DiskCache,
     /// The test hook that holds submissions on the device (see [`crate::gate`]).
     #[cfg(feature = "fault-injection")]
-    pub(crate) gate: crate::gate::Gate,
+    pub(crate) gate: crate::vulkan::gate::Gate,
 }
 
 /// Whether `options` (or `RAYKIT_VALIDATION=1`) ask for the validation layer.
@@ -455,5 +457,23 @@ impl Drop for PoolGuard<'_> {
     fn drop(&mut self) {
         // SAFETY: the pool has no command buffers yet.
         unsafe { self.0.destroy_command_pool(self.1, None) };
+    }
+}
+
+impl Liveness for ContextInner {
+    fn buffer(&self, handle: u32) -> bool {
+        self.buffer_table.is_live(handle)
+    }
+
+    fn texture(&self, handle: u32) -> bool {
+        self.buffer_table.textures.is_live(handle)
+    }
+
+    fn traversable(&self, address: u64) -> TraversableState {
+        self.traversables.state(address)
+    }
+
+    fn hit_reach(&self, address: u64) -> Option<Arc<HitReach>> {
+        self.traversables.hit_reach(address)
     }
 }

@@ -57,6 +57,8 @@ pub(crate) mod context;
 pub(crate) mod conv;
 pub(crate) mod device_registry;
 pub(crate) mod driver_lock;
+#[cfg(feature = "fault-injection")]
+pub(crate) mod gate;
 pub(crate) mod memory;
 pub(crate) mod messenger;
 pub(crate) mod module;

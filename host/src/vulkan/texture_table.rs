@@ -3,7 +3,7 @@
 //! samplers with `PARTIALLY_BOUND | UPDATE_AFTER_BIND`, each live
 //! [`crate::Texture`] at a slot. `Texture2D` handles in params and records name a
 //! slot in their low 12 bits and a generation above, checked by every launch as
-//! buffer handles are (see [`crate::handles`]).
+//! buffer handles are (see [`crate::validate::handles`]).
 //!
 //! Slot 0 is the null handle. Every slot not holding a texture holds a null
 //! image view (`nullDescriptor`) with a default sampler, so sampling through it
@@ -15,7 +15,7 @@ use std::sync::Mutex;
 use ash::vk;
 
 use crate::error::{Error, Result};
-use crate::handles::{handle_value, next_generation};
+use crate::validate::handles::{handle_value, next_generation};
 use crate::vulkan::buffer_table::RT_STAGES;
 
 /// The table's size.

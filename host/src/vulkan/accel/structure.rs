@@ -17,7 +17,7 @@ pub(crate) struct AccelStructure {
     pub(crate) address: u64,
     pub(crate) size: u64,
     /// Bumped by every refit, so an IAS built over an older version is refused
-    /// at launch (see [`crate::handles`], which holds clones of it: never the
+    /// at launch (see [`crate::validate::handles`], which holds clones of it: never the
     /// structure, whose drop must not happen under a launch's checks).
     pub(crate) version: Arc<std::sync::atomic::AtomicU64>,
     _storage: RawBuffer,

@@ -53,7 +53,7 @@ pub(crate) struct PipelineInner {
     /// (an allocation per launch is slow on some drivers).
     pub(crate) readbacks: Mutex<Vec<RawBuffer>>,
     /// Where `P`'s `Buffer` and `Traversable` fields are, checked by every launch.
-    pub(crate) handle_fields: Vec<crate::handles::HandleField>,
+    pub(crate) handle_fields: Vec<crate::validate::handles::HandleField>,
 }
 
 /// What a pipeline is made of besides its stages: its groups, its user-exception
@@ -96,7 +96,7 @@ impl PipelineInner {
         .map_err(Error::vk("vkGetRayTracingShaderGroupHandlesKHR"))?;
         let groups: Vec<LinkedGroup> =
             parts.groups.iter().map(|g| LinkedGroup::read(ctx, pipeline.handle, g)).collect();
-        let default = stack::vulkan_default(&crate::pipeline::stack_sizes(&groups), max_trace_depth);
+        let default = stack::vulkan_default(&super::shader_groups::stack_sizes(&groups), max_trace_depth);
         let reach = crate::validate::TraceReach::of(parts.groups.iter().map(|g| g.group));
         Ok(PipelineInner {
             reach,
@@ -108,11 +108,11 @@ impl PipelineInner {
             groups,
             handles,
             max_trace_depth,
-            stack_size: AtomicU32::new(crate::pipeline::stack_bytes(default)?),
+            stack_size: AtomicU32::new(crate::stack::stack_bytes(default)?),
             throwing: parts.exceptions.iter().filter(|e| e.recorded).cloned().collect(),
             exceptions: parts.exceptions,
             readbacks: Mutex::new(Vec::new()),
-            handle_fields: crate::handles::handle_fields(&P::LAYOUT),
+            handle_fields: crate::validate::handles::handle_fields(&P::LAYOUT),
         })
     }
 }

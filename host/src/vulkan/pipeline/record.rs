@@ -7,8 +7,8 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::error::{Error, Result};
-use crate::sbt::{Sbt, SbtDevice};
+use crate::error::Result;
+use crate::validate::launch::{check_launch, SbtChecks};
 use crate::vulkan::barrier::memory_barrier;
 use crate::vulkan::buffer_table::RT_STAGES;
 use crate::vulkan::context::Submission;
@@ -67,7 +67,7 @@ impl VulkanLaunch {
             exceptions.extend(thrown);
         }
         if total > 0 {
-            return Err(crate::pipeline::exceptions_error(total, exceptions, self.pipeline.max_trace_depth));
+            return Err(crate::error::exceptions_error(total, exceptions, self.pipeline.max_trace_depth));
         }
         Ok(())
     }
@@ -78,7 +78,9 @@ impl VulkanLaunch {
 /// optional timestamps around the trace.
 pub(crate) fn submit(
     inner: &Arc<PipelineInner>,
-    sbt: &Sbt,
+    sbt: &VulkanSbt,
+    checks: SbtChecks<'_>,
+    exception_index: Option<u32>,
     params_bytes: &[u8],
     dims: [u32; 3],
     stack_size: u32,
@@ -115,18 +117,9 @@ pub(crate) fn submit(
     // Whether the launch writes anything with transfers before tracing.
     let transfers = !throwing.is_empty() || uniform.is_some();
     // The handles of the params, those in SBT records whose type derives
-    // `SbtRecordData` (see `crate::handles`), and the scene's reach into the SBT.
-    let check = || {
-        ctx.check_handles(&inner.handle_fields, params_bytes, None)?;
-        for record in &sbt.checked {
-            ctx.check_handles(&record.fields, &record.data, Some((record.region, record.index)))?;
-        }
-        let hit_reach = |address| ctx.traversables.hit_reach(address);
-        crate::validate::scene::check_scene(hit_reach, &inner.handle_fields, params_bytes, sbt, &inner.reach)
-    };
-    let SbtDevice::Vulkan(VulkanSbt { raygen, miss, hit, callable, .. }) = &sbt.device else {
-        return Err(Error::SbtOfAnotherPipeline);
-    };
+    // `SbtRecordData` (see `crate::validate::handles`), and the scene's reach into the SBT.
+    let check = || check_launch(&**ctx, &inner.handle_fields, params_bytes, checks, &inner.reach);
+    let VulkanSbt { raygen, miss, hit, callable, buffer, .. } = sbt;
     let submission = ctx.submit_checked("a launch", check, |cmd| {
         // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and
         // SBT buffers are alive until the work is done (the returned `Launch`
@@ -154,7 +147,7 @@ pub(crate) fn submit(
                     // The counter is the first word.
                     device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
                     // Then where the exception program sits in the callable region.
-                    let handler = sbt.exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
+                    let handler = exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
                     device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 4, 4, handler);
                 }
                 if let Some((_, buffer, bytes)) = &uniform {
@@ -233,7 +226,6 @@ pub(crate) fn submit(
             }
         }
     })?;
-    let SbtDevice::Vulkan(VulkanSbt { buffer, .. }) = &sbt.device else { return Err(Error::SbtOfAnotherPipeline) };
     let launch = VulkanLaunch { submission, readback, pipeline: inner.clone(), _sbt: buffer.clone() };
     Ok(launch)
 }

@@ -12,7 +12,7 @@ use raykit_spirv::ParamsDelivery;
 
 use crate::error::{Error, Result};
 use crate::program_group::{GroupKind, GroupPrograms, Program, ProgramGroup};
-use crate::stack::{GroupRole, GroupStackSizes};
+use crate::stack::{GroupRole, GroupStackSizes, StackSizes};
 use crate::types::{program::params_delivery, specialization::Specialization};
 use crate::vulkan::context::ContextInner;
 use crate::vulkan::conv;
@@ -247,4 +247,9 @@ fn query_group_stack_sizes(
             intersection: if intersection.is_some() { query(vk::ShaderGroupShaderKHR::INTERSECTION) } else { 0 },
         },
     }
+}
+
+/// The maxima of `groups`' stack sizes by program kind.
+pub(crate) fn stack_sizes(groups: &[LinkedGroup]) -> StackSizes {
+    StackSizes::from_groups(groups.iter().map(|g| (g.role, g.stack_sizes)))
 }

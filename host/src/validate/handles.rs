@@ -35,7 +35,6 @@ use raykit_device::{FieldLayout, ParamsLayout, Shape};
 
 use crate::error::{Error, Result};
 use crate::types::sbt::SbtRegion;
-use crate::vulkan::context::ContextInner;
 
 /// Bits of a handle that name the slot; the bits above carry the generation.
 pub(crate) const SLOT_BITS: u32 = raykit_abi::BUFFER_TABLE_SLOTS.trailing_zeros();
@@ -125,7 +124,7 @@ pub(crate) struct LiveIas {
     /// The versions of the GASes it was built over (a refit since makes it stale).
     pub(crate) over: BuiltOver,
     /// The hit records its instances can select (see `crate::validate::scene`).
-    pub(crate) reach: Arc<crate::accel::HitReach>,
+    pub(crate) reach: Arc<crate::validate::scene::HitReach>,
 }
 
 /// The live instance acceleration structures of a context, by device address.
@@ -149,8 +148,13 @@ impl LiveTraversables {
         self.lock().remove(&address);
     }
 
+    /// What the traversable at `address` is: a live IAS, up to date or stale, or none.
+    pub(crate) fn state(&self, address: u64) -> TraversableState {
+        self.lock().get(&address).map_or(TraversableState::Unknown, LiveIas::state)
+    }
+
     /// The hit records the live IAS at `address` can select.
-    pub(crate) fn hit_reach(&self, address: u64) -> Option<Arc<crate::accel::HitReach>> {
+    pub(crate) fn hit_reach(&self, address: u64) -> Option<Arc<crate::validate::scene::HitReach>> {
         self.lock().get(&address).map(|ias| ias.reach.clone())
     }
 }
@@ -267,33 +271,6 @@ pub(crate) fn check_handles(
         }
     }
     Ok(())
-}
-
-impl ContextInner {
-    /// Checks the handles of `params` against this context's live buffers and
-    /// IASes (see [`check_handles`]).
-    pub(crate) fn check_handles(
-        &self,
-        fields: &[HandleField],
-        params: &[u8],
-        record: Option<(SbtRegion, usize)>,
-    ) -> Result<()> {
-        if fields.is_empty() {
-            return Ok(());
-        }
-        let mut tlas = None;
-        check_handles(
-            fields,
-            params,
-            record,
-            |handle| self.buffer_table.is_live(handle),
-            |handle| self.buffer_table.textures.is_live(handle),
-            |address| {
-                let map = tlas.get_or_insert_with(|| self.traversables.lock());
-                map.get(&address).map_or(TraversableState::Unknown, LiveIas::state)
-            },
-        )
-    }
 }
 
 #[cfg(test)]
