@@ -146,6 +146,15 @@ impl Context {
         }
     }
 
+    /// Whether `other` is this context (a clone of it).
+    pub(crate) fn is_same(&self, other: &Context) -> bool {
+        match (&self.backend, &other.backend) {
+            (ContextBackend::Vulkan(a), ContextBackend::Vulkan(b)) => Arc::ptr_eq(a, b),
+            (ContextBackend::Cpu(a), ContextBackend::Cpu(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
+
     /// The backend this context runs programs on.
     pub fn backend(&self) -> Backend {
         match &self.backend {

@@ -957,27 +957,6 @@ fn handle_place(record: &Option<(crate::SbtRegion, usize)>, field: &str) -> Stri
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_device_without_robustness2_is_reported_with_the_reason_and_the_fix() {
-        let report = |missing: &[&str]| DeviceReport {
-            name: "Some GPU".to_owned(),
-            device_type: "DISCRETE_GPU".to_owned(),
-            api_version: "1.3.0".to_owned(),
-            missing: missing.iter().map(|m| m.to_string()).collect(),
-        };
-        let text = Error::NoRayTracingDevice { devices: vec![report(&["extension VK_EXT_robustness2"])] }.to_string();
-        assert!(text.contains("Some GPU (DISCRETE_GPU, Vulkan 1.3.0): lacks extension VK_EXT_robustness2"), "{text}");
-        assert!(text.contains("without bounds checks") && text.contains("Update the GPU driver"), "{text}");
-        let text =
-            Error::NoRayTracingDevice { devices: vec![report(&["extension VK_KHR_ray_tracing_pipeline"])] }.to_string();
-        assert!(!text.contains("robustness2"), "{text}");
-    }
-}
-
 /// The error of a launch whose programs threw `total` exceptions, `recorded` of
 /// them recorded, in a pipeline linked with `max_trace_depth`: the traces refused
 /// past the depth ([`Error::RecursionTooDeep`]) if any were recorded, otherwise
@@ -996,5 +975,26 @@ pub(crate) fn exceptions_error(total: u32, recorded: Vec<UserException>, max_tra
         launch_indices: refused.iter().map(|e| e.launch_index).collect(),
         user_exceptions: user,
         total,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_device_without_robustness2_is_reported_with_the_reason_and_the_fix() {
+        let report = |missing: &[&str]| DeviceReport {
+            name: "Some GPU".to_owned(),
+            device_type: "DISCRETE_GPU".to_owned(),
+            api_version: "1.3.0".to_owned(),
+            missing: missing.iter().map(|m| m.to_string()).collect(),
+        };
+        let text = Error::NoRayTracingDevice { devices: vec![report(&["extension VK_EXT_robustness2"])] }.to_string();
+        assert!(text.contains("Some GPU (DISCRETE_GPU, Vulkan 1.3.0): lacks extension VK_EXT_robustness2"), "{text}");
+        assert!(text.contains("without bounds checks") && text.contains("Update the GPU driver"), "{text}");
+        let text =
+            Error::NoRayTracingDevice { devices: vec![report(&["extension VK_KHR_ray_tracing_pipeline"])] }.to_string();
+        assert!(!text.contains("robustness2"), "{text}");
     }
 }

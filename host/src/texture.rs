@@ -22,11 +22,19 @@
 
 use std::sync::Arc;
 
+use ash::vk;
 use raykit_device::Texture2D;
 
 use crate::context::Context;
 use crate::error::{Error, Result};
 use crate::types::texture::check_level;
+
+impl TextureFormat {
+    /// The Vulkan format.
+    pub const fn vk_format(self) -> vk::Format {
+        crate::vulkan::conv::format(self)
+    }
+}
 pub use crate::types::texture::{
     full_mip_count, generate_mips, mip_size, AddressMode, Filter, MipLevel, Mipmaps, SamplerOptions, TextureFormat,
 };

@@ -15,7 +15,7 @@ use super::{AccelSizes, BuildOptions};
 use crate::context::Context;
 use crate::error::{Error, Result};
 use crate::types::accel::{transform_rows, InstanceFlags, InstancePlacement};
-use crate::validate::scene::HitReach;
+use crate::validate::hit_reach::HitReach;
 use crate::vulkan::accel::structure::AccelStructure;
 use crate::vulkan::context::ContextInner;
 

@@ -4,7 +4,7 @@
 //! Building follows OptiX's steps (`optixAccelComputeMemoryUsage`, then
 //! `optixAccelBuild` with temp and output buffers, then optional compaction):
 //!
-//! 1. every input is validated before the GPU sees it ([`input`]): indices in
+//! 1. every input is validated before the GPU sees it (`validate::accel`): indices in
 //!    range, counts within the device's limits, strides aligned, vertices and
 //!    boxes finite — each problem a typed [`Error`](crate::Error);
 //! 2. the memory sizes are queried

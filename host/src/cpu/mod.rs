@@ -62,7 +62,7 @@
 //!   (texel coordinates, address modes, bilinear weights, mip selection and
 //!   blending, sRGB decoded before filtering) in `f32`: every format and filter
 //!   is supported, up to 16384 texels a side
-//!   ([`max_texture_size`](crate::texture::max_texture_size)).
+//!   (`raykit::texture::max_texture_size`).
 //! * Stack sizes, pipeline libraries, compile caches, GPU timestamps and the raw
 //!   Vulkan handles do not apply: those calls say so with a typed error or report
 //!   nothing.
@@ -89,8 +89,8 @@ use crate::error::{Error, Result};
 use crate::log::MessageLog;
 use crate::types::context::{ContextOptions, DeviceLimits};
 use crate::validate::handles::{LiveIas, TraversableState};
+use crate::validate::hit_reach::HitReach;
 use crate::validate::launch::Liveness;
-use crate::validate::scene::HitReach;
 
 /// The invocations of one launch tile: 8 × 8.
 pub(crate) const TILE: u32 = 8;

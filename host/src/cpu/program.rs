@@ -7,7 +7,8 @@ use raykit_device::cpu::{CpuProgram, TypeInfo};
 
 use super::CpuContext;
 use crate::error::{Error, Result};
-use crate::types::group::GroupKind;
+use crate::types;
+use crate::types::group::{GroupKind, SpirvCode};
 
 /// One program of a group: what runs and its name for errors.
 #[derive(Copy, Clone, Debug)]
@@ -139,18 +140,15 @@ pub(crate) struct SbtData {
 }
 
 /// Links `groups` of a CPU context into a pipeline for params `P`.
-pub(crate) fn link<P: raykit_device::LaunchParams>(
+pub(crate) fn link<P: raykit_device::LaunchParams, S: SpirvCode>(
     ctx: &Arc<CpuContext>,
-    groups: &[&crate::ProgramGroup],
+    groups: &[&types::group::Group<S>],
     max_trace_depth: u32,
-    constants: &crate::Specialization,
+    constants: &types::specialization::Specialization,
 ) -> Result<PipelineData> {
     let limit = super::LIMITS.max_ray_recursion_depth;
     if max_trace_depth > limit {
         return Err(Error::TraceDepthTooLarge { requested: max_trace_depth, limit });
-    }
-    if groups.iter().any(|g| g.ctx.cpu().is_none_or(|c| !Arc::ptr_eq(c, ctx))) {
-        return Err(Error::ContextMismatch);
     }
     crate::validate::check_linkable(groups.iter().map(|g| g.kind()))?;
     let linked: Vec<Group> = groups.iter().map(|g| group(g)).collect();
@@ -167,9 +165,9 @@ pub(crate) fn link<P: raykit_device::LaunchParams>(
 }
 
 /// The CPU programs of `group` (a group of a CPU context holds only those).
-fn group(group: &crate::ProgramGroup) -> Group {
-    use crate::program_group::{GroupPrograms, ProgramCode};
-    let program = |p: &Option<crate::program_group::Program>| -> Option<Program> {
+fn group<S: Clone>(group: &types::group::Group<S>) -> Group {
+    use types::group::{GroupPrograms, ProgramCode};
+    let program = |p: &Option<types::group::Program<S>>| -> Option<Program> {
         let p = p.as_ref()?;
         match p.code {
             ProgramCode::Cpu(cpu) => Some(Program { cpu, name: cpu.name }),

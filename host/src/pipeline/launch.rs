@@ -13,30 +13,8 @@
 //! [`Launch::wait`]. [`Pipeline::launch`] is the simple path: submit, then wait.
 //!
 //! # Several launches in flight
-//! Nothing a launch needs is shared on the host with another launch in flight:
-//! * its params travel in its own command buffer — as push constants, or recorded
-//!   with `vkCmdUpdateBuffer` into the pipeline's uniform buffer;
-//! * the pipeline's user-exception counters are zeroed with `vkCmdFillBuffer` at the
-//!   start of its command buffer and copied into the launch's own readback buffer
-//!   at its end — for the programs that can throw only: a module without the
-//!   exception slot's specialization constant (rust-gpu leaves it out of modules
-//!   that never call `throw_exception`) costs a launch nothing;
-//! * every raykit submission ends with a memory barrier that orders it before the
-//!   later work that may touch what it used: a launch's and a buffer readback's
-//!   cover every later command, a build's, refit's or compaction's every later
-//!   build and trace (and builds, refits and compactions begin with a barrier from
-//!   all earlier commands). So on raykit's one queue a launch's programs start only
-//!   after earlier submissions are done with what they touch, and see their
-//!   writes. A launch that first writes with transfers (a params uniform, exception
-//!   counters) also begins with a barrier from all earlier commands — the uniform
-//!   buffer and the exception counters are rewritten only once the launch before
-//!   has finished with them.
-//!
-//! A launch of push-constant params whose programs cannot throw records what a
-//! hand-written one does: binding, stack size, push constants, the trace and one
-//! barrier after it. A params uniform or exception buffers to zero add their
-//! transfers and a barrier on each side of them, and exception copies a last
-//! barrier.
+//! Nothing a launch needs is shared on the host with another launch in flight (on
+//! Vulkan, `vulkan::pipeline::record` states how its command buffers keep that).
 //!
 //! So no lock is held between submission and completion, and any thread may launch
 //! while launches of the same pipeline are in flight. A [`Launch`] holds `Arc`s of
@@ -154,7 +132,6 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                     inner,
                     device_sbt,
                     sbt.checks(),
-                    sbt.exception_index,
                     bytemuck::bytes_of(params),
                     dims,
                     self.stack_size(),

@@ -31,6 +31,7 @@ use super::Specialization;
 use crate::context::Context;
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
+use crate::vulkan::module::SpirvGroup;
 pub(crate) use crate::vulkan::pipeline::link::LibraryInner;
 use crate::vulkan::pipeline::shader_groups::check_groups;
 
@@ -88,8 +89,10 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         if groups.is_empty() {
             return Err(Error::EmptyLibrary);
         }
-        check_groups::<P>(inner, groups, options.max_trace_depth)?;
         let needed = Self::interface_for(groups);
+        let groups = ProgramGroup::of_context(ctx, groups)?;
+        let groups = groups.as_slice();
+        check_groups::<P>(inner, groups, options.max_trace_depth)?;
         let interface = options.interface.unwrap_or(needed);
         check_interface(groups, interface)?;
         if interface.hit_attributes > inner.limits.max_ray_hit_attribute_size {
@@ -142,7 +145,7 @@ impl<P: LaunchParams> fmt::Debug for PipelineLibrary<P> {
 }
 
 /// Every program of `groups` fits `interface`.
-fn check_interface(groups: &[&ProgramGroup], interface: InterfaceSizes) -> Result<()> {
+fn check_interface(groups: &[&SpirvGroup], interface: InterfaceSizes) -> Result<()> {
     for program in groups.iter().flat_map(|g| g.programs()) {
         let Some(info) = program.entry_info() else { continue };
         let too_small =

@@ -43,6 +43,7 @@ use crate::program_group::ProgramGroup;
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
 pub use crate::types::program::params_delivery;
 pub use crate::types::specialization::Specialization;
+use crate::vulkan::module::SpirvGroup;
 use crate::vulkan::pipeline::link::PipelineInner;
 use crate::vulkan::pipeline::shader_groups::check_groups;
 use library::{LibraryInner, PipelineLibrary};
@@ -100,8 +101,10 @@ impl<P: LaunchParams> Pipeline<P> {
         options: LinkOptions,
         constants: &Specialization,
     ) -> Result<Pipeline<P>> {
+        let groups = ProgramGroup::of_context(ctx, groups)?;
+        let groups = groups.as_slice();
         if let Some(cpu) = ctx.cpu() {
-            let data = crate::cpu::program::link::<P>(cpu, groups, options.max_trace_depth, constants)?;
+            let data = crate::cpu::program::link::<P, _>(cpu, groups, options.max_trace_depth, constants)?;
             return Ok(Pipeline { repr: PipelineRepr::Cpu(Arc::new(data)), _params: PhantomData });
         }
         let inner = ctx.vulkan("a pipeline")?;
@@ -148,7 +151,7 @@ impl<P: LaunchParams> Pipeline<P> {
                 });
             }
         }
-        let groups: Vec<&ProgramGroup> = libraries.iter().flat_map(|l| l.inner.groups.iter()).collect();
+        let groups: Vec<&SpirvGroup> = libraries.iter().flat_map(|l| l.inner.groups.iter()).collect();
         let mut owner: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
         for (index, library) in libraries.iter().enumerate() {
             for group in &library.inner.groups {
@@ -272,8 +275,8 @@ impl<P: LaunchParams> Pipeline<P> {
     /// The position of `group` in this pipeline, if it was linked into it.
     pub(crate) fn group_index(&self, group: &ProgramGroup) -> Option<usize> {
         match &self.repr {
-            PipelineRepr::Vulkan(inner) => inner.groups.iter().position(|g| g.id == group.id),
-            PipelineRepr::Cpu(data) => data.groups.iter().position(|g| g.id == group.id),
+            PipelineRepr::Vulkan(inner) => inner.groups.iter().position(|g| g.id == group.group.id),
+            PipelineRepr::Cpu(data) => data.groups.iter().position(|g| g.id == group.group.id),
         }
     }
 

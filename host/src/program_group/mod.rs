@@ -17,8 +17,16 @@ use raykit_device::{EntryPoint, ProgramKind};
 
 use crate::error::{Error, Result};
 use crate::module::Module;
+use crate::types::group::Group;
 pub use crate::types::group::GroupKind;
 use crate::vulkan::module::ModuleInner;
+
+/// A checked program of a group (its code a SPIR-V module's entry point or a CPU program).
+pub(crate) type Program = crate::types::group::Program<Arc<ModuleInner>>;
+/// What a group holds.
+pub(crate) type GroupPrograms = crate::types::group::GroupPrograms<Arc<ModuleInner>>;
+/// Where a program's code is.
+pub(crate) type ProgramCode = crate::types::group::ProgramCode<Arc<ModuleInner>>;
 
 /// Names an entry point: a macro-generated [`EntryPoint`] constant (preferred) or
 /// a name such as `"main"`.
@@ -65,40 +73,7 @@ impl EntryName for String {
     }
 }
 
-/// Where a program's code is.
-#[derive(Clone)]
-pub(crate) enum ProgramCode {
-    /// An entry point of a SPIR-V module.
-    Spirv(Arc<ModuleInner>),
-    /// A program of a device crate linked into the program (the CPU backend).
-    Cpu(&'static raykit_device::cpu::CpuProgram),
-}
-
-/// One checked entry point inside a group.
-#[derive(Clone)]
-pub(crate) struct Program {
-    pub(crate) code: ProgramCode,
-    pub(crate) name: CString,
-    pub(crate) kind: ProgramKind,
-    /// The ray type it was declared for (from its [`EntryPoint`] constant).
-    pub(crate) ray: Option<raykit_device::RayTypeInfo>,
-}
-
 impl Program {
-    /// What reflection found for this program's entry point.
-    pub(crate) fn entry_info(&self) -> Option<&crate::types::program::EntryPointInfo> {
-        let name = self.name.to_str().ok()?;
-        self.module()?.entry_points.iter().find(|e| e.name == name)
-    }
-
-    /// Its SPIR-V module (`None` for a CPU program).
-    pub(crate) fn module(&self) -> Option<&Arc<ModuleInner>> {
-        match &self.code {
-            ProgramCode::Spirv(module) => Some(module),
-            ProgramCode::Cpu(_) => None,
-        }
-    }
-
     /// A program of the device crate `linked` on the CPU backend: only an
     /// [`EntryPoint`] constant of that crate, of the kind expected, names one.
     fn resolve_linked(
@@ -181,50 +156,21 @@ impl Program {
     }
 }
 
-/// What a group holds.
-#[derive(Clone)]
-pub(crate) enum GroupPrograms {
-    Raygen(Program),
-    Miss(Program),
-    Callable(Program),
-    /// An `#[exception]` program: a callable raykit places in the SBT itself.
-    Exception(Program),
-    Hit {
-        closest_hit: Option<Program>,
-        any_hit: Option<Program>,
-        intersection: Option<Program>,
-    },
-}
-
 /// A program group: a raygen, a miss, or a hit group (closest-hit, any-hit,
 /// intersection), ready to be linked into a [`crate::Pipeline`].
 #[derive(Clone)]
 pub struct ProgramGroup {
-    pub(crate) id: u64,
     pub(crate) ctx: crate::Context,
-    pub(crate) programs: GroupPrograms,
+    /// Its programs, as the backends read them.
+    pub(crate) group: Group<Arc<ModuleInner>>,
 }
 
 static NEXT_GROUP_ID: AtomicU64 = AtomicU64::new(1);
 
 impl ProgramGroup {
-    /// The programs of this group.
-    pub(crate) fn programs(&self) -> Vec<&Program> {
-        match &self.programs {
-            GroupPrograms::Raygen(p)
-            | GroupPrograms::Miss(p)
-            | GroupPrograms::Callable(p)
-            | GroupPrograms::Exception(p) => {
-                vec![p]
-            }
-            GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
-                [closest_hit, any_hit, intersection].into_iter().flatten().collect()
-            }
-        }
-    }
-
     fn from_programs(module: &Module, programs: GroupPrograms) -> ProgramGroup {
-        ProgramGroup { id: NEXT_GROUP_ID.fetch_add(1, Ordering::Relaxed), ctx: module.context(), programs }
+        let group = Group { id: NEXT_GROUP_ID.fetch_add(1, Ordering::Relaxed), programs };
+        ProgramGroup { ctx: module.context(), group }
     }
 
     /// A raygen group from `entry` of `module`.
@@ -264,44 +210,29 @@ impl ProgramGroup {
 
     /// The group's kind.
     pub fn kind(&self) -> GroupKind {
-        self.programs.kind()
+        self.group.programs.kind()
     }
-}
 
-impl GroupPrograms {
-    /// The kind of group holding these programs.
-    pub(crate) fn kind(&self) -> GroupKind {
-        match self {
-            GroupPrograms::Raygen(_) => GroupKind::Raygen,
-            GroupPrograms::Miss(_) => GroupKind::Miss,
-            GroupPrograms::Callable(_) => GroupKind::Callable,
-            GroupPrograms::Exception(_) => GroupKind::Exception,
-            GroupPrograms::Hit { .. } => GroupKind::Hit,
+    /// The programs of this group.
+    pub(crate) fn programs(&self) -> Vec<&Program> {
+        self.group.programs()
+    }
+
+    /// The backends' halves of `groups`, once each was checked to be of `ctx`.
+    pub(crate) fn of_context<'g>(
+        ctx: &crate::Context,
+        groups: &[&'g ProgramGroup],
+    ) -> Result<Vec<&'g Group<Arc<ModuleInner>>>> {
+        if groups.iter().any(|g| !g.ctx.is_same(ctx)) {
+            return Err(Error::ContextMismatch);
         }
-    }
-}
-
-/// A program as `Debug` shows it: its entry-point name.
-impl fmt::Debug for Program {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        fmt::Debug::fmt(&self.name, f)
+        Ok(groups.iter().map(|g| &g.group).collect())
     }
 }
 
 impl fmt::Debug for ProgramGroup {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mut s = f.debug_struct("ProgramGroup");
-        s.field("kind", &self.kind());
-        match &self.programs {
-            GroupPrograms::Raygen(p)
-            | GroupPrograms::Miss(p)
-            | GroupPrograms::Callable(p)
-            | GroupPrograms::Exception(p) => s.field("program", p),
-            GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
-                s.field("closest_hit", closest_hit).field("any_hit", any_hit).field("intersection", intersection)
-            }
-        };
-        s.finish()
+        fmt::Debug::fmt(&self.group, f)
     }
 }
 

@@ -396,7 +396,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
                 bytes[at + handle_size..at + handle_size + record.data.len()].copy_from_slice(&record.data);
             }
         }
-        let device = SbtDevice::Vulkan(VulkanSbt::new(pipeline, &bytes, layouts)?);
+        let device = SbtDevice::Vulkan(VulkanSbt::new(pipeline, &bytes, layouts, exception_index)?);
         Ok(Sbt { device, layouts, counts, data_types, exception_index, checked })
     }
 }

@@ -310,9 +310,9 @@ pub enum BuildPreference {
 pub struct BuildOptions {
     /// Build-time versus trace-time preference.
     pub preference: BuildPreference,
-    /// Allow [`Gas::update`](super::Gas::update) / [`Ias::update`](super::Ias::update) (refit) later.
+    /// Allow [`Gas::update`](crate::Gas::update) / [`Ias::update`](crate::Ias::update) (refit) later.
     pub allow_update: bool,
-    /// Allow [`Gas::compact`](super::Gas::compact) later.
+    /// Allow [`Gas::compact`](crate::Gas::compact) later.
     pub allow_compaction: bool,
 }
 

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::cache::PipelineCacheLocation;
 use crate::log::LogCallback;
 
-/// Device memory in use by one [`Context`] ([`Context::memory_usage`]).
+/// Device memory in use by one [`Context`](crate::Context) ([`Context::memory_usage`](crate::Context::memory_usage)).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct MemoryUsage {
     /// Live allocations.
@@ -24,7 +24,7 @@ pub(crate) fn next_context_id() -> u64 {
     NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
-/// Where a [`Context`] runs device programs.
+/// Where a [`Context`](crate::Context) runs device programs.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Backend {
     /// A Vulkan device with ray-tracing pipelines: a GPU, or Mesa's lavapipe.
@@ -47,7 +47,7 @@ impl Backend {
     }
 }
 
-/// How to create a [`Context`].
+/// How to create a [`Context`](crate::Context).
 #[derive(Clone, Debug, Default)]
 pub struct ContextOptions {
     /// The backend. `None` means: what the environment variable `RAYKIT_BACKEND`
@@ -65,7 +65,7 @@ pub struct ContextOptions {
     /// two hits at exactly the same distance is the closest.
     pub cpu_packets: Option<bool>,
     /// Enable the Khronos validation layer and collect its messages in
-    /// [`Context::messages`]. `None` means: on when the environment variable
+    /// [`Context::messages`](crate::Context::messages). `None` means: on when the environment variable
     /// `RAYKIT_VALIDATION` is `1`. The layer is a property of the Vulkan instance:
     /// contexts with validation and contexts without it use two devices on one GPU,
     /// which NVIDIA's driver may not tolerate when both work at once; keep one
@@ -77,8 +77,8 @@ pub struct ContextOptions {
     pub device_name_contains: Option<String>,
     /// Use the `n`-th usable ray-tracing device (counted from 0 among those
     /// `device_name_contains` lets through, in the Vulkan loader's order) instead
-    /// of the first; [`Error::DeviceIndexOutOfRange`] lists them when there are
-    /// fewer. [`Context::all`] makes one context per device this way.
+    /// of the first; [`Error::DeviceIndexOutOfRange`](crate::Error::DeviceIndexOutOfRange) lists them when there are
+    /// fewer. [`Context::all`](crate::Context::all) makes one context per device this way.
     pub device_index: Option<usize>,
     /// Where the on-disk compile cache lives, or [`PipelineCacheLocation::Off`]
     /// (see [`crate::cache`]). On by default.

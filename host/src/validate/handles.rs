@@ -124,7 +124,7 @@ pub(crate) struct LiveIas {
     /// The versions of the GASes it was built over (a refit since makes it stale).
     pub(crate) over: BuiltOver,
     /// The hit records its instances can select (see `crate::validate::scene`).
-    pub(crate) reach: Arc<crate::validate::scene::HitReach>,
+    pub(crate) reach: Arc<crate::validate::hit_reach::HitReach>,
 }
 
 /// The live instance acceleration structures of a context, by device address.
@@ -154,7 +154,7 @@ impl LiveTraversables {
     }
 
     /// The hit records the live IAS at `address` can select.
-    pub(crate) fn hit_reach(&self, address: u64) -> Option<Arc<crate::validate::scene::HitReach>> {
+    pub(crate) fn hit_reach(&self, address: u64) -> Option<Arc<crate::validate::hit_reach::HitReach>> {
         self.lock().get(&address).map(|ias| ias.reach.clone())
     }
 }

@@ -10,7 +10,8 @@ use std::sync::Arc;
 use crate::error::Result;
 use crate::types::sbt::SbtRegion;
 use crate::validate::handles::{check_handles, HandleField, TraversableState};
-use crate::validate::scene::{check_scene, HitReach};
+use crate::validate::hit_reach::HitReach;
+use crate::validate::scene::check_scene;
 use crate::validate::TraceReach;
 
 /// A record whose data holds handles: where it is, where its handles are, and a

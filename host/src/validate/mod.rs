@@ -22,6 +22,7 @@
 
 pub(crate) mod accel;
 pub mod handles;
+pub(crate) mod hit_reach;
 pub(crate) mod launch;
 pub(crate) mod scene;
 pub mod spirv;
@@ -30,8 +31,8 @@ use raykit_device::ProgramKind;
 use raykit_spirv::{DescriptorBinding, DescriptorKind, ParamsDelivery};
 
 use crate::error::{Error, Result};
-use crate::program_group::ProgramGroup;
 use crate::types::group::GroupKind;
+use crate::types::group::{Group, SpirvCode};
 use crate::types::sbt::SbtRegion;
 
 /// Vulkan uses the low 16 bits of a trace's `missIndex`: the miss region holds at
@@ -72,7 +73,7 @@ pub(crate) struct TraceReach {
 
 impl TraceReach {
     /// Reads what the programs of `groups` trace.
-    pub(crate) fn of<'g>(groups: impl IntoIterator<Item = &'g ProgramGroup>) -> TraceReach {
+    pub(crate) fn of<'g, S: SpirvCode + 'g>(groups: impl IntoIterator<Item = &'g Group<S>>) -> TraceReach {
         let mut reach = TraceReach::default();
         let higher = |slot: &mut Option<(u32, String)>, value: Option<u32>, name: &str| {
             if let Some(v) = value {
@@ -81,7 +82,7 @@ impl TraceReach {
                 }
             }
         };
-        let groups: Vec<&ProgramGroup> = groups.into_iter().collect();
+        let groups: Vec<&Group<S>> = groups.into_iter().collect();
         // The SBT placement of the ray types the pipeline's miss and hit programs
         // were declared for: what a trace whose stride or offset is computed at
         // run time is assumed to use.
@@ -236,8 +237,8 @@ fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDel
 /// specialization constants `spec_values` frozen in, validated, and every
 /// descriptor binding a program declares against raykit's pipeline layout for
 /// params delivered as `delivery`.
-pub(crate) fn check_programs(
-    groups: &[&ProgramGroup],
+pub(crate) fn check_programs<S: SpirvCode>(
+    groups: &[&Group<S>],
     max_trace_depth: u32,
     spec_values: &[(u32, u32)],
     delivery: ParamsDelivery,
@@ -247,8 +248,8 @@ pub(crate) fn check_programs(
     for group in groups {
         for program in group.programs() {
             let Some(module) = program.module() else { continue };
-            if seen.insert(std::sync::Arc::as_ptr(module)) {
-                spirv::validate(&spirv::freeze_spec_constants(&module.words, spec_values)?)?;
+            if seen.insert(module.identity()) {
+                spirv::validate(&spirv::freeze_spec_constants(module.words(), spec_values)?)?;
             }
         }
     }

@@ -12,8 +12,8 @@ use crate::error::{Error, Result};
 use crate::log::MessageLog;
 use crate::types::context::{ContextOptions, DeviceLimits, MemoryUsage};
 use crate::validate::handles::{LiveTraversables, TraversableState};
+use crate::validate::hit_reach::HitReach;
 use crate::validate::launch::Liveness;
-use crate::validate::scene::HitReach;
 use crate::vulkan::buffer_table::BufferTable;
 use crate::vulkan::cache::{CacheKey, DiskCache};
 use crate::vulkan::device_registry::{SharedDevice, SharedInstance};
@@ -55,7 +55,7 @@ pub(crate) struct ContextInner {
     /// Whether `VK_KHR_pipeline_library` is enabled (see [`crate::PipelineLibrary`]).
     pub(crate) pipeline_library: bool,
     /// Whether the driver is lavapipe (Mesa's CPU driver), whose workarounds
-    /// raykit applies (see [`crate::pipeline::library`]).
+    /// raykit applies (see [`PipelineLibrary`](crate::PipelineLibrary)).
     pub(crate) lavapipe: bool,
     /// The compile cache every pipeline creation of this context goes through.
     pub(crate) pipeline_cache: DiskCache,

@@ -6,6 +6,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::{Error, Result};
+use crate::types::group::{Group, GroupPrograms, Program, SpirvCode};
 use crate::types::program::EntryPointInfo;
 use crate::vulkan::context::ContextInner;
 
@@ -23,6 +24,27 @@ pub(crate) struct ModuleInner {
     /// that never call `throw_exception`), and only then do launches collect
     /// exceptions for it.
     pub(crate) records_exceptions: bool,
+}
+
+/// A program group of SPIR-V programs, as pipelines link it.
+pub(crate) type SpirvGroup = Group<Arc<ModuleInner>>;
+/// The programs of a [`SpirvGroup`].
+pub(crate) type SpirvGroupPrograms = GroupPrograms<Arc<ModuleInner>>;
+/// A program of a [`SpirvGroup`].
+pub(crate) type SpirvProgram = Program<Arc<ModuleInner>>;
+
+impl SpirvCode for Arc<ModuleInner> {
+    fn entry_points(&self) -> &[EntryPointInfo] {
+        &self.entry_points
+    }
+
+    fn words(&self) -> &[u32] {
+        &self.words
+    }
+
+    fn identity(&self) -> *const () {
+        Arc::as_ptr(self).cast()
+    }
 }
 
 /// Creates the shader module of `words` (a parsed, validated SPIR-V module),

@@ -21,12 +21,20 @@ pub(crate) struct VulkanSbt {
     pub(crate) callable: vk::StridedDeviceAddressRegionKHR,
     /// Shared with launches in flight ([`crate::Launch`]), which keep it alive.
     pub(crate) buffer: Arc<RawBuffer>,
+    /// The exception program's index in the callable region, if the pipeline has one.
+    pub(crate) exception_index: Option<u32>,
 }
 
 impl VulkanSbt {
     /// Uploads the packed records `bytes` of `pipeline`, laid out as `layouts`
-    /// (raygen, miss, hit, callable) say.
-    pub(crate) fn new(pipeline: &Arc<PipelineInner>, bytes: &[u8], layouts: [RegionLayout; 4]) -> Result<VulkanSbt> {
+    /// (raygen, miss, hit, callable) say, whose exception program (if any) is at
+    /// `exception_index` in the callable region.
+    pub(crate) fn new(
+        pipeline: &Arc<PipelineInner>,
+        bytes: &[u8],
+        layouts: [RegionLayout; 4],
+        exception_index: Option<u32>,
+    ) -> Result<VulkanSbt> {
         let [rg, ms, ht, cl] = layouts;
         let mut buffer = RawBuffer::new(
             &pipeline.ctx,
@@ -49,6 +57,7 @@ impl VulkanSbt {
             hit: region(ht),
             callable: region(cl),
             buffer: Arc::new(buffer),
+            exception_index,
         })
     }
 

@@ -1,7 +1,7 @@
 //! Recording and submitting builds: uploads inputs, shares one scratch buffer
 //! among the builds of a batch, records them into one command buffer
 //! ([`vkCmdBuildAccelerationStructuresKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCmdBuildAccelerationStructuresKHR.html)
-//! with several infos), and returns a [`PendingBuild`] to wait on; input and
+//! with several infos), and returns the work in flight to wait on; input and
 //! scratch memory is released when it has been waited on.
 
 use std::sync::Arc;

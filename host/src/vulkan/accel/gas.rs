@@ -1,5 +1,5 @@
 //! GAS builds on Vulkan: inputs uploaded, sizes queried, bottom-level builds
-//! and refits recorded, and compaction (see [`crate::accel::gas`]).
+//! and refits recorded, and compaction (see [`Gas`](crate::Gas)).
 
 use std::sync::Arc;
 

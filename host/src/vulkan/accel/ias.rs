@@ -1,5 +1,5 @@
 //! IAS builds on Vulkan: instance records (`VkAccelerationStructureInstanceKHR`)
-//! uploaded, top-level builds and refits recorded (see [`crate::accel::ias`]).
+//! uploaded, top-level builds and refits recorded (see [`Ias`](crate::Ias)).
 
 use std::sync::Arc;
 

@@ -1,7 +1,6 @@
 //! An acceleration structure on Vulkan: the structure itself with its storage
 //! ([`VkAccelerationStructureKHR`](https://registry.khronos.org/vulkan/specs/latest/man/html/VkAccelerationStructureKHR.html)),
-//! and the build, geometry and index flags [`BuildOptions`], [`GeometryFlags`] and
-//! index formats stand for.
+//! (the flags and index formats it is built with are mapped in `vulkan::conv`).
 
 use std::sync::Arc;
 

@@ -6,15 +6,15 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::{Result, UserException};
-use crate::program_group::ProgramGroup;
 use crate::vulkan::buffer_table::SlotReuse;
 use crate::vulkan::context::ContextInner;
 use crate::vulkan::memory::RawBuffer;
+use crate::vulkan::module::SpirvGroup;
 
 /// A user-exception buffer: a device buffer in the bindless table, one per set of
 /// programs compiled together. Every launch zeroes its counter and copies it into
 /// the launch's own readback buffer, on the device, so launches in flight never
-/// share host-visible state (see [`crate::pipeline::launch`]); launches skip that
+/// share host-visible state (see [`super::record`]); launches skip that
 /// for programs that cannot throw.
 pub(crate) struct ExceptionBuffer {
     ctx: Arc<ContextInner>,
@@ -31,7 +31,7 @@ impl ExceptionBuffer {
     pub(crate) const SIZE: u64 = raykit_device::exception::EXCEPTION_BUFFER_WORDS as u64 * 4;
 
     /// The exception buffer of `groups`, compiled together.
-    pub(crate) fn new(ctx: &Arc<ContextInner>, groups: &[&ProgramGroup]) -> Result<ExceptionBuffer> {
+    pub(crate) fn new(ctx: &Arc<ContextInner>, groups: &[&SpirvGroup]) -> Result<ExceptionBuffer> {
         let recorded =
             groups.iter().any(|g| g.programs().iter().any(|p| p.module().is_some_and(|m| m.records_exceptions)));
         let buffer = RawBuffer::new(

@@ -1,6 +1,6 @@
 //! Linking on Vulkan: ray-tracing pipelines created from program groups or from
 //! pipeline libraries, and the libraries themselves (see [`crate::pipeline`] and
-//! [`crate::pipeline::library`]).
+//! [`PipelineLibrary`](crate::PipelineLibrary)).
 
 use std::sync::atomic::AtomicU32;
 use std::sync::{Arc, Mutex};
@@ -10,11 +10,11 @@ use raykit_device::LaunchParams;
 use raykit_spirv::InterfaceSizes;
 
 use crate::error::{Error, Result};
-use crate::program_group::ProgramGroup;
 use crate::stack;
 use crate::types::{program::params_delivery, specialization::Specialization};
 use crate::vulkan::context::ContextInner;
 use crate::vulkan::memory::RawBuffer;
+use crate::vulkan::module::SpirvGroup;
 use crate::vulkan::pipeline::exceptions::ExceptionBuffer;
 use crate::vulkan::pipeline::handle::PipelineHandle;
 use crate::vulkan::pipeline::layout::{ParamsUniform, PipelineLayout};
@@ -44,7 +44,7 @@ pub(crate) struct PipelineInner {
     pub(crate) stack_size: AtomicU32,
     /// Where programs record user exceptions: one buffer per set of programs
     /// compiled together (the pipeline itself, or each linked library). Launches
-    /// zero and copy them on the device (see [`crate::pipeline::launch`]).
+    /// zero and copy them on the device (see [`super::record`]).
     pub(crate) exceptions: Vec<Arc<ExceptionBuffer>>,
     /// Those of `exceptions` whose programs can throw: the ones launches zero,
     /// copy and read back.
@@ -121,7 +121,7 @@ impl PipelineInner {
 /// pipeline for params `P`, with the specialization constants `constants`.
 pub(crate) fn link_groups<P: LaunchParams>(
     inner: &Arc<ContextInner>,
-    groups: &[&ProgramGroup],
+    groups: &[&SpirvGroup],
     max_trace_depth: u32,
     constants: &Specialization,
 ) -> Result<PipelineInner> {
@@ -156,7 +156,7 @@ pub(crate) fn link_libraries<P: LaunchParams>(
     let library_info = vk::PipelineLibraryCreateInfoKHR::default().libraries(&library_pipelines);
     let interface_create = interface_info(interface);
     // lavapipe gives push constants only to pipelines that compile a stage
-    // themselves (see `crate::pipeline::library`); give it one that does nothing.
+    // themselves (see `PipelineLibrary`); give it one that does nothing.
     let carrier = if inner.lavapipe { Some(PushConstantCarrier::new(inner)?) } else { None };
     let carrier_stage: Vec<vk::PipelineShaderStageCreateInfo<'_>> =
         carrier.iter().map(PushConstantCarrier::stage).collect();
@@ -224,7 +224,7 @@ pub(crate) struct LibraryInner {
     _layout: PipelineLayout,
     pub(crate) ctx: Arc<ContextInner>,
     /// Its groups, in library order.
-    pub(crate) groups: Vec<ProgramGroup>,
+    pub(crate) groups: Vec<SpirvGroup>,
     /// Where its programs record user exceptions (their slot was specialized in).
     pub(crate) exceptions: Arc<ExceptionBuffer>,
     pub(crate) max_trace_depth: u32,
@@ -243,7 +243,7 @@ impl LibraryInner {
     /// `max_trace_depth`, `interface` and the specialization constants `constants`.
     pub(crate) fn new<P: LaunchParams>(
         inner: &Arc<ContextInner>,
-        groups: &[&ProgramGroup],
+        groups: &[&SpirvGroup],
         max_trace_depth: u32,
         interface: InterfaceSizes,
         constants: &Specialization,

@@ -1,7 +1,33 @@
 //! Launch recording on Vulkan: a launch's command buffer (params, exception
 //! counters, bindings, stack size, the trace, optional timestamps and the
-//! barriers between them), its submission and its user-exception readback (see
-//! [`crate::pipeline::launch`] for the rules it keeps).
+//! barriers between them), its submission and its user-exception readback.
+//!
+//! # The rules it keeps: several launches in flight
+//! Nothing a launch needs is shared on the host with another launch in flight:
+//! * its params travel in its own command buffer — as push constants, or recorded
+//!   with `vkCmdUpdateBuffer` into the pipeline's uniform buffer;
+//! * the pipeline's user-exception counters are zeroed with `vkCmdFillBuffer` at the
+//!   start of its command buffer and copied into the launch's own readback buffer
+//!   at its end — for the programs that can throw only: a module without the
+//!   exception slot's specialization constant (rust-gpu leaves it out of modules
+//!   that never call `throw_exception`) costs a launch nothing;
+//! * every raykit submission ends with a memory barrier that orders it before the
+//!   later work that may touch what it used: a launch's and a buffer readback's
+//!   cover every later command, a build's, refit's or compaction's every later
+//!   build and trace (and builds, refits and compactions begin with a barrier from
+//!   all earlier commands). So on raykit's one queue a launch's programs start only
+//!   after earlier submissions are done with what they touch, and see their
+//!   writes. A launch that first writes with transfers (a params uniform, exception
+//!   counters) also begins with a barrier from all earlier commands — the uniform
+//!   buffer and the exception counters are rewritten only once the launch before
+//!   has finished with them.
+//!
+//! A launch of push-constant params whose programs cannot throw records what a
+//! hand-written one does: binding, stack size, push constants, the trace and one
+//! barrier after it. A params uniform or exception buffers to zero add their
+//! transfers and a barrier on each side of them, and exception copies a last
+//! barrier.
+//!
 
 use std::sync::Arc;
 
@@ -80,7 +106,6 @@ pub(crate) fn submit(
     inner: &Arc<PipelineInner>,
     sbt: &VulkanSbt,
     checks: SbtChecks<'_>,
-    exception_index: Option<u32>,
     params_bytes: &[u8],
     dims: [u32; 3],
     stack_size: u32,
@@ -147,7 +172,7 @@ pub(crate) fn submit(
                     // The counter is the first word.
                     device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 0, 4, 0);
                     // Then where the exception program sits in the callable region.
-                    let handler = exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
+                    let handler = sbt.exception_index.unwrap_or(raykit_device::exception::NO_EXCEPTION_PROGRAM);
                     device.cmd_fill_buffer(cmd, exceptions.buffer.buffer, 4, 4, handler);
                 }
                 if let Some((_, buffer, bytes)) = &uniform {

@@ -11,17 +11,18 @@ use raykit_device::LaunchParams;
 use raykit_spirv::ParamsDelivery;
 
 use crate::error::{Error, Result};
-use crate::program_group::{GroupKind, GroupPrograms, Program, ProgramGroup};
 use crate::stack::{GroupRole, GroupStackSizes, StackSizes};
+use crate::types::group::GroupKind;
 use crate::types::{program::params_delivery, specialization::Specialization};
 use crate::vulkan::context::ContextInner;
 use crate::vulkan::conv;
+use crate::vulkan::module::{SpirvGroup, SpirvGroupPrograms, SpirvProgram};
 
 /// The shader stages and groups of a set of program groups compiled together,
 /// with the specialization every stage gets: the exception buffer's slot, the
 /// pipeline's `max_trace_depth` and the user's constants.
 pub(crate) struct ShaderGroups {
-    programs: Vec<Program>,
+    programs: Vec<SpirvProgram>,
     pub(crate) group_infos: Vec<vk::RayTracingShaderGroupCreateInfoKHR<'static>>,
     spec_data: Vec<u8>,
     spec_entries: Vec<vk::SpecializationMapEntry>,
@@ -29,14 +30,14 @@ pub(crate) struct ShaderGroups {
 
 impl ShaderGroups {
     pub(crate) fn new(
-        groups: &[&ProgramGroup],
+        groups: &[&SpirvGroup],
         exception_slot: u32,
         max_trace_depth: u32,
         constants: &Specialization,
     ) -> ShaderGroups {
         // One shader stage per program; groups refer to stages by index.
-        let mut programs: Vec<Program> = Vec::new();
-        let mut stage_index = |p: Option<&Program>| -> u32 {
+        let mut programs: Vec<SpirvProgram> = Vec::new();
+        let mut stage_index = |p: Option<&SpirvProgram>| -> u32 {
             match p {
                 Some(p) => {
                     programs.push(p.clone());
@@ -48,16 +49,16 @@ impl ShaderGroups {
         let mut group_infos = Vec::with_capacity(groups.len());
         for group in groups {
             let info = match &group.programs {
-                GroupPrograms::Raygen(p)
-                | GroupPrograms::Miss(p)
-                | GroupPrograms::Callable(p)
-                | GroupPrograms::Exception(p) => vk::RayTracingShaderGroupCreateInfoKHR::default()
+                SpirvGroupPrograms::Raygen(p)
+                | SpirvGroupPrograms::Miss(p)
+                | SpirvGroupPrograms::Callable(p)
+                | SpirvGroupPrograms::Exception(p) => vk::RayTracingShaderGroupCreateInfoKHR::default()
                     .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
                     .general_shader(stage_index(Some(p)))
                     .closest_hit_shader(vk::SHADER_UNUSED_KHR)
                     .any_hit_shader(vk::SHADER_UNUSED_KHR)
                     .intersection_shader(vk::SHADER_UNUSED_KHR),
-                GroupPrograms::Hit { closest_hit, any_hit, intersection } => {
+                SpirvGroupPrograms::Hit { closest_hit, any_hit, intersection } => {
                     let ty = if intersection.is_some() {
                         vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP
                     } else {
@@ -140,15 +141,12 @@ impl ShaderGroups {
 /// agree on their `PipelineCompileOptions`).
 pub(crate) fn check_groups<P: LaunchParams>(
     inner: &Arc<ContextInner>,
-    groups: &[&ProgramGroup],
+    groups: &[&SpirvGroup],
     max_trace_depth: u32,
 ) -> Result<()> {
     let limits = inner.limits;
     if max_trace_depth > limits.max_ray_recursion_depth {
         return Err(Error::TraceDepthTooLarge { requested: max_trace_depth, limit: limits.max_ray_recursion_depth });
-    }
-    if groups.iter().any(|g| g.ctx.as_vulkan().is_none_or(|c| !Arc::ptr_eq(c, inner))) {
-        return Err(Error::ContextMismatch);
     }
     let params_size = std::mem::size_of::<P>();
     let delivery = params_delivery::<P>();
@@ -171,7 +169,7 @@ pub(crate) fn check_groups<P: LaunchParams>(
 /// A group of a pipeline being created, and where it was compiled: its index in
 /// the pipeline (or library) that compiled it.
 pub(crate) struct CompiledGroup<'g> {
-    pub(crate) group: &'g ProgramGroup,
+    pub(crate) group: &'g SpirvGroup,
     /// The library that compiled it; `None` when the pipeline itself does.
     pub(crate) library: Option<vk::Pipeline>,
     /// Its index in the pipeline or library that compiled it.
@@ -181,7 +179,7 @@ pub(crate) struct CompiledGroup<'g> {
 /// A group of a created pipeline, in pipeline order.
 #[derive(Copy, Clone, Debug)]
 pub(crate) struct LinkedGroup {
-    /// The [`ProgramGroup`]'s identity.
+    /// The [`SpirvGroup`]'s identity.
     pub(crate) id: u64,
     pub(crate) kind: GroupKind,
     /// How it counts in the stack formulas.
@@ -207,13 +205,13 @@ impl LinkedGroup {
 }
 
 /// How a group counts in the stack formulas; callables by their OptiX prefix.
-fn group_role(programs: &GroupPrograms) -> GroupRole {
+fn group_role(programs: &SpirvGroupPrograms) -> GroupRole {
     match programs {
-        GroupPrograms::Raygen(_) => GroupRole::Raygen,
-        GroupPrograms::Miss(_) => GroupRole::Miss,
-        GroupPrograms::Hit { .. } => GroupRole::Hit,
-        GroupPrograms::Exception(_) => GroupRole::DirectCallable,
-        GroupPrograms::Callable(p) => match raykit_abi::ProgramPrefix::of_bytes(p.name.to_bytes()) {
+        SpirvGroupPrograms::Raygen(_) => GroupRole::Raygen,
+        SpirvGroupPrograms::Miss(_) => GroupRole::Miss,
+        SpirvGroupPrograms::Hit { .. } => GroupRole::Hit,
+        SpirvGroupPrograms::Exception(_) => GroupRole::DirectCallable,
+        SpirvGroupPrograms::Callable(p) => match raykit_abi::ProgramPrefix::of_bytes(p.name.to_bytes()) {
             Some(raykit_abi::ProgramPrefix::DirectCallable) => GroupRole::DirectCallable,
             Some(raykit_abi::ProgramPrefix::ContinuationCallable) => GroupRole::ContinuationCallable,
             _ => GroupRole::Callable,
@@ -226,7 +224,7 @@ fn query_group_stack_sizes(
     ctx: &ContextInner,
     pipeline: vk::Pipeline,
     index: u32,
-    programs: &GroupPrograms,
+    programs: &SpirvGroupPrograms,
 ) -> GroupStackSizes {
     let query = |shader: vk::ShaderGroupShaderKHR| -> u64 {
         // SAFETY: `index` is a group of the live `pipeline`, which has a shader of
@@ -234,13 +232,13 @@ fn query_group_stack_sizes(
         unsafe { ctx.rt.get_ray_tracing_shader_group_stack_size(pipeline, index, shader) }
     };
     match programs {
-        GroupPrograms::Raygen(_)
-        | GroupPrograms::Miss(_)
-        | GroupPrograms::Callable(_)
-        | GroupPrograms::Exception(_) => {
+        SpirvGroupPrograms::Raygen(_)
+        | SpirvGroupPrograms::Miss(_)
+        | SpirvGroupPrograms::Callable(_)
+        | SpirvGroupPrograms::Exception(_) => {
             GroupStackSizes { general: query(vk::ShaderGroupShaderKHR::GENERAL), ..Default::default() }
         }
-        GroupPrograms::Hit { closest_hit, any_hit, intersection } => GroupStackSizes {
+        SpirvGroupPrograms::Hit { closest_hit, any_hit, intersection } => GroupStackSizes {
             general: 0,
             closest_hit: if closest_hit.is_some() { query(vk::ShaderGroupShaderKHR::CLOSEST_HIT) } else { 0 },
             any_hit: if any_hit.is_some() { query(vk::ShaderGroupShaderKHR::ANY_HIT) } else { 0 },

@@ -1,6 +1,6 @@
 //! GPU timestamps on Vulkan: the two-query timestamp pool of a
 //! [`LaunchTimer`](crate::LaunchTimer), and the queue's timestamp support (see
-//! [`crate::pipeline::timing`]).
+//! [`LaunchTimer`](crate::LaunchTimer)).
 
 use std::sync::Arc;
 
