@@ -36,7 +36,7 @@
 //! ([lost device](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#devsandqueues-lost-device)),
 //! the device is marked lost: that call and every later launch, build, buffer,
 //! module or pipeline creation on every context of the device returns
-//! [`Error::DeviceLost`], and the objects still drop cleanly. The next
+//! [`Error::DeviceLost`](crate::Error::DeviceLost), and the objects still drop cleanly. The next
 //! [`Context::new`] gets a new device, Vulkan's way back from a lost device.
 
 use std::sync::Arc;
@@ -44,7 +44,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::cache::PipelineCacheInfo;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::log::MessageLog;
 use crate::types::context::next_context_id;
 pub use crate::types::context::{Backend, ContextOptions, DeviceLimits, MemoryUsage};
@@ -54,12 +54,12 @@ use crate::vulkan::context::ContextInner;
 /// device, or the CPU backend (see [`Backend`]).
 #[derive(Clone)]
 pub struct Context {
-    backend: ContextBackend,
+    repr: ContextRepr,
 }
 
 /// What a [`Context`] is underneath.
 #[derive(Clone)]
-pub(crate) enum ContextBackend {
+pub(crate) enum ContextRepr {
     Vulkan(Arc<ContextInner>),
     Cpu(Arc<crate::cpu::CpuContext>),
 }
@@ -73,7 +73,7 @@ impl Context {
             Backend::Vulkan => Self::new_vulkan(options),
             Backend::Cpu => {
                 let cpu = crate::cpu::CpuContext::new(next_context_id(), &options)?;
-                Ok(Context { backend: ContextBackend::Cpu(Arc::new(cpu)) })
+                Ok(Context { repr: ContextRepr::Cpu(Arc::new(cpu)) })
             }
         }
     }
@@ -110,65 +110,61 @@ impl Context {
 
     /// A context of an existing Vulkan context's inner state.
     pub(crate) fn from_vulkan(inner: Arc<ContextInner>) -> Context {
-        Context { backend: ContextBackend::Vulkan(inner) }
+        Context { repr: ContextRepr::Vulkan(inner) }
     }
 
     /// A context of an existing CPU context.
     pub(crate) fn from_cpu(cpu: Arc<crate::cpu::CpuContext>) -> Context {
-        Context { backend: ContextBackend::Cpu(cpu) }
+        Context { repr: ContextRepr::Cpu(cpu) }
     }
 
     /// The Vulkan context, or `NotOnCpuBackend` naming `what`.
     pub(crate) fn vulkan(&self, what: &'static str) -> Result<&Arc<ContextInner>> {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => Ok(inner),
-            ContextBackend::Cpu(_) => Err(Error::NotOnCpuBackend {
-                what,
-                why: "it is part of Vulkan",
-                fix: "use a Context of Backend::Vulkan for it",
-            }),
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => Ok(inner),
+            ContextRepr::Cpu(_) => Err(crate::backend::refused_on_cpu(crate::backend::CpuRefusal::VulkanOnly(what))),
         }
     }
 
     /// The Vulkan context, when this is one.
     pub(crate) fn as_vulkan(&self) -> Option<&Arc<ContextInner>> {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => Some(inner),
-            ContextBackend::Cpu(_) => None,
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => Some(inner),
+            ContextRepr::Cpu(_) => None,
         }
     }
 
     /// The CPU context, when this is one.
     pub(crate) fn cpu(&self) -> Option<&Arc<crate::cpu::CpuContext>> {
-        match &self.backend {
-            ContextBackend::Cpu(cpu) => Some(cpu),
-            ContextBackend::Vulkan(_) => None,
+        match &self.repr {
+            ContextRepr::Cpu(cpu) => Some(cpu),
+            ContextRepr::Vulkan(_) => None,
         }
     }
 
     /// Whether `other` is this context (a clone of it).
     pub(crate) fn is_same(&self, other: &Context) -> bool {
-        match (&self.backend, &other.backend) {
-            (ContextBackend::Vulkan(a), ContextBackend::Vulkan(b)) => Arc::ptr_eq(a, b),
-            (ContextBackend::Cpu(a), ContextBackend::Cpu(b)) => Arc::ptr_eq(a, b),
+        match (&self.repr, &other.repr) {
+            (ContextRepr::Vulkan(a), ContextRepr::Vulkan(b)) => Arc::ptr_eq(a, b),
+            (ContextRepr::Cpu(a), ContextRepr::Cpu(b)) => Arc::ptr_eq(a, b),
             _ => false,
         }
     }
 
     /// The backend this context runs programs on.
     pub fn backend(&self) -> Backend {
-        match &self.backend {
-            ContextBackend::Vulkan(_) => Backend::Vulkan,
-            ContextBackend::Cpu(_) => Backend::Cpu,
+        match &self.repr {
+            ContextRepr::Vulkan(_) => Backend::Vulkan,
+            ContextRepr::Cpu(_) => Backend::Cpu,
         }
     }
 
     /// Rays the CPU backend has traced in packets on this context so far (see
     /// [`ContextOptions::cpu_packets`]); `0` on Vulkan.
     pub fn packet_rays(&self) -> u64 {
-        match &self.backend {
-            ContextBackend::Vulkan(_) => 0,
-            ContextBackend::Cpu(cpu) => cpu.packet_rays.load(std::sync::atomic::Ordering::Relaxed),
+        match &self.repr {
+            ContextRepr::Vulkan(_) => 0,
+            ContextRepr::Cpu(cpu) => cpu.packet_rays.load(std::sync::atomic::Ordering::Relaxed),
         }
     }
 
@@ -179,39 +175,39 @@ impl Context {
 
     /// The name of the device in use.
     pub fn device_name(&self) -> std::borrow::Cow<'_, str> {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => std::borrow::Cow::Borrowed(&inner.shared.name),
-            ContextBackend::Cpu(cpu) => std::borrow::Cow::Owned(cpu.name()),
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => std::borrow::Cow::Borrowed(&inner.shared.name),
+            ContextRepr::Cpu(cpu) => std::borrow::Cow::Owned(cpu.name()),
         }
     }
 
     /// Whether this device links pipelines from libraries
     /// (`VK_KHR_pipeline_library`; see [`crate::PipelineLibrary`]).
     pub fn supports_pipeline_libraries(&self) -> bool {
-        matches!(&self.backend, ContextBackend::Vulkan(inner) if inner.pipeline_library)
+        matches!(&self.repr, ContextRepr::Vulkan(inner) if inner.pipeline_library)
     }
 
     /// The device's ray-tracing limits.
     pub fn limits(&self) -> &DeviceLimits {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => &inner.limits,
-            ContextBackend::Cpu(_) => &crate::cpu::LIMITS,
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => &inner.limits,
+            ContextRepr::Cpu(_) => &crate::cpu::LIMITS,
         }
     }
 
     /// Whether this context and `other` share one `VkDevice` (contexts made for one
     /// GPU do).
     pub fn shares_device_with(&self, other: &Context) -> bool {
-        match (&self.backend, &other.backend) {
-            (ContextBackend::Vulkan(a), ContextBackend::Vulkan(b)) => Arc::ptr_eq(&a.shared, &b.shared),
+        match (&self.repr, &other.repr) {
+            (ContextRepr::Vulkan(a), ContextRepr::Vulkan(b)) => Arc::ptr_eq(&a.shared, &b.shared),
             _ => false,
         }
     }
 
     /// Whether the device was lost (`VK_ERROR_DEVICE_LOST`): then every context on it
-    /// refuses new work with [`Error::DeviceLost`]; drop them, and make a new context.
+    /// refuses new work with [`Error::DeviceLost`](crate::Error::DeviceLost); drop them, and make a new context.
     pub fn is_device_lost(&self) -> bool {
-        matches!(&self.backend, ContextBackend::Vulkan(inner) if inner.shared.is_lost())
+        matches!(&self.repr, ContextRepr::Vulkan(inner) if inner.shared.is_lost())
     }
 
     /// Test hook: the next submission on this context's device (by any context on
@@ -219,7 +215,7 @@ impl Context {
     #[cfg(feature = "fault-injection")]
     #[doc(hidden)]
     pub fn inject_device_loss_at_next_submit(&self) {
-        if let ContextBackend::Vulkan(inner) = &self.backend {
+        if let ContextRepr::Vulkan(inner) = &self.repr {
             inner.shared.inject_loss();
         }
     }
@@ -229,17 +225,17 @@ impl Context {
     /// returned log is shared: it keeps collecting, also while the context is
     /// destroyed, so a test can check for leaks reported at destruction.
     pub fn messages(&self) -> MessageLog {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => inner.log.clone(),
-            ContextBackend::Cpu(cpu) => cpu.log.clone(),
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => inner.log.clone(),
+            ContextRepr::Cpu(cpu) => cpu.log.clone(),
         }
     }
 
     /// The queue family used for all work (`None` on the CPU backend).
     pub fn queue_family(&self) -> Option<u32> {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => Some(inner.shared.queue_family),
-            ContextBackend::Cpu(_) => None,
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => Some(inner.shared.queue_family),
+            ContextRepr::Cpu(_) => None,
         }
     }
 
@@ -247,7 +243,7 @@ impl Context {
     /// and debugging tools (`vkSetDebugUtilsObjectNameEXT`); does nothing without
     /// VK_EXT_debug_utils. raykit names the objects it makes itself.
     pub fn set_debug_name<H: vk::Handle>(&self, handle: H, name: &str) {
-        if let ContextBackend::Vulkan(inner) = &self.backend {
+        if let ContextRepr::Vulkan(inner) = &self.repr {
             inner.set_name(handle, name);
         }
     }
@@ -256,9 +252,9 @@ impl Context {
     /// or refused, and its current size. See [`crate::cache`].
     /// On the CPU backend, which compiles nothing at run time, the cache is off.
     pub fn pipeline_cache_info(&self) -> PipelineCacheInfo {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => inner.pipeline_cache.info(&inner.device),
-            ContextBackend::Cpu(_) => PipelineCacheInfo::off(),
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => inner.pipeline_cache.info(&inner.device),
+            ContextRepr::Cpu(_) => PipelineCacheInfo::off(),
         }
     }
 
@@ -266,9 +262,9 @@ impl Context {
     /// context is destroyed); returns the file, or `None` when the cache is off or
     /// empty.
     pub fn save_pipeline_cache(&self) -> Result<Option<std::path::PathBuf>> {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => inner.pipeline_cache.save(&inner.device),
-            ContextBackend::Cpu(_) => Ok(None),
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => inner.pipeline_cache.save(&inner.device),
+            ContextRepr::Cpu(_) => Ok(None),
         }
     }
 
@@ -277,9 +273,9 @@ impl Context {
     /// `vkCmdTraceRaysKHR` requires besides the total of
     /// [`DeviceLimits::max_ray_dispatch_invocation_count`].
     pub fn max_launch_dimensions(&self) -> [u64; 3] {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => inner.launch_dimension_limits,
-            ContextBackend::Cpu(_) => crate::cpu::LAUNCH_DIMENSION_LIMITS,
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => inner.launch_dimension_limits,
+            ContextRepr::Cpu(_) => crate::cpu::LAUNCH_DIMENSION_LIMITS,
         }
     }
 
@@ -292,9 +288,9 @@ impl Context {
     ///
     /// On the CPU backend: the live buffers and textures and their bytes.
     pub fn memory_usage(&self) -> MemoryUsage {
-        let inner = match &self.backend {
-            ContextBackend::Vulkan(inner) => inner,
-            ContextBackend::Cpu(cpu) => {
+        let inner = match &self.repr {
+            ContextRepr::Vulkan(inner) => inner,
+            ContextRepr::Cpu(cpu) => {
                 let (buffers, buffer_bytes) = cpu.buffers.usage();
                 let (textures, texture_bytes) = cpu.textures.usage();
                 let (allocations, bytes) = (buffers + textures, buffer_bytes + texture_bytes);
@@ -310,21 +306,21 @@ impl Context {
     /// that work has finished (see [`crate::timeline`]); every submission does it
     /// too. Does not block.
     pub fn poll(&self) -> Result<()> {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => inner.collect(),
-            ContextBackend::Cpu(_) => Ok(()),
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => inner.collect(),
+            ContextRepr::Cpu(_) => Ok(()),
         }
     }
 
     /// Blocks until the device has finished everything submitted so far, then
     /// destroys every object dropped meanwhile.
     pub fn wait_idle(&self) -> Result<()> {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => {
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => {
                 inner.wait_for_pending_work()?;
                 inner.collect()
             }
-            ContextBackend::Cpu(cpu) => {
+            ContextRepr::Cpu(cpu) => {
                 cpu.wait_idle();
                 Ok(())
             }
@@ -340,9 +336,9 @@ impl Context {
 
     /// Number of dropped objects still waiting for their work to finish.
     pub fn pending_retirements(&self) -> usize {
-        match &self.backend {
-            ContextBackend::Vulkan(inner) => inner.pending_retirements(),
-            ContextBackend::Cpu(_) => 0,
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => inner.pending_retirements(),
+            ContextRepr::Cpu(_) => 0,
         }
     }
 }
@@ -375,9 +371,9 @@ impl Context {
 
 impl std::fmt::Debug for Context {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let inner = match &self.backend {
-            ContextBackend::Vulkan(inner) => inner,
-            ContextBackend::Cpu(cpu) => return f.debug_tuple("Context").field(cpu).finish(),
+        let inner = match &self.repr {
+            ContextRepr::Vulkan(inner) => inner,
+            ContextRepr::Cpu(cpu) => return f.debug_tuple("Context").field(cpu).finish(),
         };
         f.debug_struct("Context")
             .field("id", &inner.id)

@@ -5,6 +5,7 @@
 #![deny(missing_debug_implementations)]
 
 pub mod accel;
+mod backend;
 pub mod cache;
 pub mod context;
 pub mod cpu;

@@ -21,7 +21,7 @@ use crate::vulkan::timeline::Retired;
 /// A typed array of `T` in device memory, visible to device programs through
 /// [`DeviceBuffer::handle`] and readable and writable from the host.
 pub struct DeviceBuffer<T: Element> {
-    storage: Storage,
+    repr: BufferRepr,
     slot: u32,
     /// The handle's value: the slot, and the generation that tells this buffer
     /// from earlier and later ones in the slot (see [`crate::validate::handles`]).
@@ -31,7 +31,7 @@ pub struct DeviceBuffer<T: Element> {
 }
 
 /// Where a [`DeviceBuffer`]'s elements are.
-enum Storage {
+enum BufferRepr {
     /// A Vulkan buffer.
     Vulkan(RawBuffer),
     /// Words in host memory, in the CPU backend's table.
@@ -61,18 +61,18 @@ impl<T: Element> DeviceBuffer<T> {
         if let Some(cpu) = ctx.cpu() {
             let words = crate::cpu::buffers::zeroed_words(len * T::WORDS as usize);
             let (slot, handle) = cpu.buffers.insert(words.clone())?;
-            let storage = Storage::Cpu { ctx: cpu.clone(), words };
-            return Ok(DeviceBuffer { storage, slot, handle, len, _element: PhantomData });
+            let repr = BufferRepr::Cpu { ctx: cpu.clone(), words };
+            return Ok(DeviceBuffer { repr, slot, handle, len, _element: PhantomData });
         }
         let inner = ctx.vulkan("a buffer")?;
         let (raw, slot, handle) = RawBuffer::storage(inner, size, location)?;
-        Ok(DeviceBuffer { storage: Storage::Vulkan(raw), slot, handle, len, _element: PhantomData })
+        Ok(DeviceBuffer { repr: BufferRepr::Vulkan(raw), slot, handle, len, _element: PhantomData })
     }
 
     /// A zero-filled buffer of `len` elements, for results the host reads back.
     pub fn zeroed(ctx: &Context, len: usize) -> Result<Self> {
         let mut buffer = Self::new(ctx, len, MemoryLocation::GpuToCpu)?;
-        if let Storage::Vulkan(raw) = &mut buffer.storage {
+        if let BufferRepr::Vulkan(raw) = &mut buffer.repr {
             if let Some(bytes) = raw.mapped_mut() {
                 bytes.fill(0);
             }
@@ -83,9 +83,9 @@ impl<T: Element> DeviceBuffer<T> {
     /// A buffer holding a copy of `data`, for inputs of device programs.
     pub fn from_slice(ctx: &Context, data: &[T]) -> Result<Self> {
         let mut buffer = Self::new(ctx, data.len(), MemoryLocation::CpuToGpu)?;
-        match &mut buffer.storage {
-            Storage::Vulkan(raw) => raw.write_bytes(bytemuck::cast_slice(data))?,
-            Storage::Cpu { words, .. } => crate::cpu::buffers::write_words(words, 0, bytemuck::cast_slice(data)),
+        match &mut buffer.repr {
+            BufferRepr::Vulkan(raw) => raw.write_bytes(bytemuck::cast_slice(data))?,
+            BufferRepr::Cpu { words, .. } => crate::cpu::buffers::write_words(words, 0, bytemuck::cast_slice(data)),
         }
         Ok(buffer)
     }
@@ -110,9 +110,9 @@ impl<T: Element> DeviceBuffer<T> {
     /// pending launches leave; see [`DeviceBuffer::read_async`] for a copy that
     /// does not block.
     pub fn read(&self) -> Result<Vec<T>> {
-        let raw = match &self.storage {
-            Storage::Vulkan(raw) => raw,
-            Storage::Cpu { ctx, words } => {
+        let raw = match &self.repr {
+            BufferRepr::Vulkan(raw) => raw,
+            BufferRepr::Cpu { ctx, words } => {
                 ctx.wait_idle();
                 return Ok(read_cpu(words, self.len));
             }
@@ -135,16 +135,16 @@ impl<T: Element> DeviceBuffer<T> {
     /// have ended (when [`PendingRead::wait`] finds them ended), from the
     /// buffer's words, which the returned value keeps.
     pub fn read_async(&self) -> Result<PendingRead<T>> {
-        let raw = match &self.storage {
-            Storage::Vulkan(raw) => raw,
-            Storage::Cpu { ctx, words } => {
+        let raw = match &self.repr {
+            BufferRepr::Vulkan(raw) => raw,
+            BufferRepr::Cpu { ctx, words } => {
                 let after = ctx.last_epoch();
-                let state = Pending::CpuCopy { ctx: ctx.clone(), words: words.clone(), after, len: self.len };
+                let state = ReadRepr::Cpu { ctx: ctx.clone(), words: words.clone(), after, len: self.len };
                 return Ok(PendingRead { state, _element: PhantomData });
             }
         };
         let (submission, staging) = raw.read_back()?;
-        Ok(PendingRead { state: Pending::Copying { submission, staging, len: self.len }, _element: PhantomData })
+        Ok(PendingRead { state: ReadRepr::Vulkan { submission, staging, len: self.len }, _element: PhantomData })
     }
 
     /// Copies elements `first..first + out.len()` into `out`: a part of
@@ -152,8 +152,8 @@ impl<T: Element> DeviceBuffer<T> {
     pub fn read_into(&self, first: usize, out: &mut [T]) -> Result<()> {
         let end = self.check_range(first, out.len())?;
         let size = std::mem::size_of::<T>();
-        match &self.storage {
-            Storage::Vulkan(raw) => {
+        match &self.repr {
+            BufferRepr::Vulkan(raw) => {
                 raw.ctx.wait_for_pending_work()?;
                 let bytes = raw.mapped().ok_or(Error::BufferSize {
                     len: self.len,
@@ -162,7 +162,7 @@ impl<T: Element> DeviceBuffer<T> {
                 })?;
                 bytemuck::cast_slice_mut::<T, u8>(out).copy_from_slice(&bytes[first * size..end * size]);
             }
-            Storage::Cpu { ctx, words } => {
+            BufferRepr::Cpu { ctx, words } => {
                 ctx.wait_idle();
                 let mut tmp = vec![0u32; out.len() * T::WORDS as usize];
                 crate::cpu::buffers::read_words(words, first as u64 * u64::from(T::WORDS), &mut tmp);
@@ -178,8 +178,8 @@ impl<T: Element> DeviceBuffer<T> {
         let end = self.check_range(first, data.len())?;
         let size = std::mem::size_of::<T>();
         let len = self.len;
-        match &mut self.storage {
-            Storage::Vulkan(raw) => {
+        match &mut self.repr {
+            BufferRepr::Vulkan(raw) => {
                 raw.ctx.wait_for_pending_work()?;
                 let bytes = raw.mapped_mut().ok_or(Error::BufferSize {
                     len,
@@ -188,7 +188,7 @@ impl<T: Element> DeviceBuffer<T> {
                 })?;
                 bytes[first * size..end * size].copy_from_slice(bytemuck::cast_slice(data));
             }
-            Storage::Cpu { ctx, words } => {
+            BufferRepr::Cpu { ctx, words } => {
                 ctx.wait_idle();
                 let mut tmp = vec![0u32; data.len() * T::WORDS as usize];
                 bytemuck::cast_slice_mut::<u32, u8>(&mut tmp).copy_from_slice(bytemuck::cast_slice(data));
@@ -216,12 +216,12 @@ impl<T: Element> DeviceBuffer<T> {
             });
         }
         // Pending launches may read or write the buffer: let them finish first.
-        match &mut self.storage {
-            Storage::Vulkan(raw) => {
+        match &mut self.repr {
+            BufferRepr::Vulkan(raw) => {
                 raw.ctx.wait_for_pending_work()?;
                 raw.write_bytes(bytemuck::cast_slice(data))
             }
-            Storage::Cpu { ctx, words } => {
+            BufferRepr::Cpu { ctx, words } => {
                 ctx.wait_idle();
                 crate::cpu::buffers::write_words(words, 0, bytemuck::cast_slice(data));
                 Ok(())
@@ -232,9 +232,9 @@ impl<T: Element> DeviceBuffer<T> {
 
 impl<T: Element> std::fmt::Debug for DeviceBuffer<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let (bytes, host_visible) = match &self.storage {
-            Storage::Vulkan(raw) => (raw.size, raw.mapped().is_some()),
-            Storage::Cpu { words, .. } => (4 * words.len() as u64, true),
+        let (bytes, host_visible) = match &self.repr {
+            BufferRepr::Vulkan(raw) => (raw.size, raw.mapped().is_some()),
+            BufferRepr::Cpu { words, .. } => (4 * words.len() as u64, true),
         };
         f.debug_struct("DeviceBuffer")
             .field("element", &std::any::type_name::<T>())
@@ -251,12 +251,12 @@ impl<T: Element> Drop for DeviceBuffer<T> {
         // Launches refuse its handle from now on; the slot is reused only once no
         // pending work can read it (on the CPU backend, launches running keep the
         // words they started with).
-        match &self.storage {
-            Storage::Vulkan(raw) => {
+        match &self.repr {
+            BufferRepr::Vulkan(raw) => {
                 raw.ctx.buffer_table.kill(self.slot);
                 raw.ctx.retire(Retired::Slot(self.slot));
             }
-            Storage::Cpu { ctx, .. } => ctx.buffers.remove(self.slot),
+            BufferRepr::Cpu { ctx, .. } => ctx.buffers.remove(self.slot),
         }
     }
 }
@@ -277,14 +277,14 @@ impl Context {
 /// ([`DeviceBuffer::read_async`]); owns the host memory it lands in.
 #[must_use = "a PendingRead is waited on to get the contents"]
 pub struct PendingRead<T: Element> {
-    state: Pending,
+    state: ReadRepr,
     _element: PhantomData<T>,
 }
 
 /// Where a [`PendingRead`]'s contents are.
-enum Pending {
+enum ReadRepr {
     /// On their way from a Vulkan buffer.
-    Copying {
+    Vulkan {
         // Field order: the submission (which waits when dropped) goes first.
         submission: Submission,
         staging: RawBuffer,
@@ -292,7 +292,7 @@ enum Pending {
     },
     /// A CPU buffer's words, copied once the launches started before epoch
     /// `after` have ended.
-    CpuCopy { ctx: Arc<crate::cpu::CpuContext>, words: crate::cpu::buffers::Words, after: u64, len: usize },
+    Cpu { ctx: Arc<crate::cpu::CpuContext>, words: crate::cpu::buffers::Words, after: u64, len: usize },
 }
 
 /// The first `len` elements of CPU buffer words.
@@ -306,16 +306,16 @@ impl<T: Element> PendingRead<T> {
     /// Whether the copy has finished, without blocking.
     pub fn is_done(&self) -> Result<bool> {
         match &self.state {
-            Pending::Copying { submission, .. } => submission.is_done(),
-            Pending::CpuCopy { ctx, after, .. } => Ok(!ctx.is_running_before(*after)),
+            ReadRepr::Vulkan { submission, .. } => submission.is_done(),
+            ReadRepr::Cpu { ctx, after, .. } => Ok(!ctx.is_running_before(*after)),
         }
     }
 
     /// Blocks until the copy has finished and returns the contents.
     pub fn wait(self) -> Result<Vec<T>> {
         let (mut submission, staging, len) = match self.state {
-            Pending::Copying { submission, staging, len } => (submission, staging, len),
-            Pending::CpuCopy { ctx, words, after, len } => {
+            ReadRepr::Vulkan { submission, staging, len } => (submission, staging, len),
+            ReadRepr::Cpu { ctx, words, after, len } => {
                 ctx.wait_for(after);
                 return Ok(read_cpu(&words, len));
             }
@@ -333,10 +333,10 @@ impl<T: Element> PendingRead<T> {
 impl<T: Element> std::fmt::Debug for PendingRead<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match &self.state {
-            Pending::Copying { submission, len, .. } => {
+            ReadRepr::Vulkan { submission, len, .. } => {
                 f.debug_struct("PendingRead").field("len", len).field("epoch", &submission.epoch).finish()
             }
-            Pending::CpuCopy { len, after, .. } => {
+            ReadRepr::Cpu { len, after, .. } => {
                 f.debug_struct("PendingRead").field("len", len).field("after_launch", after).finish()
             }
         }

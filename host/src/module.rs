@@ -33,9 +33,9 @@ pub struct Module {
 #[derive(Clone)]
 pub(crate) enum ModuleRepr {
     /// SPIR-V on a Vulkan device.
-    Spirv(Arc<ModuleInner>),
+    Vulkan(Arc<ModuleInner>),
     /// A device crate linked into the program (the CPU backend).
-    Linked(LinkedCrate),
+    Cpu(LinkedCrate),
 }
 
 /// A device crate linked into the program, for the CPU backend.
@@ -50,32 +50,28 @@ impl Module {
     /// The SPIR-V module, when this is one.
     pub(crate) fn spirv(&self) -> Option<&Arc<ModuleInner>> {
         match &self.repr {
-            ModuleRepr::Spirv(inner) => Some(inner),
-            ModuleRepr::Linked(_) => None,
+            ModuleRepr::Vulkan(inner) => Some(inner),
+            ModuleRepr::Cpu(_) => None,
         }
     }
 
     /// The context the module was made on.
     pub(crate) fn context(&self) -> Context {
         match &self.repr {
-            ModuleRepr::Spirv(inner) => Context::from_vulkan(inner.ctx.clone()),
-            ModuleRepr::Linked(linked) => Context::from_cpu(linked.ctx.clone()),
+            ModuleRepr::Vulkan(inner) => Context::from_vulkan(inner.ctx.clone()),
+            ModuleRepr::Cpu(linked) => Context::from_cpu(linked.ctx.clone()),
         }
     }
 
     /// A module of the device crate `crate_name` linked into the program.
     fn linked(ctx: &Arc<crate::cpu::CpuContext>, crate_name: &str) -> Module {
-        Module { repr: ModuleRepr::Linked(LinkedCrate { ctx: ctx.clone(), crate_name: crate_name.to_owned() }) }
+        Module { repr: ModuleRepr::Cpu(LinkedCrate { ctx: ctx.clone(), crate_name: crate_name.to_owned() }) }
     }
 }
 
 /// The error for SPIR-V given to the CPU backend.
 fn spirv_on_cpu() -> Error {
-    Error::NotOnCpuBackend {
-        what: "a SPIR-V module",
-        why: "the CPU backend runs the Rust device programs linked into this program, not SPIR-V (GLSL, WGSL and .spv files have no host code)",
-        fix: "load a Rust device crate with Module::from_device_crate (or from_embedded) and name its programs by their EntryPoint constants, or use Backend::Vulkan for SPIR-V modules",
-    }
+    crate::backend::refused_on_cpu(crate::backend::CpuRefusal::SpirvModule)
 }
 
 /// The opcode of an instruction, from its first word (`None` for opcodes rspirv does not know).
@@ -373,7 +369,7 @@ impl Module {
         }
         let records_exceptions = declares_spec_id(&words, raykit_abi::EXCEPTION_SLOT_SPEC_ID);
         let inner = crate::vulkan::module::create(vulkan, entry_points, words, records_exceptions, name)?;
-        Ok(Module { repr: ModuleRepr::Spirv(Arc::new(inner)) })
+        Ok(Module { repr: ModuleRepr::Vulkan(Arc::new(inner)) })
     }
 
     /// Loads the SPIR-V that `cargo xtask build-shaders` built for the device crate
@@ -435,7 +431,7 @@ impl Module {
 
 impl std::fmt::Debug for Module {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if let ModuleRepr::Linked(linked) = &self.repr {
+        if let ModuleRepr::Cpu(linked) = &self.repr {
             return f.debug_struct("Module").field("linked_crate", &linked.crate_name).finish_non_exhaustive();
         }
         let entries: std::collections::BTreeMap<&str, &str> =

@@ -55,7 +55,7 @@ pub use crate::types::texture::{
 /// # Ok::<(), raykit::Error>(())
 /// ```
 pub struct Texture {
-    storage: Storage,
+    repr: TextureRepr,
     /// The table slot.
     slot: u32,
     handle: u32,
@@ -67,7 +67,7 @@ pub struct Texture {
 }
 
 /// Where a [`Texture`]'s texels are.
-enum Storage {
+enum TextureRepr {
     /// A Vulkan image with its view and sampler.
     Vulkan(crate::vulkan::texture::VulkanImage),
     /// Host memory, in the CPU backend's texture table.
@@ -157,8 +157,8 @@ impl Texture {
                 let (image, slot, handle) =
                     crate::vulkan::texture::create(inner, format, (width, height), levels, sampler)?;
                 let levels = levels.len() as u32;
-                let storage = Storage::Vulkan(image);
-                Ok(Texture { storage, slot, handle, format, width, height, levels, options: sampler })
+                let repr = TextureRepr::Vulkan(image);
+                Ok(Texture { repr, slot, handle, format, width, height, levels, options: sampler })
             }
         }
     }
@@ -277,7 +277,7 @@ fn create_cpu(
     let texture = crate::cpu::textures::CpuTexture::new(format, levels.to_vec(), options);
     let (slot, handle) = cpu.textures.insert(Arc::new(texture))?;
     Ok(Texture {
-        storage: Storage::Cpu(cpu.clone()),
+        repr: TextureRepr::Cpu(cpu.clone()),
         slot,
         handle,
         format,
@@ -291,12 +291,12 @@ fn create_cpu(
 impl Drop for Texture {
     fn drop(&mut self) {
         // Launches refuse its handle from now on.
-        match &self.storage {
+        match &self.repr {
             // The slot is emptied and reused once no pending work can sample it;
             // the image is freed after it (when `image` drops).
-            Storage::Vulkan(image) => image.release_slot(self.slot),
+            TextureRepr::Vulkan(image) => image.release_slot(self.slot),
             // Launches running keep the texels they started with.
-            Storage::Cpu(cpu) => cpu.textures.remove(self.slot),
+            TextureRepr::Cpu(cpu) => cpu.textures.remove(self.slot),
         }
     }
 }

@@ -31,7 +31,7 @@ pub struct Compaction {
 /// of one kind (triangles or AABBs). Instance it in an [`Ias`](super::Ias) to
 /// trace it.
 pub struct Gas {
-    pub(crate) accel: GasAccel,
+    pub(crate) repr: GasRepr,
     shapes: Vec<Shape>,
     options: BuildOptions,
     sizes: AccelSizes,
@@ -41,27 +41,27 @@ pub struct Gas {
 
 /// What a [`Gas`] is underneath.
 #[derive(Clone)]
-pub(crate) enum GasAccel {
+pub(crate) enum GasRepr {
     /// A Vulkan acceleration structure.
     Vulkan(Arc<AccelStructure>),
     /// A tree of the CPU backend.
     Cpu(Arc<crate::cpu::accel::CpuGas>),
 }
 
-impl GasAccel {
+impl GasRepr {
     /// The version every refit bumps (see [`crate::validate::handles`]).
     pub(crate) fn version(&self) -> &Arc<std::sync::atomic::AtomicU64> {
         match self {
-            GasAccel::Vulkan(accel) => &accel.version,
-            GasAccel::Cpu(cpu) => &cpu.version,
+            GasRepr::Vulkan(accel) => &accel.version,
+            GasRepr::Cpu(cpu) => &cpu.version,
         }
     }
 
     /// The context it was built on.
     pub(crate) fn context(&self) -> Context {
         match self {
-            GasAccel::Vulkan(accel) => Context::from_vulkan(accel.ctx.clone()),
-            GasAccel::Cpu(cpu) => Context::from_cpu(cpu.ctx.clone()),
+            GasRepr::Vulkan(accel) => Context::from_vulkan(accel.ctx.clone()),
+            GasRepr::Cpu(cpu) => Context::from_cpu(cpu.ctx.clone()),
         }
     }
 }
@@ -150,7 +150,7 @@ fn submit_gases(ctx: &Arc<ContextInner>, builds: &[GasBuilder<'_>]) -> Result<(b
         .into_iter()
         .zip(builds)
         .map(|(b, builder)| Gas {
-            accel: GasAccel::Vulkan(Arc::new(b.accel)),
+            repr: GasRepr::Vulkan(Arc::new(b.accel)),
             shapes: b.shapes,
             options: builder.options,
             sizes: b.sizes,
@@ -226,9 +226,9 @@ impl Gas {
                 reason: "it was built without BuildOptions::allow_update".to_owned(),
             });
         }
-        let accel = match &self.accel {
-            GasAccel::Vulkan(accel) => accel.clone(),
-            GasAccel::Cpu(cpu) => {
+        let accel = match &self.repr {
+            GasRepr::Vulkan(accel) => accel.clone(),
+            GasRepr::Cpu(cpu) => {
                 let shapes = input::validate(inputs, &crate::cpu::LIMITS, true)?;
                 if let Some(reason) = input::update_refusal(&self.shapes, &shapes) {
                     return Err(Error::UpdateRefused { what: "GAS", reason });
@@ -251,7 +251,7 @@ impl Gas {
     /// Rebuilds the GAS from `inputs` with its options; the topology may change.
     /// The structure may move: rebuild the [`Ias`](super::Ias)es that instance it.
     pub fn rebuild(&mut self, inputs: &[BuildInput<'_>]) -> Result<()> {
-        let ctx = self.accel.context();
+        let ctx = self.repr.context();
         let rebuilt = GasBuilder { inputs: inputs.to_vec(), options: self.options }.build(&ctx)?;
         *self = rebuilt;
         Ok(())
@@ -264,9 +264,9 @@ impl Gas {
         if !self.options.allow_compaction {
             return Err(Error::CompactionNotAllowed);
         }
-        let accel = match &self.accel {
-            GasAccel::Vulkan(accel) => accel.clone(),
-            GasAccel::Cpu(_) => {
+        let accel = match &self.repr {
+            GasRepr::Vulkan(accel) => accel.clone(),
+            GasRepr::Cpu(_) => {
                 // The CPU tree is as small as it gets: compaction keeps it.
                 let size = self.size();
                 return Ok(Gas { compaction: Some(Compaction { before: size, after: size }), ..self });
@@ -275,7 +275,7 @@ impl Gas {
         let (compacted, compacted_size) = crate::vulkan::accel::gas::compact(&accel, self.compacted_size)?;
         Ok(Gas {
             compaction: Some(Compaction { before: accel.size, after: compacted.size }),
-            accel: GasAccel::Vulkan(Arc::new(compacted)),
+            repr: GasRepr::Vulkan(Arc::new(compacted)),
             shapes: self.shapes,
             options: self.options,
             sizes: self.sizes,
@@ -285,9 +285,9 @@ impl Gas {
 
     /// Bytes of device memory the structure takes.
     pub fn size(&self) -> u64 {
-        match &self.accel {
-            GasAccel::Vulkan(accel) => accel.size,
-            GasAccel::Cpu(cpu) => cpu.data().size(),
+        match &self.repr {
+            GasRepr::Vulkan(accel) => accel.size,
+            GasRepr::Cpu(cpu) => cpu.data().size(),
         }
     }
 
@@ -324,9 +324,9 @@ impl Gas {
     /// The structure's device address (0 on the CPU backend, where
     /// structures have none).
     pub fn device_address(&self) -> u64 {
-        match &self.accel {
-            GasAccel::Vulkan(accel) => accel.address,
-            GasAccel::Cpu(_) => 0,
+        match &self.repr {
+            GasRepr::Vulkan(accel) => accel.address,
+            GasRepr::Cpu(_) => 0,
         }
     }
 
@@ -339,7 +339,7 @@ impl Gas {
     ) -> Gas {
         let sizes = AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 };
         let compacted_size = options.allow_compaction.then_some(size);
-        Gas { accel: GasAccel::Cpu(accel), shapes, options, sizes, compacted_size, compaction: None }
+        Gas { repr: GasRepr::Cpu(accel), shapes, options, sizes, compacted_size, compaction: None }
     }
 }
 

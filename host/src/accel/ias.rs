@@ -9,7 +9,7 @@ use std::sync::Arc;
 use glam::Affine3A;
 use raykit_device::Traversable;
 
-use super::gas::{Gas, GasAccel};
+use super::gas::{Gas, GasRepr};
 use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::Context;
@@ -23,7 +23,7 @@ use crate::vulkan::context::ContextInner;
 #[derive(Clone)]
 #[must_use]
 pub struct Instance {
-    pub(crate) accel: GasAccel,
+    pub(crate) accel: GasRepr,
     pub(crate) placement: InstancePlacement,
     /// Geometries of its GAS: the hit records it spans per ray type.
     geometries: u32,
@@ -33,7 +33,7 @@ impl Instance {
     /// `gas` at the identity transform, custom index 0, mask 0xff, SBT offset 0.
     pub fn new(gas: &Gas) -> Instance {
         Instance {
-            accel: gas.accel.clone(),
+            accel: gas.repr.clone(),
             placement: InstancePlacement {
                 transform: transform_rows(&Affine3A::IDENTITY),
                 custom_index: 0,
@@ -106,9 +106,9 @@ impl std::fmt::Debug for Instance {
 
 /// What the Vulkan backend records of `instances`: each placement and its GAS's device address.
 fn placements(instances: &[Instance]) -> Vec<(InstancePlacement, u64)> {
-    let address = |accel: &GasAccel| match accel {
-        GasAccel::Vulkan(accel) => accel.address,
-        GasAccel::Cpu(_) => 0,
+    let address = |accel: &GasRepr| match accel {
+        GasRepr::Vulkan(accel) => accel.address,
+        GasRepr::Cpu(_) => 0,
     };
     instances.iter().map(|i| (i.placement, address(&i.accel))).collect()
 }
@@ -116,7 +116,7 @@ fn placements(instances: &[Instance]) -> Vec<(InstancePlacement, u64)> {
 /// Checks instances for a Vulkan IAS of `ctx`.
 fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<()> {
     check_fields(instances, ctx.limits.max_instance_count)?;
-    if instances.iter().any(|i| !matches!(&i.accel, GasAccel::Vulkan(accel) if Arc::ptr_eq(&accel.ctx, ctx))) {
+    if instances.iter().any(|i| !matches!(&i.accel, GasRepr::Vulkan(accel) if Arc::ptr_eq(&accel.ctx, ctx))) {
         return Err(Error::ContextMismatch);
     }
     Ok(())
@@ -175,7 +175,7 @@ impl IasBuilder<'_> {
     pub fn submit(self, ctx: &Context) -> Result<PendingBuild<Ias>> {
         if let Some(cpu) = ctx.cpu() {
             let ias = Ias {
-                accel: IasAccel::Cpu { ctx: cpu.clone(), address: crate::cpu::next_scene_address() },
+                repr: IasRepr::Cpu { ctx: cpu.clone(), address: crate::cpu::next_scene_address() },
                 gases: Vec::new(),
                 options: self.options,
                 sizes: AccelSizes::default(),
@@ -190,7 +190,7 @@ impl IasBuilder<'_> {
         let (accel, sizes, in_flight) =
             crate::vulkan::accel::ias::submit(inner, &placements(self.instances), self.options)?;
         let ias = Ias {
-            accel: IasAccel::Vulkan(accel),
+            repr: IasRepr::Vulkan(accel),
             gases: self.instances.iter().map(|i| i.accel.clone()).collect(),
             options: self.options,
             sizes,
@@ -202,18 +202,18 @@ impl IasBuilder<'_> {
 }
 
 /// What an [`Ias`] is underneath.
-enum IasAccel {
+enum IasRepr {
     /// A Vulkan acceleration structure.
     Vulkan(AccelStructure),
     /// A tree of the CPU backend, registered in its context by `address`.
     Cpu { ctx: Arc<crate::cpu::CpuContext>, address: u64 },
 }
 
-impl IasAccel {
+impl IasRepr {
     fn address(&self) -> u64 {
         match self {
-            IasAccel::Vulkan(accel) => accel.address,
-            IasAccel::Cpu { address, .. } => *address,
+            IasRepr::Vulkan(accel) => accel.address,
+            IasRepr::Cpu { address, .. } => *address,
         }
     }
 }
@@ -221,8 +221,8 @@ impl IasAccel {
 /// An instance acceleration structure (top level): what device programs trace.
 pub struct Ias {
     // Field order: the structure goes before the GASes it references.
-    accel: IasAccel,
-    gases: Vec<GasAccel>,
+    repr: IasRepr,
+    gases: Vec<GasRepr>,
     options: BuildOptions,
     sizes: AccelSizes,
     /// The hit records its instances can select, checked by every launch.
@@ -262,9 +262,9 @@ impl Ias {
                 reason: format!("the instance count changed from {} to {}", self.gases.len(), instances.len()),
             });
         }
-        let accel = match &self.accel {
-            IasAccel::Vulkan(accel) => accel,
-            IasAccel::Cpu { .. } => return self.build_cpu(instances),
+        let accel = match &self.repr {
+            IasRepr::Vulkan(accel) => accel,
+            IasRepr::Cpu { .. } => return self.build_cpu(instances),
         };
         validate(&accel.ctx, instances)?;
         crate::vulkan::accel::ias::refit(accel, &placements(instances), self.options)?;
@@ -279,7 +279,7 @@ impl Ias {
     fn register(&self) {
         let over = self.gases.iter().map(|g| (g.version().clone(), g.version().load(Ordering::Acquire))).collect();
         let ias = crate::validate::handles::LiveIas { over, reach: self.reach.clone() };
-        if let IasAccel::Vulkan(accel) = &self.accel {
+        if let IasRepr::Vulkan(accel) = &self.repr {
             accel.ctx.traversables.insert(accel.address, ias);
         }
     }
@@ -287,11 +287,11 @@ impl Ias {
     /// Builds (or rebuilds in place, for an update) the CPU backend's tree over
     /// `instances` and registers it under the IAS's address.
     fn build_cpu(&mut self, instances: &[Instance]) -> Result<()> {
-        let IasAccel::Cpu { ctx, address } = &self.accel else { return Ok(()) };
+        let IasRepr::Cpu { ctx, address } = &self.repr else { return Ok(()) };
         check_fields(instances, crate::cpu::LIMITS.max_instance_count)?;
         let mut scene = Vec::with_capacity(instances.len());
         for instance in instances {
-            let GasAccel::Cpu(gas) = &instance.accel else { return Err(Error::ContextMismatch) };
+            let GasRepr::Cpu(gas) = &instance.accel else { return Err(Error::ContextMismatch) };
             if !Arc::ptr_eq(&gas.ctx, ctx) {
                 return Err(Error::ContextMismatch);
             }
@@ -319,9 +319,9 @@ impl Ias {
     /// Rebuilds the IAS over `instances` with its options; the count may change.
     /// The handle changes: put the new [`Ias::handle`] in the launch params.
     pub fn rebuild(&mut self, instances: &[Instance]) -> Result<()> {
-        let ctx = match &self.accel {
-            IasAccel::Vulkan(accel) => Context::from_vulkan(accel.ctx.clone()),
-            IasAccel::Cpu { ctx, .. } => Context::from_cpu(ctx.clone()),
+        let ctx = match &self.repr {
+            IasRepr::Vulkan(accel) => Context::from_vulkan(accel.ctx.clone()),
+            IasRepr::Cpu { ctx, .. } => Context::from_cpu(ctx.clone()),
         };
         *self = Ias::builder(instances).options(self.options).build(&ctx)?;
         Ok(())
@@ -331,7 +331,7 @@ impl Ias {
     pub fn handle(&self) -> Traversable {
         // SAFETY: the address of this live, built IAS; launches check it is still
         // alive and up to date when they are submitted (see `crate::validate::handles`).
-        unsafe { Traversable::from_device_address(self.accel.address()) }
+        unsafe { Traversable::from_device_address(self.repr.address()) }
     }
 
     /// How many hit records an SBT needs for traces of ray type `R` into this
@@ -349,9 +349,9 @@ impl Ias {
 
     /// Bytes of device memory the structure takes.
     pub fn size(&self) -> u64 {
-        match &self.accel {
-            IasAccel::Vulkan(accel) => accel.size,
-            IasAccel::Cpu { .. } => self.sizes.structure,
+        match &self.repr {
+            IasRepr::Vulkan(accel) => accel.size,
+            IasRepr::Cpu { .. } => self.sizes.structure,
         }
     }
 
@@ -365,9 +365,9 @@ impl Drop for Ias {
     fn drop(&mut self) {
         // Launches refuse its handle from now on; the structure itself waits for
         // the pending work that may trace it (see `crate::timeline`).
-        match &self.accel {
-            IasAccel::Vulkan(accel) => accel.ctx.traversables.remove(accel.address),
-            IasAccel::Cpu { ctx, address } => {
+        match &self.repr {
+            IasRepr::Vulkan(accel) => accel.ctx.traversables.remove(accel.address),
+            IasRepr::Cpu { ctx, address } => {
                 ctx.scenes().remove(address);
             }
         }

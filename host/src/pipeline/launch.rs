@@ -33,7 +33,7 @@ use std::sync::Arc;
 
 use super::{Pipeline, PipelineRepr};
 use crate::error::{Error, Result};
-use crate::sbt::{Sbt, SbtDevice};
+use crate::sbt::{Sbt, SbtRepr};
 use crate::vulkan::pipeline::record::VulkanLaunch;
 use crate::vulkan::pipeline::timing::TimestampPool;
 
@@ -122,10 +122,8 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         timestamps: Option<&TimestampPool>,
     ) -> Result<Launch> {
         // The one match of the pipeline with its SBT: each backend gets its own halves.
-        match (&self.repr, &sbt.device) {
-            (PipelineRepr::Vulkan(inner), SbtDevice::Vulkan(device_sbt))
-                if Arc::ptr_eq(&device_sbt.pipeline, inner) =>
-            {
+        match (&self.repr, &sbt.repr) {
+            (PipelineRepr::Vulkan(inner), SbtRepr::Vulkan(device_sbt)) if Arc::ptr_eq(&device_sbt.pipeline, inner) => {
                 let ctx = &inner.ctx;
                 check_dimensions(dims, &ctx.limits, ctx.launch_dimension_limits)?;
                 let launch = crate::vulkan::pipeline::record::submit(
@@ -139,7 +137,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 )?;
                 Ok(Launch { repr: LaunchRepr::Vulkan(launch) })
             }
-            (PipelineRepr::Cpu(data), SbtDevice::Cpu { pipeline, data: records }) if Arc::ptr_eq(pipeline, data) => {
+            (PipelineRepr::Cpu(data), SbtRepr::Cpu { pipeline, data: records }) if Arc::ptr_eq(pipeline, data) => {
                 check_dimensions(dims, &crate::cpu::LIMITS, crate::cpu::LAUNCH_DIMENSION_LIMITS)?;
                 let launch = crate::cpu::launch::CpuLaunch::submit(data, sbt.checks(), records, params, dims)?;
                 Ok(Launch { repr: LaunchRepr::Cpu(launch) })

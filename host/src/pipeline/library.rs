@@ -76,11 +76,7 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         constants: &Specialization,
     ) -> Result<PipelineLibrary<P>> {
         if ctx.cpu().is_some() {
-            return Err(Error::NotOnCpuBackend {
-                what: "a pipeline library",
-                why: "the CPU backend compiles nothing at run time: its programs were compiled with the program",
-                fix: "link the groups directly with Pipeline::new on the CPU backend",
-            });
+            return Err(crate::backend::refused_on_cpu(crate::backend::CpuRefusal::PipelineLibrary));
         }
         let inner = ctx.vulkan("a pipeline library")?;
         if !inner.pipeline_library {

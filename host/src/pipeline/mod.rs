@@ -77,11 +77,7 @@ pub(crate) enum PipelineRepr {
 
 /// The error for stack sizes on the CPU backend.
 fn no_stack_on_cpu() -> Error {
-    Error::NotOnCpuBackend {
-        what: "a ray-tracing stack size",
-        why: "programs run on the CPU threads' own stacks (64 MiB each), which no formula sizes",
-        fix: "leave the stack size to the backend",
-    }
+    crate::backend::refused_on_cpu(crate::backend::CpuRefusal::StackSize)
 }
 
 impl<P: LaunchParams> Pipeline<P> {

@@ -84,11 +84,7 @@ impl Program {
     ) -> Result<Program> {
         let name = entry.entry_name();
         let Some(cpu) = entry.cpu_program() else {
-            return Err(Error::NotOnCpuBackend {
-                what: "a program named by a string",
-                why: "the CPU backend calls the host-compiled programs that EntryPoint constants carry",
-                fix: "name the program by the EntryPoint constant its macro generated (e.g. my_device::RG)",
-            });
+            return Err(crate::backend::refused_on_cpu(crate::backend::CpuRefusal::NamedProgram));
         };
         if cpu.crate_name.replace('-', "_") != linked.crate_name.replace('-', "_") {
             return Err(Error::EntryPointNotFound {
@@ -118,8 +114,8 @@ impl Program {
         context: &'static str,
     ) -> Result<Program> {
         let spirv = match &module.repr {
-            crate::module::ModuleRepr::Spirv(spirv) => spirv,
-            crate::module::ModuleRepr::Linked(linked) => return Self::resolve_linked(linked, entry, expected, context),
+            crate::module::ModuleRepr::Vulkan(spirv) => spirv,
+            crate::module::ModuleRepr::Cpu(linked) => return Self::resolve_linked(linked, entry, expected, context),
         };
         let name = entry.entry_name();
         let available = module.entry_list();

@@ -373,11 +373,11 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
                         })
                         .collect()
                 });
-                let device = SbtDevice::Cpu {
+                let device = SbtRepr::Cpu {
                     pipeline: pipeline.clone(),
                     data: Arc::new(crate::cpu::program::SbtData { regions: data }),
                 };
-                return Ok(Sbt { device, layouts, counts, data_types, exception_index, checked });
+                return Ok(Sbt { repr: device, layouts, counts, data_types, exception_index, checked });
             }
         };
 
@@ -396,8 +396,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
                 bytes[at + handle_size..at + handle_size + record.data.len()].copy_from_slice(&record.data);
             }
         }
-        let device = SbtDevice::Vulkan(VulkanSbt::new(pipeline, &bytes, layouts, exception_index)?);
-        Ok(Sbt { device, layouts, counts, data_types, exception_index, checked })
+        let device = SbtRepr::Vulkan(VulkanSbt::new(pipeline, &bytes, layouts, exception_index)?);
+        Ok(Sbt { repr: device, layouts, counts, data_types, exception_index, checked })
     }
 }
 
@@ -414,7 +414,7 @@ impl<P: raykit_device::LaunchParams> fmt::Debug for SbtBuilder<'_, P> {
 }
 
 /// Where an [`Sbt`]'s records are.
-pub(crate) enum SbtDevice {
+pub(crate) enum SbtRepr {
     /// In a Vulkan buffer.
     Vulkan(VulkanSbt),
     /// In host memory, for the CPU backend (launches running hold their own `Arc`).
@@ -423,7 +423,7 @@ pub(crate) enum SbtDevice {
 
 /// A shader binding table on the device, made for one pipeline.
 pub struct Sbt {
-    pub(crate) device: SbtDevice,
+    pub(crate) repr: SbtRepr,
     layouts: [RegionLayout; 4],
     /// Record counts per region (raygen, miss, hit, callable).
     counts: [usize; 4],
@@ -476,9 +476,9 @@ impl Sbt {
             });
         }
         let layout = self.layouts[r];
-        let limits = match &self.device {
-            SbtDevice::Vulkan(sbt) => sbt.pipeline.ctx.limits,
-            SbtDevice::Cpu { .. } => crate::cpu::LIMITS,
+        let limits = match &self.repr {
+            SbtRepr::Vulkan(sbt) => sbt.pipeline.ctx.limits,
+            SbtRepr::Cpu { .. } => crate::cpu::LIMITS,
         };
         let handle = limits.shader_group_handle_size as u64;
         let room = layout.stride - handle;
@@ -498,9 +498,9 @@ impl Sbt {
             checked.data.clear();
             checked.data.extend_from_slice(bytes);
         }
-        match &mut self.device {
-            SbtDevice::Vulkan(sbt) => sbt.write(region, at, bytes),
-            SbtDevice::Cpu { data, .. } => {
+        match &mut self.repr {
+            SbtRepr::Vulkan(sbt) => sbt.write(region, at, bytes),
+            SbtRepr::Cpu { data, .. } => {
                 // Launches running hold the old records; later ones get these.
                 Arc::make_mut(data).regions[r][index].data.write(bytes);
                 Ok(())
@@ -511,9 +511,9 @@ impl Sbt {
     /// The raygen, miss, hit and callable regions passed to `vkCmdTraceRaysKHR`, for
     /// hand-written Vulkan (see [`crate::pipeline::raw`]); `None` on the CPU backend.
     pub fn raw_regions(&self) -> Option<[vk::StridedDeviceAddressRegionKHR; 4]> {
-        match &self.device {
-            SbtDevice::Vulkan(sbt) => Some(sbt.regions()),
-            SbtDevice::Cpu { .. } => None,
+        match &self.repr {
+            SbtRepr::Vulkan(sbt) => Some(sbt.regions()),
+            SbtRepr::Cpu { .. } => None,
         }
     }
 
