@@ -3,7 +3,7 @@
 //! Vulkan has no exception programs. raykit gives each pipeline a small buffer
 //! in the bindless table; a program that calls `ctx.throw_exception(code)`
 //! appends `(code, launch index)` to it with an atomic counter, and the host's
-//! launch returns what was thrown as `raykit::Error::UserExceptions`. The
+//! launch returns what was thrown as `LaunchError::UserExceptions`. The
 //! buffer's slot reaches the programs as a specialization constant
 //! ([`EXCEPTION_SLOT_SPEC_ID`]) that raykit sets when it links the pipeline.
 //!
@@ -13,7 +13,7 @@
 //! `max_trace_depth` (a specialization constant raykit sets,
 //! [`MAX_TRACE_DEPTH_SPEC_ID`]), the trace is not made: the program throws
 //! [`TRACE_DEPTH_EXCEEDED`] and goes on with the payload as it was, and the
-//! host's launch returns `raykit::Error::RecursionTooDeep` with the launch
+//! host's launch returns `LaunchError::RecursionTooDeep` with the launch
 //! indices. Raygen traces at depth 1, which linking checks; callables count as
 //! depth 0 (they do not learn their caller's depth), and programs of ray types
 //! without the opt-in count as depth 1, so recursion through them is not bounded

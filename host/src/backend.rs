@@ -30,6 +30,7 @@
 //! Every refusal is made by [`refused_on_cpu`], so each says the same three
 //! things: what was asked, why the CPU backend cannot, and what to do instead.
 
+use crate::error::DeviceError;
 use crate::error::Error;
 
 /// An operation the CPU backend refuses.
@@ -72,5 +73,5 @@ pub(crate) fn refused_on_cpu(refusal: CpuRefusal) -> Error {
         ),
         CpuRefusal::VulkanOnly(what) => (what, "it is part of Vulkan", "use a Context of Backend::Vulkan for it"),
     };
-    Error::NotOnCpuBackend { what, why, fix }
+    Error::Device(DeviceError::NotOnCpuBackend { what, why, fix })
 }

@@ -36,7 +36,7 @@
 //! ([lost device](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#devsandqueues-lost-device)),
 //! the device is marked lost: that call and every later launch, build, buffer,
 //! module or pipeline creation on every context of the device returns
-//! [`Error::DeviceLost`](crate::Error::DeviceLost), and the objects still drop cleanly. The next
+//! [`DeviceError::DeviceLost`](crate::DeviceError::DeviceLost), and the objects still drop cleanly. The next
 //! [`Context::new`] gets a new device, Vulkan's way back from a lost device.
 
 use std::sync::Arc;
@@ -205,7 +205,7 @@ impl Context {
     }
 
     /// Whether the device was lost (`VK_ERROR_DEVICE_LOST`): then every context on it
-    /// refuses new work with [`Error::DeviceLost`](crate::Error::DeviceLost); drop them, and make a new context.
+    /// refuses new work with [`DeviceError::DeviceLost`](crate::DeviceError::DeviceLost); drop them, and make a new context.
     pub fn is_device_lost(&self) -> bool {
         matches!(&self.repr, ContextRepr::Vulkan(inner) if inner.shared.is_lost())
     }

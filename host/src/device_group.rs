@@ -85,6 +85,7 @@ use std::ops::Range;
 use std::time::Instant;
 
 use crate::context::Context;
+use crate::error::DeviceGroupError;
 use crate::error::{Error, Result};
 
 /// Several contexts that split launches between them: one per GPU, usually
@@ -101,7 +102,7 @@ impl DeviceGroup {
     /// for speed).
     pub fn new(contexts: Vec<Context>) -> Result<DeviceGroup> {
         if contexts.is_empty() {
-            return Err(Error::EmptyDeviceGroup);
+            return Err(Error::DeviceGroup(DeviceGroupError::Empty));
         }
         Ok(DeviceGroup { contexts })
     }
@@ -130,16 +131,16 @@ impl DeviceGroup {
     /// state with `build` (its pipeline, SBT, acceleration structures and
     /// buffers, from the same inputs on each device), one thread per device.
     ///
-    /// Fails with [`Error::EmptySplit`] for `rows == 0`, with
+    /// Fails with [`DeviceGroupError::EmptySplit`] for `rows == 0`, with
     /// [`Error::InDevice`] naming the device whose `build` failed, and with
-    /// [`Error::BandRowLength`] when the states' rows differ in length.
+    /// [`DeviceGroupError::BandRowLength`] when the states' rows differ in length.
     pub fn split<T, F>(&self, rows: u32, build: F) -> Result<Split<T>>
     where
         T: BandRows + Send,
         F: Fn(&Context) -> Result<T> + Sync,
     {
         if rows == 0 {
-            return Err(Error::EmptySplit);
+            return Err(Error::DeviceGroup(DeviceGroupError::EmptySplit));
         }
         let states: Vec<T> = if let [ctx] = self.contexts.as_slice() {
             vec![build(ctx).map_err(|e| in_device(&self.contexts, 0, e))?]
@@ -158,7 +159,11 @@ impl DeviceGroup {
         let row_len = states[0].row_len();
         for (device, state) in states.iter().enumerate() {
             if state.row_len() != row_len {
-                return Err(Error::BandRowLength { device, found: state.row_len(), expected: row_len });
+                return Err(Error::DeviceGroup(DeviceGroupError::BandRowLength {
+                    device,
+                    found: state.row_len(),
+                    expected: row_len,
+                }));
             }
         }
         let n = states.len();
@@ -369,7 +374,7 @@ impl<T: BandRows> Split<T> {
 
     /// Shares the rows of the next launches as `balance` says; with
     /// [`Balance::Measured`], from the speeds measured so far (evenly when none
-    /// is). Fails with [`Error::BandWeights`] for weights that are not one
+    /// is). Fails with [`DeviceGroupError::BandWeights`] for weights that are not one
     /// finite, non-negative number per device with a positive sum.
     pub fn set_balance(&mut self, balance: Balance) -> Result<()> {
         match &balance {
@@ -384,7 +389,7 @@ impl<T: BandRows> Split<T> {
                     None
                 };
                 if let Some(reason) = reason {
-                    return Err(Error::BandWeights { weights: weights.clone(), reason });
+                    return Err(Error::DeviceGroup(DeviceGroupError::BandWeights { weights: weights.clone(), reason }));
                 }
                 self.next = partition(self.total_rows, weights, false);
             }
@@ -496,15 +501,19 @@ impl<T: BandRows> Split<T> {
     /// Copies every row into `out` (`rows() × row_len()` elements), each from the
     /// device that rendered it last, one thread per device.
     ///
-    /// Fails with [`Error::GatherSize`] when `out` has another length, and with
-    /// [`Error::NotLaunched`] for rows no launch rendered yet.
+    /// Fails with [`DeviceGroupError::GatherSize`] when `out` has another length, and with
+    /// [`DeviceGroupError::NotLaunched`] for rows no launch rendered yet.
     pub fn gather(&self, out: &mut [T::Item]) -> Result<()>
     where
         T: Sync,
     {
         let needed = self.total_rows as usize * self.row_len;
         if out.len() != needed {
-            return Err(Error::GatherSize { rows: self.total_rows, row_len: self.row_len, len: out.len() });
+            return Err(Error::DeviceGroup(DeviceGroupError::GatherSize {
+                rows: self.total_rows,
+                row_len: self.row_len,
+                len: out.len(),
+            }));
         }
         let mut held: Vec<(usize, Range<u32>)> =
             self.held.iter().cloned().enumerate().filter(|(_, rows)| !rows.is_empty()).collect();
@@ -512,12 +521,12 @@ impl<T: BandRows> Split<T> {
         let mut next_row = 0;
         for (_, rows) in &held {
             if rows.start != next_row {
-                return Err(Error::NotLaunched { first: next_row, end: rows.start });
+                return Err(Error::DeviceGroup(DeviceGroupError::NotLaunched { first: next_row, end: rows.start }));
             }
             next_row = rows.end;
         }
         if next_row != self.total_rows {
-            return Err(Error::NotLaunched { first: next_row, end: self.total_rows });
+            return Err(Error::DeviceGroup(DeviceGroupError::NotLaunched { first: next_row, end: self.total_rows }));
         }
         if let [(device, rows)] = held.as_slice() {
             return self.states[*device]

@@ -36,7 +36,10 @@ pub use accel::{
 pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Backend, Context, ContextOptions, DeviceLimits, MemoryUsage};
 pub use device_group::{Balance, Band, BandRows, BandTiming, DeviceGroup, Split};
-pub use error::{DeviceReport, Error, Result, UserException};
+pub use error::{
+    AccelError, DeviceError, DeviceGroupError, DeviceReport, Error, LaunchError, LinkError, ModuleError, ResourceError,
+    Result, SbtError, UserException,
+};
 #[cfg(feature = "fault-injection")]
 #[doc(hidden)]
 pub use gate::SubmissionGate;

@@ -13,6 +13,7 @@ use gpu_allocator::MemoryLocation;
 use raykit_device::{Buffer, Element};
 
 use crate::context::Context;
+use crate::error::ResourceError;
 use crate::error::{Error, Result};
 use crate::vulkan::context::Submission;
 use crate::vulkan::memory::RawBuffer;
@@ -42,21 +43,25 @@ impl<T: Element> DeviceBuffer<T> {
     fn new(ctx: &Context, len: usize, location: MemoryLocation) -> Result<Self> {
         let element_size = std::mem::size_of::<T>();
         if len == 0 {
-            return Err(Error::BufferSize { len, element_size, reason: "a buffer needs at least one element" });
+            return Err(Error::Resource(ResourceError::BufferSize {
+                len,
+                element_size,
+                reason: "a buffer needs at least one element",
+            }));
         }
         if element_size != T::WORDS as usize * 4 {
-            return Err(Error::BufferSize {
+            return Err(Error::Resource(ResourceError::BufferSize {
                 len,
                 element_size,
                 reason:
                     "the element's host size differs from its device size (WORDS × 4); use a type without SIMD padding",
-            });
+            }));
         }
-        let size = (len as u64).checked_mul(element_size as u64).ok_or(Error::BufferSize {
+        let size = (len as u64).checked_mul(element_size as u64).ok_or(Error::Resource(ResourceError::BufferSize {
             len,
             element_size,
             reason: "the size overflows 64 bits",
-        })?;
+        }))?;
         crate::validate::check_storage_buffer(size, ctx.limits().max_storage_buffer_range)?;
         if let Some(cpu) = ctx.cpu() {
             let words = crate::cpu::buffers::zeroed_words(len * T::WORDS as usize);
@@ -118,11 +123,11 @@ impl<T: Element> DeviceBuffer<T> {
             }
         };
         raw.ctx.wait_for_pending_work()?;
-        let bytes = raw.mapped().ok_or(Error::BufferSize {
+        let bytes = raw.mapped().ok_or(Error::Resource(ResourceError::BufferSize {
             len: self.len,
             element_size: std::mem::size_of::<T>(),
             reason: "the buffer is not host-visible",
-        })?;
+        }))?;
         Ok(bytemuck::pod_collect_to_vec(bytes))
     }
 
@@ -155,11 +160,11 @@ impl<T: Element> DeviceBuffer<T> {
         match &self.repr {
             BufferRepr::Vulkan(raw) => {
                 raw.ctx.wait_for_pending_work()?;
-                let bytes = raw.mapped().ok_or(Error::BufferSize {
+                let bytes = raw.mapped().ok_or(Error::Resource(ResourceError::BufferSize {
                     len: self.len,
                     element_size: size,
                     reason: "the buffer is not host-visible",
-                })?;
+                }))?;
                 bytemuck::cast_slice_mut::<T, u8>(out).copy_from_slice(&bytes[first * size..end * size]);
             }
             BufferRepr::Cpu { ctx, words } => {
@@ -181,11 +186,11 @@ impl<T: Element> DeviceBuffer<T> {
         match &mut self.repr {
             BufferRepr::Vulkan(raw) => {
                 raw.ctx.wait_for_pending_work()?;
-                let bytes = raw.mapped_mut().ok_or(Error::BufferSize {
+                let bytes = raw.mapped_mut().ok_or(Error::Resource(ResourceError::BufferSize {
                     len,
                     element_size: size,
                     reason: "the buffer is not host-visible",
-                })?;
+                }))?;
                 bytes[first * size..end * size].copy_from_slice(bytemuck::cast_slice(data));
             }
             BufferRepr::Cpu { ctx, words } => {
@@ -202,18 +207,22 @@ impl<T: Element> DeviceBuffer<T> {
     fn check_range(&self, first: usize, count: usize) -> Result<usize> {
         match first.checked_add(count) {
             Some(end) if end <= self.len => Ok(end),
-            end => Err(Error::BufferRange { start: first, end: end.unwrap_or(usize::MAX), len: self.len }),
+            end => Err(Error::Resource(ResourceError::BufferRange {
+                start: first,
+                end: end.unwrap_or(usize::MAX),
+                len: self.len,
+            })),
         }
     }
 
     /// Overwrites the buffer's first `data.len()` elements.
     pub fn write(&mut self, data: &[T]) -> Result<()> {
         if data.len() > self.len {
-            return Err(Error::BufferSize {
+            return Err(Error::Resource(ResourceError::BufferSize {
                 len: data.len(),
                 element_size: std::mem::size_of::<T>(),
                 reason: "more elements than the buffer holds",
-            });
+            }));
         }
         // Pending launches may read or write the buffer: let them finish first.
         match &mut self.repr {
@@ -321,11 +330,11 @@ impl<T: Element> PendingRead<T> {
             }
         };
         submission.wait()?;
-        let bytes = staging.mapped().ok_or(Error::BufferSize {
+        let bytes = staging.mapped().ok_or(Error::Resource(ResourceError::BufferSize {
             len,
             element_size: std::mem::size_of::<T>(),
             reason: "the readback buffer is not host-visible",
-        })?;
+        }))?;
         Ok(bytemuck::pod_collect_to_vec(bytes))
     }
 }

@@ -16,6 +16,7 @@ use raykit_device::ProgramKind;
 use rspirv::spirv::{Op, MAGIC_NUMBER as SPIRV_MAGIC};
 
 use crate::context::Context;
+use crate::error::ModuleError;
 use crate::error::{Error, Result};
 use crate::types::program::kind_of;
 pub use crate::types::program::EntryPointInfo;
@@ -85,20 +86,20 @@ pub const MAX_ID_BOUND: u32 = (1 << 22) - 1;
 /// Turns bytes into SPIR-V words, checking size and magic number.
 pub(crate) fn words_of(bytes: &[u8]) -> Result<Vec<u32>> {
     if bytes.len() < 20 {
-        return Err(Error::InvalidSpirv {
+        return Err(Error::Module(ModuleError::InvalidSpirv {
             reason: format!("{} bytes is shorter than a SPIR-V header (20 bytes)", bytes.len()),
-        });
+        }));
     }
     if !bytes.len().is_multiple_of(4) {
-        return Err(Error::InvalidSpirv {
+        return Err(Error::Module(ModuleError::InvalidSpirv {
             reason: format!("{} bytes is not a whole number of 32-bit words", bytes.len()),
-        });
+        }));
     }
     let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
     if words[0] != SPIRV_MAGIC {
-        return Err(Error::InvalidSpirv {
+        return Err(Error::Module(ModuleError::InvalidSpirv {
             reason: format!("magic number {:#010x}, expected {SPIRV_MAGIC:#010x}", words[0]),
-        });
+        }));
     }
     Ok(words)
 }
@@ -108,7 +109,7 @@ pub(crate) fn words_of(bytes: &[u8]) -> Result<Vec<u32>> {
 /// that name defined functions. This catches truncated and many corrupted modules,
 /// which a driver must never see. (It is not a full validator: that is spirv-val.)
 fn check_structure(words: &[u32]) -> Result<()> {
-    let invalid = |reason: String| Err(Error::InvalidSpirv { reason });
+    let invalid = |reason: String| Err(Error::Module(ModuleError::InvalidSpirv { reason }));
     let version = words[1];
     if !(0x0001_0000..=0x0001_0600).contains(&version) || version & 0xff != 0 {
         return invalid(format!("unknown SPIR-V version word {version:#010x}"));
@@ -257,9 +258,9 @@ fn reflection_words(words: &[u32]) -> Result<Vec<u32>> {
                     })
                 });
                 if !holdable {
-                    return Err(Error::InvalidSpirv {
+                    return Err(Error::Module(ModuleError::InvalidSpirv {
                         reason: format!("OpSpecConstantOp at word {at} computes opcode {}, which it cannot", inst[3]),
-                    });
+                    }));
                 }
             }
             _ => {}
@@ -275,7 +276,7 @@ fn reflection_words(words: &[u32]) -> Result<Vec<u32>> {
 /// corruption that keeps a module well formed; without this check it reaches the
 /// driver as invalid SPIR-V. (Still not a full validator: that is spirv-val.)
 fn check_ids(module: &rspirv::dr::Module, bound: u32) -> Result<()> {
-    let invalid = |reason: String| Err(Error::InvalidSpirv { reason });
+    let invalid = |reason: String| Err(Error::Module(ModuleError::InvalidSpirv { reason }));
     let mut defined = std::collections::HashSet::new();
     for inst in module.all_inst_iter() {
         if let Some(id) = inst.result_id {
@@ -319,7 +320,7 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
         let (Some(rspirv::dr::Operand::ExecutionModel(model)), Some(rspirv::dr::Operand::LiteralString(name))) =
             (inst.operands.first(), inst.operands.get(2))
         else {
-            return Err(Error::InvalidSpirv { reason: "malformed OpEntryPoint".to_owned() });
+            return Err(Error::Module(ModuleError::InvalidSpirv { reason: "malformed OpEntryPoint".to_owned() }));
         };
         entries.push(EntryPointInfo {
             name: name.clone(),
@@ -354,18 +355,18 @@ impl Module {
         vulkan.check_device("a module creation")?;
         let entry_points = reflect_entry_points(spirv)?;
         if !entry_points.iter().any(|e| e.kind.is_some()) {
-            return Err(Error::NoRayTracingEntryPoints {
+            return Err(Error::Module(ModuleError::NoRayTracingEntryPoints {
                 available: entry_points.iter().map(|e| (e.name.clone(), e.kind)).collect(),
-            });
+            }));
         }
         let words = words_of(spirv)?;
         crate::validate::spirv::validate(&words)?;
         if !vulkan.non_semantic_info && declares_extension(&words, "SPV_KHR_non_semantic_info") {
-            return Err(Error::SpirvExtensionUnsupported {
+            return Err(Error::Module(ModuleError::SpirvExtensionUnsupported {
                 spirv_extension: "SPV_KHR_non_semantic_info".to_owned(),
                 device_extension: "VK_KHR_shader_non_semantic_info",
                 fix: "Compile the module without debug info (no -gVS)",
-            });
+            }));
         }
         let records_exceptions = declares_spec_id(&words, raykit_abi::EXCEPTION_SLOT_SPEC_ID);
         let inner = crate::vulkan::module::create(vulkan, entry_points, words, records_exceptions, name)?;
@@ -385,11 +386,11 @@ impl Module {
         let tried = spirv_candidates(crate_name);
         match tried.iter().find(|p| p.is_file()) {
             Some(path) => Module::from_file(ctx, path),
-            None => Err(Error::SpirvNotFound {
+            None => Err(Error::Module(ModuleError::SpirvNotFound {
                 crate_name: crate_name.to_owned(),
                 tried,
                 spirv_dir: std::env::var_os("RAYKIT_SPIRV_DIR").map(PathBuf::from),
-            }),
+            })),
         }
     }
 
@@ -408,7 +409,8 @@ impl Module {
     /// Loads a module from a `.spv` file.
     pub fn from_file(ctx: &Context, path: impl AsRef<Path>) -> Result<Module> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| Error::SpirvFile { path: path.to_owned(), source })?;
+        let bytes = std::fs::read(path)
+            .map_err(|source| Error::Module(ModuleError::SpirvFile { path: path.to_owned(), source }))?;
         Module::named(ctx, &bytes, &path.display().to_string())
     }
 
@@ -529,8 +531,8 @@ mod tests {
 
     #[test]
     fn rejects_bytes_that_are_not_spirv() {
-        assert!(matches!(reflect_entry_points(b"hello"), Err(Error::InvalidSpirv { .. })));
-        assert!(matches!(reflect_entry_points(&[0u8; 21]), Err(Error::InvalidSpirv { .. })));
+        assert!(matches!(reflect_entry_points(b"hello"), Err(Error::Module(ModuleError::InvalidSpirv { .. }))));
+        assert!(matches!(reflect_entry_points(&[0u8; 21]), Err(Error::Module(ModuleError::InvalidSpirv { .. }))));
         let err = reflect_entry_points(&[0u8; 24]).unwrap_err().to_string();
         assert!(err.contains("magic number"), "{err}");
     }

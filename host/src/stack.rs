@@ -46,6 +46,7 @@
 //! [`vkGetRayTracingShaderGroupStackSizeKHR`]: https://registry.khronos.org/vulkan/specs/latest/man/html/vkGetRayTracingShaderGroupStackSizeKHR.html
 //! [`vkCmdSetRayTracingPipelineStackSizeKHR`]: https://registry.khronos.org/vulkan/specs/latest/man/html/vkCmdSetRayTracingPipelineStackSizeKHR.html
 
+use crate::error::LinkError;
 use crate::error::{Error, Result};
 
 /// One program group's stack sizes in bytes, as the driver reports them
@@ -450,7 +451,7 @@ impl CallGraph {
     }
 
     fn check(&self) -> Result<()> {
-        let bad = |reason: String| Err(Error::CallGraph { reason });
+        let bad = |reason: String| Err(Error::Link(LinkError::CallGraph { reason }));
         if let Some(r) = self.foreign_ray_type {
             return bad(format!("a miss or hit program was added to {r:?}, which is not of this graph"));
         }
@@ -489,9 +490,9 @@ impl CallGraph {
             match state[node] {
                 2 => return Ok(depth[node]),
                 1 => {
-                    return Err(Error::CallGraph {
+                    return Err(Error::Link(LinkError::CallGraph {
                         reason: format!("callables call each other in a cycle (through ProgramId({node})); bound it with CallGraph::max_call_depth"),
-                    })
+                    }))
                 }
                 _ => {}
             }
@@ -528,9 +529,9 @@ impl CallGraph {
         // calling (t, c - 1), so filling t then c in increasing order is enough.
         let cells = levels_t.saturating_mul(levels_c).saturating_mul(n);
         if cells > 1 << 24 {
-            return Err(Error::CallGraph {
+            return Err(Error::Link(LinkError::CallGraph {
                 reason: format!("{n} programs at depths {}×{max_call} are too many to evaluate", self.max_trace_depth),
-            });
+            }));
         }
         let index = |t: usize, c: usize, node: usize| (t * levels_c + c) * n + node;
         let mut need = vec![0u64; cells];
@@ -603,8 +604,9 @@ pub enum StackSize<'g> {
 
 /// A stack size as `vkCmdSetRayTracingPipelineStackSizeKHR` takes it.
 pub(crate) fn stack_bytes(bytes: u64) -> Result<u32> {
-    u32::try_from(bytes)
-        .map_err(|_| Error::StackSize { reason: format!("{bytes} bytes do not fit the 32 bits Vulkan takes") })
+    u32::try_from(bytes).map_err(|_| {
+        Error::Link(LinkError::StackSize { reason: format!("{bytes} bytes do not fit the 32 bits Vulkan takes") })
+    })
 }
 
 #[cfg(test)]
@@ -763,7 +765,7 @@ mod tests {
         let mut g2 = g.clone();
         g2.calls(b, a);
         g2.max_call_depth = None;
-        assert!(matches!(g2.estimate(), Err(Error::CallGraph { .. })));
+        assert!(matches!(g2.estimate(), Err(Error::Link(LinkError::CallGraph { .. }))));
         // A recursive pair bounded at 5 levels: hit → a → b → a → b → a.
         g2.max_call_depth(5);
         assert_eq!(g2.estimate()?, 10 + 20 + 7 + 5 + 7 + 5 + 7);
@@ -775,21 +777,21 @@ mod tests {
         let mut g = CallGraph::new(1);
         let ray = g.ray_type();
         g.miss(ray, 3);
-        assert!(matches!(g.estimate(), Err(Error::CallGraph { .. })));
+        assert!(matches!(g.estimate(), Err(Error::Link(LinkError::CallGraph { .. }))));
         let rg = g.raygen(1);
         g.traces(rg, RayTypeId(7));
-        assert!(matches!(g.estimate(), Err(Error::CallGraph { .. })));
+        assert!(matches!(g.estimate(), Err(Error::Link(LinkError::CallGraph { .. }))));
         let mut g = CallGraph::new(1);
         g.raygen(1);
         g.hit(RayTypeId(3), GroupStackSizes::default());
-        assert!(matches!(g.estimate(), Err(Error::CallGraph { .. })));
+        assert!(matches!(g.estimate(), Err(Error::Link(LinkError::CallGraph { .. }))));
         let mut g = CallGraph::new(1);
         let rg = g.raygen(1);
         let other = g.raygen(2);
         g.calls(rg, other);
-        assert!(matches!(g.estimate(), Err(Error::CallGraph { .. })));
+        assert!(matches!(g.estimate(), Err(Error::Link(LinkError::CallGraph { .. }))));
         let mut g = CallGraph::new(MAX_GRAPH_DEPTH + 1);
         g.raygen(1);
-        assert!(matches!(g.estimate(), Err(Error::CallGraph { .. })));
+        assert!(matches!(g.estimate(), Err(Error::Link(LinkError::CallGraph { .. }))));
     }
 }

@@ -10,7 +10,7 @@
 //! a slot of the context's bindless texture table (set 0, binding 1, combined
 //! image samplers); every launch checks the texture handles of its params and
 //! records as it checks buffer handles, so a dropped texture's handle is refused
-//! with [`Error::InvalidHandle`].
+//! with [`LaunchError::InvalidHandle`](crate::LaunchError::InvalidHandle).
 //!
 //! On Vulkan it is an image (optimal tiling, `SAMPLED | TRANSFER_DST`) with a
 //! sampler in a bindless table of combined image samplers. On the CPU backend
@@ -26,6 +26,7 @@ use ash::vk;
 use raykit_device::Texture2D;
 
 use crate::context::Context;
+use crate::error::ResourceError;
 use crate::error::{Error, Result};
 use crate::types::texture::check_level;
 
@@ -119,33 +120,33 @@ impl Texture {
         sampler: SamplerOptions,
     ) -> Result<Texture> {
         let Some(base) = levels.first() else {
-            return Err(Error::TextureSize {
+            return Err(Error::Resource(ResourceError::TextureSize {
                 width: 0,
                 height: 0,
                 problem: "no mip level given".to_owned(),
                 fix: "give at least level 0",
-            });
+            }));
         };
         let (width, height) = (base.width, base.height);
         check_size(ctx, width, height)?;
         let max = full_mip_count(width, height);
         if levels.len() as u32 > max {
-            return Err(Error::TextureSize {
+            return Err(Error::Resource(ResourceError::TextureSize {
                 width,
                 height,
                 problem: format!("{} mip levels given, a {width}×{height} texture has at most {max}", levels.len()),
                 fix: "give the levels from full size down to at most 1×1",
-            });
+            }));
         }
         for (i, level) in levels.iter().enumerate() {
             let (w, h) = mip_size(width, height, i as u32);
             if (level.width, level.height) != (w, h) {
-                return Err(Error::TextureSize {
+                return Err(Error::Resource(ResourceError::TextureSize {
                     width: level.width,
                     height: level.height,
                     problem: format!("mip level {i} of a {width}×{height} texture must be {w}×{h}"),
                     fix: "halve the size per level (rounding down, at least 1)",
-                });
+                }));
             }
             check_level(format, i as u32, w, h, level.data.len())?;
         }
@@ -186,12 +187,12 @@ impl Texture {
                 let rgba = image.to_rgba32f();
                 Self::new(ctx, TextureFormat::Rgba32Float, w, h, bytemuck::cast_slice(rgba.as_raw()), mips, sampler)
             }
-            other => Err(Error::TextureFormat {
+            other => Err(Error::Resource(ResourceError::TextureFormat {
                 format: format!("{:?}", other.color()),
                 problem: "16-bit integer images have no texture format here (RGBA8 sRGB or linear, RGBA16F, RGBA32F)"
                     .to_owned(),
                 fix: "convert the image first: to_rgba8() for colour, to_rgba32f() to keep the precision",
-            }),
+            })),
         }
     }
 
@@ -239,20 +240,20 @@ pub fn max_texture_size(ctx: &Context) -> u32 {
 fn check_size(ctx: &Context, width: u32, height: u32) -> Result<()> {
     let max = max_texture_size(ctx);
     if width == 0 || height == 0 {
-        return Err(Error::TextureSize {
+        return Err(Error::Resource(ResourceError::TextureSize {
             width,
             height,
             problem: "a texture needs at least one texel in each direction".to_owned(),
             fix: "give a width and height of at least 1",
-        });
+        }));
     }
     if width > max || height > max {
-        return Err(Error::TextureSize {
+        return Err(Error::Resource(ResourceError::TextureSize {
             width,
             height,
             problem: format!("the device's maxImageDimension2D is {max}"),
             fix: "downscale the image, or split it into tiles of at most maxImageDimension2D texels",
-        });
+        }));
     }
     Ok(())
 }
@@ -330,7 +331,10 @@ mod tests {
             assert_eq!(format.decode(&bytes), [0.25, 2.0, -1.0, 1.0]);
         }
         let result = generate_mips(TextureFormat::Rgba32Float, 2, 2, &[0; 16]);
-        assert!(matches!(result, Err(Error::TextureData { expected: 64, got: 16, .. })), "{result:?}");
+        assert!(
+            matches!(result, Err(Error::Resource(ResourceError::TextureData { expected: 64, got: 16, .. }))),
+            "{result:?}"
+        );
         Ok(())
     }
 }

@@ -21,12 +21,13 @@ pub use raykit_wgsl::{
 };
 
 use crate::context::Context;
+use crate::error::ModuleError;
 use crate::error::{Error, Result};
 use crate::module::Module;
 
 impl Module {
     /// Compiles WGSL source (naga, then raykit's conventions) and loads it.
-    /// Errors are [`Error::Wgsl`], with naga's diagnostic (`file:line:col` and a
+    /// Errors are [`ModuleError::Wgsl`], with naga's diagnostic (`file:line:col` and a
     /// caret under the span).
     pub fn from_wgsl(ctx: &Context, source: &str) -> Result<Module> {
         Module::from_wgsl_named(ctx, source, "wgsl")
@@ -48,6 +49,6 @@ impl Module {
 
 impl From<WgslError> for Error {
     fn from(e: WgslError) -> Self {
-        Error::Wgsl(Box::new(e))
+        Error::Module(ModuleError::Wgsl(Box::new(e)))
     }
 }

@@ -115,7 +115,10 @@ pub fn with_context_validation(
 pub fn context_or_skip(name: &str, options: ContextOptions) -> anyhow::Result<Option<Context>> {
     match Context::new(options) {
         Ok(ctx) => Ok(Some(ctx)),
-        Err(e @ (Error::NoRayTracingDevice { .. } | Error::LoaderMissing(_))) => {
+        Err(
+            e @ (Error::Device(raykit::DeviceError::NoRayTracingDevice { .. })
+            | Error::Device(raykit::DeviceError::LoaderMissing(_))),
+        ) => {
             if std::env::var("RAYKIT_REQUIRE_DEVICE").is_ok_and(|v| v == "1") {
                 anyhow::bail!("{name}: RAYKIT_REQUIRE_DEVICE=1 and no usable device: {e}");
             }

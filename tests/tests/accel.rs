@@ -12,37 +12,40 @@ const TRI: [Vec3; 3] = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3
 fn bad_geometry_is_refused_with_the_reason() -> anyhow::Result<()> {
     with_each_backend("bad_geometry_is_refused_with_the_reason", |ctx, _backend| {
         let err = Gas::triangles(ctx, &[], None).err();
-        assert!(matches!(err, Some(Error::AccelEmpty { .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Accel(raykit::AccelError::Empty { .. }))), "{err:?}");
         let err = Gas::triangles(ctx, &[Vec3::ZERO, Vec3::X, Vec3::new(f32::NAN, 0.0, 0.0)], None).err();
-        assert!(matches!(err, Some(Error::NonFiniteVertex { vertex: 2, .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Accel(raykit::AccelError::NonFiniteVertex { vertex: 2, .. }))), "{err:?}");
         let err = Gas::triangles(ctx, &TRI, Some(&[0, 1, 3])).err();
         assert!(
-            matches!(&err, Some(e @ Error::IndexOutOfRange { index: 3, .. }) if e.to_string().contains("fix the index buffer")),
+            matches!(&err, Some(e @ Error::Accel(raykit::AccelError::IndexOutOfRange { index: 3, .. })) if e.to_string().contains("fix the index buffer")),
             "{err:?}"
         );
         let err = Gas::triangles(ctx, &TRI, Some(&[0, 1])).err();
         assert!(
-            matches!(&err, Some(e @ Error::TriangleCount { .. }) if e.to_string().contains("multiple of 3")),
+            matches!(&err, Some(e @ Error::Accel(raykit::AccelError::TriangleCount { .. })) if e.to_string().contains("multiple of 3")),
             "{err:?}"
         );
         let err = Gas::triangles(ctx, &TRI[..2], None).err();
-        assert!(matches!(err, Some(Error::TriangleCount { .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Accel(raykit::AccelError::TriangleCount { .. }))), "{err:?}");
         let bytes = [0u8; 60];
         let err = Gas::builder().triangles(Triangles::strided(&bytes, 18, 3)).build(ctx).err();
-        assert!(matches!(err, Some(Error::MisalignedStride { stride: 18, .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Accel(raykit::AccelError::MisalignedStride { stride: 18, .. }))), "{err:?}");
         let err = Gas::aabbs(ctx, &[Aabb::new(Vec3::ONE, Vec3::ZERO)]).err();
-        assert!(matches!(err, Some(Error::InvalidAabb { .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Accel(raykit::AccelError::InvalidAabb { .. }))), "{err:?}");
         let boxes = [Aabb::new(Vec3::ZERO, Vec3::ONE)];
         let err = Gas::builder().triangles(Triangles::new(&TRI)).aabbs(Aabbs::new(&boxes)).build(ctx).err();
-        assert!(matches!(err, Some(Error::MixedGeometryTypes { .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Accel(raykit::AccelError::MixedGeometryTypes { .. }))), "{err:?}");
         let gas = Gas::triangles(ctx, &TRI, None)?;
         let err = Ias::new(ctx, &[Instance::new(&gas).sbt_offset(1 << 24)]).err();
-        assert!(matches!(err, Some(Error::InstanceField { field: "sbt_offset", .. })), "{err:?}");
+        assert!(
+            matches!(err, Some(Error::Accel(raykit::AccelError::InstanceField { field: "sbt_offset", .. }))),
+            "{err:?}"
+        );
         let err =
             Ias::new(ctx, &[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::splat(f32::INFINITY)))])
                 .err();
-        assert!(matches!(err, Some(Error::NonFiniteTransform { .. })), "{err:?}");
-        assert!(matches!(Ias::new(ctx, &[]), Err(Error::AccelEmpty { .. })));
+        assert!(matches!(err, Some(Error::Accel(raykit::AccelError::NonFiniteTransform { .. }))), "{err:?}");
+        assert!(matches!(Ias::new(ctx, &[]), Err(Error::Accel(raykit::AccelError::Empty { .. }))));
         // Valid input still builds: indexed (u16, u32) and not, strided, AABBs.
         Gas::triangles(ctx, &TRI, Some(&[0, 1, 2]))?;
         Gas::builder().triangles(Triangles::new(&TRI).indices_u16(&[0, 1, 2])).build(ctx)?;
@@ -85,7 +88,7 @@ fn batched_and_non_blocking_builds() -> anyhow::Result<()> {
         // A batch with one bad build submits nothing and names the problem.
         let bad =
             vec![Gas::builder().triangles(Triangles::new(&TRI)), Gas::builder().triangles(Triangles::new(&TRI[..1]))];
-        assert!(matches!(Gas::build_many(ctx, bad), Err(Error::TriangleCount { .. })));
+        assert!(matches!(Gas::build_many(ctx, bad), Err(Error::Accel(raykit::AccelError::TriangleCount { .. }))));
         let instances: Vec<Instance> = gases.iter().filter(|g| g.geometry_count() == 1).map(Instance::new).collect();
         let pending_ias = Ias::builder(&instances).submit(ctx)?;
         let ias = pending_ias.wait()?;
@@ -108,7 +111,7 @@ fn update_is_refused_unless_allowed_and_topology_unchanged() -> anyhow::Result<(
         let mut fixed = Gas::triangles(ctx, &quad, Some(&indices))?;
         let err = fixed.update(&input(&quad, &[0, 1, 2, 1, 3, 2])).err();
         assert!(
-            matches!(&err, Some(Error::UpdateRefused { reason, .. }) if reason.contains("allow_update")),
+            matches!(&err, Some(Error::Accel(raykit::AccelError::UpdateRefused { reason, .. })) if reason.contains("allow_update")),
             "{err:?}"
         );
 
@@ -118,10 +121,13 @@ fn update_is_refused_unless_allowed_and_topology_unchanged() -> anyhow::Result<(
         let moved: Vec<Vec3> = quad.iter().map(|v| *v * 2.0).collect();
         gas.update(&input(&moved, &[0, 1, 2, 1, 3, 2]))?;
         let err = gas.update(&input(&moved, &[0, 1, 2])).err();
-        assert!(matches!(&err, Some(Error::UpdateRefused { reason, .. }) if reason.contains("1 triangles")), "{err:?}");
+        assert!(
+            matches!(&err, Some(Error::Accel(raykit::AccelError::UpdateRefused { reason, .. })) if reason.contains("1 triangles")),
+            "{err:?}"
+        );
         let err = gas.update(&input(&moved, &[0, 1, 2, 2, 3, 1])).err();
         assert!(
-            matches!(&err, Some(e @ Error::UpdateRefused { reason, .. }) if reason.contains("index data") && e.to_string().contains("rebuild")),
+            matches!(&err, Some(e @ Error::Accel(raykit::AccelError::UpdateRefused { reason, .. })) if reason.contains("index data") && e.to_string().contains("rebuild")),
             "{err:?}"
         );
         // A rebuild accepts the new topology.
@@ -132,7 +138,7 @@ fn update_is_refused_unless_allowed_and_topology_unchanged() -> anyhow::Result<(
         ias.update(&[Instance::new(&gas).transform(Affine3A::from_translation(Vec3::Z))])?;
         let err = ias.update(&[Instance::new(&gas), Instance::new(&fixed)]).err();
         assert!(
-            matches!(&err, Some(Error::UpdateRefused { what: "IAS", reason }) if reason.contains("instance count")),
+            matches!(&err, Some(Error::Accel(raykit::AccelError::UpdateRefused { what: "IAS", reason })) if reason.contains("instance count")),
             "{err:?}"
         );
         ias.rebuild(&[Instance::new(&gas), Instance::new(&fixed)])?;
@@ -145,7 +151,7 @@ fn update_is_refused_unless_allowed_and_topology_unchanged() -> anyhow::Result<(
 fn compaction_reports_both_sizes() -> anyhow::Result<()> {
     with_each_backend("compaction_reports_both_sizes", |ctx, _backend| {
         let gas = Gas::triangles(ctx, &TRI, None)?;
-        assert!(matches!(gas.compact(), Err(Error::CompactionNotAllowed)));
+        assert!(matches!(gas.compact(), Err(Error::Accel(raykit::AccelError::CompactionNotAllowed))));
         let (vertices, indices) = grid(32);
         let gas = Gas::builder()
             .triangles(Triangles::new(&vertices).indices_u32(&indices))

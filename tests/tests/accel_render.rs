@@ -366,9 +366,15 @@ fn refit_moves_the_picture_as_the_cpu_reference_says() -> anyhow::Result<()> {
         // A changed topology is refused, and the structure keeps its last state.
         let quad = [after[0], after[1], after[2], Vec3::ZERO];
         let err = gas.update(&[Triangles::new(&quad).indices_u32(&[0, 1, 2, 0, 2, 3]).into()]).err();
-        assert!(matches!(&err, Some(Error::UpdateRefused { reason, .. }) if reason.contains("2 triangles")), "{err:?}");
+        assert!(
+            matches!(&err, Some(Error::Accel(raykit::AccelError::UpdateRefused { reason, .. })) if reason.contains("2 triangles")),
+            "{err:?}"
+        );
         let err = gas.update(&[Triangles::new(&after).flags(raykit::GeometryFlags::OPAQUE).into()]).err();
-        assert!(matches!(&err, Some(Error::UpdateRefused { reason, .. }) if reason.contains("flags")), "{err:?}");
+        assert!(
+            matches!(&err, Some(Error::Accel(raykit::AccelError::UpdateRefused { reason, .. })) if reason.contains("flags")),
+            "{err:?}"
+        );
         let third = render(ctx, &ias, &records)?;
         assert_eq!(differing(&second, &third, 0), 0);
         Ok(())

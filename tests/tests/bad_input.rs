@@ -120,7 +120,7 @@ fn entry_point_missing() -> anyhow::Result<()> {
         "entry_point_missing",
         &["`__raygen__nope`", "`__raygen__rg` (raygen)", "entry-point constants"],
         |ctx| refused(ProgramGroup::raygen(&triangle_module(ctx)?, "__raygen__nope"), "a missing entry point"),
-        |e| matches!(e, Error::EntryPointNotFound { name, .. } if name == "__raygen__nope"),
+        |e| matches!(e, Error::Module(raykit::ModuleError::EntryPointNotFound { name, .. }) if name == "__raygen__nope"),
     )
 }
 
@@ -130,7 +130,7 @@ fn entry_point_of_another_stage_named_as_raygen() -> anyhow::Result<()> {
         "entry_point_of_another_stage_named_as_raygen",
         &["`__miss__ms` is a miss program, not a raygen program", "ProgramGroup::raygen"],
         |ctx| refused(ProgramGroup::raygen(&triangle_module(ctx)?, "__miss__ms"), "a miss entry as raygen"),
-        |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::Raygen, .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::ProgramKindMismatch { expected: ProgramKind::Raygen, .. })),
     )
 }
 
@@ -142,7 +142,7 @@ fn entry_point_constant_of_another_kind() -> anyhow::Result<()> {
         |ctx| {
             refused(ProgramGroup::miss(&triangle_module(ctx)?, triangle_device::CH), "a closest-hit constant as miss")
         },
-        |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::Miss, .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::ProgramKindMismatch { expected: ProgramKind::Miss, .. })),
     )
 }
 
@@ -158,7 +158,12 @@ fn closest_hit_slot_given_a_raygen() -> anyhow::Result<()> {
                 "a raygen as closest-hit",
             )
         },
-        |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::ClosestHit, .. }),
+        |e| {
+            matches!(
+                e,
+                Error::Module(raykit::ModuleError::ProgramKindMismatch { expected: ProgramKind::ClosestHit, .. })
+            )
+        },
     )
 }
 
@@ -172,11 +177,17 @@ fn optix_prefix_disagrees_with_the_stage() -> anyhow::Result<()> {
             let module = Module::new(ctx, include_bytes!("../data/raygen_named_miss.rgen.spv"))?;
             // As a miss it is refused by its stage …
             let err = refused(ProgramGroup::miss(&module, "__miss__named_wrong"), "a raygen stage as miss")?;
-            anyhow::ensure!(matches!(err, Error::ProgramKindMismatch { expected: ProgramKind::Miss, .. }), "{err:?}");
+            anyhow::ensure!(
+                matches!(
+                    err,
+                    Error::Module(raykit::ModuleError::ProgramKindMismatch { expected: ProgramKind::Miss, .. })
+                ),
+                "{err:?}"
+            );
             // … and as a raygen by its name.
             refused(ProgramGroup::raygen(&module, "__miss__named_wrong"), "a `__miss__` name as raygen")
         },
-        |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::Raygen, actual, .. } if actual.contains("prefix")),
+        |e| matches!(e, Error::Module(raykit::ModuleError::ProgramKindMismatch { expected: ProgramKind::Raygen, actual, .. }) if actual.contains("prefix")),
     )
 }
 
@@ -186,7 +197,7 @@ fn glsl_main_used_as_another_stage() -> anyhow::Result<()> {
         "glsl_main_used_as_another_stage",
         &["`main` is a raygen program, not a miss program"],
         |ctx| refused(ProgramGroup::miss(&Module::new(ctx, RAYGEN_MAIN)?, "main"), "a GLSL raygen as miss"),
-        |e| matches!(e, Error::ProgramKindMismatch { expected: ProgramKind::Miss, .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::ProgramKindMismatch { expected: ProgramKind::Miss, .. })),
     )
 }
 
@@ -225,7 +236,7 @@ fn module_that_is_not_spirv() -> anyhow::Result<()> {
             source.resize(source.len().next_multiple_of(4), b' ');
             refused(Module::new(ctx, &source), "GLSL source as SPIR-V")
         },
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -235,7 +246,7 @@ fn empty_module() -> anyhow::Result<()> {
         "empty_module",
         &["0 bytes is shorter than a SPIR-V header", "cargo xtask build-shaders"],
         |ctx| refused(Module::new(ctx, &[]), "an empty module"),
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -245,7 +256,7 @@ fn spirv_cut_inside_a_word() -> anyhow::Result<()> {
         "spirv_cut_inside_a_word",
         &["not a whole number of 32-bit words"],
         |ctx| refused(Module::new(ctx, &RAYGEN_MAIN[..RAYGEN_MAIN.len() - 2]), "a module cut inside a word"),
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -255,7 +266,7 @@ fn spirv_truncated_between_words() -> anyhow::Result<()> {
         "spirv_truncated_between_words",
         &["truncated"],
         |ctx| refused(Module::new(ctx, &RAYGEN_MAIN[..(RAYGEN_MAIN.len() / 2) & !3]), "half a module"),
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -269,7 +280,7 @@ fn spirv_with_a_zero_word_count() -> anyhow::Result<()> {
             w[5] &= 0xffff; // the first instruction's word count
             refused(Module::new(ctx, &bytes(&w)), "an instruction of zero words")
         },
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -283,7 +294,7 @@ fn spirv_with_an_unknown_version() -> anyhow::Result<()> {
             w[1] = 0x0002_0000;
             refused(Module::new(ctx, &bytes(&w)), "SPIR-V 2.0")
         },
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -297,7 +308,7 @@ fn spirv_with_an_absurd_id_bound() -> anyhow::Result<()> {
             w[3] = u32::MAX;
             refused(Module::new(ctx, &bytes(&w)), "an ID bound of 2^32 - 1")
         },
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -312,7 +323,7 @@ fn spirv_entry_point_naming_an_undefined_function() -> anyhow::Result<()> {
             w[at + 2] = w[3] - 1; // an id below the bound that names no function
             refused(Module::new(ctx, &bytes(&w)), "an entry point without its function")
         },
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -327,7 +338,7 @@ fn spirv_defining_an_id_outside_its_bound() -> anyhow::Result<()> {
             w[at + 1] = w[3] + 5;
             refused(Module::new(ctx, &bytes(&w)), "an id over the bound")
         },
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -344,7 +355,7 @@ fn spirv_using_an_id_it_never_defines() -> anyhow::Result<()> {
             w[3] += 1; // … made legal by a larger bound
             refused(Module::new(ctx, &bytes(&w)), "a pointer to an undefined type")
         },
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -365,7 +376,7 @@ fn spirv_with_a_spec_constant_op_it_cannot_compute() -> anyhow::Result<()> {
             w[3] += 1;
             refused(Module::new(ctx, &bytes(&w)), "an OpSpecConstantOp of an OpSpecConstantOp")
         },
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -379,7 +390,7 @@ fn spirv_without_ray_tracing_entry_points() -> anyhow::Result<()> {
             "Compile the programs as ray-tracing stages",
         ],
         |ctx| refused(Module::new(ctx, include_bytes!("../data/compute_only.comp.spv")), "a compute shader"),
-        |e| matches!(e, Error::NoRayTracingEntryPoints { available } if available.len() == 1),
+        |e| matches!(e, Error::Module(raykit::ModuleError::NoRayTracingEntryPoints { available }) if available.len() == 1),
     )
 }
 
@@ -389,7 +400,7 @@ fn spirv_without_any_entry_point() -> anyhow::Result<()> {
         "spirv_without_any_entry_point",
         &["no ray-tracing entry points", "it has: none"],
         |ctx| refused(Module::new(ctx, include_bytes!("../data/no_entry_points.spv")), "a library module"),
-        |e| matches!(e, Error::NoRayTracingEntryPoints { available } if available.is_empty()),
+        |e| matches!(e, Error::Module(raykit::ModuleError::NoRayTracingEntryPoints { available }) if available.is_empty()),
     )
 }
 
@@ -399,7 +410,7 @@ fn spirv_file_that_does_not_exist() -> anyhow::Result<()> {
         "spirv_file_that_does_not_exist",
         &["no/such/file.spv", "cargo xtask build-shaders"],
         |ctx| refused(Module::from_file(ctx, "no/such/file.spv"), "a missing file"),
-        |e| matches!(e, Error::SpirvFile { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::SpirvFile { .. })),
     )
 }
 
@@ -411,7 +422,7 @@ fn device_crate_whose_spirv_is_not_found() -> anyhow::Result<()> {
         "device_crate_whose_spirv_is_not_found",
         &["no SPIR-V for device crate `no-such-device`", "no_such_device.spv", "RAYKIT_SPIRV_DIR", &dir],
         |ctx| refused(Module::from_device_crate(ctx, "no-such-device"), "a device crate never built"),
-        |e| matches!(e, Error::SpirvNotFound { tried, .. } if !tried.is_empty()),
+        |e| matches!(e, Error::Module(raykit::ModuleError::SpirvNotFound { tried, .. }) if !tried.is_empty()),
     )
 }
 
@@ -427,7 +438,7 @@ fn buffer_one_element_over_max_storage_buffer_range() -> anyhow::Result<()> {
             drop(ctx.buffer::<u32>(limit as usize / 4)?);
             Ok(e)
         },
-        |e| matches!(e, Error::BufferTooLarge { .. }),
+        |e| matches!(e, Error::Resource(raykit::ResourceError::BufferTooLarge { .. })),
     )
 }
 
@@ -440,7 +451,7 @@ fn explicit_stack_size_of_zero() -> anyhow::Result<()> {
             let l = linked(ctx)?;
             refused(l.pipeline.set_stack_size(&raykit::stack::StackSize::Explicit(0)), "a zero stack")
         },
-        |e| matches!(e, Error::StackSize { .. }),
+        |e| matches!(e, Error::Link(raykit::LinkError::StackSize { .. })),
     )
 }
 
@@ -456,7 +467,7 @@ fn explicit_stack_size_below_a_programs_own_need() -> anyhow::Result<()> {
             anyhow::ensure!(largest > 1, "the driver reports stacks of {largest} bytes: nothing to undercut");
             refused(s.set_stack_size(&raykit::stack::StackSize::Explicit(largest as u32 - 1)), "a too small stack")
         },
-        |e| matches!(e, Error::StackSize { .. }),
+        |e| matches!(e, Error::Link(raykit::LinkError::StackSize { .. })),
     )
 }
 
@@ -486,7 +497,7 @@ fn pipeline_cache_path_that_is_a_fifo() -> anyhow::Result<()> {
                 "{reason}"
             );
             let err = refused(ctx.save_pipeline_cache(), "saving over a FIFO")?;
-            anyhow::ensure!(matches!(err, Error::PipelineCacheIo { .. }), "{err:?}");
+            anyhow::ensure!(matches!(err, Error::Device(raykit::DeviceError::PipelineCacheIo { .. })), "{err:?}");
             still_usable(ctx)
         });
         let _ = std::fs::remove_dir_all(&dir);
@@ -507,7 +518,7 @@ fn params_layout_differs_from_the_spirv() -> anyhow::Result<()> {
             let raygen = ProgramGroup::raygen(&module, params_device::RG_TARGET_DEPENDENT)?;
             refused(Pipeline::<TargetDependent>::new(ctx, &[&raygen], LinkOptions::default()), "a moved field")
         },
-        |e| matches!(e, Error::ParamsLayout(l) if matches!(**l, LayoutError::Mismatch { struct_name: "TargetDependent", .. })),
+        |e| matches!(e, Error::Link(raykit::LinkError::ParamsLayout(l)) if matches!(**l, LayoutError::Mismatch { struct_name: "TargetDependent", .. })),
     )
 }
 
@@ -523,7 +534,7 @@ fn params_type_differs_between_modules_of_a_pipeline() -> anyhow::Result<()> {
             let miss = ProgramGroup::miss(&other, "main")?;
             refused(Pipeline::<Params>::new(ctx, &[&raygen, &miss], LinkOptions::default()), "two params types")
         },
-        |e| matches!(e, Error::ParamsLayout(l) if matches!(&**l, LayoutError::Mismatch { entry, .. } if entry == "main")),
+        |e| matches!(e, Error::Link(raykit::LinkError::ParamsLayout(l)) if matches!(&**l, LayoutError::Mismatch { entry, .. } if entry == "main")),
     )
 }
 
@@ -543,7 +554,7 @@ fn params_read_another_way_than_delivered() -> anyhow::Result<()> {
                 "push constants for a UBO struct",
             )
         },
-        |e| matches!(e, Error::ParamsLayout(l) if matches!(**l, LayoutError::Delivery { .. })),
+        |e| matches!(e, Error::Link(raykit::LinkError::ParamsLayout(l)) if matches!(**l, LayoutError::Delivery { .. })),
     )
 }
 
@@ -561,13 +572,13 @@ fn max_trace_depth_above_the_device_limit() -> anyhow::Result<()> {
                 let err =
                     refused(Pipeline::<Params>::new(ctx, &[&raygen], LinkOptions { max_trace_depth: depth }), "depth")?;
                 anyhow::ensure!(
-                    matches!(err, Error::TraceDepthTooLarge { requested, limit: l } if requested == depth && l == limit),
+                    matches!(err, Error::Link(raykit::LinkError::TraceDepthTooLarge { requested, limit: l }) if requested == depth && l == limit),
                     "{err:?}"
                 );
             }
             refused(Pipeline::<Params>::new(ctx, &[&raygen], LinkOptions { max_trace_depth: limit + 1 }), "depth")
         },
-        |e| matches!(e, Error::TraceDepthTooLarge { .. }),
+        |e| matches!(e, Error::Link(raykit::LinkError::TraceDepthTooLarge { .. })),
     )
 }
 
@@ -580,7 +591,7 @@ fn pipeline_without_a_raygen_group() -> anyhow::Result<()> {
             let miss = ProgramGroup::miss(&triangle_module(ctx)?, triangle_device::MS)?;
             refused(Pipeline::<Params>::new(ctx, &[&miss], LinkOptions::default()), "a pipeline without raygen")
         },
-        |e| matches!(e, Error::NoRaygen),
+        |e| matches!(e, Error::Link(raykit::LinkError::NoRaygen)),
     )
 }
 
@@ -612,7 +623,7 @@ fn pipeline_from_groups_of_another_context() -> anyhow::Result<()> {
                 )
             })
         },
-        |e| matches!(e, Error::ContextMismatch),
+        |e| matches!(e, Error::Device(raykit::DeviceError::ContextMismatch)),
     )
 }
 
@@ -644,7 +655,7 @@ fn sbt_without_a_raygen_record() -> anyhow::Result<()> {
                 "an SBT without raygen",
             )
         },
-        |e| matches!(e, Error::SbtMissing { region: raykit::SbtRegion::Raygen }),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::Missing { region: raykit::SbtRegion::Raygen })),
     )
 }
 
@@ -657,7 +668,7 @@ fn sbt_record_of_the_wrong_kind_of_group() -> anyhow::Result<()> {
             let l = linked(ctx)?;
             refused(Sbt::builder(&l.pipeline).raygen(&l.miss, ()).build(), "a miss group as raygen record")
         },
-        |e| matches!(e, Error::SbtGroupKind { region: raykit::SbtRegion::Raygen, .. }),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::GroupKind { region: raykit::SbtRegion::Raygen, .. })),
     )
 }
 
@@ -678,7 +689,7 @@ fn sbt_record_of_a_group_not_in_the_pipeline() -> anyhow::Result<()> {
                 "a foreign group",
             )
         },
-        |e| matches!(e, Error::GroupNotInPipeline { kind: raykit::GroupKind::Miss }),
+        |e| matches!(e, Error::Link(raykit::LinkError::GroupNotInPipeline { kind: raykit::GroupKind::Miss })),
     )
 }
 
@@ -700,7 +711,7 @@ fn sbt_record_data_too_large() -> anyhow::Result<()> {
             let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, bg);
             refused(builder.hit(&l.hit, huge).build(), "a 64 KiB record")
         },
-        |e| matches!(e, Error::SbtRecordTooLarge { size: 65536, .. }),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::RecordTooLarge { size: 65536, .. })),
     )
 }
 
@@ -728,7 +739,7 @@ fn hit_record_for_a_ray_type_the_sbt_does_not_have() -> anyhow::Result<()> {
                 Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, MissData { bg_color: BG_COLOR });
             refused(builder.hit(&l.hit, ()).hit_at(2, &l.hit, ()).build(), "a ghost ray type's hit record")
         },
-        |e| matches!(e, Error::SbtHole { region: raykit::SbtRegion::Hit, index: 1 }),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::Hole { region: raykit::SbtRegion::Hit, index: 1 })),
     )
 }
 
@@ -743,7 +754,7 @@ fn two_records_in_one_sbt_slot() -> anyhow::Result<()> {
             let builder = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, bg).hit(&l.hit, ());
             refused(builder.miss_for::<triangle_device::Radiance, _>(&l.miss, bg).build(), "two radiance miss records")
         },
-        |e| matches!(e, Error::SbtSlotTaken { region: raykit::SbtRegion::Miss, index: 0 }),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::SlotTaken { region: raykit::SbtRegion::Miss, index: 0 })),
     )
 }
 
@@ -764,7 +775,7 @@ fn launch_with_the_sbt_of_another_pipeline() -> anyhow::Result<()> {
             let params = triangle::params(1, 1, image.handle(), raykit::Traversable::NULL);
             refused(a.pipeline.launch(&sbt, &params, [1, 1, 1]), "another pipeline's SBT")
         },
-        |e| matches!(e, Error::SbtOfAnotherPipeline),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::OfAnotherPipeline)),
     )
 }
 
@@ -811,7 +822,14 @@ fn instance_sbt_offset_past_the_hit_records() -> anyhow::Result<()> {
         |e| {
             matches!(
                 e,
-                Error::SbtTooSmallForScene { instance: 0, sbt_offset: 1, geometries: 1, slot: 1, hit_records: 1, .. }
+                Error::Launch(raykit::LaunchError::SbtTooSmallForScene {
+                    instance: 0,
+                    sbt_offset: 1,
+                    geometries: 1,
+                    slot: 1,
+                    hit_records: 1,
+                    ..
+                })
             )
         },
     )
@@ -834,7 +852,7 @@ fn instance_geometries_past_the_hit_records() -> anyhow::Result<()> {
         |e| {
             matches!(
                 e,
-                Error::SbtTooSmallForScene {
+                Error::Launch(raykit::LaunchError::SbtTooSmallForScene {
                     instance: 1,
                     sbt_offset: 1,
                     geometries: 2,
@@ -843,7 +861,7 @@ fn instance_geometries_past_the_hit_records() -> anyhow::Result<()> {
                     stride: 1,
                     ray_offset: 0,
                     ..
-                }
+                })
             )
         },
     )
@@ -864,7 +882,12 @@ fn instance_updated_past_the_hit_records() -> anyhow::Result<()> {
             ias.update(&[Instance::new(&gas).sbt_offset(4)])?;
             refused(render_scene(ctx, &l, &ias, 2)?, "an instance updated past the SBT")
         },
-        |e| matches!(e, Error::SbtTooSmallForScene { instance: 0, slot: 4, hit_records: 2, .. }),
+        |e| {
+            matches!(
+                e,
+                Error::Launch(raykit::LaunchError::SbtTooSmallForScene { instance: 0, slot: 4, hit_records: 2, .. })
+            )
+        },
     )
 }
 
@@ -886,7 +909,7 @@ fn scene_whose_instances_fill_the_hit_records_exactly_renders() -> anyhow::Resul
         assert!(got == reference, "the scene renders differently from optixTriangle");
         assert!(matches!(
             render_scene(ctx, &l, &ias, 3)?,
-            Err(Error::SbtTooSmallForScene { slot: 3, instance: 1, .. })
+            Err(Error::Launch(raykit::LaunchError::SbtTooSmallForScene { slot: 3, instance: 1, .. }))
         ));
         Ok(())
     })
@@ -936,7 +959,7 @@ fn recursion_past_max_trace_depth() -> anyhow::Result<()> {
                 scene: ias.handle(),
             };
             let err = refused(pipeline.launch(&sbt, &params, [4, 4, 1]), "a recursion past max_trace_depth")?;
-            if let Error::RecursionTooDeep { launch_indices, .. } = &err {
+            if let Error::Launch(raykit::LaunchError::RecursionTooDeep { launch_indices, .. }) = &err {
                 let mut got = launch_indices.clone();
                 got.sort_unstable();
                 let every: Vec<[u32; 3]> = (0..4).flat_map(|x| (0..4).map(move |y| [x, y, 0])).collect();
@@ -944,7 +967,18 @@ fn recursion_past_max_trace_depth() -> anyhow::Result<()> {
             }
             Ok(err)
         },
-        |e| matches!(e, Error::RecursionTooDeep { max_trace_depth: 2, depth: 3, refused: 16, total: 16, .. }),
+        |e| {
+            matches!(
+                e,
+                Error::Launch(raykit::LaunchError::RecursionTooDeep {
+                    max_trace_depth: 2,
+                    depth: 3,
+                    refused: 16,
+                    total: 16,
+                    ..
+                })
+            )
+        },
     )
 }
 
@@ -971,11 +1005,14 @@ fn launch_with_a_zero_dimension() -> anyhow::Result<()> {
         |ctx| {
             for dims in [[0, 1, 1], [1, 0, 1], [1, 1, 0], [0, 0, 0]] {
                 let err = refused(launch(ctx, dims)?, "a zero dimension")?;
-                anyhow::ensure!(matches!(err, Error::LaunchDimensions { dims: d, .. } if d == dims), "{err:?}");
+                anyhow::ensure!(
+                    matches!(err, Error::Launch(raykit::LaunchError::Dimensions { dims: d, .. }) if d == dims),
+                    "{err:?}"
+                );
             }
             refused(launch(ctx, [16, 0, 1])?, "a zero height")
         },
-        |e| matches!(e, Error::LaunchDimensions { .. }),
+        |e| matches!(e, Error::Launch(raykit::LaunchError::Dimensions { .. })),
     )
 }
 
@@ -992,7 +1029,7 @@ fn launch_over_max_ray_dispatch_invocation_count() -> anyhow::Result<()> {
             anyhow::ensure!(side * side > total, "cannot exceed {total} invocations within {max:?}");
             refused(launch(ctx, [side as u32, side as u32, 1])?, "too many invocations")
         },
-        |e| matches!(e, Error::LaunchDimensions { .. }),
+        |e| matches!(e, Error::Launch(raykit::LaunchError::Dimensions { .. })),
     )
 }
 
@@ -1004,7 +1041,7 @@ fn launch_whose_invocation_count_overflows_64_bits() -> anyhow::Result<()> {
         "launch_whose_invocation_count_overflows_64_bits",
         &["more than 2^64 invocations exceed maxRayDispatchInvocationCount"],
         |ctx| refused(launch(ctx, [u32::MAX; 3])?, "2^96 invocations"),
-        |e| matches!(e, Error::LaunchDimensions { .. }),
+        |e| matches!(e, Error::Launch(raykit::LaunchError::Dimensions { .. })),
     )
 }
 
@@ -1028,7 +1065,7 @@ fn launch_wider_than_the_device_allows() -> anyhow::Result<()> {
             dims[axis] = (limits[axis] + 1) as u32;
             refused(launch(ctx, dims)?, "a launch wider than the device allows")
         },
-        |e| matches!(e, Error::LaunchDimensions { .. }),
+        |e| matches!(e, Error::Launch(raykit::LaunchError::Dimensions { .. })),
     )
 }
 
@@ -1042,7 +1079,7 @@ fn gas_with_zero_primitives() -> anyhow::Result<()> {
         "gas_with_zero_primitives",
         &["at least one triangle"],
         |ctx| refused(Gas::triangles(ctx, &[], None), "a GAS without triangles"),
-        |e| matches!(e, Error::AccelEmpty { .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::Empty { .. })),
     )
 }
 
@@ -1052,7 +1089,7 @@ fn gas_with_an_empty_index_list() -> anyhow::Result<()> {
         "gas_with_an_empty_index_list",
         &["at least one triangle"],
         |ctx| refused(Gas::triangles(ctx, &TRI, Some(&[])), "an empty index list"),
-        |e| matches!(e, Error::AccelEmpty { .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::Empty { .. })),
     )
 }
 
@@ -1062,7 +1099,12 @@ fn gas_with_indices_out_of_range() -> anyhow::Result<()> {
         "gas_with_indices_out_of_range",
         &["index 2 is 3, but the geometry has 3 vertices", "fix the index buffer"],
         |ctx| refused(Gas::triangles(ctx, &TRI, Some(&[0, 1, 3])), "index 3 of 3 vertices"),
-        |e| matches!(e, Error::IndexOutOfRange { position: 2, index: 3, vertex_count: 3, .. }),
+        |e| {
+            matches!(
+                e,
+                Error::Accel(raykit::AccelError::IndexOutOfRange { position: 2, index: 3, vertex_count: 3, .. })
+            )
+        },
     )
 }
 
@@ -1073,10 +1115,13 @@ fn gas_with_non_finite_vertices() -> anyhow::Result<()> {
         &["vertex 1 is not finite", "finite positions"],
         |ctx| {
             let nan = refused(Gas::triangles(ctx, &[TRI[0], TRI[1], Vec3::new(f32::NAN, 0.0, 0.0)], None), "a NaN")?;
-            anyhow::ensure!(matches!(nan, Error::NonFiniteVertex { vertex: 2, .. }), "{nan:?}");
+            anyhow::ensure!(
+                matches!(nan, Error::Accel(raykit::AccelError::NonFiniteVertex { vertex: 2, .. })),
+                "{nan:?}"
+            );
             refused(Gas::triangles(ctx, &[TRI[0], Vec3::new(0.0, f32::INFINITY, 0.0), TRI[2]], None), "an infinity")
         },
-        |e| matches!(e, Error::NonFiniteVertex { vertex: 1, .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::NonFiniteVertex { vertex: 1, .. })),
     )
 }
 
@@ -1086,7 +1131,7 @@ fn gas_with_an_index_list_that_is_not_whole_triangles() -> anyhow::Result<()> {
         "gas_with_an_index_list_that_is_not_whole_triangles",
         &["4 indices is not a multiple of 3", "each triangle takes three"],
         |ctx| refused(Gas::triangles(ctx, &TRI, Some(&[0, 1, 2, 0])), "four indices"),
-        |e| matches!(e, Error::TriangleCount { count: 4, .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::TriangleCount { count: 4, .. })),
     )
 }
 
@@ -1096,7 +1141,7 @@ fn gas_with_a_vertex_list_that_is_not_whole_triangles() -> anyhow::Result<()> {
         "gas_with_a_vertex_list_that_is_not_whole_triangles",
         &["2 vertices without indices is not a multiple of 3"],
         |ctx| refused(Gas::triangles(ctx, &TRI[..2], None), "two vertices"),
-        |e| matches!(e, Error::TriangleCount { count: 2, .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::TriangleCount { count: 2, .. })),
     )
 }
 
@@ -1109,10 +1154,13 @@ fn gas_with_a_misaligned_vertex_stride() -> anyhow::Result<()> {
             let bytes = [0u8; 14 * 3];
             // Too short a stride is refused the same way.
             let short = refused(Gas::builder().triangles(Triangles::strided(&bytes, 8, 3)).build(ctx), "stride 8")?;
-            anyhow::ensure!(matches!(short, Error::MisalignedStride { stride: 8, .. }), "{short:?}");
+            anyhow::ensure!(
+                matches!(short, Error::Accel(raykit::AccelError::MisalignedStride { stride: 8, .. })),
+                "{short:?}"
+            );
             refused(Gas::builder().triangles(Triangles::strided(&bytes, 14, 3)).build(ctx), "stride 14")
         },
-        |e| matches!(e, Error::MisalignedStride { stride: 14, alignment: 4, min: 12, .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::MisalignedStride { stride: 14, alignment: 4, min: 12, .. })),
     )
 }
 
@@ -1128,7 +1176,7 @@ fn gas_with_fewer_vertex_bytes_than_count_and_stride_need() -> anyhow::Result<()
                 "two vertices' bytes for three",
             )
         },
-        |e| matches!(e, Error::InputTooShort { needed: 36, len: 24, .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::InputTooShort { needed: 36, len: 24, .. })),
     )
 }
 
@@ -1142,7 +1190,7 @@ fn refit_with_a_changed_topology() -> anyhow::Result<()> {
             // Built without allowing updates: refused as well.
             let mut fixed = Gas::triangles(ctx, &TRI, None)?;
             let err = refused(fixed.update(&[Triangles::new(&TRI).into()]), "a refit without allow_update")?;
-            anyhow::ensure!(matches!(err, Error::UpdateRefused { .. }), "{err:?}");
+            anyhow::ensure!(matches!(err, Error::Accel(raykit::AccelError::UpdateRefused { .. })), "{err:?}");
             let options = BuildOptions::default().allow_update(true);
             let mut gas = Gas::builder().triangles(Triangles::new(&TRI)).options(options).build(ctx)?;
             // Same topology, moved vertices: accepted.
@@ -1150,7 +1198,7 @@ fn refit_with_a_changed_topology() -> anyhow::Result<()> {
             gas.update(&[Triangles::new(&moved).into()])?;
             refused(gas.update(&[Triangles::new(&six).into()]), "a refit to twice the triangles")
         },
-        |e| matches!(e, Error::UpdateRefused { what: "GAS", .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::UpdateRefused { what: "GAS", .. })),
     )
 }
 
@@ -1160,7 +1208,7 @@ fn ias_without_instances() -> anyhow::Result<()> {
         "ias_without_instances",
         &["give at least one triangle, AABB or instance"],
         |ctx| refused(Ias::new(ctx, &[]), "an empty IAS"),
-        |e| matches!(e, Error::AccelEmpty { .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::Empty { .. })),
     )
 }
 
@@ -1173,11 +1221,14 @@ fn ias_instance_fields_over_24_bits() -> anyhow::Result<()> {
             let gas = Gas::triangles(ctx, &TRI, None)?;
             let bad = Instance::new(&gas).custom_index(1 << 24);
             let err = refused(Ias::new(ctx, &[Instance::new(&gas), bad]), "a 25-bit custom index")?;
-            anyhow::ensure!(matches!(err, Error::InstanceField { instance: 1, .. }), "{err:?}");
+            anyhow::ensure!(
+                matches!(err, Error::Accel(raykit::AccelError::InstanceField { instance: 1, .. })),
+                "{err:?}"
+            );
             let bad = Instance::new(&gas).sbt_offset(u32::MAX);
             refused(Ias::new(ctx, &[Instance::new(&gas), bad]), "a 32-bit SBT offset")
         },
-        |e| matches!(e, Error::InstanceField { instance: 1, .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::InstanceField { instance: 1, .. })),
     )
 }
 
@@ -1191,7 +1242,7 @@ fn ias_instance_with_a_non_finite_transform() -> anyhow::Result<()> {
             let transform = Affine3A::from_translation(Vec3::new(0.0, f32::NAN, 0.0));
             refused(Ias::new(ctx, &[Instance::new(&gas).transform(transform)]), "a NaN translation")
         },
-        |e| matches!(e, Error::NonFiniteTransform { .. }),
+        |e| matches!(e, Error::Accel(raykit::AccelError::NonFiniteTransform { .. })),
     )
 }
 
@@ -1203,7 +1254,7 @@ fn ias_instancing_a_gas_of_another_context() -> anyhow::Result<()> {
         |ctx| {
             with_second_context(|other| refused(Ias::single(ctx, &Gas::triangles(other, &TRI, None)?), "a foreign GAS"))
         },
-        |e| matches!(e, Error::ContextMismatch),
+        |e| matches!(e, Error::Device(raykit::DeviceError::ContextMismatch)),
     )
 }
 
@@ -1248,7 +1299,7 @@ fn no_device_matches_the_requested_name() -> anyhow::Result<()> {
             anyhow::ensure!(err.to_string().contains(ctx.device_name().as_ref()), "{err}");
             Ok(err)
         },
-        |e| matches!(e, Error::NoRayTracingDevice { devices } if !devices.is_empty()),
+        |e| matches!(e, Error::Device(raykit::DeviceError::NoRayTracingDevice { devices }) if !devices.is_empty()),
     )
 }
 
@@ -1258,7 +1309,7 @@ fn buffer_of_zero_elements() -> anyhow::Result<()> {
         "buffer_of_zero_elements",
         &["buffer of 0 elements", "at least one element"],
         |ctx| refused(ctx.buffer::<u32>(0), "an empty buffer"),
-        |e| matches!(e, Error::BufferSize { len: 0, .. }),
+        |e| matches!(e, Error::Resource(raykit::ResourceError::BufferSize { len: 0, .. })),
     )
 }
 
@@ -1268,7 +1319,7 @@ fn buffer_whose_size_overflows() -> anyhow::Result<()> {
         "buffer_whose_size_overflows",
         &["overflows 64 bits"],
         |ctx| refused(ctx.buffer::<u32>(usize::MAX), "usize::MAX elements"),
-        |e| matches!(e, Error::BufferSize { .. }),
+        |e| matches!(e, Error::Resource(raykit::ResourceError::BufferSize { .. })),
     )
 }
 
@@ -1281,7 +1332,7 @@ fn buffer_write_longer_than_the_buffer() -> anyhow::Result<()> {
             let mut buffer = ctx.buffer::<u32>(4)?;
             refused(buffer.write(&[1, 2, 3, 4, 5]), "five elements into four")
         },
-        |e| matches!(e, Error::BufferSize { len: 5, .. }),
+        |e| matches!(e, Error::Resource(raykit::ResourceError::BufferSize { len: 5, .. })),
     )
 }
 
@@ -1293,7 +1344,7 @@ fn buffer_larger_than_device_memory() -> anyhow::Result<()> {
         "buffer_larger_than_device_memory",
         &["a buffer of 4398046511104 bytes", "maxStorageBufferRange", "split the data"],
         |ctx| refused(ctx.buffer::<u32>(1 << 40), "a 4 TiB buffer"),
-        |e| matches!(e, Error::BufferTooLarge { bytes: 4_398_046_511_104, .. }),
+        |e| matches!(e, Error::Resource(raykit::ResourceError::BufferTooLarge { bytes: 4_398_046_511_104, .. })),
     )
 }
 
@@ -1312,7 +1363,7 @@ fn more_live_buffers_than_the_buffer_table_holds() -> anyhow::Result<()> {
                 anyhow::ensure!(live.len() <= 1 << 20, "a million buffers and the table is not full");
             };
             anyhow::ensure!(
-                matches!(err, Error::BufferTableFull { capacity } if capacity as usize == live.len()),
+                matches!(err, Error::Resource(raykit::ResourceError::BufferTableFull { capacity }) if capacity as usize == live.len()),
                 "{err:?}"
             );
             // Freeing one slot makes room again.
@@ -1322,7 +1373,7 @@ fn more_live_buffers_than_the_buffer_table_holds() -> anyhow::Result<()> {
             drop(live);
             Ok(err)
         },
-        |e| matches!(e, Error::BufferTableFull { .. }),
+        |e| matches!(e, Error::Resource(raykit::ResourceError::BufferTableFull { .. })),
     )
 }
 
@@ -1387,7 +1438,17 @@ fn sbt_without_a_miss_record_for_a_pipeline_that_traces() -> anyhow::Result<()> 
             "sbt_without_a_miss_record_for_a_pipeline_that_traces",
             &["0 miss record(s)", "`__raygen__rg`", "miss_at(0, ..)"],
             |ctx| triangle_sbt(ctx, |b, l| b.hit(&l.hit, ())),
-            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Miss, needed: 1, have: 0, .. }),
+            |e| {
+                matches!(
+                    e,
+                    Error::Sbt(raykit::SbtError::Incomplete {
+                        region: raykit::SbtRegion::Miss,
+                        needed: 1,
+                        have: 0,
+                        ..
+                    })
+                )
+            },
         )
     })
 }
@@ -1399,7 +1460,12 @@ fn sbt_without_a_hit_record_for_a_pipeline_with_hit_groups() -> anyhow::Result<(
             "sbt_without_a_hit_record_for_a_pipeline_with_hit_groups",
             &["0 hit record(s)", "hit_at(0, ..)"],
             |ctx| triangle_sbt(ctx, |b, l| b.miss(&l.miss, MissData { bg_color: BG_COLOR })),
-            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Hit, needed: 1, have: 0, .. }),
+            |e| {
+                matches!(
+                    e,
+                    Error::Sbt(raykit::SbtError::Incomplete { region: raykit::SbtRegion::Hit, needed: 1, have: 0, .. })
+                )
+            },
         )
     })
 }
@@ -1415,7 +1481,16 @@ fn hit_at_usize_max() -> anyhow::Result<()> {
                     b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_at(usize::MAX, &l.hit, ())
                 })
             },
-            |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, limit: 16_777_216, .. }),
+            |e| {
+                matches!(
+                    e,
+                    Error::Sbt(raykit::SbtError::IndexOutOfRange {
+                        region: raykit::SbtRegion::Hit,
+                        limit: 16_777_216,
+                        ..
+                    })
+                )
+            },
         )
     })
 }
@@ -1433,7 +1508,7 @@ fn hit_for_a_huge_geometry_index() -> anyhow::Result<()> {
                     b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_for::<Ghost, _>(usize::MAX / 2, &empty, ())
                 })
             },
-            |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, .. }),
+            |e| matches!(e, Error::Sbt(raykit::SbtError::IndexOutOfRange { region: raykit::SbtRegion::Hit, .. })),
         )
     })
 }
@@ -1447,7 +1522,12 @@ fn miss_at_two_to_the_forty() -> anyhow::Result<()> {
             |ctx| {
                 triangle_sbt(ctx, |b, l| b.miss_at(1 << 40, &l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()))
             },
-            |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Miss, limit: 65536, .. }),
+            |e| {
+                matches!(
+                    e,
+                    Error::Sbt(raykit::SbtError::IndexOutOfRange { region: raykit::SbtRegion::Miss, limit: 65536, .. })
+                )
+            },
         )
     })
 }
@@ -1458,7 +1538,7 @@ fn miss_index_just_past_sixteen_bits() -> anyhow::Result<()> {
         "miss_index_just_past_sixteen_bits",
         &["SBT miss index 65536 is out of range"],
         |ctx| triangle_sbt(ctx, |b, l| b.miss_at(65536, &l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ())),
-        |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Miss, .. }),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::IndexOutOfRange { region: raykit::SbtRegion::Miss, .. })),
     )
 }
 
@@ -1468,7 +1548,7 @@ fn hit_index_just_past_twenty_four_bits() -> anyhow::Result<()> {
         "hit_index_just_past_twenty_four_bits",
         &["SBT hit index 16777216 is out of range"],
         |ctx| triangle_sbt(ctx, |b, l| b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit_at(1 << 24, &l.hit, ())),
-        |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, .. }),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::IndexOutOfRange { region: raykit::SbtRegion::Hit, .. })),
     )
 }
 
@@ -1483,7 +1563,7 @@ fn sbt_hit_records_a_million_slots_apart() -> anyhow::Result<()> {
                 b.miss(&l.miss, MissData { bg_color: BG_COLOR }).hit(&l.hit, ()).hit_at(1 << 20, &l.hit, ())
             })
         },
-        |e| matches!(e, Error::SbtHole { region: raykit::SbtRegion::Hit, index: 1 }),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::Hole { region: raykit::SbtRegion::Hit, index: 1 })),
     )
 }
 
@@ -1499,7 +1579,7 @@ fn id_bound_of_two_to_the_twenty_two() -> anyhow::Result<()> {
             w[3] = 1 << 22;
             refused(Module::new(ctx, &bytes(&w)), "ID bound 2^22")
         },
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -1539,7 +1619,7 @@ fn type_level_corruption_carries_the_validators_message() -> anyhow::Result<()> 
         "type_level_corruption_carries_the_validators_message",
         &["not a SPIR-V module", "spirv-val", "Illegal number of components (5)"],
         |ctx| refused(Module::new(ctx, &five_component_vector()), "a 5-component vector"),
-        |e| matches!(e, Error::InvalidSpirv { .. }),
+        |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
     )
 }
 
@@ -1564,7 +1644,7 @@ fn spec_constant_sizing_an_array_to_zero() -> anyhow::Result<()> {
             "spec_constant_sizing_an_array_to_zero",
             &["spirv-val", "OpTypeArray"],
             |ctx| spec_array_pipeline(ctx, 0),
-            |e| matches!(e, Error::InvalidSpirv { .. }),
+            |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
         )
     })
 }
@@ -1576,7 +1656,7 @@ fn spec_constant_sizing_an_array_to_two_to_the_thirty_one() -> anyhow::Result<()
             "spec_constant_sizing_an_array_to_two_to_the_thirty_one",
             &["sizes array type", "2147483648 elements", "`Buffer<T>`"],
             |ctx| spec_array_pipeline(ctx, 1 << 31),
-            |e| matches!(e, Error::InvalidSpirv { .. }),
+            |e| matches!(e, Error::Module(raykit::ModuleError::InvalidSpirv { .. })),
         )
     })
 }
@@ -1596,7 +1676,7 @@ fn tracing_raygen_with_max_trace_depth_zero() -> anyhow::Result<()> {
                     "a tracing raygen with depth 0",
                 )
             },
-            |e| matches!(e, Error::TraceDepthExceeded { needed: 1, max_trace_depth: 0, .. }),
+            |e| matches!(e, Error::Link(raykit::LinkError::TraceDepthExceeded { needed: 1, max_trace_depth: 0, .. })),
         )
     })
 }
@@ -1617,7 +1697,7 @@ fn recursive_closest_hit_with_max_trace_depth_one() -> anyhow::Result<()> {
             "recursive_closest_hit_with_max_trace_depth_one",
             &["needs a trace depth of at least 2", "recurses", "max_trace_depth 1"],
             |ctx| refused(recursive_pipeline(ctx, 1), "a recursive closest-hit with depth 1"),
-            |e| matches!(e, Error::TraceDepthExceeded { needed: 2, max_trace_depth: 1, .. }),
+            |e| matches!(e, Error::Link(raykit::LinkError::TraceDepthExceeded { needed: 2, max_trace_depth: 1, .. })),
         )
     })
 }
@@ -1646,7 +1726,7 @@ fn descriptor_at_a_set_raykit_does_not_bind() -> anyhow::Result<()> {
             "descriptor_at_a_set_raykit_does_not_bind",
             &["`main` declares a storage buffer `image` at set 2, binding 0", "has no set 2", "`Buffer<T>` handles"],
             |ctx| link_raygen(ctx, include_bytes!("../data/storage_at_set_2.rgen.spv")),
-            |e| matches!(e, Error::DescriptorBinding { set: 2, binding: 0, .. }),
+            |e| matches!(e, Error::Link(raykit::LinkError::DescriptorBinding { set: 2, binding: 0, .. })),
         )
     })
 }
@@ -1658,7 +1738,7 @@ fn tlas_declared_where_the_buffer_table_is() -> anyhow::Result<()> {
             "tlas_declared_where_the_buffer_table_is",
             &["an acceleration structure `scene` at set 0, binding 0", "buffer table", "`Traversable`"],
             |ctx| link_raygen(ctx, PAYLOAD_SPEC_ARRAY),
-            |e| matches!(e, Error::DescriptorBinding { set: 0, binding: 0, .. }),
+            |e| matches!(e, Error::Link(raykit::LinkError::DescriptorBinding { set: 0, binding: 0, .. })),
         )
     })
 }
@@ -1673,7 +1753,7 @@ fn image_beside_the_buffer_table() -> anyhow::Result<()> {
                 "where raykit binds its texture table (combined image samplers)",
             ],
             |ctx| link_raygen(ctx, include_bytes!("../data/image_at_set_0_binding_1.rgen.spv")),
-            |e| matches!(e, Error::DescriptorBinding { set: 0, binding: 1, .. }),
+            |e| matches!(e, Error::Link(raykit::LinkError::DescriptorBinding { set: 0, binding: 1, .. })),
         )
     })
 }
@@ -1715,7 +1795,7 @@ fn params_field_of_the_same_size_but_another_kind() -> anyhow::Result<()> {
                 "params whose size field is signed on the host",
             )
         },
-        |e| matches!(e, Error::ParamsLayout(l) if matches!(&**l, LayoutError::Mismatch { field, .. } if field == "size")),
+        |e| matches!(e, Error::Link(raykit::LinkError::ParamsLayout(l)) if matches!(&**l, LayoutError::Mismatch { field, .. } if field == "size")),
     )
 }
 
@@ -1759,7 +1839,17 @@ fn sbt_without_the_miss_record_of_a_traced_ray_type() -> anyhow::Result<()> {
                     .hit_for::<program_model_device::Shadow, _>(0, &s.shadow_hit, ());
                 refused(sbt.build(), "an SBT without the shadow miss record")
             },
-            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Miss, needed: 2, have: 1, .. }),
+            |e| {
+                matches!(
+                    e,
+                    Error::Sbt(raykit::SbtError::Incomplete {
+                        region: raykit::SbtRegion::Miss,
+                        needed: 2,
+                        have: 1,
+                        ..
+                    })
+                )
+            },
         )
     })
 }
@@ -1779,7 +1869,12 @@ fn sbt_without_the_hit_record_of_a_traced_ray_type() -> anyhow::Result<()> {
                     .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shade, ());
                 refused(sbt.build(), "an SBT without the shadow hit record")
             },
-            |e| matches!(e, Error::SbtIncomplete { region: raykit::SbtRegion::Hit, needed: 2, have: 1, .. }),
+            |e| {
+                matches!(
+                    e,
+                    Error::Sbt(raykit::SbtError::Incomplete { region: raykit::SbtRegion::Hit, needed: 2, have: 1, .. })
+                )
+            },
         )
     })
 }
@@ -1798,7 +1893,7 @@ fn hit_for_a_geometry_past_twenty_four_bits() -> anyhow::Result<()> {
                 )
             })
         },
-        |e| matches!(e, Error::SbtIndexOutOfRange { region: raykit::SbtRegion::Hit, .. }),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::IndexOutOfRange { region: raykit::SbtRegion::Hit, .. })),
     )
 }
 
@@ -1815,7 +1910,7 @@ fn recursive_closest_hit_in_a_library_with_max_trace_depth_one() -> anyhow::Resu
                 let options = raykit::LibraryOptions { max_trace_depth: 1, interface: None };
                 refused(raykit::PipelineLibrary::<stack_test_device::Params>::new(ctx, &[&hit], options), "the library")
             },
-            |e| matches!(e, Error::TraceDepthExceeded { needed: 2, .. }),
+            |e| matches!(e, Error::Link(raykit::LinkError::TraceDepthExceeded { needed: 2, .. })),
         )
     })
 }
@@ -1854,7 +1949,14 @@ fn miss_group_placed_for_another_ray_type() -> anyhow::Result<()> {
             refused(sbt.build(), "the radiance miss placed for the shadow ray")
         },
         |e| {
-            matches!(e, Error::SbtRayTypeMismatch { region: raykit::SbtRegion::Miss, declared: "ShadowedRadiance", .. })
+            matches!(
+                e,
+                Error::Sbt(raykit::SbtError::RayTypeMismatch {
+                    region: raykit::SbtRegion::Miss,
+                    declared: "ShadowedRadiance",
+                    ..
+                })
+            )
         },
     )
 }
@@ -1871,6 +1973,15 @@ fn hit_group_placed_for_another_ray_type() -> anyhow::Result<()> {
                 .hit_for::<program_model_device::ShadowedRadiance, _>(0, &s.shadow_hit, ());
             refused(sbt.build(), "the shadow hit group placed for the radiance ray")
         },
-        |e| matches!(e, Error::SbtRayTypeMismatch { region: raykit::SbtRegion::Hit, declared: "Shadow", .. }),
+        |e| {
+            matches!(
+                e,
+                Error::Sbt(raykit::SbtError::RayTypeMismatch {
+                    region: raykit::SbtRegion::Hit,
+                    declared: "Shadow",
+                    ..
+                })
+            )
+        },
     )
 }

@@ -104,7 +104,7 @@ fn a_panic_in_a_device_program_is_a_typed_error_naming_the_program_and_launch_in
     // Refusing the triangle's primitive makes every covered pixel panic: the
     // launch stops and names the program and the first such pixel.
     match render(&ctx, Some(0)) {
-        Err(Error::ProgramPanicked { program, launch_index, message }) => {
+        Err(Error::Launch(raykit::LaunchError::ProgramPanicked { program, launch_index, message })) => {
             assert_eq!(program, "__closesthit__ch_checked");
             assert_eq!(launch_index, first_covered());
             assert!(message.contains("the ray hit the refused primitive"), "{message}");
@@ -124,7 +124,10 @@ fn println_in_a_device_program_reaches_standard_output() -> anyhow::Result<()> {
         let ctx =
             Context::new(ContextOptions { backend: Some(Backend::Cpu), cpu_threads: Some(1), ..Default::default() })?;
         let result = render(&ctx, Some(0));
-        anyhow::ensure!(matches!(result, Err(Error::ProgramPanicked { .. })), "{result:?}");
+        anyhow::ensure!(
+            matches!(result, Err(Error::Launch(raykit::LaunchError::ProgramPanicked { .. }))),
+            "{result:?}"
+        );
         return Ok(());
     }
     let stdout = run_child(NAME, &[])?;
@@ -140,7 +143,10 @@ fn the_cpu_backend_runs_without_any_vulkan_driver() -> anyhow::Result<()> {
     if is_child(NAME) {
         // No driver is visible: a Vulkan context cannot be made...
         match Context::new(ContextOptions { backend: Some(Backend::Vulkan), ..Default::default() }) {
-            Err(Error::NoRayTracingDevice { .. } | Error::LoaderMissing(_)) => {}
+            Err(
+                Error::Device(raykit::DeviceError::NoRayTracingDevice { .. })
+                | Error::Device(raykit::DeviceError::LoaderMissing(_)),
+            ) => {}
             other => anyhow::bail!("a Vulkan context without drivers: {other:?}"),
         }
         // ...and RAYKIT_BACKEND=cpu makes the default context a CPU one, which

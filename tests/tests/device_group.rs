@@ -462,42 +462,48 @@ fn context_all_makes_one_context_per_device() -> anyhow::Result<()> {
 
 #[test]
 fn bad_input_gives_typed_errors() -> anyhow::Result<()> {
-    anyhow::ensure!(matches!(DeviceGroup::new(Vec::new()), Err(Error::EmptyDeviceGroup)), "an empty group");
+    anyhow::ensure!(
+        matches!(DeviceGroup::new(Vec::new()), Err(Error::DeviceGroup(raykit::DeviceGroupError::Empty))),
+        "an empty group"
+    );
     with_contexts("device_group_bad_input_gives_typed_errors", vec![vulkan(), cpu()], |ctx| {
         let group = DeviceGroup::new(ctx.to_vec())?;
         match group.split(0, |c| Counters::new(c, 1, 1)) {
-            Err(Error::EmptySplit) => {}
+            Err(Error::DeviceGroup(raykit::DeviceGroupError::EmptySplit)) => {}
             other => anyhow::bail!("a grid of no rows: {other:?}"),
         }
         // A build that fails on one device names it: the GLSL twin needs Vulkan.
         match GroupRenderer::new(&group, W, H, Programs::glsl) {
             Err(Error::InDevice { device: 1, name, source }) => {
-                anyhow::ensure!(matches!(*source, Error::NotOnCpuBackend { .. }), "{source}");
+                anyhow::ensure!(
+                    matches!(*source, Error::Device(raykit::DeviceError::NotOnCpuBackend { .. })),
+                    "{source}"
+                );
                 anyhow::ensure!(name == ctx[1].device_name(), "named {name}");
             }
             Err(other) => anyhow::bail!("GLSL programs on the CPU backend: {other}"),
             Ok(_) => anyhow::bail!("GLSL programs on the CPU backend were accepted"),
         }
         match group.split(4, |c| Counters::new(c, 4, if c.backend() == Backend::Cpu { 3 } else { 4 })) {
-            Err(Error::BandRowLength { device: 1, found: 3, expected: 4 }) => {}
+            Err(Error::DeviceGroup(raykit::DeviceGroupError::BandRowLength { device: 1, found: 3, expected: 4 })) => {}
             other => anyhow::bail!("rows of different lengths: {other:?}"),
         }
         let mut split = group.split(8, |c| Counters::new(c, 8, 4))?;
         for bad in [vec![1.0], vec![1.0, -1.0], vec![f64::NAN, 1.0], vec![0.0, 0.0], vec![1.0, f64::INFINITY]] {
             match split.set_balance(Balance::Weights(bad.clone())) {
-                Err(e @ Error::BandWeights { .. }) => println!("{e}"),
+                Err(e @ Error::DeviceGroup(raykit::DeviceGroupError::BandWeights { .. })) => println!("{e}"),
                 other => anyhow::bail!("weights {bad:?}: {other:?}"),
             }
         }
         anyhow::ensure!(split.balance() == &Balance::Measured, "refused weights change nothing");
         match split.gather_vec() {
-            Err(Error::NotLaunched { first: 0, end: 8 }) => {}
+            Err(Error::DeviceGroup(raykit::DeviceGroupError::NotLaunched { first: 0, end: 8 })) => {}
             other => anyhow::bail!("a gather before any launch: {other:?}"),
         }
         split.launch(Counters::bump)?;
         let mut short = vec![0u32; 5];
         match split.gather(&mut short) {
-            Err(Error::GatherSize { rows: 8, row_len: 4, len: 5 }) => {}
+            Err(Error::DeviceGroup(raykit::DeviceGroupError::GatherSize { rows: 8, row_len: 4, len: 5 })) => {}
             other => anyhow::bail!("a gather into 5 elements: {other:?}"),
         }
         // A launch failing on one device names it, and its rows are forgotten.
@@ -512,22 +518,28 @@ fn bad_input_gives_typed_errors() -> anyhow::Result<()> {
         });
         match err {
             Err(Error::InDevice { device: 1, source, .. }) => {
-                anyhow::ensure!(matches!(*source, Error::BufferRange { start: 32, end: 36, len: 32 }), "{source}");
+                anyhow::ensure!(
+                    matches!(
+                        *source,
+                        Error::Resource(raykit::ResourceError::BufferRange { start: 32, end: 36, len: 32 })
+                    ),
+                    "{source}"
+                );
             }
             other => anyhow::bail!("a launch failing on device 1: {other:?}"),
         }
         match split.gather_vec() {
-            Err(Error::NotLaunched { first, end }) => {
+            Err(Error::DeviceGroup(raykit::DeviceGroupError::NotLaunched { first, end })) => {
                 anyhow::ensure!(first == held.start && end == held.end, "rows {first}..{end} against {held:?}")
             }
             other => anyhow::bail!("a gather after a failed launch: {other:?}"),
         }
         match ctx[0].buffer::<u32>(4)?.write_at(3, &[1, 2]) {
-            Err(Error::BufferRange { start: 3, end: 5, len: 4 }) => {}
+            Err(Error::Resource(raykit::ResourceError::BufferRange { start: 3, end: 5, len: 4 })) => {}
             other => anyhow::bail!("a write past the end: {other:?}"),
         }
         match Context::new(ContextOptions { device_index: Some(99), ..vulkan() }) {
-            Err(Error::DeviceIndexOutOfRange { index: 99, usable }) => {
+            Err(Error::Device(raykit::DeviceError::DeviceIndexOutOfRange { index: 99, usable })) => {
                 anyhow::ensure!(usable.iter().any(|n| *n == ctx[0].device_name()), "usable: {usable:?}");
             }
             other => anyhow::bail!("device index 99: {other:?}"),

@@ -1,6 +1,6 @@
 //! A lost device (`VK_ERROR_DEVICE_LOST`), injected at submission through the
 //! `fault-injection` test hook: the call that meets it and every later call on
-//! every context of the device return `Error::DeviceLost`, everything drops
+//! every context of the device return `DeviceError::DeviceLost`, everything drops
 //! cleanly, and a new context gets a new device. Alone in its test binary: the loss
 //! reaches every context on the device of this process.
 
@@ -46,8 +46,8 @@ impl Scene {
 
 fn lost<T>(what: &str, result: raykit::Result<T>) -> anyhow::Result<()> {
     match result {
-        Err(Error::DeviceLost { .. }) => Ok(()),
-        Err(e) => anyhow::bail!("{what}: expected Error::DeviceLost, got {e:?}"),
+        Err(Error::Device(raykit::DeviceError::DeviceLost { .. })) => Ok(()),
+        Err(e) => anyhow::bail!("{what}: expected Error::Device(raykit::DeviceError::DeviceLost), got {e:?}"),
         Ok(_) => anyhow::bail!("{what}: succeeded on a lost device"),
     }
 }

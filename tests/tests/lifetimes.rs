@@ -282,10 +282,10 @@ impl Quad {
     }
 }
 
-/// Asserts `result` is `Error::InvalidHandle` for `field`, mentioning `says`.
+/// Asserts `result` is `LaunchError::InvalidHandle` for `field`, mentioning `says`.
 fn assert_invalid(result: raykit::Result<()>, field: &str, says: &str) {
     match result {
-        Err(raykit::Error::InvalidHandle { record: None, field: f, problem, fix }) => {
+        Err(raykit::Error::Launch(raykit::LaunchError::InvalidHandle { record: None, field: f, problem, fix })) => {
             assert_eq!(f, field);
             let text = format!("{problem}; {fix}");
             assert!(text.contains(says), "the error should say {says:?}: {text}");
@@ -448,7 +448,7 @@ fn sbt_updates_are_typed_and_allowed_while_launches_use_the_sbt() -> anyhow::Res
         assert!(!launch.is_done()?, "the gate let the launch run");
         // Data of another type than the record was built with is refused, even if it fits.
         match sbt.update(raykit::SbtRegion::Hit, 0, 7u32) {
-            Err(raykit::Error::SbtUpdate { reason, .. }) => {
+            Err(raykit::Error::Sbt(raykit::SbtError::Update { reason, .. })) => {
                 assert!(reason.contains("ColorRecord") && reason.contains("u32"), "{reason}")
             }
             other => panic!("a u32 into a ColorRecord record was not refused: {other:?}"),
@@ -499,9 +499,16 @@ fn a_record_holding_a_dropped_buffer_handle_is_refused_at_launch_naming_the_reco
         // The record's buffer dropped: the launch is refused, naming the record and the field.
         drop(palette);
         match pipeline.launch(&sbt, &params, [16, 16, 1]) {
-            Err(e @ raykit::Error::InvalidHandle { record: Some((raykit::SbtRegion::Hit, 0)), .. }) => {
+            Err(
+                e @ raykit::Error::Launch(raykit::LaunchError::InvalidHandle {
+                    record: Some((raykit::SbtRegion::Hit, 0)),
+                    ..
+                }),
+            ) => {
                 let text = e.to_string();
-                let raykit::Error::InvalidHandle { field, problem, .. } = e else { unreachable!() };
+                let raykit::Error::Launch(raykit::LaunchError::InvalidHandle { field, problem, .. }) = e else {
+                    unreachable!()
+                };
                 assert_eq!(field, "palette");
                 assert!(problem.contains("dropped"), "{problem}");
                 assert!(text.contains("field `palette` of hit record 0"), "{text}");
@@ -514,7 +521,10 @@ fn a_record_holding_a_dropped_buffer_handle_is_refused_at_launch_naming_the_reco
         let reused = ctx.buffer_from::<Vec4>(&[blue.extend(0.0), blue.extend(0.0)])?;
         assert!(matches!(
             pipeline.launch(&sbt, &params, [16, 16, 1]),
-            Err(raykit::Error::InvalidHandle { record: Some((raykit::SbtRegion::Hit, 0)), .. })
+            Err(raykit::Error::Launch(raykit::LaunchError::InvalidHandle {
+                record: Some((raykit::SbtRegion::Hit, 0)),
+                ..
+            }))
         ));
         assert_eq!(image.read()?, picture, "a refused launch wrote the image");
 

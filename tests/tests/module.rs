@@ -35,7 +35,13 @@ fn wrong_program_kinds_are_errors_that_name_the_entry_points() -> anyhow::Result
         let err = ProgramGroup::raygen(&module, "__miss__ms")
             .err()
             .ok_or_else(|| anyhow::anyhow!("raygen from a miss entry was accepted"))?;
-        assert!(matches!(err, Error::ProgramKindMismatch { expected: ProgramKind::Raygen, .. }), "{err:?}");
+        assert!(
+            matches!(
+                err,
+                Error::Module(raykit::ModuleError::ProgramKindMismatch { expected: ProgramKind::Raygen, .. })
+            ),
+            "{err:?}"
+        );
         let text = err.to_string();
         for name in ["__raygen__rg", "__miss__ms", "__closesthit__ch"] {
             assert!(text.contains(name), "message does not list {name}: {text}");
@@ -43,13 +49,25 @@ fn wrong_program_kinds_are_errors_that_name_the_entry_points() -> anyhow::Result
 
         // The typed constant of another kind is refused as well.
         let err = ProgramGroup::miss(&module, triangle_device::CH).err().ok_or_else(|| anyhow::anyhow!("accepted"))?;
-        assert!(matches!(err, Error::ProgramKindMismatch { expected: ProgramKind::Miss, .. }), "{err:?}");
+        assert!(
+            matches!(err, Error::Module(raykit::ModuleError::ProgramKindMismatch { expected: ProgramKind::Miss, .. })),
+            "{err:?}"
+        );
 
         let err = ProgramGroup::hit_group(&module).closest_hit(triangle_device::RG).build().err();
-        assert!(matches!(err, Some(Error::ProgramKindMismatch { expected: ProgramKind::ClosestHit, .. })), "{err:?}");
+        assert!(
+            matches!(
+                err,
+                Some(Error::Module(raykit::ModuleError::ProgramKindMismatch { expected: ProgramKind::ClosestHit, .. }))
+            ),
+            "{err:?}"
+        );
 
         let err = ProgramGroup::raygen(&module, "__raygen__nope").err();
-        assert!(matches!(&err, Some(Error::EntryPointNotFound { name, .. }) if name == "__raygen__nope"), "{err:?}");
+        assert!(
+            matches!(&err, Some(Error::Module(raykit::ModuleError::EntryPointNotFound { name, .. })) if name == "__raygen__nope"),
+            "{err:?}"
+        );
 
         assert!(ProgramGroup::hit_group(&module).build().is_ok(), "an empty hit group is allowed");
 
@@ -69,7 +87,10 @@ fn glsl_modules_with_entry_main_load() -> anyhow::Result<()> {
         assert_eq!(module.entry_points()[0].name, "main");
         assert_eq!(module.entry_points()[0].kind, Some(ProgramKind::Raygen));
         let raygen = ProgramGroup::raygen(&module, "main")?;
-        assert!(matches!(ProgramGroup::miss(&module, "main"), Err(Error::ProgramKindMismatch { .. })));
+        assert!(matches!(
+            ProgramGroup::miss(&module, "main"),
+            Err(Error::Module(raykit::ModuleError::ProgramKindMismatch { .. }))
+        ));
         let pipeline = Pipeline::<()>::new(ctx, &[&raygen], LinkOptions::default())?;
         drop(pipeline);
         Ok(())
@@ -79,12 +100,21 @@ fn glsl_modules_with_entry_main_load() -> anyhow::Result<()> {
 #[test]
 fn bad_modules_and_link_options_are_typed_errors() -> anyhow::Result<()> {
     with_context("bad_modules_and_link_options_are_typed_errors", |ctx| {
-        assert!(matches!(Module::new(ctx, b"definitely not SPIR-V"), Err(Error::InvalidSpirv { .. })));
+        assert!(matches!(
+            Module::new(ctx, b"definitely not SPIR-V"),
+            Err(Error::Module(raykit::ModuleError::InvalidSpirv { .. }))
+        ));
         let bytes = include_bytes!("../data/raygen_main.rgen.spv");
-        assert!(matches!(Module::new(ctx, &bytes[..bytes.len() - 2]), Err(Error::InvalidSpirv { .. })));
-        assert!(matches!(Module::new(ctx, &bytes[..(bytes.len() / 2) & !3]), Err(Error::InvalidSpirv { .. })));
+        assert!(matches!(
+            Module::new(ctx, &bytes[..bytes.len() - 2]),
+            Err(Error::Module(raykit::ModuleError::InvalidSpirv { .. }))
+        ));
+        assert!(matches!(
+            Module::new(ctx, &bytes[..(bytes.len() / 2) & !3]),
+            Err(Error::Module(raykit::ModuleError::InvalidSpirv { .. }))
+        ));
         let missing = Module::from_file(ctx, "no/such/file.spv");
-        assert!(matches!(missing, Err(Error::SpirvFile { .. })));
+        assert!(matches!(missing, Err(Error::Module(raykit::ModuleError::SpirvFile { .. }))));
 
         let module = Module::from_device_crate(ctx, "triangle-device")?;
         let raygen = ProgramGroup::raygen(&module, triangle_device::RG)?;
@@ -92,19 +122,22 @@ fn bad_modules_and_link_options_are_typed_errors() -> anyhow::Result<()> {
         let limit = ctx.limits().max_ray_recursion_depth;
         let err =
             Pipeline::<triangle_device::Params>::new(ctx, &[&raygen], LinkOptions { max_trace_depth: limit + 1 }).err();
-        assert!(matches!(err, Some(Error::TraceDepthTooLarge { .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Link(raykit::LinkError::TraceDepthTooLarge { .. }))), "{err:?}");
         let err = Pipeline::<triangle_device::Params>::new(ctx, &[&miss], LinkOptions::default()).err();
-        assert!(matches!(err, Some(Error::NoRaygen)), "{err:?}");
+        assert!(matches!(err, Some(Error::Link(raykit::LinkError::NoRaygen))), "{err:?}");
 
         let pipeline = Pipeline::<triangle_device::Params>::new(ctx, &[&raygen, &miss], LinkOptions::default())?;
         let err = raykit::Sbt::builder(&pipeline).miss(&miss, ()).build().err();
-        assert!(matches!(err, Some(Error::SbtMissing { region: raykit::SbtRegion::Raygen })), "{err:?}");
+        assert!(
+            matches!(err, Some(Error::Sbt(raykit::SbtError::Missing { region: raykit::SbtRegion::Raygen }))),
+            "{err:?}"
+        );
         let err = raykit::Sbt::builder(&pipeline).raygen(&miss, ()).build().err();
-        assert!(matches!(err, Some(Error::SbtGroupKind { .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Sbt(raykit::SbtError::GroupKind { .. }))), "{err:?}");
         let sbt = raykit::Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).build()?;
         let params: triangle_device::Params = bytemuck_zeroed();
         let err = pipeline.launch(&sbt, &params, [0, 1, 1]).err();
-        assert!(matches!(err, Some(Error::LaunchDimensions { .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Launch(raykit::LaunchError::Dimensions { .. }))), "{err:?}");
         Ok(())
     })
 }

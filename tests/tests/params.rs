@@ -149,7 +149,7 @@ fn async_launches_in_flight_each_see_their_own_uniform_params() -> anyhow::Resul
 
 fn layout_error(err: &Error) -> Option<&LayoutError> {
     match err {
-        Error::ParamsLayout(e) => Some(e),
+        Error::Link(raykit::LinkError::ParamsLayout(e)) => Some(e),
         _ => None,
     }
 }

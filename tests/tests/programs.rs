@@ -99,7 +99,7 @@ fn every_program_kind_has_its_prefix_and_wrong_pairings_are_refused() -> anyhow:
                     result?;
                 } else {
                     let err = result.err().ok_or_else(|| anyhow::anyhow!("{} accepted as {kind}", entry.name))?;
-                    assert!(matches!(err, Error::ProgramKindMismatch { .. }), "{err:?}");
+                    assert!(matches!(err, Error::Module(raykit::ModuleError::ProgramKindMismatch { .. })), "{err:?}");
                     refusals += 1;
                 }
             }
@@ -245,7 +245,10 @@ fn instances_sharing_a_hit_program_read_their_own_sbt_records() -> anyhow::Resul
             .hit_at(1, &hit, program_model_device::ColorRecord { color: Vec3::ONE })
             .build()
             .err();
-        assert!(matches!(err, Some(Error::SbtHole { region: raykit::SbtRegion::Hit, index: 0 })), "{err:?}");
+        assert!(
+            matches!(err, Some(Error::Sbt(raykit::SbtError::Hole { region: raykit::SbtRegion::Hit, index: 0 }))),
+            "{err:?}"
+        );
         Ok(())
     })
 }
@@ -264,7 +267,7 @@ fn user_exceptions_reach_the_host_with_code_and_launch_index() -> anyhow::Result
         let params =
             Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
         let err = pipeline.launch(&sbt, &params, [16, 16, 1]).err();
-        let Some(Error::UserExceptions { total, mut exceptions }) = err else {
+        let Some(Error::Launch(raykit::LaunchError::UserExceptions { total, mut exceptions })) = err else {
             anyhow::bail!("expected UserExceptions, got {err:?}");
         };
         assert_eq!(total, 2);
@@ -319,9 +322,12 @@ fn sbt_records_are_updated_between_launches_without_a_new_pipeline() -> anyhow::
         // Out of range and too large are refused; the SBT stays usable.
         assert!(matches!(
             sbt.update(raykit::SbtRegion::Hit, 1, ColorRecord { color: Vec3::ONE }),
-            Err(Error::SbtUpdate { .. })
+            Err(Error::Sbt(raykit::SbtError::Update { .. }))
         ));
-        assert!(matches!(sbt.update(raykit::SbtRegion::Hit, 0, [0u8; 4096]), Err(Error::SbtUpdate { .. })));
+        assert!(matches!(
+            sbt.update(raykit::SbtRegion::Hit, 0, [0u8; 4096]),
+            Err(Error::Sbt(raykit::SbtError::Update { .. }))
+        ));
         pipeline.launch(&sbt, &params, [16, 16, 1])?;
         assert_eq!(image.read()?[centre], pack(Vec3::new(0.0, 0.0, 1.0)));
         Ok(())
@@ -344,7 +350,7 @@ fn an_exception_program_runs_where_a_user_exception_was_thrown() -> anyhow::Resu
         let params =
             Params { image: image.handle(), spheres: spheres.handle(), size: UVec2::splat(16), scene: scene.handle() };
         let err = pipeline.launch(&sbt, &params, [16, 16, 1]).err();
-        assert!(matches!(err, Some(Error::UserExceptions { total: 2, .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Launch(raykit::LaunchError::UserExceptions { total: 2, .. }))), "{err:?}");
         let pixels = image.read()?;
         for (at, code) in THROWN {
             assert_eq!(pixels[(at.y * 16 + at.x) as usize], EXCEPTION_MARKER | code, "at {at}");
@@ -352,11 +358,11 @@ fn an_exception_program_runs_where_a_user_exception_was_thrown() -> anyhow::Resu
         assert_eq!(pixels.iter().filter(|&&p| p == 1).count(), 16 * 16 - 2);
         // The exception program is raykit's to place: users cannot add it as a callable.
         let err = Sbt::builder(&pipeline).raygen(&raygen, ()).callable(&handler, ()).build().err();
-        assert!(matches!(err, Some(Error::SbtGroupKind { .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Sbt(raykit::SbtError::GroupKind { .. }))), "{err:?}");
         // Two are refused at link time.
         let second = ProgramGroup::exception(&module, program_model_device::ON_EXCEPTION)?;
         let err = Pipeline::<Params>::new(ctx, &[&raygen, &handler, &second], LinkOptions::default()).err();
-        assert!(matches!(err, Some(Error::SeveralExceptionPrograms)), "{err:?}");
+        assert!(matches!(err, Some(Error::Link(raykit::LinkError::SeveralExceptionPrograms))), "{err:?}");
         Ok(())
     })
 }

@@ -150,7 +150,7 @@ fn async_launches_report_their_own_user_exceptions() -> anyhow::Result<()> {
         let b = pipeline.launch_async(&sbt, &p(1), [1, 1, 1])?;
         b.wait()?;
         match a.wait() {
-            Err(raykit::Error::UserExceptions { total, .. }) => assert_eq!(total, 2),
+            Err(raykit::Error::Launch(raykit::LaunchError::UserExceptions { total, .. })) => assert_eq!(total, 2),
             other => anyhow::bail!("expected two user exceptions, got {other:?}"),
         }
         Ok(())
@@ -392,7 +392,7 @@ fn user_exceptions_thrown_in_a_library_reach_the_host_and_the_exception_program_
             scene: raykit::Traversable::NULL,
         };
         match pipeline.launch(&sbt, &params, [16, 16, 1]) {
-            Err(raykit::Error::UserExceptions { total, exceptions }) => {
+            Err(raykit::Error::Launch(raykit::LaunchError::UserExceptions { total, exceptions })) => {
                 assert_eq!(total, 2);
                 let mut codes: Vec<u32> = exceptions.iter().map(|e| e.code).collect();
                 codes.sort();
@@ -427,19 +427,28 @@ fn libraries_that_cannot_be_linked_together_are_refused_with_the_fix() -> anyhow
         let hits = PipelineLibrary::<Params>::new(ctx, &[hit], options)?;
 
         let err = Pipeline::link(ctx, &[&common, &hits], LinkOptions { max_trace_depth: 2 }).err();
-        assert!(matches!(err, Some(Error::LibraryMismatch { what: "max_trace_depth", index: 0, .. })), "{err:?}");
+        assert!(
+            matches!(
+                err,
+                Some(Error::Link(raykit::LinkError::LibraryMismatch { what: "max_trace_depth", index: 0, .. }))
+            ),
+            "{err:?}"
+        );
         assert!(err.is_some_and(|e| e.to_string().contains("LibraryOptions::max_trace_depth")));
 
         let wider = LibraryOptions { interface: Some(InterfaceSizes { payload: 32, hit_attributes: 8 }), ..options };
         let wide_hits = PipelineLibrary::<Params>::new(ctx, &[hit], wider)?;
         let err = Pipeline::link(ctx, &[&common, &wide_hits], LinkOptions::default()).err();
-        assert!(matches!(err, Some(Error::LibraryMismatch { what: "interface", index: 1, .. })), "{err:?}");
+        assert!(
+            matches!(err, Some(Error::Link(raykit::LinkError::LibraryMismatch { what: "interface", index: 1, .. }))),
+            "{err:?}"
+        );
         assert!(err.is_some_and(|e| e.to_string().contains("interface_for")));
 
         let narrow = LibraryOptions { interface: Some(InterfaceSizes { payload: 4, hit_attributes: 0 }), ..options };
         let err = PipelineLibrary::<Params>::new(ctx, &[raygen], narrow).err();
         assert!(
-            matches!(&err, Some(Error::LibraryInterfaceTooSmall { what: "ray payload", needed: 12, given: 4, program }) if program.starts_with("__raygen__")),
+            matches!(&err, Some(Error::Link(raykit::LinkError::LibraryInterfaceTooSmall { what: "ray payload", needed: 12, given: 4, program })) if program.starts_with("__raygen__")),
             "{err:?}"
         );
 
@@ -449,19 +458,26 @@ fn libraries_that_cannot_be_linked_together_are_refused_with_the_fix() -> anyhow
             ..options
         };
         let err = PipelineLibrary::<Params>::new(ctx, &[hit], huge).err();
-        assert!(matches!(err, Some(Error::HitAttributesTooLarge { .. })), "{err:?}");
+        assert!(matches!(err, Some(Error::Link(raykit::LinkError::HitAttributesTooLarge { .. }))), "{err:?}");
 
         let misses = PipelineLibrary::<Params>::new(ctx, &[miss], options)?;
         let err = Pipeline::link(ctx, &[&common, &misses, &hits], LinkOptions::default()).err();
         assert!(
-            matches!(err, Some(Error::GroupInSeveralLibraries { kind: raykit::GroupKind::Miss, first: 0, second: 1 })),
+            matches!(
+                err,
+                Some(Error::Link(raykit::LinkError::GroupInSeveralLibraries {
+                    kind: raykit::GroupKind::Miss,
+                    first: 0,
+                    second: 1
+                }))
+            ),
             "{err:?}"
         );
 
         let err = Pipeline::link(ctx, &[&misses, &hits], LinkOptions::default()).err();
-        assert!(matches!(err, Some(Error::NoRaygen)), "{err:?}");
+        assert!(matches!(err, Some(Error::Link(raykit::LinkError::NoRaygen))), "{err:?}");
         let err = PipelineLibrary::<Params>::new(ctx, &[], options).err();
-        assert!(matches!(err, Some(Error::EmptyLibrary)), "{err:?}");
+        assert!(matches!(err, Some(Error::Link(raykit::LinkError::EmptyLibrary))), "{err:?}");
 
         // The right libraries still link and render.
         let pipeline = Pipeline::link(ctx, &[&common, &hits], LinkOptions::default())?;

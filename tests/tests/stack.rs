@@ -156,7 +156,10 @@ fn groups_report_their_driver_stack_sizes() -> anyhow::Result<()> {
         assert_eq!((rg.closest_hit, rg.any_hit, rg.intersection), (0, 0, 0));
         // A group of another pipeline is refused.
         let other = ProgramGroup::miss(&Module::from_device_crate(ctx, "stack-test-device")?, stack_test_device::MS)?;
-        assert!(matches!(s.pipeline.group_stack_sizes(&other), Err(Error::GroupNotInPipeline { .. })));
+        assert!(matches!(
+            s.pipeline.group_stack_sizes(&other),
+            Err(Error::Link(raykit::LinkError::GroupNotInPipeline { .. }))
+        ));
         Ok(())
     })
 }
@@ -167,15 +170,18 @@ fn estimates_deeper_than_the_pipeline_are_refused() -> anyhow::Result<()> {
         let s = scene(ctx)?;
         let before = s.pipeline.stack_size();
         let err = s.pipeline.set_stack_size(&StackSize::Refined(CallDepths::new(MAX_DEPTH + 1)));
-        assert!(matches!(err, Err(Error::StackSize { .. })), "{err:?}");
+        assert!(matches!(err, Err(Error::Link(raykit::LinkError::StackSize { .. }))), "{err:?}");
         let graph = CallGraph::new(MAX_DEPTH + 1);
-        assert!(matches!(s.pipeline.set_stack_size(&StackSize::CallGraph(&graph)), Err(Error::StackSize { .. })));
+        assert!(matches!(
+            s.pipeline.set_stack_size(&StackSize::CallGraph(&graph)),
+            Err(Error::Link(raykit::LinkError::StackSize { .. }))
+        ));
         assert_eq!(s.pipeline.stack_size(), before, "a refused choice leaves the size as it was");
         // And the link itself refuses a depth over the device's limit.
         let limit = ctx.limits().max_ray_recursion_depth;
         let too_deep =
             Pipeline::<Params>::new(ctx, &[&s.raygen, &s.miss, &s.hit], LinkOptions { max_trace_depth: limit + 1 });
-        assert!(matches!(too_deep, Err(Error::TraceDepthTooLarge { .. })));
+        assert!(matches!(too_deep, Err(Error::Link(raykit::LinkError::TraceDepthTooLarge { .. }))));
         Ok(())
     })
 }
@@ -246,14 +252,14 @@ fn unbounded_recursion_past_max_trace_depth_is_refused_on_the_device() -> anyhow
                 .collect();
             assert!(deep.len() > 100, "only {} pixels go {max_trace_depth} layers deep", deep.len());
             match result {
-                Err(Error::RecursionTooDeep {
+                Err(Error::Launch(raykit::LaunchError::RecursionTooDeep {
                     max_trace_depth: m,
                     depth,
                     refused,
                     launch_indices,
                     user_exceptions,
                     total,
-                }) => {
+                })) => {
                     assert_eq!((m, depth), (max_trace_depth, max_trace_depth + 1));
                     assert_eq!(total as usize, deep.len(), "one refusal per deep pixel");
                     let capacity = raykit::device::exception::EXCEPTION_CAPACITY as usize;

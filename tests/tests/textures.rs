@@ -409,7 +409,7 @@ fn dropped_and_null_texture_handles() -> anyhow::Result<()> {
             scene: rig.ias.handle(),
         };
         match rig.pipeline.launch(&sbt, &params(stale), [SIZE, SIZE, 1]) {
-            Err(Error::InvalidHandle { field, record: None, problem, .. }) => {
+            Err(Error::Launch(raykit::LaunchError::InvalidHandle { field, record: None, problem, .. })) => {
                 anyhow::ensure!(field == "texture" && problem.contains("no live Texture"), "{field}: {problem}")
             }
             other => anyhow::bail!("a dropped texture's handle was not refused: {other:?}"),
@@ -419,7 +419,9 @@ fn dropped_and_null_texture_handles() -> anyhow::Result<()> {
         let sbt_stale = rig.sbt(record_texture.handle())?;
         drop(record_texture);
         match rig.pipeline.launch(&sbt_stale, &params(kept.handle()), [SIZE, SIZE, 1]) {
-            Err(Error::InvalidHandle { field, record: Some(_), .. }) => anyhow::ensure!(field == "texture"),
+            Err(Error::Launch(raykit::LaunchError::InvalidHandle { field, record: Some(_), .. })) => {
+                anyhow::ensure!(field == "texture")
+            }
             other => anyhow::bail!("a dropped texture's handle in a record was not refused: {other:?}"),
         }
         // The null handle samples zero colour (a null descriptor).
@@ -493,20 +495,20 @@ fn bad_textures_are_refused_with_the_fix() -> anyhow::Result<()> {
         let f = TextureFormat::Rgba8Srgb;
         let opts = SamplerOptions::default();
         match Texture::new(ctx, f, 0, 4, &[], Mipmaps::One, opts) {
-            Err(e @ Error::TextureSize { width: 0, .. }) => {
+            Err(e @ Error::Resource(raykit::ResourceError::TextureSize { width: 0, .. })) => {
                 anyhow::ensure!(e.to_string().contains("at least 1"), "{e}")
             }
             other => anyhow::bail!("zero width: {other:?}"),
         }
         let max = raykit::texture::max_texture_size(ctx);
         match Texture::new(ctx, f, max + 1, 1, &[], Mipmaps::One, opts) {
-            Err(e @ Error::TextureSize { .. }) => {
+            Err(e @ Error::Resource(raykit::ResourceError::TextureSize { .. })) => {
                 anyhow::ensure!(e.to_string().contains("maxImageDimension2D"), "{e}")
             }
             other => anyhow::bail!("over the limit: {other:?}"),
         }
         match Texture::new(ctx, f, 4, 4, &[0; 60], Mipmaps::Generate, opts) {
-            Err(e @ Error::TextureData { level: 0, expected: 64, got: 60, .. }) => {
+            Err(e @ Error::Resource(raykit::ResourceError::TextureData { level: 0, expected: 64, got: 60, .. })) => {
                 anyhow::ensure!(e.to_string().contains("bytes_per_texel"), "{e}")
             }
             other => anyhow::bail!("short data: {other:?}"),
@@ -514,12 +516,16 @@ fn bad_textures_are_refused_with_the_fix() -> anyhow::Result<()> {
         let wrong_level =
             [MipLevel { width: 4, height: 4, data: vec![0; 64] }, MipLevel { width: 1, height: 1, data: vec![0; 4] }];
         match Texture::from_levels(ctx, f, &wrong_level, opts) {
-            Err(e @ Error::TextureSize { .. }) => anyhow::ensure!(e.to_string().contains("must be 2×2"), "{e}"),
+            Err(e @ Error::Resource(raykit::ResourceError::TextureSize { .. })) => {
+                anyhow::ensure!(e.to_string().contains("must be 2×2"), "{e}")
+            }
             other => anyhow::bail!("a level of the wrong size: {other:?}"),
         }
         let deep = image::DynamicImage::ImageRgba16(image::ImageBuffer::new(2, 2));
         match Texture::from_image(ctx, &deep, false, Mipmaps::One, opts) {
-            Err(e @ Error::TextureFormat { .. }) => anyhow::ensure!(e.to_string().contains("to_rgba32f"), "{e}"),
+            Err(e @ Error::Resource(raykit::ResourceError::TextureFormat { .. })) => {
+                anyhow::ensure!(e.to_string().contains("to_rgba32f"), "{e}")
+            }
             other => anyhow::bail!("a 16-bit integer image: {other:?}"),
         }
         Ok(())

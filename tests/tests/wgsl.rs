@@ -7,8 +7,8 @@ use raykit_tests::with_context;
 fn wgsl_error(result: raykit::Result<Module>) -> anyhow::Result<WgslError> {
     match result {
         Ok(_) => anyhow::bail!("the module loaded, but it should have been refused"),
-        Err(Error::Wgsl(e)) => Ok(*e),
-        Err(other) => anyhow::bail!("expected Error::Wgsl, got {other:?}"),
+        Err(Error::Module(raykit::ModuleError::Wgsl(e))) => Ok(*e),
+        Err(other) => anyhow::bail!("expected Error::Module(raykit::ModuleError::Wgsl), got {other:?}"),
     }
 }
 
@@ -32,7 +32,9 @@ fn a_wgsl_program_whose_params_disagree_with_the_host_struct_is_refused_with_the
             Ok(_) => anyhow::bail!("linked, though `cam_u` sits elsewhere in the WGSL"),
             Err(e) => e,
         };
-        let Error::ParamsLayout(layout) = &err else { anyhow::bail!("expected Error::ParamsLayout, got {err:?}") };
+        let Error::Link(raykit::LinkError::ParamsLayout(layout)) = &err else {
+            anyhow::bail!("expected Error::Link(raykit::LinkError::ParamsLayout), got {err:?}")
+        };
         let LayoutError::Mismatch { struct_name, entry, field, host, device, .. } = layout.as_ref() else {
             anyhow::bail!("expected a layout mismatch, got {layout:?}");
         };

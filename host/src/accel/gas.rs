@@ -11,6 +11,7 @@ use glam::Vec3;
 use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::Context;
+use crate::error::AccelError;
 use crate::error::{Error, Result};
 use crate::types::accel::{Aabb, Aabbs, BuildInput, Shape, Triangles};
 use crate::validate::accel as input;
@@ -125,7 +126,8 @@ impl<'a> GasBuilder<'a> {
             return Ok(PendingBuild::ready(gas));
         }
         let (in_flight, mut gases) = submit_gases(ctx.vulkan("a GAS build")?, std::slice::from_ref(&self))?;
-        let gas = gases.pop().ok_or(Error::AccelEmpty { what: "the batch has no GAS builds".to_owned() })?;
+        let gas =
+            gases.pop().ok_or(Error::Accel(AccelError::Empty { what: "the batch has no GAS builds".to_owned() }))?;
         Ok(PendingBuild::new(in_flight, gas, |gas, sizes| {
             if gas.options.allow_compaction {
                 gas.compacted_size = sizes.first().copied();
@@ -137,7 +139,7 @@ impl<'a> GasBuilder<'a> {
 /// Validates, uploads and submits `builds` in one command buffer.
 fn submit_gases(ctx: &Arc<ContextInner>, builds: &[GasBuilder<'_>]) -> Result<(build::InFlight, Vec<Gas>)> {
     if builds.is_empty() {
-        return Err(Error::AccelEmpty { what: "the batch has no GAS builds".to_owned() });
+        return Err(Error::Accel(AccelError::Empty { what: "the batch has no GAS builds".to_owned() }));
     }
     // Validate everything before allocating anything.
     let validated = builds
@@ -193,7 +195,7 @@ impl Gas {
     pub fn submit_many(ctx: &Context, builds: Vec<GasBuilder<'_>>) -> Result<PendingBuild<Vec<Gas>>> {
         if let Some(cpu) = ctx.cpu() {
             if builds.is_empty() {
-                return Err(Error::AccelEmpty { what: "the batch has no GAS builds".to_owned() });
+                return Err(Error::Accel(AccelError::Empty { what: "the batch has no GAS builds".to_owned() }));
             }
             for b in &builds {
                 input::validate(&b.inputs, ctx.limits(), b.options.allow_update)?;
@@ -215,23 +217,23 @@ impl Gas {
 
     /// Refits the GAS in place to `inputs` (OptiX's `OPTIX_BUILD_OPERATION_UPDATE`):
     /// vertex positions, AABBs and transforms may change; counts, formats, index
-    /// data and flags may not. Refused with [`Error::UpdateRefused`], saying why,
+    /// data and flags may not. Refused with [`AccelError::UpdateRefused`](crate::AccelError::UpdateRefused), saying why,
     /// when the build did not allow updates or the topology changed. Update or
     /// rebuild the [`Ias`](super::Ias)es that instance this GAS afterwards, so
     /// their bounds follow.
     pub fn update(&mut self, inputs: &[BuildInput<'_>]) -> Result<()> {
         if !self.options.allow_update {
-            return Err(Error::UpdateRefused {
+            return Err(Error::Accel(AccelError::UpdateRefused {
                 what: "GAS",
                 reason: "it was built without BuildOptions::allow_update".to_owned(),
-            });
+            }));
         }
         let accel = match &self.repr {
             GasRepr::Vulkan(accel) => accel.clone(),
             GasRepr::Cpu(cpu) => {
                 let shapes = input::validate(inputs, &crate::cpu::LIMITS, true)?;
                 if let Some(reason) = input::update_refusal(&self.shapes, &shapes) {
-                    return Err(Error::UpdateRefused { what: "GAS", reason });
+                    return Err(Error::Accel(AccelError::UpdateRefused { what: "GAS", reason }));
                 }
                 cpu.refit(inputs);
                 self.compacted_size = None;
@@ -241,7 +243,7 @@ impl Gas {
         let ctx = accel.ctx.clone();
         let shapes = input::validate(inputs, &ctx.limits, true)?;
         if let Some(reason) = input::update_refusal(&self.shapes, &shapes) {
-            return Err(Error::UpdateRefused { what: "GAS", reason });
+            return Err(Error::Accel(AccelError::UpdateRefused { what: "GAS", reason }));
         }
         crate::vulkan::accel::gas::refit(&accel, inputs, shapes, self.options)?;
         self.compacted_size = None;
@@ -262,7 +264,7 @@ impl Gas {
     /// [`BuildOptions::allow_compaction`]; the sizes are in [`Gas::compaction`].
     pub fn compact(self) -> Result<Gas> {
         if !self.options.allow_compaction {
-            return Err(Error::CompactionNotAllowed);
+            return Err(Error::Accel(AccelError::CompactionNotAllowed));
         }
         let accel = match &self.repr {
             GasRepr::Vulkan(accel) => accel.clone(),

@@ -13,6 +13,7 @@ use super::gas::{Gas, GasRepr};
 use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::Context;
+use crate::error::{AccelError, DeviceError};
 use crate::error::{Error, Result};
 use crate::types::accel::{transform_rows, InstanceFlags, InstancePlacement};
 use crate::validate::hit_reach::HitReach;
@@ -78,7 +79,7 @@ impl Instance {
     /// Every launch checks that the records its scene can select exist: the
     /// highest, `offset + (geometries − 1) × stride + ray offset` over the
     /// instances and the pipeline's traces, must be below the SBT's hit record
-    /// count ([`Error::SbtTooSmallForScene`] otherwise; see [`Ias::hit_records_for`]).
+    /// count ([`LaunchError::SbtTooSmallForScene`](crate::LaunchError::SbtTooSmallForScene) otherwise; see [`Ias::hit_records_for`]).
     pub fn sbt_offset(mut self, offset: u32) -> Self {
         self.placement.sbt_offset = offset;
         self
@@ -117,7 +118,7 @@ fn placements(instances: &[Instance]) -> Vec<(InstancePlacement, u64)> {
 fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<()> {
     check_fields(instances, ctx.limits.max_instance_count)?;
     if instances.iter().any(|i| !matches!(&i.accel, GasRepr::Vulkan(accel) if Arc::ptr_eq(&accel.ctx, ctx))) {
-        return Err(Error::ContextMismatch);
+        return Err(Error::Device(DeviceError::ContextMismatch));
     }
     Ok(())
 }
@@ -126,26 +127,28 @@ fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<()> {
 /// 24-bit custom indices and SBT offsets and finite transforms.
 fn check_fields(instances: &[Instance], limit: u64) -> Result<()> {
     if instances.is_empty() {
-        return Err(Error::AccelEmpty { what: "the IAS build has no instances".to_owned() });
+        return Err(Error::Accel(AccelError::Empty { what: "the IAS build has no instances".to_owned() }));
     }
     if instances.len() as u64 > limit {
-        return Err(Error::AccelLimit {
+        return Err(Error::Accel(AccelError::Limit {
             what: "instances",
             count: instances.len() as u64,
             limit,
             limit_name: "maxInstanceCount",
-        });
+        }));
     }
     for (i, instance) in instances.iter().enumerate() {
         for (field, value) in
             [("custom_index", instance.placement.custom_index), ("sbt_offset", instance.placement.sbt_offset)]
         {
             if value >= 1 << 24 {
-                return Err(Error::InstanceField { instance: i, field, value, max: (1 << 24) - 1 });
+                return Err(Error::Accel(AccelError::InstanceField { instance: i, field, value, max: (1 << 24) - 1 }));
             }
         }
         if !instance.placement.transform.iter().all(|c| c.is_finite()) {
-            return Err(Error::NonFiniteTransform { what: format!("the transform of instance {i}") });
+            return Err(Error::Accel(AccelError::NonFiniteTransform {
+                what: format!("the transform of instance {i}"),
+            }));
         }
     }
     Ok(())
@@ -247,20 +250,20 @@ impl Ias {
 
     /// Refits the IAS to `instances` in place: transforms, masks, offsets, flags
     /// and the GASes referenced may change, the instance count may not. Refused
-    /// with [`Error::UpdateRefused`], saying why, when the build did not allow
+    /// with [`AccelError::UpdateRefused`](crate::AccelError::UpdateRefused), saying why, when the build did not allow
     /// updates or the count changed. Also the way to follow a refitted GAS.
     pub fn update(&mut self, instances: &[Instance]) -> Result<()> {
         if !self.options.allow_update {
-            return Err(Error::UpdateRefused {
+            return Err(Error::Accel(AccelError::UpdateRefused {
                 what: "IAS",
                 reason: "it was built without BuildOptions::allow_update".to_owned(),
-            });
+            }));
         }
         if instances.len() != self.gases.len() {
-            return Err(Error::UpdateRefused {
+            return Err(Error::Accel(AccelError::UpdateRefused {
                 what: "IAS",
                 reason: format!("the instance count changed from {} to {}", self.gases.len(), instances.len()),
-            });
+            }));
         }
         let accel = match &self.repr {
             IasRepr::Vulkan(accel) => accel,
@@ -291,9 +294,9 @@ impl Ias {
         check_fields(instances, crate::cpu::LIMITS.max_instance_count)?;
         let mut scene = Vec::with_capacity(instances.len());
         for instance in instances {
-            let GasRepr::Cpu(gas) = &instance.accel else { return Err(Error::ContextMismatch) };
+            let GasRepr::Cpu(gas) = &instance.accel else { return Err(Error::Device(DeviceError::ContextMismatch)) };
             if !Arc::ptr_eq(&gas.ctx, ctx) {
-                return Err(Error::ContextMismatch);
+                return Err(Error::Device(DeviceError::ContextMismatch));
             }
             let object_to_world = crate::cpu::accel::affine_from_rows(&instance.placement.transform);
             scene.push(crate::cpu::accel::SceneInstance::new(

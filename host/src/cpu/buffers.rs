@@ -12,6 +12,7 @@ use std::sync::Arc;
 
 use super::slots::{SlotTable, SlotValue};
 use crate::error::Error;
+use crate::error::ResourceError;
 
 /// The words of one buffer.
 pub(crate) type Words = Arc<[AtomicU32]>;
@@ -28,7 +29,7 @@ impl SlotValue for Words {
     const SLOTS: u32 = raykit_abi::BUFFER_TABLE_SLOTS;
 
     fn table_full(capacity: u32) -> Error {
-        Error::BufferTableFull { capacity }
+        Error::Resource(ResourceError::BufferTableFull { capacity })
     }
 
     fn bytes(&self) -> u64 {

@@ -15,6 +15,7 @@ use corosensei::{Coroutine, CoroutineResult, Yielder};
 
 use super::packet::WIDTH;
 use super::THREAD_STACK;
+use crate::error::DeviceError;
 use crate::error::{Error, Result};
 
 /// What an invocation running in a lane suspends through.
@@ -68,7 +69,8 @@ where
     for lane in 0..count {
         let stack = match STACKS.with_borrow_mut(Vec::pop) {
             Some(stack) => stack,
-            None => DefaultStack::new(THREAD_STACK).map_err(|e| Error::CpuThreads { reason: e.to_string() })?,
+            None => DefaultStack::new(THREAD_STACK)
+                .map_err(|e| Error::Device(DeviceError::CpuThreads { reason: e.to_string() }))?,
         };
         let stack = LaneStack { stack, offset: lane * STAGGER };
         // SAFETY: the coroutine borrows `body`, which outlives this function;

@@ -20,6 +20,7 @@ use super::program::{Aligned, PipelineData, SbtData};
 use super::runtime::{Fault, Frame};
 use super::CpuLiveness;
 use super::{CpuContext, TILE};
+use crate::error::LaunchError;
 use crate::error::{Error, Result, UserException};
 use crate::validate::launch::{check_launch, SbtChecks};
 
@@ -166,10 +167,10 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
     if let Some((_, launch_index, failure)) = failures.into_iter().next() {
         return Err(match failure {
             Failure::Panicked { program, message } => {
-                Error::ProgramPanicked { program: program.to_owned(), launch_index, message }
+                Error::Launch(LaunchError::ProgramPanicked { program: program.to_owned(), launch_index, message })
             }
             Failure::Fault { program, problem } => {
-                Error::CpuLaunchFault { program: program.to_owned(), launch_index, problem }
+                Error::Launch(LaunchError::CpuLaunchFault { program: program.to_owned(), launch_index, problem })
             }
         });
     }
@@ -179,7 +180,7 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
     exceptions.sort_by_key(|e| linear_index(job.dims, e.launch_index));
     let total = u32::try_from(exceptions.len()).unwrap_or(u32::MAX);
     exceptions.truncate(EXCEPTION_CAPACITY as usize);
-    Err(crate::error::exceptions_error(total, exceptions, job.pipeline.max_trace_depth))
+    Err(crate::error::exceptions_error(total, exceptions, job.pipeline.max_trace_depth).into())
 }
 
 /// The state of one invocation, shared by its nested program calls.
@@ -395,11 +396,11 @@ impl CpuLaunch {
         match thread.join() {
             Ok(result) => result,
             // A panic outside any program (in the backend itself) ends the launch too.
-            Err(payload) => Err(Error::ProgramPanicked {
+            Err(payload) => Err(Error::Launch(LaunchError::ProgramPanicked {
                 program: "(the CPU backend)".to_owned(),
                 launch_index: [0; 3],
                 message: panic_message(payload.as_ref()),
-            }),
+            })),
         }
     }
 }

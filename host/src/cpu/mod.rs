@@ -12,12 +12,12 @@
 //! asynchronous), specialization constants, user exceptions, the exception
 //! program, and textures. Device programs can then be debugged as ordinary
 //! Rust: breakpoints, `println!`, `assert!`, sanitizers. A panic in a program
-//! ends its launch with [`Error::ProgramPanicked`], naming the program and the
+//! ends its launch with [`LaunchError::ProgramPanicked`](crate::LaunchError::ProgramPanicked), naming the program and the
 //! launch index.
 //!
 //! What differs from Vulkan:
 //! * SPIR-V modules (GLSL, WGSL, SPIR-V files) cannot run: they are refused with
-//!   [`Error::NotOnCpuBackend`] saying why.
+//!   [`DeviceError::NotOnCpuBackend`] saying why.
 //! * Traversal follows Vulkan's rules (ray flags, instance masks and flags,
 //!   geometry flags, SBT offset, stride and miss-index arithmetic, the `t`
 //!   interval, any-hit and intersection programs), on BVHs from
@@ -49,7 +49,7 @@
 //!   took.
 //! * The trace depth is checked on every trace, for every ray type: a trace past
 //!   the pipeline's `max_trace_depth` is not made and the launch returns
-//!   [`Error::RecursionTooDeep`].
+//!   [`LaunchError::RecursionTooDeep`](crate::LaunchError::RecursionTooDeep).
 //! * A launch runs in parallel over tiles of its grid (8 × 8 invocations, or
 //!   32 × 32 in lanes, 16 × 16 where that would leave a thread fewer than 64
 //!   tiles) on a thread pool of the context
@@ -85,6 +85,7 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
+use crate::error::DeviceError;
 use crate::error::{Error, Result};
 use crate::log::MessageLog;
 use crate::types::context::{ContextOptions, DeviceLimits};
@@ -212,7 +213,7 @@ impl CpuContext {
             .stack_size(THREAD_STACK)
             .thread_name(move |i| format!("raykit-cpu-{id}-{i}"))
             .build()
-            .map_err(|e| Error::CpuThreads { reason: e.to_string() })?;
+            .map_err(|e| Error::Device(DeviceError::CpuThreads { reason: e.to_string() }))?;
         Ok(CpuContext {
             id,
             log: MessageLog::with_callback(options.log_callback.clone()),

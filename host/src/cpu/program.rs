@@ -6,6 +6,7 @@ use std::sync::Arc;
 use raykit_device::cpu::{CpuProgram, TypeInfo};
 
 use super::CpuContext;
+use crate::error::LinkError;
 use crate::error::{Error, Result};
 use crate::types;
 use crate::types::group::{GroupKind, SpirvCode};
@@ -69,31 +70,31 @@ impl PipelineData {
         for program in groups.iter().flat_map(Group::programs) {
             if let Some(theirs) = program.cpu.params {
                 if theirs != params {
-                    return Err(Error::CpuTypeMismatch {
+                    return Err(Error::Link(LinkError::CpuTypeMismatch {
                         program: program.name.to_owned(),
                         what: "launch params",
                         declared: theirs.name(),
                         given: params.name().to_owned(),
-                    });
+                    }));
                 }
             }
             for (what, ty) in [("record data", program.cpu.record), ("hit attributes", program.cpu.attributes)] {
                 if let Some(ty) = ty.filter(|t| t.align > 16) {
-                    return Err(Error::CpuTypeMismatch {
+                    return Err(Error::Link(LinkError::CpuTypeMismatch {
                         program: program.name.to_owned(),
                         what,
                         declared: ty.name(),
                         given: format!("an alignment of {} (at most 16 is supported)", ty.align),
-                    });
+                    }));
                 }
             }
             if let Some(ty) = program.cpu.attributes.filter(|t| t.size > ATTRIBUTE_BYTES) {
-                return Err(Error::CpuTypeMismatch {
+                return Err(Error::Link(LinkError::CpuTypeMismatch {
                     program: program.name.to_owned(),
                     what: "hit attributes",
                     declared: ty.name(),
                     given: format!("{} bytes (maxRayHitAttributeSize is {ATTRIBUTE_BYTES})", ty.size),
-                });
+                }));
             }
         }
         Ok(())
@@ -148,7 +149,7 @@ pub(crate) fn link<P: raykit_device::LaunchParams, S: SpirvCode>(
 ) -> Result<PipelineData> {
     let limit = super::LIMITS.max_ray_recursion_depth;
     if max_trace_depth > limit {
-        return Err(Error::TraceDepthTooLarge { requested: max_trace_depth, limit });
+        return Err(Error::Link(LinkError::TraceDepthTooLarge { requested: max_trace_depth, limit }));
     }
     crate::validate::check_linkable(groups.iter().map(|g| g.kind()))?;
     let linked: Vec<Group> = groups.iter().map(|g| group(g)).collect();

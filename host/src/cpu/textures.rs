@@ -33,6 +33,7 @@ use glam::{Vec2, Vec4};
 
 use super::slots::{SlotTable, SlotValue};
 use crate::error::Error;
+use crate::error::ResourceError;
 use crate::types::texture::{AddressMode, Filter, MipLevel, SamplerOptions, TextureFormat};
 
 const SLOTS: u32 = raykit_abi::TEXTURE_TABLE_SLOTS;
@@ -225,7 +226,7 @@ impl SlotValue for Arc<CpuTexture> {
     const SLOTS: u32 = SLOTS;
 
     fn table_full(capacity: u32) -> Error {
-        Error::TextureTableFull { capacity }
+        Error::Resource(ResourceError::TextureTableFull { capacity })
     }
 
     fn bytes(&self) -> u64 {

@@ -33,6 +33,7 @@ use std::sync::Arc;
 
 use super::{Pipeline, PipelineRepr};
 use crate::error::{Error, Result};
+use crate::error::{LaunchError, SbtError};
 use crate::sbt::{Sbt, SbtRepr};
 use crate::vulkan::pipeline::record::VulkanLaunch;
 use crate::vulkan::pipeline::timing::TimestampPool;
@@ -75,11 +76,11 @@ impl Launch {
     }
 
     /// Blocks until the launch has finished; then the buffers it wrote hold the
-    /// results. Returns [`Error::UserExceptions`] if device programs threw any, or
-    /// [`Error::RecursionTooDeep`] if traces past the pipeline's `max_trace_depth`
+    /// results. Returns [`LaunchError::UserExceptions`] if device programs threw any, or
+    /// [`LaunchError::RecursionTooDeep`] if traces past the pipeline's `max_trace_depth`
     /// were refused on the device.
-    /// Errors of the CPU backend's launches: [`Error::ProgramPanicked`] and
-    /// [`Error::CpuLaunchFault`].
+    /// Errors of the CPU backend's launches: [`LaunchError::ProgramPanicked`] and
+    /// [`LaunchError::CpuLaunchFault`].
     pub fn wait(self) -> Result<()> {
         match self.repr {
             LaunchRepr::Vulkan(launch) => launch.wait(),
@@ -142,7 +143,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
                 let launch = crate::cpu::launch::CpuLaunch::submit(data, sbt.checks(), records, params, dims)?;
                 Ok(Launch { repr: LaunchRepr::Cpu(launch) })
             }
-            _ => Err(Error::SbtOfAnotherPipeline),
+            _ => Err(Error::Sbt(SbtError::OfAnotherPipeline)),
         }
     }
 }
@@ -156,24 +157,27 @@ fn check_dimensions(
     dimension_limits: [u64; 3],
 ) -> Result<()> {
     if dims.contains(&0) {
-        return Err(Error::LaunchDimensions { dims, reason: "every dimension must be at least 1".to_owned() });
+        return Err(Error::Launch(LaunchError::Dimensions {
+            dims,
+            reason: "every dimension must be at least 1".to_owned(),
+        }));
     }
     // Three u32s can overflow u64 (2^96): an overflowing product is over any limit.
     let invocations = dims.iter().try_fold(1u64, |n, &d| n.checked_mul(d as u64));
     let limit = limits.max_ray_dispatch_invocation_count as u64;
     if invocations.is_none_or(|n| n > limit) {
         let count = invocations.map_or_else(|| "more than 2^64".to_owned(), |n| n.to_string());
-        return Err(Error::LaunchDimensions {
+        return Err(Error::Launch(LaunchError::Dimensions {
             dims,
             reason: format!(
                 "{count} invocations exceed maxRayDispatchInvocationCount {limit}; split the launch into tiles"
             ),
-        });
+        }));
     }
     // vkCmdTraceRaysKHR also bounds each dimension (VUID-vkCmdTraceRaysKHR-width-03638 …
     // depth-03640): maxComputeWorkGroupCount[i] × maxComputeWorkGroupSize[i].
     if let Some(i) = (0..3).find(|&i| dims[i] as u64 > dimension_limits[i]) {
-        return Err(Error::LaunchDimensions {
+        return Err(Error::Launch(LaunchError::Dimensions {
             dims,
             reason: format!(
                 "{} {} is over this device's limit of {} (maxComputeWorkGroupCount[{i}] × maxComputeWorkGroupSize[{i}]); split the launch into tiles",
@@ -181,7 +185,7 @@ fn check_dimensions(
                 dims[i],
                 dimension_limits[i],
             ),
-        });
+        }));
     }
     Ok(())
 }

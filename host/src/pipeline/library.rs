@@ -29,6 +29,7 @@ use raykit_spirv::InterfaceSizes;
 
 use super::Specialization;
 use crate::context::Context;
+use crate::error::LinkError;
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
 use crate::vulkan::module::SpirvGroup;
@@ -80,10 +81,10 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         }
         let inner = ctx.vulkan("a pipeline library")?;
         if !inner.pipeline_library {
-            return Err(Error::PipelineLibrariesUnsupported);
+            return Err(Error::Link(LinkError::PipelineLibrariesUnsupported));
         }
         if groups.is_empty() {
-            return Err(Error::EmptyLibrary);
+            return Err(Error::Link(LinkError::EmptyLibrary));
         }
         let needed = Self::interface_for(groups);
         let groups = ProgramGroup::of_context(ctx, groups)?;
@@ -92,10 +93,10 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         let interface = options.interface.unwrap_or(needed);
         check_interface(groups, interface)?;
         if interface.hit_attributes > inner.limits.max_ray_hit_attribute_size {
-            return Err(Error::HitAttributesTooLarge {
+            return Err(Error::Link(LinkError::HitAttributesTooLarge {
                 size: interface.hit_attributes,
                 limit: inner.limits.max_ray_hit_attribute_size,
-            });
+            }));
         }
         let library = LibraryInner::new::<P>(inner, groups, options.max_trace_depth, interface, constants)?;
         Ok(PipelineLibrary { inner: Arc::new(library), _params: PhantomData })
@@ -144,8 +145,9 @@ impl<P: LaunchParams> fmt::Debug for PipelineLibrary<P> {
 fn check_interface(groups: &[&SpirvGroup], interface: InterfaceSizes) -> Result<()> {
     for program in groups.iter().flat_map(|g| g.programs()) {
         let Some(info) = program.entry_info() else { continue };
-        let too_small =
-            |what, needed, given| Error::LibraryInterfaceTooSmall { program: info.name.clone(), what, needed, given };
+        let too_small = |what, needed, given| {
+            Error::Link(LinkError::LibraryInterfaceTooSmall { program: info.name.clone(), what, needed, given })
+        };
         if info.interface.payload > interface.payload {
             return Err(too_small("ray payload", info.interface.payload, interface.payload));
         }

@@ -38,6 +38,7 @@ use raykit_device::LaunchParams;
 use raykit_spirv::{InterfaceSizes, ParamsDelivery};
 
 use crate::context::Context;
+use crate::error::{DeviceError, LinkError};
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
@@ -121,30 +122,30 @@ impl<P: LaunchParams> Pipeline<P> {
     pub fn link(ctx: &Context, libraries: &[&PipelineLibrary<P>], options: LinkOptions) -> Result<Pipeline<P>> {
         let inner = ctx.vulkan("a pipeline linked from libraries")?;
         if !inner.pipeline_library {
-            return Err(Error::PipelineLibrariesUnsupported);
+            return Err(Error::Link(LinkError::PipelineLibrariesUnsupported));
         }
         if libraries.iter().any(|l| !Arc::ptr_eq(&l.inner.ctx, inner)) {
-            return Err(Error::ContextMismatch);
+            return Err(Error::Device(DeviceError::ContextMismatch));
         }
         let interface = libraries.first().map(|l| l.inner.interface).unwrap_or_default();
         for (index, library) in libraries.iter().enumerate() {
             if library.inner.max_trace_depth != options.max_trace_depth {
-                return Err(Error::LibraryMismatch {
+                return Err(Error::Link(LinkError::LibraryMismatch {
                     what: "max_trace_depth",
                     index,
                     found: library.inner.max_trace_depth.to_string(),
                     expected: options.max_trace_depth.to_string(),
                     fix: "Give LibraryOptions::max_trace_depth the pipeline's LinkOptions::max_trace_depth.",
-                });
+                }));
             }
             if library.inner.interface != interface {
-                return Err(Error::LibraryMismatch {
+                return Err(Error::Link(LinkError::LibraryMismatch {
                     what: "interface",
                     index,
                     found: describe_interface(library.inner.interface),
                     expected: describe_interface(interface),
                     fix: "Make every library with LibraryOptions { interface: Some(PipelineLibrary::interface_for(&[every group of every library])), .. }.",
-                });
+                }));
             }
         }
         let groups: Vec<&SpirvGroup> = libraries.iter().flat_map(|l| l.inner.groups.iter()).collect();
@@ -152,7 +153,11 @@ impl<P: LaunchParams> Pipeline<P> {
         for (index, library) in libraries.iter().enumerate() {
             for group in &library.inner.groups {
                 if let Some(first) = owner.insert(group.id, index) {
-                    return Err(Error::GroupInSeveralLibraries { kind: group.kind(), first, second: index });
+                    return Err(Error::Link(LinkError::GroupInSeveralLibraries {
+                        kind: group.kind(),
+                        first,
+                        second: index,
+                    }));
                 }
             }
         }
@@ -168,7 +173,7 @@ impl<P: LaunchParams> Pipeline<P> {
     /// `optixProgramGroupGetStackSize`). Vulkan knows them only once the group is
     /// linked, hence a pipeline method.
     pub fn group_stack_sizes(&self, group: &ProgramGroup) -> Result<GroupStackSizes> {
-        let index = self.group_index(group).ok_or(Error::GroupNotInPipeline { kind: group.kind() })?;
+        let index = self.group_index(group).ok_or(Error::Link(LinkError::GroupNotInPipeline { kind: group.kind() }))?;
         let inner = self.vulkan_inner().ok_or_else(no_stack_on_cpu)?;
         Ok(inner.groups[index].stack_sizes)
     }
@@ -217,9 +222,9 @@ impl<P: LaunchParams> Pipeline<P> {
         let max_depth = self.max_trace_depth();
         let check_depth = |depth: u32| -> Result<()> {
             if depth > max_depth {
-                return Err(Error::StackSize {
+                return Err(Error::Link(LinkError::StackSize {
                     reason: format!("the estimate's trace depth {depth} is over the pipeline's max_trace_depth {max_depth}; raise LinkOptions::max_trace_depth or lower the estimate's"),
-                });
+                }));
             }
             Ok(())
         };

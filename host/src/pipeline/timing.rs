@@ -10,6 +10,7 @@ use std::time::Duration;
 
 use super::Pipeline;
 use crate::context::Context;
+use crate::error::DeviceError;
 use crate::error::{Error, Result};
 use crate::sbt::Sbt;
 use crate::vulkan::pipeline::timing::TimestampPool;
@@ -53,7 +54,7 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
     /// time of `vkCmdTraceRaysKHR` alone (without binding, submission and wait).
     pub fn launch_timed(&self, sbt: &Sbt, params: &P, dims: [u32; 3], timer: &LaunchTimer) -> Result<Duration> {
         if self.vulkan_inner().is_none_or(|inner| !Arc::ptr_eq(&timer.pool.ctx, &inner.ctx)) {
-            return Err(Error::ContextMismatch);
+            return Err(Error::Device(DeviceError::ContextMismatch));
         }
         self.launch_recording(sbt, params, dims, Some(&timer.pool))?;
         let ticks = timer.pool.ticks()?;

@@ -15,6 +15,7 @@ use std::sync::Arc;
 
 use raykit_device::{EntryPoint, ProgramKind};
 
+use crate::error::{DeviceError, ModuleError};
 use crate::error::{Error, Result};
 use crate::module::Module;
 use crate::types::group::Group;
@@ -87,23 +88,24 @@ impl Program {
             return Err(crate::backend::refused_on_cpu(crate::backend::CpuRefusal::NamedProgram));
         };
         if cpu.crate_name.replace('-', "_") != linked.crate_name.replace('-', "_") {
-            return Err(Error::EntryPointNotFound {
+            return Err(Error::Module(ModuleError::EntryPointNotFound {
                 name: format!("{name} (a program of `{}`, not of `{}`)", cpu.crate_name, linked.crate_name),
                 available: Vec::new(),
-            });
+            }));
         }
         let kind = entry.claimed_kind();
         if kind != Some(expected) {
-            return Err(Error::ProgramKindMismatch {
+            return Err(Error::Module(ModuleError::ProgramKindMismatch {
                 name: name.to_owned(),
                 expected,
                 actual: kind.map_or_else(|| "unknown".to_owned(), |k| format!("{k} (by its EntryPoint constant)")),
                 context,
                 available: Vec::new(),
-            });
+            }));
         }
-        let name = CString::new(name)
-            .map_err(|_| Error::EntryPointNotFound { name: name.to_owned(), available: Vec::new() })?;
+        let name = CString::new(name).map_err(|_| {
+            Error::Module(ModuleError::EntryPointNotFound { name: name.to_owned(), available: Vec::new() })
+        })?;
         Ok(Program { code: ProgramCode::Cpu(cpu), name, kind: expected, ray: entry.ray() })
     }
 
@@ -119,15 +121,17 @@ impl Program {
         };
         let name = entry.entry_name();
         let available = module.entry_list();
-        let mismatch = |actual: String| Error::ProgramKindMismatch {
-            name: name.to_owned(),
-            expected,
-            actual,
-            context,
-            available: available.clone(),
+        let mismatch = |actual: String| {
+            Error::Module(ModuleError::ProgramKindMismatch {
+                name: name.to_owned(),
+                expected,
+                actual,
+                context,
+                available: available.clone(),
+            })
         };
         let Some(info) = module.entry_points().iter().find(|e| e.name == name) else {
-            return Err(Error::EntryPointNotFound { name: name.to_owned(), available });
+            return Err(Error::Module(ModuleError::EntryPointNotFound { name: name.to_owned(), available }));
         };
         match info.kind {
             Some(kind) if kind == expected => {}
@@ -146,8 +150,9 @@ impl Program {
                 return Err(mismatch(format!("{kind} (by its EntryPoint constant)")));
             }
         }
-        let name = CString::new(name)
-            .map_err(|_| Error::EntryPointNotFound { name: name.to_owned(), available: module.entry_list() })?;
+        let name = CString::new(name).map_err(|_| {
+            Error::Module(ModuleError::EntryPointNotFound { name: name.to_owned(), available: module.entry_list() })
+        })?;
         Ok(Program { code: ProgramCode::Spirv(spirv.clone()), name, kind: expected, ray: entry.ray() })
     }
 }
@@ -220,7 +225,7 @@ impl ProgramGroup {
         groups: &[&'g ProgramGroup],
     ) -> Result<Vec<&'g Group<Arc<ModuleInner>>>> {
         if groups.iter().any(|g| !g.ctx.is_same(ctx)) {
-            return Err(Error::ContextMismatch);
+            return Err(Error::Device(DeviceError::ContextMismatch));
         }
         Ok(groups.iter().map(|g| &g.group).collect())
     }

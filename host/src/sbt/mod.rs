@@ -13,7 +13,7 @@
 //! `SbtRecordData` are recorded by the builder and by [`Sbt::update`], and every
 //! launch checks them against the context's live objects as it checks the launch
 //! params' (see [`crate::validate::handles`]): a dropped, foreign or stale handle is
-//! [`Error::InvalidHandle`] naming the region, the record's index and the field.
+//! [`LaunchError::InvalidHandle`](crate::LaunchError::InvalidHandle) naming the region, the record's index and the field.
 //! Handles in records of plain `Pod` types, and handles stored inside buffers,
 //! reach the device unchecked.
 
@@ -24,6 +24,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::{Error, Result};
+use crate::error::{LinkError, SbtError};
 use crate::pipeline::{Pipeline, PipelineRepr};
 use crate::program_group::{GroupKind, ProgramGroup};
 pub use crate::types::sbt::{region_layout, RegionLayout, SbtRegion};
@@ -106,7 +107,7 @@ fn out_of_range(region: SbtRegion, index: String) -> Error {
         SbtRegion::Raygen => 0,
         SbtRegion::Miss | SbtRegion::Callable => 16,
     };
-    Error::SbtIndexOutOfRange { region, index, limit: crate::validate::max_records(region), bits }
+    Error::Sbt(SbtError::IndexOutOfRange { region, index, limit: crate::validate::max_records(region), bits })
 }
 
 /// Puts `record` at `index` of `region`; a taken slot or an index past the
@@ -121,7 +122,7 @@ fn place(
         return Err(out_of_range(region, index.to_string()));
     }
     if slots.contains_key(&index) {
-        return Err(Error::SbtSlotTaken { region, index });
+        return Err(Error::Sbt(SbtError::SlotTaken { region, index }));
     }
     slots.insert(index, record);
     Ok(())
@@ -139,11 +140,11 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         }
         let expected = region.group_kind();
         if group.kind() != expected {
-            self.error = Some(Error::SbtGroupKind { region, expected, actual: group.kind() });
+            self.error = Some(Error::Sbt(SbtError::GroupKind { region, expected, actual: group.kind() }));
             return None;
         }
         let Some(group_index) = self.pipeline.group_index(group) else {
-            self.error = Some(Error::GroupNotInPipeline { kind: group.kind() });
+            self.error = Some(Error::Link(LinkError::GroupNotInPipeline { kind: group.kind() }));
             return None;
         };
         Some(PackedRecord {
@@ -201,13 +202,13 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
                     raykit_device::ProgramKind::AnyHit => "any_hit",
                     _ => "closest_hit",
                 };
-                self.error = Some(Error::SbtRayTypeMismatch {
+                self.error = Some(Error::Sbt(SbtError::RayTypeMismatch {
                     region,
                     program: program.name.to_string_lossy().into_owned(),
                     kind,
                     declared: ray.name,
                     asked: std::any::type_name::<R>().rsplit("::").next().unwrap_or("R"),
-                });
+                }));
                 return;
             }
         }
@@ -285,13 +286,13 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         if let Some(e) = self.error {
             return Err(e);
         }
-        let raygen = self.raygen.ok_or(Error::SbtMissing { region: SbtRegion::Raygen })?;
+        let raygen = self.raygen.ok_or(Error::Sbt(SbtError::Missing { region: SbtRegion::Raygen }))?;
         // A hole would hand the device an empty record: refuse it.
         let filled = |slots: BTreeMap<usize, PackedRecord>, region: SbtRegion| -> Result<Vec<PackedRecord>> {
             let mut records = Vec::with_capacity(slots.len());
             for (expected, (index, record)) in slots.into_iter().enumerate() {
                 if index != expected {
-                    return Err(Error::SbtHole { region, index: expected });
+                    return Err(Error::Sbt(SbtError::Hole { region, index: expected }));
                 }
                 records.push(record);
             }
@@ -311,11 +312,11 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         let max_data = |records: &[PackedRecord]| records.iter().map(|r| r.data.len()).max().unwrap_or(0);
         let check = |layout: RegionLayout, data: usize| -> Result<RegionLayout> {
             if layout.stride > limits.max_shader_group_stride as u64 {
-                return Err(Error::SbtRecordTooLarge {
+                return Err(Error::Sbt(SbtError::RecordTooLarge {
                     size: data,
                     stride: layout.stride,
                     limit: limits.max_shader_group_stride,
-                });
+                }));
             }
             Ok(layout)
         };
@@ -385,7 +386,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         usize::try_from(total)
             .ok()
             .and_then(|n| bytes.try_reserve_exact(n).ok())
-            .ok_or(Error::SbtTooLarge { bytes: total })?;
+            .ok_or(Error::Sbt(SbtError::TooLarge { bytes: total }))?;
         bytes.resize(total as usize, 0u8);
         let handle_size = limits.shader_group_handle_size as usize;
         for (layout, records) in [(rg, raygen_records), (ms, &miss[..]), (ht, &hit[..]), (cl, &callable[..])] {
@@ -459,21 +460,21 @@ impl Sbt {
     pub fn update<T: SbtRecordData>(&mut self, region: SbtRegion, index: usize, data: T) -> Result<()> {
         let r = region.index();
         if index >= self.counts[r] {
-            return Err(Error::SbtUpdate {
+            return Err(Error::Sbt(SbtError::Update {
                 region,
                 reason: format!("index {index} is past the region's {} record(s)", self.counts[r]),
-            });
+            }));
         }
         let built = self.data_types[r][index];
         if built != DataType::of::<T>() {
-            return Err(Error::SbtUpdate {
+            return Err(Error::Sbt(SbtError::Update {
                 region,
                 reason: format!(
                     "record {index} holds `{}`, not `{}`; pass data of the type the record was built with",
                     built.name,
                     std::any::type_name::<T>()
                 ),
-            });
+            }));
         }
         let layout = self.layouts[r];
         let limits = match &self.repr {
@@ -484,13 +485,13 @@ impl Sbt {
         let room = layout.stride - handle;
         let bytes = data.record_bytes();
         if bytes.len() as u64 > room {
-            return Err(Error::SbtUpdate {
+            return Err(Error::Sbt(SbtError::Update {
                 region,
                 reason: format!(
                     "{} bytes of data do not fit the region's {room}-byte records; build a new SBT for larger data",
                     bytes.len()
                 ),
-            });
+            }));
         }
         let at = (layout.offset + layout.stride * index as u64 + handle) as usize;
         // The same type as at the build: the same handle fields, with new values.

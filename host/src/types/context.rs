@@ -77,7 +77,7 @@ pub struct ContextOptions {
     pub device_name_contains: Option<String>,
     /// Use the `n`-th usable ray-tracing device (counted from 0 among those
     /// `device_name_contains` lets through, in the Vulkan loader's order) instead
-    /// of the first; [`Error::DeviceIndexOutOfRange`](crate::Error::DeviceIndexOutOfRange) lists them when there are
+    /// of the first; [`DeviceError::DeviceIndexOutOfRange`](crate::DeviceError::DeviceIndexOutOfRange) lists them when there are
     /// fewer. [`Context::all`](crate::Context::all) makes one context per device this way.
     pub device_index: Option<usize>,
     /// Where the on-disk compile cache lives, or [`PipelineCacheLocation::Off`]

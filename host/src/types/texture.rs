@@ -1,5 +1,6 @@
 //! Texture descriptions: texel formats, samplers, mip levels.
 
+use crate::error::ResourceError;
 use crate::error::{Error, Result};
 
 /// The texel formats of textures. All sample as four `f32` components.
@@ -165,7 +166,7 @@ pub fn generate_mips(format: TextureFormat, width: u32, height: u32, base: &[u8]
 pub(crate) fn check_level(format: TextureFormat, level: u32, width: u32, height: u32, got: usize) -> Result<()> {
     let expected = width as usize * height as usize * format.bytes_per_texel();
     if got != expected {
-        return Err(Error::TextureData {
+        return Err(Error::Resource(ResourceError::TextureData {
             level,
             width,
             height,
@@ -173,7 +174,7 @@ pub(crate) fn check_level(format: TextureFormat, level: u32, width: u32, height:
             expected,
             got,
             fix: "give width × height × bytes_per_texel() bytes per level, rows packed without padding",
-        });
+        }));
     }
     Ok(())
 }

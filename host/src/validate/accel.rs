@@ -5,13 +5,14 @@ use std::hash::{Hash, Hasher};
 
 use glam::Affine3A;
 
+use crate::error::AccelError;
 use crate::error::{Error, Result};
 use crate::types::accel::{Aabbs, BuildInput, Indices, Shape, Triangles, AABB_SIZE, VERTEX_SIZE};
 use crate::types::context::DeviceLimits;
 
 fn check_stride(geometry: usize, what: &'static str, stride: u64, alignment: u64, min: u64) -> Result<()> {
     if !stride.is_multiple_of(alignment) || stride < min || stride > u32::MAX as u64 {
-        return Err(Error::MisalignedStride { geometry, what, stride, alignment, min });
+        return Err(Error::Accel(AccelError::MisalignedStride { geometry, what, stride, alignment, min }));
     }
     Ok(())
 }
@@ -19,14 +20,14 @@ fn check_stride(geometry: usize, what: &'static str, stride: u64, alignment: u64
 fn check_len(geometry: usize, what: &'static str, len: usize, count: usize, stride: u64, element: u64) -> Result<()> {
     let needed = (count as u64 - 1).saturating_mul(stride).saturating_add(element);
     if (len as u64) < needed {
-        return Err(Error::InputTooShort { geometry, what, needed, len: len as u64 });
+        return Err(Error::Accel(AccelError::InputTooShort { geometry, what, needed, len: len as u64 }));
     }
     Ok(())
 }
 
 fn check_transform(what: String, t: &Affine3A) -> Result<()> {
     if !t.is_finite() {
-        return Err(Error::NonFiniteTransform { what });
+        return Err(Error::Accel(AccelError::NonFiniteTransform { what }));
     }
     Ok(())
 }
@@ -36,22 +37,22 @@ fn check_transform(what: String, t: &Affine3A) -> Result<()> {
 /// data (needed only by builds that allow updates).
 pub(crate) fn validate(inputs: &[BuildInput<'_>], limits: &DeviceLimits, for_update: bool) -> Result<Vec<Shape>> {
     if inputs.is_empty() {
-        return Err(Error::AccelEmpty { what: "the GAS build has no geometry".to_owned() });
+        return Err(Error::Accel(AccelError::Empty { what: "the GAS build has no geometry".to_owned() }));
     }
     if inputs.len() as u64 > limits.max_geometry_count {
-        return Err(Error::AccelLimit {
+        return Err(Error::Accel(AccelError::Limit {
             what: "geometries",
             count: inputs.len() as u64,
             limit: limits.max_geometry_count,
             limit_name: "maxGeometryCount",
-        });
+        }));
     }
     let mut shapes = Vec::with_capacity(inputs.len());
     let mut total: u64 = 0;
     for (g, input) in inputs.iter().enumerate() {
         let first = &inputs[0];
         if std::mem::discriminant(first) != std::mem::discriminant(input) {
-            return Err(Error::MixedGeometryTypes { first: 0, other: g });
+            return Err(Error::Accel(AccelError::MixedGeometryTypes { first: 0, other: g }));
         }
         let shape = match input {
             BuildInput::Triangles(t) => validate_triangles(g, t, for_update)?,
@@ -61,12 +62,12 @@ pub(crate) fn validate(inputs: &[BuildInput<'_>], limits: &DeviceLimits, for_upd
         shapes.push(shape);
     }
     if total > limits.max_primitive_count {
-        return Err(Error::AccelLimit {
+        return Err(Error::Accel(AccelError::Limit {
             what: "primitives in one GAS",
             count: total,
             limit: limits.max_primitive_count,
             limit_name: "maxPrimitiveCount",
-        });
+        }));
     }
     Ok(shapes)
 }
@@ -74,7 +75,7 @@ pub(crate) fn validate(inputs: &[BuildInput<'_>], limits: &DeviceLimits, for_upd
 /// `count` fits the 32 bits Vulkan takes for it (`limit_name`).
 fn check_fits_u32(what: &'static str, count: usize, limit_name: &'static str) -> Result<()> {
     if count > u32::MAX as usize {
-        return Err(Error::AccelLimit { what, count: count as u64, limit: u32::MAX as u64, limit_name });
+        return Err(Error::Accel(AccelError::Limit { what, count: count as u64, limit: u32::MAX as u64, limit_name }));
     }
     Ok(())
 }
@@ -82,38 +83,40 @@ fn check_fits_u32(what: &'static str, count: usize, limit_name: &'static str) ->
 fn validate_triangles(g: usize, t: &Triangles<'_>, for_update: bool) -> Result<Shape> {
     check_stride(g, "vertex", t.stride, 4, VERTEX_SIZE)?;
     if t.vertex_count == 0 {
-        return Err(Error::AccelEmpty { what: format!("geometry {g} has no vertices") });
+        return Err(Error::Accel(AccelError::Empty { what: format!("geometry {g} has no vertices") }));
     }
     check_fits_u32("vertices in one geometry", t.vertex_count, "the 32-bit maxVertex")?;
     check_len(g, "vertex", t.vertex_bytes.len(), t.vertex_count, t.stride, VERTEX_SIZE)?;
     let index_count = match t.indices {
         Indices::None => {
             if !t.vertex_count.is_multiple_of(3) {
-                return Err(Error::TriangleCount {
+                return Err(Error::Accel(AccelError::TriangleCount {
                     geometry: g,
                     what: "vertices without indices",
                     count: t.vertex_count,
-                });
+                }));
             }
             t.vertex_count
         }
         ref indices => {
             let n = indices.len();
             if n == 0 {
-                return Err(Error::AccelEmpty { what: format!("geometry {g} has an empty index buffer") });
+                return Err(Error::Accel(AccelError::Empty {
+                    what: format!("geometry {g} has an empty index buffer"),
+                }));
             }
             if !n.is_multiple_of(3) {
-                return Err(Error::TriangleCount { geometry: g, what: "indices", count: n });
+                return Err(Error::Accel(AccelError::TriangleCount { geometry: g, what: "indices", count: n }));
             }
             for i in 0..n {
                 let index = indices.get(i);
                 if index as usize >= t.vertex_count {
-                    return Err(Error::IndexOutOfRange {
+                    return Err(Error::Accel(AccelError::IndexOutOfRange {
                         geometry: g,
                         position: i,
                         index,
                         vertex_count: t.vertex_count as u64,
-                    });
+                    }));
                 }
             }
             n
@@ -124,7 +127,7 @@ fn validate_triangles(g: usize, t: &Triangles<'_>, for_update: bool) -> Result<S
     for v in 0..t.vertex_count {
         let p = t.vertex(v);
         if !p.iter().all(|c| c.is_finite()) {
-            return Err(Error::NonFiniteVertex { geometry: g, vertex: v, position: p });
+            return Err(Error::Accel(AccelError::NonFiniteVertex { geometry: g, vertex: v, position: p }));
         }
     }
     if let Some(transform) = &t.transform {
@@ -147,7 +150,7 @@ fn validate_triangles(g: usize, t: &Triangles<'_>, for_update: bool) -> Result<S
 fn validate_aabbs(g: usize, a: &Aabbs<'_>) -> Result<Shape> {
     check_stride(g, "AABB", a.stride, 8, AABB_SIZE)?;
     if a.count == 0 {
-        return Err(Error::AccelEmpty { what: format!("geometry {g} has no AABBs") });
+        return Err(Error::Accel(AccelError::Empty { what: format!("geometry {g} has no AABBs") }));
     }
     check_fits_u32("AABBs in one geometry", a.count, "the 32-bit primitiveCount")?;
     check_len(g, "AABB", a.bytes.len(), a.count, a.stride, AABB_SIZE)?;
@@ -156,13 +159,13 @@ fn validate_aabbs(g: usize, a: &Aabbs<'_>) -> Result<Shape> {
         let finite = b.min.iter().chain(&b.max).all(|c| c.is_finite());
         let ordered = (0..3).all(|k| b.min[k] <= b.max[k]);
         if !finite || !ordered {
-            return Err(Error::InvalidAabb {
+            return Err(Error::Accel(AccelError::InvalidAabb {
                 geometry: g,
                 primitive: i,
                 min: b.min,
                 max: b.max,
                 reason: if finite { "min is greater than max on some axis" } else { "a coordinate is not finite" },
-            });
+            }));
         }
     }
     Ok(Shape::Aabbs { count: a.count as u32, flags: a.flags })
@@ -241,10 +244,13 @@ mod tests {
     fn counts_over_the_device_limits_are_refused() {
         let verts = [Vec3::ZERO; 15];
         let err = validate(&[Triangles::new(&verts).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::AccelLimit { count: 5, limit: 4, limit_name: "maxPrimitiveCount", .. }), "{err}");
+        assert!(
+            matches!(err, Error::Accel(AccelError::Limit { count: 5, limit: 4, limit_name: "maxPrimitiveCount", .. })),
+            "{err}"
+        );
         let t: BuildInput<'_> = Triangles::new(&TRI).into();
         let err = validate(&[t, t, t], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::AccelLimit { limit_name: "maxGeometryCount", .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::Limit { limit_name: "maxGeometryCount", .. })), "{err}");
         assert!(validate(&[t, t], &limits(), true).is_ok());
     }
 
@@ -253,52 +259,55 @@ mod tests {
         let bytes = [0u8; 64];
         for stride in [10, 14, 8] {
             let err = validate(&[Triangles::strided(&bytes, stride, 3).into()], &limits(), true).unwrap_err();
-            assert!(matches!(err, Error::MisalignedStride { alignment: 4, .. }), "{stride}: {err}");
+            assert!(matches!(err, Error::Accel(AccelError::MisalignedStride { alignment: 4, .. })), "{stride}: {err}");
         }
         let err = validate(&[Triangles::strided(&bytes, 32, 3).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::InputTooShort { needed: 76, len: 64, .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::InputTooShort { needed: 76, len: 64, .. })), "{err}");
         assert!(validate(&[Triangles::strided(&bytes, 16, 3).into()], &limits(), true).is_ok());
         let boxes = [0u8; 96];
         let err = validate(&[Aabbs::strided(&boxes, 28, 2).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::MisalignedStride { alignment: 8, .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::MisalignedStride { alignment: 8, .. })), "{err}");
         assert!(validate(&[Aabbs::strided(&boxes, 32, 3).into()], &limits(), true).is_ok());
     }
 
     #[test]
     fn indices_and_vertices_are_checked() {
         let err = validate(&[Triangles::new(&TRI).indices_u16(&[0, 1, 3]).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::IndexOutOfRange { position: 2, index: 3, vertex_count: 3, .. }), "{err}");
+        assert!(
+            matches!(err, Error::Accel(AccelError::IndexOutOfRange { position: 2, index: 3, vertex_count: 3, .. })),
+            "{err}"
+        );
         let err = validate(&[Triangles::new(&TRI).indices_u32(&[0, 1]).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::TriangleCount { count: 2, .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::TriangleCount { count: 2, .. })), "{err}");
         let err = validate(&[Triangles::new(&TRI[..2]).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::TriangleCount { count: 2, .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::TriangleCount { count: 2, .. })), "{err}");
         let err = validate(&[Triangles::new(&[]).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::AccelEmpty { .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::Empty { .. })), "{err}");
         let err = validate(&[Triangles::new(&TRI).indices_u32(&[]).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::AccelEmpty { .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::Empty { .. })), "{err}");
         let bad = [Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0), Vec3::Y];
         let err = validate(&[Triangles::new(&bad).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::NonFiniteVertex { vertex: 1, .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::NonFiniteVertex { vertex: 1, .. })), "{err}");
         let err = validate(
             &[Triangles::new(&TRI).transform(Affine3A::from_scale(Vec3::splat(f32::NAN))).into()],
             &limits(),
             true,
         )
         .unwrap_err();
-        assert!(matches!(err, Error::NonFiniteTransform { .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::NonFiniteTransform { .. })), "{err}");
     }
 
     #[test]
     fn boxes_must_be_finite_and_ordered() {
         let flipped = [Aabb::new(Vec3::ONE, Vec3::ZERO)];
         let err = validate(&[Aabbs::new(&flipped).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::InvalidAabb { primitive: 0, .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::InvalidAabb { primitive: 0, .. })), "{err}");
         let nan = [Aabb::new(Vec3::ZERO, Vec3::ONE), Aabb::new(Vec3::ZERO, Vec3::splat(f32::NAN))];
         let err = validate(&[Aabbs::new(&nan).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::InvalidAabb { primitive: 1, .. }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::InvalidAabb { primitive: 1, .. })), "{err}");
         let boxes = [Aabb::new(Vec3::ZERO, Vec3::ONE)];
         let err = validate(&[Triangles::new(&TRI).into(), Aabbs::new(&boxes).into()], &limits(), true).unwrap_err();
-        assert!(matches!(err, Error::MixedGeometryTypes { first: 0, other: 1 }), "{err}");
+        assert!(matches!(err, Error::Accel(AccelError::MixedGeometryTypes { first: 0, other: 1 })), "{err}");
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! [`Traversable`](raykit_device::Traversable) fields of its params (found through
 //! [`LaunchParams::LAYOUT`](raykit_device::LaunchParams::LAYOUT)) against the
 //! objects alive in the launching context, and refuses a dropped, foreign or stale
-//! one with [`Error::InvalidHandle`] naming the field.
+//! one with [`LaunchError::InvalidHandle`] naming the field.
 //!
 //! * A buffer handle is a slot of the context's bindless table in its low 12 bits
 //!   and a generation in the 20 bits above, unique in the process (until it wraps
@@ -33,6 +33,7 @@ use std::sync::{Arc, Mutex};
 
 use raykit_device::{FieldLayout, ParamsLayout, Shape};
 
+use crate::error::LaunchError;
 use crate::error::{Error, Result};
 use crate::types::sbt::SbtRegion;
 
@@ -214,21 +215,21 @@ pub(crate) fn check_handles(
                 let Some(bytes) = read(field.offset, 4) else { continue };
                 let handle = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
                 if !buffer_is_live(handle) {
-                    return Err(Error::InvalidHandle {
+                    return Err(Error::Launch(LaunchError::InvalidHandle {
                         record,
                         field: field.name.clone(),
                         problem: format!(
                             "buffer handle {handle:#x} names no live DeviceBuffer of this Context (its buffer was dropped, its slot reused, or it belongs to another Context)"
                         ),
                         fix: buffer_fix,
-                    });
+                    }));
                 }
             }
             HandleKind::Texture => {
                 let Some(bytes) = read(field.offset, 4) else { continue };
                 let handle = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
                 if !texture_is_live(handle) {
-                    return Err(Error::InvalidHandle {
+                    return Err(Error::Launch(LaunchError::InvalidHandle {
                         record,
                         field: field.name.clone(),
                         problem: format!(
@@ -238,7 +239,7 @@ pub(crate) fn check_handles(
                             None => "put the handle() of a Texture of this Context, alive until the launch is submitted, in the params",
                             Some(_) => "put the handle() of a Texture of this Context, alive until the launch is submitted, in the record (Sbt::update)",
                         },
-                    });
+                    }));
                 }
             }
             HandleKind::Traversable => {
@@ -249,22 +250,22 @@ pub(crate) fn check_handles(
                 match traversable(address) {
                     TraversableState::Live => {}
                     TraversableState::Unknown => {
-                        return Err(Error::InvalidHandle {
+                        return Err(Error::Launch(LaunchError::InvalidHandle {
                             record,
                             field: field.name.clone(),
                             problem: format!(
                                 "traversable {address:#x} is no live IAS of this Context (it was dropped, rebuilt, or belongs to another Context)"
                             ),
                             fix: tlas_fix,
-                        })
+                        }))
                     }
                     TraversableState::Stale { instance } => {
-                        return Err(Error::InvalidHandle {
+                        return Err(Error::Launch(LaunchError::InvalidHandle {
                             record,
                             field: field.name.clone(),
                             problem: format!("the GAS of instance {instance} was refitted since this IAS was built"),
                             fix: "update the IAS (Ias::update with its instances) or rebuild it after refitting its GASes",
-                        })
+                        }))
                     }
                 }
             }

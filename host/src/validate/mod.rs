@@ -12,13 +12,13 @@
 //! to go there for ray types that carry their depth
 //! (`raykit_device::RayType::CHECK_DEPTH`): such a pipeline is accepted with any
 //! depth of 2 or more, and a trace past it ends in
-//! [`Error::RecursionTooDeep`] from the launch.
+//! [`LaunchError::RecursionTooDeep`](crate::LaunchError::RecursionTooDeep) from the launch.
 //!
 //! **The SBT fits the scene.** Every launch checks that the instances of its
 //! scenes select no hit record past the SBT's end: for each `(sbtRecordStride,
 //! sbtRecordOffset)` pair the traces use, the furthest instance's SBT offset +
 //! (geometries − 1) × stride + offset must be below the hit record count
-//! ([`Error::SbtTooSmallForScene`]).
+//! ([`LaunchError::SbtTooSmallForScene`](crate::LaunchError::SbtTooSmallForScene)).
 
 pub(crate) mod accel;
 pub mod handles;
@@ -31,6 +31,7 @@ use raykit_device::ProgramKind;
 use raykit_spirv::{DescriptorBinding, DescriptorKind, ParamsDelivery};
 
 use crate::error::{Error, Result};
+use crate::error::{LinkError, ResourceError, SbtError};
 use crate::types::group::GroupKind;
 use crate::types::group::{Group, SpirvCode};
 use crate::types::sbt::SbtRegion;
@@ -151,7 +152,7 @@ impl TraceReach {
     /// Refuses a `max_trace_depth` below what the programs need (see the module docs).
     pub(crate) fn check_depth(&self, max_trace_depth: u32) -> Result<()> {
         let refuse = |program: &String, needed: u32, why: &'static str| {
-            Err(Error::TraceDepthExceeded { program: program.clone(), needed, max_trace_depth, why })
+            Err(Error::Link(LinkError::TraceDepthExceeded { program: program.clone(), needed, max_trace_depth, why }))
         };
         if let Some(program) = &self.recursive {
             if max_trace_depth < 2 {
@@ -183,7 +184,7 @@ impl TraceReach {
                 None => (1, tracer),
             };
             if count < needed {
-                return Err(Error::SbtIncomplete { region, needed, have: count, program: program.clone() });
+                return Err(Error::Sbt(SbtError::Incomplete { region, needed, have: count, program: program.clone() }));
             }
         }
         Ok(())
@@ -220,7 +221,7 @@ fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDel
         (s, _) if s == raykit_abi::PARAMS_SET => format!("but set {s} has only binding 0"),
         (s, _) => format!("but raykit's pipeline layout has no set {s}"),
     };
-    Err(Error::DescriptorBinding {
+    Err(Error::Link(LinkError::DescriptorBinding {
         program: program.to_owned(),
         set: binding.set,
         binding: binding.binding,
@@ -229,7 +230,7 @@ fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDel
             None => binding.kind.to_string(),
         },
         reason,
-    })
+    }))
 }
 
 /// What linking checks of the programs of `groups` before the driver sees them:
@@ -273,12 +274,12 @@ pub(crate) fn check_explicit_stack(bytes: u32, sizes: &crate::stack::StackSizes)
         .max()
         .unwrap_or(0);
     if bytes == 0 || u64::from(bytes) < largest {
-        return Err(Error::StackSize {
+        return Err(Error::Link(LinkError::StackSize {
             reason: format!(
                 "StackSize::Explicit({bytes}) is below {}, the largest stack one of the pipeline's programs needs by itself (Pipeline::stack_sizes); use StackSize::Refined or StackSize::CallGraph, or give at least that many bytes",
                 largest.max(1)
             ),
-        });
+        }));
     }
     Ok(())
 }
@@ -288,7 +289,7 @@ pub(crate) fn check_explicit_stack(bytes: u32, sizes: &crate::stack::StackSizes)
 /// descriptor, which cannot cover more.
 pub(crate) fn check_storage_buffer(bytes: u64, limit: u32) -> Result<()> {
     if bytes > u64::from(limit) {
-        return Err(Error::BufferTooLarge { bytes, limit });
+        return Err(Error::Resource(ResourceError::BufferTooLarge { bytes, limit }));
     }
     Ok(())
 }
@@ -296,10 +297,10 @@ pub(crate) fn check_storage_buffer(bytes: u64, limit: u32) -> Result<()> {
 /// most one exception group.
 pub(crate) fn check_linkable(kinds: impl Iterator<Item = GroupKind> + Clone) -> Result<()> {
     if kinds.clone().filter(|&k| k == GroupKind::Exception).count() > 1 {
-        return Err(Error::SeveralExceptionPrograms);
+        return Err(Error::Link(LinkError::SeveralExceptionPrograms));
     }
     if !kinds.clone().any(|k| k == GroupKind::Raygen) {
-        return Err(Error::NoRaygen);
+        return Err(Error::Link(LinkError::NoRaygen));
     }
     Ok(())
 }

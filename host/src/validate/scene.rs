@@ -9,7 +9,7 @@
 //! instance reaching furthest — its [`Instance::sbt_offset`](crate::Instance::sbt_offset)
 //! plus (the geometries of its GAS − 1) × the stride — plus the ray-type offset,
 //! for each `(stride, offset)` pair the pipeline's traces use, and refuses the
-//! launch with [`Error::SbtTooSmallForScene`] when that record index is not
+//! launch with [`LaunchError::SbtTooSmallForScene`](crate::LaunchError::SbtTooSmallForScene) when that record index is not
 //! below the SBT's hit record count.
 //!
 //! What is assumed:
@@ -33,6 +33,7 @@
 
 use std::sync::Arc;
 
+use crate::error::LaunchError;
 use crate::error::{Error, Result};
 use crate::validate::handles::HandleField;
 use crate::validate::hit_reach::HitReach;
@@ -64,7 +65,7 @@ pub(crate) fn check_scene(
             let Some((instance, slot)) = scene.furthest(*stride, *ray_offset) else { continue };
             if slot >= hit_records as u64 {
                 let (sbt_offset, geometries) = scene.instance(instance);
-                return Err(Error::SbtTooSmallForScene {
+                return Err(Error::Launch(LaunchError::SbtTooSmallForScene {
                     field: name.to_owned(),
                     instance,
                     sbt_offset,
@@ -74,7 +75,7 @@ pub(crate) fn check_scene(
                     slot,
                     hit_records,
                     program: program.clone(),
-                });
+                }));
             }
         }
     }

@@ -25,6 +25,7 @@ use rspirv::spirv::{Decoration, Op};
 use sha2::{Digest, Sha256};
 use spirv_tools::val::{Validator, ValidatorOptions};
 
+use crate::error::ModuleError;
 use crate::error::{Error, Result};
 
 /// The most elements an array sized by a specialization constant may have.
@@ -47,7 +48,7 @@ pub fn validator_available() -> bool {
 }
 
 /// Validates `words` for Vulkan 1.2 with scalar block layout; the validator's
-/// message becomes [`Error::InvalidSpirv`]. Does nothing where no validator is
+/// message becomes [`ModuleError::InvalidSpirv`]. Does nothing where no validator is
 /// installed (see [`validator_available`]).
 ///
 /// A module that passed once is remembered (by its SHA-256) for the life of the
@@ -80,8 +81,10 @@ const MAX_REMEMBERED: usize = 4096;
 fn run_validator(words: &[u32]) -> Result<()> {
     let validator = spirv_tools::val::create(Some(spirv_tools::TargetEnv::Vulkan_1_2));
     let options = ValidatorOptions { scalar_block_layout: true, ..ValidatorOptions::default() };
-    validator.validate(words, Some(options)).map_err(|e| Error::InvalidSpirv {
-        reason: format!("the SPIR-V validator (spirv-val) refuses it: {}", e.to_string().trim_end()),
+    validator.validate(words, Some(options)).map_err(|e| {
+        Error::Module(ModuleError::InvalidSpirv {
+            reason: format!("the SPIR-V validator (spirv-val) refuses it: {}", e.to_string().trim_end()),
+        })
     })
 }
 
@@ -147,12 +150,12 @@ pub fn freeze_spec_constants(words: &[u32], values: &[(u32, u32)]) -> Result<Vec
         if inst[0] & 0xffff == Op::TypeArray as u32 && inst.len() >= 4 {
             if let Some(&length) = frozen.get(&inst[3]) {
                 if length > MAX_ARRAY_LENGTH {
-                    return Err(Error::InvalidSpirv {
+                    return Err(Error::Module(ModuleError::InvalidSpirv {
                         reason: format!(
                             "a specialization constant sizes array type %{} to {length} elements, over raykit's limit of {MAX_ARRAY_LENGTH}; give the constant a smaller value, or keep large data in a `Buffer<T>`",
                             inst[1]
                         ),
-                    });
+                    }));
                 }
             }
         }

@@ -24,6 +24,7 @@ use ash::vk;
 
 use std::mem::ManuallyDrop;
 
+use crate::error::ResourceError;
 use crate::error::{Error, Result};
 use crate::validate::handles::{handle_value, next_generation, SLOT_BITS};
 use crate::vulkan::texture_table::TextureTable;
@@ -197,7 +198,7 @@ impl BufferTable {
             SlotReuse::Newest => (!free.is_empty()).then(|| free.remove(0)),
         };
         // Slot 0 is the null handle: one less than the table for buffers.
-        let slot = taken.ok_or(Error::BufferTableFull { capacity: self.capacity - 1 })?;
+        let slot = taken.ok_or(Error::Resource(ResourceError::BufferTableFull { capacity: self.capacity - 1 }))?;
         self.write(device, slot, buffer);
         let generation = next_generation();
         if let Some(l) = self.live.get(slot as usize) {

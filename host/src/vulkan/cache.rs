@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use ash::vk;
 
 use crate::cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
+use crate::error::DeviceError;
 use crate::error::{Error, Result};
 
 const MAGIC: &[u8; 8] = b"RAYKITPC";
@@ -194,7 +195,10 @@ impl DiskCache {
     pub(crate) fn save(&self, device: &ash::Device) -> Result<Option<PathBuf>> {
         let Some(path) = &self.path else { return Ok(None) };
         if let Some(reason) = not_a_regular_file(path) {
-            return Err(Error::PipelineCacheIo { path: path.clone(), source: std::io::Error::other(reason) });
+            return Err(Error::Device(DeviceError::PipelineCacheIo {
+                path: path.clone(),
+                source: std::io::Error::other(reason),
+            }));
         }
         let data = self.data(device)?;
         if data.is_empty() {
@@ -237,7 +241,7 @@ fn not_a_regular_file(path: &Path) -> Option<String> {
 /// Writes `bytes` to a temporary file next to `path`, then renames it over `path`,
 /// so a reader sees the old file or the new one, never a partial one.
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    let io = |source| Error::PipelineCacheIo { path: path.to_owned(), source };
+    let io = |source| Error::Device(DeviceError::PipelineCacheIo { path: path.to_owned(), source });
     let dir = path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(io)?;
     let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());

@@ -8,6 +8,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use ash::vk;
 
+use crate::error::DeviceError;
 use crate::error::{Error, Result};
 use crate::log::MessageLog;
 use crate::types::context::{ContextOptions, DeviceLimits, MemoryUsage};
@@ -117,7 +118,7 @@ pub(crate) fn create(options: &ContextOptions) -> Result<Arc<ContextInner>> {
         buffer_device_address: true,
         allocation_sizes: Default::default(),
     })
-    .map_err(|source| Error::Allocation { what: "the memory allocator", source })?;
+    .map_err(|source| Error::Device(DeviceError::Allocation { what: "the memory allocator", source }))?;
     let buffer_table = BufferTable::new(device)?;
     let timeline = Timeline::new(device)?;
     std::mem::forget(pool_guard);

@@ -9,6 +9,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use ash::vk;
 
+use crate::error::DeviceError;
 use crate::error::{DeviceReport, Error, Result};
 use crate::log::Routes;
 use crate::types::context::DeviceLimits;
@@ -70,7 +71,7 @@ pub(crate) fn instance(validation: bool) -> Result<&'static SharedInstance> {
 fn create_instance(validation: bool) -> Result<SharedInstance> {
     // SAFETY: loading the system Vulkan loader runs its initialisation code; we
     // trust the installed loader as every Vulkan program does.
-    let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::LoaderMissing(e.to_string()))?;
+    let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::Device(DeviceError::LoaderMissing(e.to_string())))?;
     let mut layers: Vec<*const std::ffi::c_char> = Vec::new();
     // The messenger and debug names need VK_EXT_debug_utils: always there with the
     // validation layer; without it, where the loader has it.
@@ -83,7 +84,7 @@ fn create_instance(validation: bool) -> Result<SharedInstance> {
         let available = unsafe { entry.enumerate_instance_layer_properties() }
             .map_err(Error::vk("vkEnumerateInstanceLayerProperties"))?;
         if !available.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER)) {
-            return Err(Error::ValidationLayerMissing);
+            return Err(Error::Device(DeviceError::ValidationLayerMissing));
         }
         layers.push(VALIDATION_LAYER.as_ptr());
     }
@@ -118,8 +119,8 @@ fn create_instance(validation: bool) -> Result<SharedInstance> {
     // SAFETY: the create info and everything it points to live across the call.
     let instance = unsafe { entry.create_instance(&info, None) }.map_err(|result| match result {
         // The loader found no driver at all: no device to report.
-        vk::Result::ERROR_INCOMPATIBLE_DRIVER => Error::NoRayTracingDevice { devices: Vec::new() },
-        other => Error::Vulkan { call: "vkCreateInstance", result: other },
+        vk::Result::ERROR_INCOMPATIBLE_DRIVER => Error::Device(DeviceError::NoRayTracingDevice { devices: Vec::new() }),
+        other => Error::Device(DeviceError::Vulkan { call: "vkCreateInstance", result: other }),
     })?;
     let messenger = if debug_utils {
         let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
@@ -178,7 +179,7 @@ impl SharedDevice {
     /// `Err(DeviceLost)` once the device was lost.
     pub(crate) fn check(&self, during: &'static str) -> Result<()> {
         if self.is_lost() {
-            return Err(Error::DeviceLost { during });
+            return Err(Error::Device(DeviceError::DeviceLost { during }));
         }
         Ok(())
     }
@@ -200,9 +201,9 @@ impl SharedDevice {
         move |result| {
             if result == vk::Result::ERROR_DEVICE_LOST {
                 self.mark_lost();
-                Error::DeviceLost { during }
+                Error::Device(DeviceError::DeviceLost { during })
             } else {
-                Error::Vulkan { call, result }
+                Error::Device(DeviceError::Vulkan { call, result })
             }
         }
     }
@@ -269,7 +270,7 @@ fn no_device(mut reports: Vec<DeviceReport>, name_contains: Option<&str>) -> Err
             }
         }
     }
-    Error::NoRayTracingDevice { devices: reports }
+    Error::Device(DeviceError::NoRayTracingDevice { devices: reports })
 }
 
 /// A context's hold on a device: the device it uses, taken from the registry (made
@@ -282,10 +283,10 @@ pub(crate) fn acquire(instance: &'static SharedInstance, choice: DeviceChoice<'_
     }
     let index = choice.index.unwrap_or(0);
     let Some(chosen) = usable.get(index) else {
-        return Err(Error::DeviceIndexOutOfRange {
+        return Err(Error::Device(DeviceError::DeviceIndexOutOfRange {
             index,
             usable: usable.iter().map(|u| u.report.name.clone()).collect(),
-        });
+        }));
     };
     let (physical, queue_family) = (chosen.physical, chosen.queue_family);
     let existing = registry

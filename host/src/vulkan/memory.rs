@@ -8,6 +8,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
+use crate::error::{DeviceError, ResourceError};
 use crate::error::{Error, Result};
 use crate::vulkan::barrier::memory_barrier;
 use crate::vulkan::context::ContextInner;
@@ -44,9 +45,9 @@ impl RawBuffer {
         let buffer = unsafe { device.create_buffer(&info, None) }.map_err(|result| match result {
             // Drivers may refuse a buffer too large for any heap already here.
             vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-                Error::Allocation { what, source: gpu_allocator::AllocationError::OutOfMemory }
+                Error::Device(DeviceError::Allocation { what, source: gpu_allocator::AllocationError::OutOfMemory })
             }
-            other => Error::Vulkan { call: "vkCreateBuffer", result: other },
+            other => Error::Device(DeviceError::Vulkan { call: "vkCreateBuffer", result: other }),
         })?;
         // Wrapped at once, so an early return frees it.
         let mut raw = RawBuffer { ctx: ctx.clone(), buffer, allocation: None, size, address: 0 };
@@ -63,7 +64,7 @@ impl RawBuffer {
                 linear: true,
                 allocation_scheme: AllocationScheme::GpuAllocatorManaged,
             })
-            .map_err(|source| Error::Allocation { what, source })?;
+            .map_err(|source| Error::Device(DeviceError::Allocation { what, source }))?;
         // SAFETY: the allocation satisfies the buffer's requirements and is unbound.
         let bound = unsafe { device.bind_buffer_memory(buffer, allocation.memory(), allocation.offset()) };
         raw.allocation = Some(allocation);
@@ -89,11 +90,11 @@ impl RawBuffer {
 
     /// Copies `bytes` into a host-visible buffer, from its start.
     pub(crate) fn write_bytes(&mut self, bytes: &[u8]) -> Result<()> {
-        let mapped = self.mapped_mut().ok_or(Error::BufferSize {
+        let mapped = self.mapped_mut().ok_or(Error::Resource(ResourceError::BufferSize {
             len: bytes.len(),
             element_size: 1,
             reason: "the buffer is not host-visible",
-        })?;
+        }))?;
         let n = bytes.len().min(mapped.len());
         mapped[..n].copy_from_slice(&bytes[..n]);
         Ok(())
@@ -129,7 +130,7 @@ impl RawBuffer {
         let (slot, handle) = match table.insert(&ctx.device, raw.buffer) {
             // Slots of buffers dropped while work used them come back once it has
             // finished: collect those, then try again.
-            Err(Error::BufferTableFull { .. }) => {
+            Err(Error::Resource(ResourceError::BufferTableFull { .. })) => {
                 ctx.collect()?;
                 table.insert(&ctx.device, raw.buffer)?
             }

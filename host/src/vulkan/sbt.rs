@@ -7,6 +7,7 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use crate::error::SbtError;
 use crate::error::{Error, Result};
 use crate::types::sbt::{RegionLayout, SbtRegion};
 use crate::vulkan::memory::RawBuffer;
@@ -75,10 +76,10 @@ impl VulkanSbt {
             self.copy_on_write(region)?;
         }
         let buffer = Arc::get_mut(&mut self.buffer)
-            .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is shared".to_owned() })?;
+            .ok_or(Error::Sbt(SbtError::Update { region, reason: "the SBT buffer is shared".to_owned() }))?;
         let mapped = buffer
             .mapped_mut()
-            .ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
+            .ok_or(Error::Sbt(SbtError::Update { region, reason: "the SBT buffer is not host-visible".to_owned() }))?;
         mapped[at..at + bytes.len()].copy_from_slice(bytes);
         Ok(())
     }
@@ -95,8 +96,9 @@ impl VulkanSbt {
             MemoryLocation::CpuToGpu,
             ctx.limits.shader_group_base_alignment as u64,
         )?;
-        let bytes =
-            old.mapped().ok_or(Error::SbtUpdate { region, reason: "the SBT buffer is not host-visible".to_owned() })?;
+        let bytes = old
+            .mapped()
+            .ok_or(Error::Sbt(SbtError::Update { region, reason: "the SBT buffer is not host-visible".to_owned() }))?;
         copy.write_bytes(bytes)?;
         let (from, to) = (old.address, copy.address);
         for r in [&mut self.raygen, &mut self.miss, &mut self.hit, &mut self.callable] {

@@ -8,6 +8,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
+use crate::error::{DeviceError, ResourceError};
 use crate::error::{Error, Result};
 use crate::types::texture::{Filter, MipLevel, SamplerOptions, TextureFormat};
 use crate::vulkan::context::ContextInner;
@@ -60,19 +61,19 @@ pub(crate) fn check_format(inner: &ContextInner, format: TextureFormat, sampler:
     let features = props.optimal_tiling_features;
     let needed = vk::FormatFeatureFlags::SAMPLED_IMAGE | vk::FormatFeatureFlags::TRANSFER_DST;
     if !features.contains(needed) {
-        return Err(Error::TextureFormat {
+        return Err(Error::Resource(ResourceError::TextureFormat {
             format: format!("{format:?}"),
             problem: format!("the device cannot sample it (optimal-tiling features {features:?})"),
             fix: "use another TextureFormat (RGBA8 formats are sampled by every Vulkan device)",
-        });
+        }));
     }
     let linear = sampler.filter == Filter::Linear || sampler.mip_filter == Filter::Linear;
     if linear && !features.contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR) {
-        return Err(Error::TextureFormat {
+        return Err(Error::Resource(ResourceError::TextureFormat {
             format: format!("{format:?}"),
             problem: "the device cannot filter it linearly".to_owned(),
             fix: "use Filter::Nearest for this format, or Rgba16Float, which every Vulkan device filters",
-        });
+        }));
     }
     Ok(())
 }
@@ -122,7 +123,7 @@ pub(crate) fn create(
             linear: false,
             allocation_scheme: AllocationScheme::GpuAllocatorManaged,
         })
-        .map_err(|source| Error::Allocation { what: "a texture", source })?;
+        .map_err(|source| Error::Device(DeviceError::Allocation { what: "a texture", source }))?;
     // SAFETY: the allocation satisfies the image's requirements; the image is unbound.
     let bound = unsafe { device.bind_image_memory(texture.image, allocation.memory(), allocation.offset()) };
     texture.allocation = Some(allocation);
@@ -143,10 +144,10 @@ pub(crate) fn create(
         MemoryLocation::CpuToGpu,
         16,
     )?;
-    let mapped = staging.mapped_mut().ok_or(Error::Allocation {
+    let mapped = staging.mapped_mut().ok_or(Error::Device(DeviceError::Allocation {
         what: "a texture staging buffer",
         source: gpu_allocator::AllocationError::FailedToMap("not host-visible".to_owned()),
-    })?;
+    }))?;
     for (level, &offset) in levels.iter().zip(&offsets) {
         mapped[offset as usize..offset as usize + level.data.len()].copy_from_slice(&level.data);
     }

@@ -14,6 +14,7 @@ use std::sync::Mutex;
 
 use ash::vk;
 
+use crate::error::ResourceError;
 use crate::error::{Error, Result};
 use crate::validate::handles::{handle_value, next_generation};
 use crate::vulkan::buffer_table::RT_STAGES;
@@ -106,7 +107,7 @@ impl TextureTable {
         sampler: vk::Sampler,
     ) -> Result<(u32, u32)> {
         let mut free = self.free.lock().unwrap_or_else(|p| p.into_inner());
-        let slot = free.pop().ok_or(Error::TextureTableFull { capacity: SLOTS - 1 })?;
+        let slot = free.pop().ok_or(Error::Resource(ResourceError::TextureTableFull { capacity: SLOTS - 1 }))?;
         self.write(device, set, slot, view, sampler);
         let generation = next_generation();
         self.live[slot as usize].store(generation, Ordering::Release);

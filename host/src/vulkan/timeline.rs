@@ -25,6 +25,7 @@ use std::sync::{Mutex, MutexGuard};
 use ash::vk;
 use gpu_allocator::vulkan::Allocation;
 
+use crate::error::DeviceError;
 use crate::error::{Error, Result};
 use crate::vulkan::context::ContextInner;
 
@@ -97,8 +98,10 @@ impl ContextInner {
     pub(crate) fn completed_epoch(&self) -> Result<u64> {
         // SAFETY: the semaphore is a live timeline semaphore of this device.
         unsafe { self.device.get_semaphore_counter_value(self.timeline.semaphore) }.map_err(|e| match e {
-            vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during: "reading the GPU timeline" },
-            other => Error::Vulkan { call: "vkGetSemaphoreCounterValue", result: other },
+            vk::Result::ERROR_DEVICE_LOST => {
+                Error::Device(DeviceError::DeviceLost { during: "reading the GPU timeline" })
+            }
+            other => Error::Device(DeviceError::Vulkan { call: "vkGetSemaphoreCounterValue", result: other }),
         })
     }
 
@@ -119,8 +122,10 @@ impl ContextInner {
         // SAFETY: the semaphore is a live timeline semaphore of this device, and
         // `epoch` was submitted, so the wait ends.
         unsafe { self.device.wait_semaphores(&info, u64::MAX) }.map_err(|e| match e {
-            vk::Result::ERROR_DEVICE_LOST => Error::DeviceLost { during: "waiting for the GPU timeline" },
-            other => Error::Vulkan { call: "vkWaitSemaphores", result: other },
+            vk::Result::ERROR_DEVICE_LOST => {
+                Error::Device(DeviceError::DeviceLost { during: "waiting for the GPU timeline" })
+            }
+            other => Error::Device(DeviceError::Vulkan { call: "vkWaitSemaphores", result: other }),
         })
     }
 

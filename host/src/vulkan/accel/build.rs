@@ -9,6 +9,7 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use crate::error::ResourceError;
 use crate::error::{Error, Result};
 use crate::types::accel::transform_rows;
 use crate::types::accel::AccelSizes;
@@ -105,11 +106,11 @@ impl<'a> InputPacker<'a> {
             MemoryLocation::CpuToGpu,
             16,
         )?;
-        let mapped = buffer.mapped_mut().ok_or(Error::BufferSize {
+        let mapped = buffer.mapped_mut().ok_or(Error::Resource(ResourceError::BufferSize {
             len: self.len as usize,
             element_size: 1,
             reason: "the build-input buffer is not host-visible",
-        })?;
+        }))?;
         for (at, data) in &self.parts {
             mapped[*at as usize..*at as usize + data.len()].copy_from_slice(data);
         }

@@ -93,7 +93,7 @@ impl VulkanLaunch {
             exceptions.extend(thrown);
         }
         if total > 0 {
-            return Err(crate::error::exceptions_error(total, exceptions, self.pipeline.max_trace_depth));
+            return Err(crate::error::exceptions_error(total, exceptions, self.pipeline.max_trace_depth).into());
         }
         Ok(())
     }

@@ -10,6 +10,7 @@ use ash::vk;
 use raykit_device::LaunchParams;
 use raykit_spirv::ParamsDelivery;
 
+use crate::error::LinkError;
 use crate::error::{Error, Result};
 use crate::stack::{GroupRole, GroupStackSizes, StackSizes};
 use crate::types::group::GroupKind;
@@ -146,14 +147,17 @@ pub(crate) fn check_groups<P: LaunchParams>(
 ) -> Result<()> {
     let limits = inner.limits;
     if max_trace_depth > limits.max_ray_recursion_depth {
-        return Err(Error::TraceDepthTooLarge { requested: max_trace_depth, limit: limits.max_ray_recursion_depth });
+        return Err(Error::Link(LinkError::TraceDepthTooLarge {
+            requested: max_trace_depth,
+            limit: limits.max_ray_recursion_depth,
+        }));
     }
     let params_size = std::mem::size_of::<P>();
     let delivery = params_delivery::<P>();
     // Launches write uniform params with `vkCmdUpdateBuffer`, which takes at most 65536 bytes.
     let uniform_limit = limits.max_uniform_buffer_range.min(65536);
     if delivery != ParamsDelivery::PushConstants && params_size > uniform_limit as usize {
-        return Err(Error::ParamsTooLarge { size: params_size, limit: uniform_limit });
+        return Err(Error::Link(LinkError::ParamsTooLarge { size: params_size, limit: uniform_limit }));
     }
     for group in groups {
         for program in group.programs() {
