@@ -88,7 +88,6 @@ pub(crate) fn create(
     options: SamplerOptions,
 ) -> Result<(VulkanImage, u32, u32)> {
     inner.check_device("a texture creation")?;
-    let device = &inner.device;
     let level_count = levels.len() as u32;
     // Wrapped at once: an early return frees whatever exists (null handles are no-ops).
     let mut texture = VulkanImage {
@@ -98,6 +97,31 @@ pub(crate) fn create(
         sampler: vk::Sampler::null(),
         allocation: None,
     };
+    allocate_image(inner, &mut texture, format, (width, height), level_count)?;
+    let range = vk::ImageSubresourceRange {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        base_mip_level: 0,
+        level_count,
+        base_array_layer: 0,
+        layer_count: 1,
+    };
+    upload_levels(inner, texture.image, levels, range)?;
+    create_view_and_sampler(inner, &mut texture, format, range, options)?;
+    let table = &inner.buffer_table;
+    let (slot, handle) = table.textures.insert(&inner.device, table.set, texture.view, texture.sampler)?;
+    Ok((texture, slot, handle))
+}
+
+/// Creates `texture`'s image of `format`, `width × height` with `level_count`
+/// mip levels, in device-local memory bound to it.
+fn allocate_image(
+    inner: &Arc<ContextInner>,
+    texture: &mut VulkanImage,
+    format: TextureFormat,
+    (width, height): (u32, u32),
+    level_count: u32,
+) -> Result<()> {
+    let device = &inner.device;
     let info = vk::ImageCreateInfo::default()
         .image_type(vk::ImageType::TYPE_2D)
         .format(conv::format(format))
@@ -129,6 +153,18 @@ pub(crate) fn create(
     texture.allocation = Some(allocation);
     bound.map_err(Error::vk("vkBindImageMemory"))?;
 
+    Ok(())
+}
+
+/// Uploads `levels` into `image` through a staging buffer and leaves it ready
+/// for ray-tracing shaders to sample; waits for the copy.
+fn upload_levels(
+    inner: &Arc<ContextInner>,
+    image: vk::Image,
+    levels: &[MipLevel],
+    range: vk::ImageSubresourceRange,
+) -> Result<()> {
+    let device = &inner.device;
     // Staging: each level at a 16-byte aligned offset (a multiple of every texel size).
     let mut offsets = Vec::with_capacity(levels.len());
     let mut total = 0u64;
@@ -151,13 +187,6 @@ pub(crate) fn create(
     for (level, &offset) in levels.iter().zip(&offsets) {
         mapped[offset as usize..offset as usize + level.data.len()].copy_from_slice(&level.data);
     }
-    let range = vk::ImageSubresourceRange {
-        aspect_mask: vk::ImageAspectFlags::COLOR,
-        base_mip_level: 0,
-        level_count,
-        base_array_layer: 0,
-        layer_count: 1,
-    };
     let regions: Vec<vk::BufferImageCopy> = levels
         .iter()
         .zip(&offsets)
@@ -176,7 +205,6 @@ pub(crate) fn create(
             image_extent: vk::Extent3D { width: level.width, height: level.height, depth: 1 },
         })
         .collect();
-    let image = texture.image;
     let src = staging.buffer;
     let mut submission = inner.submit("a texture upload", |cmd| {
         let to_transfer = vk::ImageMemoryBarrier::default()
@@ -224,6 +252,19 @@ pub(crate) fn create(
     submission.wait()?;
     drop(staging);
 
+    Ok(())
+}
+
+/// Makes `texture`'s view over `range` and its sampler of `options`.
+fn create_view_and_sampler(
+    inner: &Arc<ContextInner>,
+    texture: &mut VulkanImage,
+    format: TextureFormat,
+    range: vk::ImageSubresourceRange,
+    options: SamplerOptions,
+) -> Result<()> {
+    let device = &inner.device;
+    let level_count = range.level_count;
     let view_info = vk::ImageViewCreateInfo::default()
         .image(texture.image)
         .view_type(vk::ImageViewType::TYPE_2D)
@@ -245,7 +286,5 @@ pub(crate) fn create(
         .max_lod(level_count as f32);
     // SAFETY: valid create info; filters are supported for the format (checked).
     texture.sampler = unsafe { device.create_sampler(&sampler_info, None) }.map_err(Error::vk("vkCreateSampler"))?;
-    let table = &inner.buffer_table;
-    let (slot, handle) = table.textures.insert(device, table.set, texture.view, texture.sampler)?;
-    Ok((texture, slot, handle))
+    Ok(())
 }

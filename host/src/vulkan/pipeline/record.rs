@@ -123,22 +123,7 @@ pub(crate) fn submit(
     // Only the exception buffers of programs that can throw are zeroed, copied
     // and read back (see `ModuleInner::records_exceptions`).
     let throwing = &inner.throwing;
-    let readback = if throwing.is_empty() {
-        None
-    } else {
-        let pooled = inner.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
-        Some(match pooled {
-            Some(buffer) => buffer,
-            None => RawBuffer::new(
-                ctx,
-                "user exception readback",
-                ExceptionBuffer::SIZE * throwing.len() as u64,
-                vk::BufferUsageFlags::TRANSFER_DST,
-                gpu_allocator::MemoryLocation::GpuToCpu,
-                16,
-            )?,
-        })
-    };
+    let readback = exception_readback(inner)?;
     // Whether the launch writes anything with transfers before tracing.
     let transfers = !throwing.is_empty() || uniform.is_some();
     // The handles of the params, those in SBT records whose type derives
@@ -232,27 +217,62 @@ pub(crate) fn submit(
                 vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE | vk::AccessFlags::HOST_READ,
             );
             if let Some(readback) = &readback {
-                for (i, exceptions) in throwing.iter().enumerate() {
-                    let region = vk::BufferCopy {
-                        src_offset: 0,
-                        dst_offset: i as u64 * ExceptionBuffer::SIZE,
-                        size: ExceptionBuffer::SIZE,
-                    };
-                    device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]);
-                }
-                memory_barrier(
-                    device,
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::TRANSFER_WRITE,
-                    vk::PipelineStageFlags::HOST,
-                    vk::AccessFlags::HOST_READ,
-                );
+                record_exception_copies(device, cmd, throwing, readback);
             }
         }
     })?;
     let launch = VulkanLaunch { submission, readback, pipeline: inner.clone(), _sbt: buffer.clone() };
     Ok(launch)
+}
+
+/// The host buffer a launch of `inner` copies its exception buffers into (one
+/// from the pipeline's pool, else a new one), or `None` when no program can throw.
+fn exception_readback(inner: &PipelineInner) -> Result<Option<RawBuffer>> {
+    if inner.throwing.is_empty() {
+        return Ok(None);
+    }
+    let pooled = inner.readbacks.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
+    Ok(Some(match pooled {
+        Some(buffer) => buffer,
+        None => RawBuffer::new(
+            &inner.ctx,
+            "user exception readback",
+            ExceptionBuffer::SIZE * inner.throwing.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            gpu_allocator::MemoryLocation::GpuToCpu,
+            16,
+        )?,
+    }))
+}
+
+/// Records the copies of the `throwing` programs' exception buffers into
+/// `readback`, and the barrier that makes them visible to the host.
+///
+/// # Safety
+/// `cmd` is recording on `device`; the buffers stay alive until it has run.
+unsafe fn record_exception_copies(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    throwing: &[Arc<ExceptionBuffer>],
+    readback: &RawBuffer,
+) {
+    for (i, exceptions) in throwing.iter().enumerate() {
+        let region =
+            vk::BufferCopy { src_offset: 0, dst_offset: i as u64 * ExceptionBuffer::SIZE, size: ExceptionBuffer::SIZE };
+        // SAFETY: per the contract above; the regions lie inside both buffers.
+        unsafe { device.cmd_copy_buffer(cmd, exceptions.buffer.buffer, readback.buffer, &[region]) };
+    }
+    // SAFETY: per the contract above.
+    unsafe {
+        memory_barrier(
+            device,
+            cmd,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::AccessFlags::TRANSFER_WRITE,
+            vk::PipelineStageFlags::HOST,
+            vk::AccessFlags::HOST_READ,
+        )
+    };
 }
 
 /// What the programs of a launch access: uniform params, buffers (read and written).
