@@ -5,7 +5,7 @@ use std::ops::Range;
 
 use crate::error::Result;
 
-/// What a per-device state of a [`Split`] lets the split read and write: its
+/// What a per-device state of a [`Split`](super::Split) lets the split read and write: its
 /// rows of the result, as they stand after the launches so far (for a
 /// progressive render, the accumulated sums). Gathering reads them; rows that
 /// change device are read from one state and written into another.
@@ -61,11 +61,11 @@ impl Band {
     }
 }
 
-/// How a [`Split`] shares rows between its devices.
+/// How a [`Split`](super::Split) shares rows between its devices.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Balance {
     /// By each device's measured speed (rows per second), updated after every
-    /// launch (see the [module docs](self)).
+    /// launch (see the [module docs](super)).
     Measured,
     /// In these proportions, one weight per device, fixed. A weight of zero
     /// leaves a device out.

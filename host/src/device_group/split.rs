@@ -9,9 +9,9 @@ use crate::context::Context;
 use crate::error::DeviceGroupError;
 use crate::error::{Error, Result};
 
-/// Split launches over a [`DeviceGroup`]: one state per device (built by
-/// [`DeviceGroup::split`]), the bands of the next launch, and what each device
-/// measured. See the [module docs](self).
+/// Split launches over a [`DeviceGroup`](super::DeviceGroup): one state per device (built by
+/// [`DeviceGroup::split`](super::DeviceGroup::split)), the bands of the next launch, and what each device
+/// measured. See the [module docs](super).
 pub struct Split<T> {
     pub(super) contexts: Vec<Context>,
     pub(super) states: Vec<T>,
@@ -89,7 +89,7 @@ impl<T: BandRows> Split<T> {
     }
 
     /// The rows each device rendered last, whose state it holds (empty before the
-    /// first launch and after [`Split::forget_rows`]).
+    /// first launch and after [`Split::forget_rows`](super::Split::forget_rows)).
     pub fn held_bands(&self) -> Vec<Band> {
         self.held
             .iter()
@@ -144,7 +144,7 @@ impl<T: BandRows> Split<T> {
     }
 
     /// Whether rows that change device carry their state over (on by default;
-    /// see the [module docs](self)). Off for renders whose launches do not build
+    /// see the [module docs](super)). Off for renders whose launches do not build
     /// on earlier ones.
     pub fn set_carry_rows(&mut self, carry: bool) {
         self.carry_rows = carry;
@@ -158,7 +158,7 @@ impl<T: BandRows> Split<T> {
     }
 
     /// One split launch: moves the rows that change device (see the
-    /// [module docs](self)), then calls `launch` with each device's state and
+    /// [module docs](super)), then calls `launch` with each device's state and
     /// band, on a thread per device, all at once (a device whose band is empty
     /// sits out), and waits for them all. Then measures, and with
     /// [`Balance::Measured`] sets the next launch's bands.
@@ -300,7 +300,7 @@ impl<T: BandRows> Split<T> {
         Ok(())
     }
 
-    /// [`Split::gather`] into a new vector.
+    /// [`Split::gather`](super::Split::gather) into a new vector.
     pub fn gather_vec(&self) -> Result<Vec<T::Item>>
     where
         T: Sync,
