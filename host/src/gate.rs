@@ -87,3 +87,16 @@ impl Context {
         Ok(SubmissionGate { owner: GateOwner::Vulkan(inner.clone()), value })
     }
 }
+
+impl Context {
+    /// Test hook: from now on, device-local buffers of this Vulkan context that
+    /// the host could map are read and written through staging copies, as on a
+    /// GPU whose memory the host cannot map (made before or after the call). No
+    /// effect on the CPU backend.
+    #[doc(hidden)]
+    pub fn force_staging_copies(&self, on: bool) {
+        if let Some(inner) = self.as_vulkan() {
+            inner.force_staging.store(on, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+}

@@ -44,7 +44,7 @@ pub use error::{
 #[doc(hidden)]
 pub use gate::SubmissionGate;
 pub use log::{LogCallback, LoggedObject, MessageLog, Severity, ValidationMessage};
-pub use memory::{DeviceBuffer, PendingRead};
+pub use memory::{BufferMemory, DeviceBuffer, PendingRead};
 pub use module::{spirv_path, EmbeddedSpirv, EntryPointInfo, Module};
 pub use pipeline::launch::Launch;
 pub use pipeline::library::{LibraryOptions, PipelineLibrary};

@@ -5,6 +5,29 @@
 //! [`Buffer<T>`] handle (a slot in the context's bindless table). On Vulkan it
 //! sits on the backend's untyped buffer (`vulkan::memory::RawBuffer`), the building
 //! block raykit also uses for SBTs, acceleration structures and scratch memory.
+//!
+//! # Where a buffer lives
+//!
+//! A buffer's [`BufferMemory`] says where its memory is. The default,
+//! [`BufferMemory::DeviceLocal`], is the device's own memory, where device
+//! programs read and write fastest: on a discrete GPU the host reaches it through
+//! staging copies ([`DeviceBuffer::read`], [`DeviceBuffer::read_async`],
+//! [`DeviceBuffer::write`], the upload in [`DeviceBuffer::from_slice`]), each
+//! through a host-visible staging buffer the device buffer keeps and reuses, so
+//! a progressive render that reads its image every step allocates it once. Where
+//! device-local memory is also host-visible (lavapipe, integrated GPUs, and
+//! GPUs whose whole memory the host can map), the host reads and writes it in
+//! place, with no copy. [`BufferMemory::HostRead`] and [`BufferMemory::HostWrite`]
+//! keep a buffer in host-visible memory for data that crosses the bus every
+//! launch anyway (as wgpu's `MAP_READ` and `MAP_WRITE` buffers): the host maps
+//! them, and device programs reach them over the bus.
+//!
+//! What raykit allocates for itself: SBTs and build inputs (vertices, indices,
+//! instance records) are written once by the host and read by the device, in
+//! host-visible memory the device reads (`CpuToGpu`, device-local where the host
+//! can map it); acceleration structures, build scratch, textures, exception
+//! counters and the params uniform are device-local; exception and timestamp
+//! readbacks and texture uploads are host-visible staging.
 
 use std::marker::PhantomData;
 use std::sync::Arc;
@@ -16,7 +39,7 @@ use crate::context::Context;
 use crate::error::ResourceError;
 use crate::error::{Error, Result};
 use crate::vulkan::context::Submission;
-use crate::vulkan::memory::RawBuffer;
+use crate::vulkan::memory::{RawBuffer, StagingDirection, StagingSlot};
 use crate::vulkan::timeline::Retired;
 
 /// A typed array of `T` in device memory, visible to device programs through
@@ -31,16 +54,51 @@ pub struct DeviceBuffer<T: Element> {
     _element: PhantomData<T>,
 }
 
+/// Where a [`DeviceBuffer`]'s memory is (see the [module docs](self)).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BufferMemory {
+    /// The device's own memory: fastest for device programs. The host reaches it
+    /// in place where the device's memory is host-visible, else through staging
+    /// copies. The default.
+    #[default]
+    DeviceLocal,
+    /// Host memory, cached for host reads, that device programs write over the
+    /// bus: for a buffer read back after every launch.
+    HostRead,
+    /// Host memory the host writes and device programs read over the bus: for
+    /// data rewritten before every launch (upload rings, per-frame constants).
+    HostWrite,
+}
+
+impl BufferMemory {
+    fn location(self) -> MemoryLocation {
+        match self {
+            BufferMemory::DeviceLocal => MemoryLocation::GpuOnly,
+            BufferMemory::HostRead => MemoryLocation::GpuToCpu,
+            BufferMemory::HostWrite => MemoryLocation::CpuToGpu,
+        }
+    }
+}
+
+/// A Vulkan [`DeviceBuffer`]: its buffer, where it lives, and the staging
+/// buffers its copies reuse when the host cannot map it.
+struct VulkanBuffer {
+    raw: RawBuffer,
+    memory: BufferMemory,
+    readback: StagingSlot,
+    upload: StagingSlot,
+}
+
 /// Where a [`DeviceBuffer`]'s elements are.
 enum BufferRepr {
     /// A Vulkan buffer.
-    Vulkan(RawBuffer),
+    Vulkan(VulkanBuffer),
     /// Words in host memory, in the CPU backend's table.
     Cpu { ctx: Arc<crate::cpu::CpuContext>, words: crate::cpu::buffers::Words },
 }
 
 impl<T: Element> DeviceBuffer<T> {
-    fn new(ctx: &Context, len: usize, location: MemoryLocation) -> Result<Self> {
+    fn new(ctx: &Context, len: usize, memory: BufferMemory) -> Result<Self> {
         let element_size = std::mem::size_of::<T>();
         if len == 0 {
             return Err(Error::Resource(ResourceError::BufferSize {
@@ -70,26 +128,40 @@ impl<T: Element> DeviceBuffer<T> {
             return Ok(DeviceBuffer { repr, slot, handle, len, _element: PhantomData });
         }
         let inner = ctx.vulkan("a buffer")?;
-        let (raw, slot, handle) = RawBuffer::storage(inner, size, location)?;
-        Ok(DeviceBuffer { repr: BufferRepr::Vulkan(raw), slot, handle, len, _element: PhantomData })
+        let (raw, slot, handle) = RawBuffer::storage(inner, size, memory.location())?;
+        let vulkan = VulkanBuffer { raw, memory, readback: StagingSlot::default(), upload: StagingSlot::default() };
+        Ok(DeviceBuffer { repr: BufferRepr::Vulkan(vulkan), slot, handle, len, _element: PhantomData })
     }
 
-    /// A zero-filled buffer of `len` elements, for results the host reads back.
+    /// A zero-filled buffer of `len` elements in device-local memory, for
+    /// results of device programs.
     pub fn zeroed(ctx: &Context, len: usize) -> Result<Self> {
-        let mut buffer = Self::new(ctx, len, MemoryLocation::GpuToCpu)?;
-        if let BufferRepr::Vulkan(raw) = &mut buffer.repr {
-            if let Some(bytes) = raw.mapped_mut() {
-                bytes.fill(0);
+        Self::zeroed_in(ctx, len, BufferMemory::DeviceLocal)
+    }
+
+    /// A zero-filled buffer of `len` elements in `memory`.
+    pub fn zeroed_in(ctx: &Context, len: usize, memory: BufferMemory) -> Result<Self> {
+        let mut buffer = Self::new(ctx, len, memory)?;
+        if let BufferRepr::Vulkan(vulkan) = &mut buffer.repr {
+            match vulkan.mapped_mut() {
+                Some(bytes) => bytes.fill(0),
+                None => vulkan.raw.fill_zero()?.wait()?,
             }
         }
         Ok(buffer)
     }
 
-    /// A buffer holding a copy of `data`, for inputs of device programs.
+    /// A buffer in device-local memory holding a copy of `data`, for inputs of
+    /// device programs.
     pub fn from_slice(ctx: &Context, data: &[T]) -> Result<Self> {
-        let mut buffer = Self::new(ctx, data.len(), MemoryLocation::CpuToGpu)?;
+        Self::from_slice_in(ctx, data, BufferMemory::DeviceLocal)
+    }
+
+    /// A buffer in `memory` holding a copy of `data`.
+    pub fn from_slice_in(ctx: &Context, data: &[T], memory: BufferMemory) -> Result<Self> {
+        let mut buffer = Self::new(ctx, data.len(), memory)?;
         match &mut buffer.repr {
-            BufferRepr::Vulkan(raw) => raw.write_bytes(bytemuck::cast_slice(data))?,
+            BufferRepr::Vulkan(vulkan) => vulkan.write(0, bytemuck::cast_slice(data))?,
             BufferRepr::Cpu { words, .. } => crate::cpu::buffers::write_words(words, 0, bytemuck::cast_slice(data)),
         }
         Ok(buffer)
@@ -110,25 +182,32 @@ impl<T: Element> DeviceBuffer<T> {
         self.len == 0
     }
 
+    /// Where the buffer's memory is (on the CPU backend, always
+    /// [`BufferMemory::DeviceLocal`]: the host's memory is the device's).
+    pub fn memory(&self) -> BufferMemory {
+        match &self.repr {
+            BufferRepr::Vulkan(vulkan) => vulkan.memory,
+            BufferRepr::Cpu { .. } => BufferMemory::DeviceLocal,
+        }
+    }
+
+    /// Whether the host reads and writes the buffer in place, without a staging
+    /// copy: host-visible memory, or device-local memory the host can map.
+    pub fn is_host_mapped(&self) -> bool {
+        match &self.repr {
+            BufferRepr::Vulkan(vulkan) => vulkan.mapped().is_some(),
+            BufferRepr::Cpu { .. } => true,
+        }
+    }
+
     /// Copies the buffer's contents to the host. Waits first for the work
     /// submitted so far (launches, copies) to finish, so the contents are those
     /// pending launches leave; see [`DeviceBuffer::read_async`] for a copy that
     /// does not block.
     pub fn read(&self) -> Result<Vec<T>> {
-        let raw = match &self.repr {
-            BufferRepr::Vulkan(raw) => raw,
-            BufferRepr::Cpu { ctx, words } => {
-                ctx.wait_idle();
-                return Ok(read_cpu(words, self.len));
-            }
-        };
-        raw.ctx.wait_for_pending_work()?;
-        let bytes = raw.mapped().ok_or(Error::Resource(ResourceError::BufferSize {
-            len: self.len,
-            element_size: std::mem::size_of::<T>(),
-            reason: "the buffer is not host-visible",
-        }))?;
-        Ok(bytemuck::pod_collect_to_vec(bytes))
+        let mut out = vec![T::zeroed(); self.len];
+        self.read_into(0, &mut out)?;
+        Ok(out)
     }
 
     /// Submits a copy of the buffer's contents, as the work submitted before it
@@ -140,67 +219,56 @@ impl<T: Element> DeviceBuffer<T> {
     /// have ended (when [`PendingRead::wait`] finds them ended), from the
     /// buffer's words, which the returned value keeps.
     pub fn read_async(&self) -> Result<PendingRead<T>> {
-        let raw = match &self.repr {
-            BufferRepr::Vulkan(raw) => raw,
+        let vulkan = match &self.repr {
+            BufferRepr::Vulkan(vulkan) => vulkan,
             BufferRepr::Cpu { ctx, words } => {
                 let after = ctx.last_epoch();
                 let state = ReadRepr::Cpu { ctx: ctx.clone(), words: words.clone(), after, len: self.len };
                 return Ok(PendingRead { state, _element: PhantomData });
             }
         };
-        let (submission, staging) = raw.read_back()?;
+        let raw = &vulkan.raw;
+        let staging = vulkan.readback.take(&raw.ctx, raw.size, StagingDirection::Readback)?;
+        let submission = raw.copy_to(&staging, 0, raw.size)?;
+        let staging = Staged { buffer: Some(staging), slot: vulkan.readback.clone() };
         Ok(PendingRead { state: ReadRepr::Vulkan { submission, staging, len: self.len }, _element: PhantomData })
     }
 
     /// Copies elements `first..first + out.len()` into `out`: a part of
     /// [`DeviceBuffer::read`], which waits for pending work the same way.
     pub fn read_into(&self, first: usize, out: &mut [T]) -> Result<()> {
-        let end = self.check_range(first, out.len())?;
+        self.check_range(first, out.len())?;
         let size = std::mem::size_of::<T>();
         match &self.repr {
-            BufferRepr::Vulkan(raw) => {
-                raw.ctx.wait_for_pending_work()?;
-                let bytes = raw.mapped().ok_or(Error::Resource(ResourceError::BufferSize {
-                    len: self.len,
-                    element_size: size,
-                    reason: "the buffer is not host-visible",
-                }))?;
-                bytemuck::cast_slice_mut::<T, u8>(out).copy_from_slice(&bytes[first * size..end * size]);
-            }
+            BufferRepr::Vulkan(vulkan) => vulkan.read((first * size) as u64, bytemuck::cast_slice_mut(out)),
             BufferRepr::Cpu { ctx, words } => {
                 ctx.wait_idle();
                 let mut tmp = vec![0u32; out.len() * T::WORDS as usize];
                 crate::cpu::buffers::read_words(words, first as u64 * u64::from(T::WORDS), &mut tmp);
                 bytemuck::cast_slice_mut::<T, u8>(out).copy_from_slice(bytemuck::cast_slice(&tmp));
+                Ok(())
             }
         }
-        Ok(())
     }
 
     /// Overwrites elements `first..first + data.len()` (after pending work that
     /// may use the buffer has finished, as [`DeviceBuffer::write`] does).
     pub fn write_at(&mut self, first: usize, data: &[T]) -> Result<()> {
-        let end = self.check_range(first, data.len())?;
+        self.check_range(first, data.len())?;
         let size = std::mem::size_of::<T>();
-        let len = self.len;
         match &mut self.repr {
-            BufferRepr::Vulkan(raw) => {
-                raw.ctx.wait_for_pending_work()?;
-                let bytes = raw.mapped_mut().ok_or(Error::Resource(ResourceError::BufferSize {
-                    len,
-                    element_size: size,
-                    reason: "the buffer is not host-visible",
-                }))?;
-                bytes[first * size..end * size].copy_from_slice(bytemuck::cast_slice(data));
+            BufferRepr::Vulkan(vulkan) => {
+                vulkan.raw.ctx.wait_for_pending_work()?;
+                vulkan.write((first * size) as u64, bytemuck::cast_slice(data))
             }
             BufferRepr::Cpu { ctx, words } => {
                 ctx.wait_idle();
                 let mut tmp = vec![0u32; data.len() * T::WORDS as usize];
                 bytemuck::cast_slice_mut::<u32, u8>(&mut tmp).copy_from_slice(bytemuck::cast_slice(data));
                 crate::cpu::buffers::write_words(words, first as u64 * u64::from(T::WORDS), &tmp);
+                Ok(())
             }
         }
-        Ok(())
     }
 
     /// The end of the `count` elements from `first`, when they are in the buffer.
@@ -224,17 +292,95 @@ impl<T: Element> DeviceBuffer<T> {
                 reason: "more elements than the buffer holds",
             }));
         }
-        // Pending launches may read or write the buffer: let them finish first.
-        match &mut self.repr {
-            BufferRepr::Vulkan(raw) => {
-                raw.ctx.wait_for_pending_work()?;
-                raw.write_bytes(bytemuck::cast_slice(data))
-            }
-            BufferRepr::Cpu { ctx, words } => {
-                ctx.wait_idle();
-                crate::cpu::buffers::write_words(words, 0, bytemuck::cast_slice(data));
-                Ok(())
-            }
+        self.write_at(0, data)
+    }
+}
+
+impl VulkanBuffer {
+    /// The buffer's bytes, where the host can map it.
+    fn mapped(&self) -> Option<&[u8]> {
+        if self.staging_forced() {
+            return None;
+        }
+        self.raw.mapped()
+    }
+
+    /// The buffer's bytes, writable, where the host can map it.
+    fn mapped_mut(&mut self) -> Option<&mut [u8]> {
+        if self.staging_forced() {
+            return None;
+        }
+        self.raw.mapped_mut()
+    }
+
+    /// Whether the context copies every buffer through staging (a test hook).
+    fn staging_forced(&self) -> bool {
+        #[cfg(feature = "fault-injection")]
+        if self.memory == BufferMemory::DeviceLocal {
+            return self.raw.ctx.force_staging.load(std::sync::atomic::Ordering::Relaxed);
+        }
+        false
+    }
+
+    /// Reads `out.len()` bytes from `offset` once the work submitted so far has
+    /// finished: in place when mapped, else through the readback staging buffer.
+    fn read(&self, offset: u64, out: &mut [u8]) -> Result<()> {
+        let raw = &self.raw;
+        raw.ctx.wait_for_pending_work()?;
+        if let Some(bytes) = self.mapped() {
+            out.copy_from_slice(&bytes[offset as usize..offset as usize + out.len()]);
+            return Ok(());
+        }
+        let size = out.len() as u64;
+        let staging = self.readback.take(&raw.ctx, size, StagingDirection::Readback)?;
+        raw.copy_to(&staging, offset, size)?.wait()?;
+        let bytes = staging.mapped().ok_or_else(not_host_visible(out.len()))?;
+        out.copy_from_slice(&bytes[..out.len()]);
+        self.readback.give_back(staging);
+        Ok(())
+    }
+
+    /// Writes `data` at `offset` (the caller has waited for work that may use
+    /// the buffer): in place when mapped, else through the upload staging
+    /// buffer, waiting for the copy.
+    fn write(&mut self, offset: u64, data: &[u8]) -> Result<()> {
+        if let Some(bytes) = self.mapped_mut() {
+            bytes[offset as usize..offset as usize + data.len()].copy_from_slice(data);
+            return Ok(());
+        }
+        let raw = &self.raw;
+        let mut staging = self.upload.take(&raw.ctx, data.len() as u64, StagingDirection::Upload)?;
+        let mapped = staging.mapped_mut().ok_or_else(not_host_visible(data.len()))?;
+        mapped[..data.len()].copy_from_slice(data);
+        raw.copy_from(&staging, offset, data.len() as u64)?.wait()?;
+        self.upload.give_back(staging);
+        Ok(())
+    }
+}
+
+/// The error of a staging buffer the host cannot map (a driver that offers no
+/// host-visible memory).
+fn not_host_visible(len: usize) -> impl FnOnce() -> Error {
+    move || {
+        Error::Resource(ResourceError::BufferSize {
+            len,
+            element_size: 1,
+            reason: "the device offers no host-visible memory to copy through",
+        })
+    }
+}
+
+/// A staging buffer in use by a pending read: given back to the buffer's slot
+/// when the read is done with it (or dropped).
+struct Staged {
+    buffer: Option<RawBuffer>,
+    slot: StagingSlot,
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if let Some(buffer) = self.buffer.take() {
+            self.slot.give_back(buffer);
         }
     }
 }
@@ -242,7 +388,7 @@ impl<T: Element> DeviceBuffer<T> {
 impl<T: Element> std::fmt::Debug for DeviceBuffer<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let (bytes, host_visible) = match &self.repr {
-            BufferRepr::Vulkan(raw) => (raw.size, raw.mapped().is_some()),
+            BufferRepr::Vulkan(vulkan) => (vulkan.raw.size, vulkan.raw.mapped().is_some()),
             BufferRepr::Cpu { words, .. } => (4 * words.len() as u64, true),
         };
         f.debug_struct("DeviceBuffer")
@@ -261,9 +407,9 @@ impl<T: Element> Drop for DeviceBuffer<T> {
         // pending work can read it (on the CPU backend, launches running keep the
         // words they started with).
         match &self.repr {
-            BufferRepr::Vulkan(raw) => {
-                raw.ctx.buffer_table.kill(self.slot);
-                raw.ctx.retire(Retired::Slot(self.slot));
+            BufferRepr::Vulkan(vulkan) => {
+                vulkan.raw.ctx.buffer_table.kill(self.slot);
+                vulkan.raw.ctx.retire(Retired::Slot(self.slot));
             }
             BufferRepr::Cpu { ctx, .. } => ctx.buffers.remove(self.slot),
         }
@@ -296,7 +442,7 @@ enum ReadRepr {
     Vulkan {
         // Field order: the submission (which waits when dropped) goes first.
         submission: Submission,
-        staging: RawBuffer,
+        staging: Staged,
         len: usize,
     },
     /// A CPU buffer's words, copied once the launches started before epoch
@@ -330,12 +476,9 @@ impl<T: Element> PendingRead<T> {
             }
         };
         submission.wait()?;
-        let bytes = staging.mapped().ok_or(Error::Resource(ResourceError::BufferSize {
-            len,
-            element_size: std::mem::size_of::<T>(),
-            reason: "the readback buffer is not host-visible",
-        }))?;
-        Ok(bytemuck::pod_collect_to_vec(bytes))
+        let size = len * std::mem::size_of::<T>();
+        let bytes = staging.buffer.as_ref().and_then(RawBuffer::mapped).ok_or_else(not_host_visible(size))?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes[..size]))
     }
 }
 

@@ -63,6 +63,10 @@ pub(crate) struct ContextInner {
     /// The test hook that holds submissions on the device (see [`crate::gate`]).
     #[cfg(feature = "fault-injection")]
     pub(crate) gate: crate::vulkan::gate::Gate,
+    /// Test hook: buffers the host could map are copied through staging buffers
+    /// as on a discrete GPU (see `crate::gate`).
+    #[cfg(feature = "fault-injection")]
+    pub(crate) force_staging: std::sync::atomic::AtomicBool,
 }
 
 /// Whether `options` (or `RAYKIT_VALIDATION=1`) ask for the validation layer.
@@ -145,6 +149,8 @@ pub(crate) fn create(options: &ContextOptions) -> Result<Arc<ContextInner>> {
         shared,
         #[cfg(feature = "fault-injection")]
         gate: Default::default(),
+        #[cfg(feature = "fault-injection")]
+        force_staging: Default::default(),
     };
     inner.set_name(command_pool, "command pool");
     inner.set_name(inner.buffer_table.set, "buffer table");

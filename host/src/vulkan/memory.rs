@@ -122,7 +122,9 @@ impl RawBuffer {
             ctx,
             "DeviceBuffer",
             size,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::TRANSFER_DST,
             location,
             16,
         )?;
@@ -139,47 +141,119 @@ impl RawBuffer {
         Ok((raw, slot, handle))
     }
 
-    /// Submits a copy of the whole buffer into a new host-visible one: the
-    /// submission, and the copy, to read once the submission has finished.
-    pub(crate) fn read_back(&self) -> Result<(Submission, RawBuffer)> {
-        let ctx = &self.ctx;
-        let staging = RawBuffer::new(
-            ctx,
-            "DeviceBuffer readback",
-            self.size,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-            16,
-        )?;
-        let (src, dst, size) = (self.buffer, staging.buffer, self.size);
-        let submission = ctx.submit("a buffer readback", |cmd| {
+    /// Records a copy of `size` bytes from `src` at `src_offset` to `dst` at
+    /// `dst_offset`, between barriers that order it after all earlier work and
+    /// before all later work and host reads (every raykit submission ends so; see
+    /// `vulkan::pipeline::record`), and submits it.
+    fn submit_copy(
+        ctx: &Arc<ContextInner>,
+        during: &'static str,
+        (src, src_offset): (vk::Buffer, u64),
+        (dst, dst_offset): (vk::Buffer, u64),
+        size: u64,
+    ) -> Result<Submission> {
+        ctx.submit(during, |cmd| {
+            let region = vk::BufferCopy { src_offset, dst_offset, size };
             // SAFETY: both buffers are alive while the copy is pending (the caller
-            // keeps `staging` until the submission has finished, and the source's
-            // drop waits for this epoch); `cmd` is recording; the sizes match.
+            // keeps them until the submission has finished, or their drops wait
+            // for its epoch); `cmd` is recording; the region lies inside both.
             unsafe {
                 let device = &ctx.device;
-                memory_barrier(
-                    device,
-                    cmd,
-                    vk::PipelineStageFlags::ALL_COMMANDS,
-                    vk::AccessFlags::MEMORY_WRITE,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::TRANSFER_READ,
-                );
-                device.cmd_copy_buffer(cmd, src, dst, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
-                // Also orders the copy before every later command (a launch that
-                // writes the buffer next starts with no barrier of its own; see
-                // `crate::vulkan::pipeline::record`).
+                memory_barrier(device, cmd, ALL, ALL_MEMORY, vk::PipelineStageFlags::TRANSFER, TRANSFER_ACCESS);
+                device.cmd_copy_buffer(cmd, src, dst, &[region]);
                 memory_barrier(
                     device,
                     cmd,
                     vk::PipelineStageFlags::TRANSFER,
                     vk::AccessFlags::TRANSFER_WRITE,
-                    vk::PipelineStageFlags::HOST | vk::PipelineStageFlags::ALL_COMMANDS,
-                    vk::AccessFlags::HOST_READ | vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
+                    vk::PipelineStageFlags::HOST | ALL,
+                    vk::AccessFlags::HOST_READ | ALL_MEMORY,
                 );
             }
-        })?;
-        Ok((submission, staging))
+        })
+    }
+
+    /// Submits a copy of `size` bytes of this buffer from `offset` into the start
+    /// of the host-visible `staging`.
+    pub(crate) fn copy_to(&self, staging: &RawBuffer, offset: u64, size: u64) -> Result<Submission> {
+        Self::submit_copy(&self.ctx, "a buffer readback", (self.buffer, offset), (staging.buffer, 0), size)
+    }
+
+    /// Submits a copy of the first `size` bytes of the host-visible `staging` into
+    /// this buffer at `offset`.
+    pub(crate) fn copy_from(&self, staging: &RawBuffer, offset: u64, size: u64) -> Result<Submission> {
+        Self::submit_copy(&self.ctx, "a buffer upload", (staging.buffer, 0), (self.buffer, offset), size)
+    }
+
+    /// Submits zeroing the whole buffer on the device.
+    pub(crate) fn fill_zero(&self) -> Result<Submission> {
+        let (ctx, buffer) = (&self.ctx, self.buffer);
+        ctx.submit("a buffer fill", |cmd| {
+            // SAFETY: the buffer is alive while the fill is pending (its drop waits
+            // for this epoch); `cmd` is recording; the whole size is a multiple of 4.
+            unsafe {
+                let device = &ctx.device;
+                memory_barrier(device, cmd, ALL, ALL_MEMORY, vk::PipelineStageFlags::TRANSFER, TRANSFER_ACCESS);
+                device.cmd_fill_buffer(cmd, buffer, 0, vk::WHOLE_SIZE, 0);
+                memory_barrier(
+                    device,
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    ALL,
+                    ALL_MEMORY,
+                );
+            }
+        })
+    }
+}
+
+const ALL: vk::PipelineStageFlags = vk::PipelineStageFlags::ALL_COMMANDS;
+const ALL_MEMORY: vk::AccessFlags =
+    vk::AccessFlags::from_raw(vk::AccessFlags::MEMORY_READ.as_raw() | vk::AccessFlags::MEMORY_WRITE.as_raw());
+const TRANSFER_ACCESS: vk::AccessFlags =
+    vk::AccessFlags::from_raw(vk::AccessFlags::TRANSFER_READ.as_raw() | vk::AccessFlags::TRANSFER_WRITE.as_raw());
+
+/// Which way a staging buffer carries data.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub(crate) enum StagingDirection {
+    /// Device to host: cached host memory the device writes (`GpuToCpu`).
+    Readback,
+    /// Host to device: write-combined host memory the device reads (`CpuToGpu`).
+    Upload,
+}
+
+/// The staging buffer a device-local buffer reuses for its copies in one
+/// direction: taken for a copy, given back when the copy has been read (or
+/// written), so a progressive render that reads its image every step allocates
+/// it once. Shared with pending reads, which give it back when they end, also
+/// after the buffer was dropped.
+#[derive(Clone, Default)]
+pub(crate) struct StagingSlot {
+    slot: Arc<std::sync::Mutex<Option<RawBuffer>>>,
+}
+
+impl StagingSlot {
+    /// A host-visible buffer of at least `size` bytes for `direction`: the one
+    /// kept here when it is large enough, else a new one.
+    pub(crate) fn take(&self, ctx: &Arc<ContextInner>, size: u64, direction: StagingDirection) -> Result<RawBuffer> {
+        let kept = self.slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
+        if let Some(buffer) = kept.filter(|b| b.size >= size) {
+            return Ok(buffer);
+        }
+        let (what, usage, location) = match direction {
+            StagingDirection::Readback => {
+                ("DeviceBuffer readback", vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)
+            }
+            StagingDirection::Upload => {
+                ("DeviceBuffer upload", vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)
+            }
+        };
+        RawBuffer::new(ctx, what, size, usage, location, 16)
+    }
+
+    /// Keeps `buffer` for the next copy (the work that used it has finished).
+    pub(crate) fn give_back(&self, buffer: RawBuffer) {
+        *self.slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(buffer);
     }
 }
