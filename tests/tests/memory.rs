@@ -129,7 +129,7 @@ fn a_progressive_accumulation_of_100_launches_reads_the_same_through_staging() -
 /// a buffer made meanwhile does not take over its memory early.
 #[test]
 fn a_buffer_dropped_during_its_staging_copy_is_not_freed_early() -> anyhow::Result<()> {
-    with_each_backend("a_buffer_dropped_during_its_staging_copy_is_not_freed_early", |ctx, _| {
+    with_each_backend("a_buffer_dropped_during_its_staging_copy_is_not_freed_early", |ctx, backend| {
         for staging in [false, true] {
             ctx.force_staging_copies(staging);
             let data: Vec<u32> = (0..4096u32).map(|i| i ^ 0x5a5a_5a5a).collect();
@@ -137,7 +137,10 @@ fn a_buffer_dropped_during_its_staging_copy_is_not_freed_early() -> anyhow::Resu
             let gate = ctx.close_submission_gate()?;
             let pending = buffer.read_async()?;
             drop(buffer);
-            assert!(!pending.is_done()?, "the copy is held on the device");
+            // (The CPU backend's gate holds launches; its reads copy at once.)
+            if backend == Backend::Vulkan {
+                assert!(!pending.is_done()?, "the copy is held on the device");
+            }
             // Made (and, through staging, uploaded: a host wait opens the gate) after the drop.
             let other = DeviceBuffer::from_slice(ctx, &vec![0xdead_beefu32; data.len()])?;
             drop(gate);
