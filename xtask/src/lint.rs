@@ -68,6 +68,9 @@ pub fn run_all(root: &Path) -> anyhow::Result<()> {
     println!("xtask lint: committed binaries");
     committed_binaries(root)?;
 
+    println!("xtask lint: layers of host/src");
+    crate::layers::check(root)?;
+
     Gate::cargo(
         "clippy",
         &["clippy", "--workspace", "--all-targets", "--keep-going", "--", "-D", "warnings"],

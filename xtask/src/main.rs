@@ -21,6 +21,7 @@
 //! small `shader-builder` program with the pinned nightly into a per-user cache
 //! and runs it.
 
+mod layers;
 mod lint;
 mod setup;
 mod shaders;
