@@ -32,15 +32,32 @@ fn forbidden(layer: &str) -> Vec<&'static str> {
     }
 }
 
-/// The `crate::MODULE::` paths of `text` that name one of `forbidden`, with their lines.
+/// Whether `line` holds `path` as a path of its own (not the tail of a longer name).
+fn names(line: &str, path: &str) -> bool {
+    line.match_indices(path).any(|(at, _)| !line[..at].ends_with(|c: char| c.is_alphanumeric() || c == '_'))
+}
+
+/// The paths of `text` that name a module of `forbidden` (`crate::MODULE::`), or,
+/// in code, a public type through the crate root (`crate::Type`; the error type
+/// and `Result` are the bottom layer's own), with their lines.
 fn violations(text: &str, forbidden: &[&str]) -> Vec<(usize, String)> {
     let mut found = Vec::new();
     for (n, line) in text.lines().enumerate() {
         for module in forbidden {
             let path = format!("crate::{module}::");
-            if line.match_indices(&path).any(|(at, _)| !line[..at].ends_with(|c: char| c.is_alphanumeric() || c == '_'))
-            {
+            if names(line, &path) {
                 found.push((n + 1, path));
+            }
+        }
+        if line.trim_start().starts_with("//") {
+            continue;
+        }
+        for (at, _) in line.match_indices("crate::") {
+            let rest = &line[at + "crate::".len()..];
+            let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+            let own = ["Result", "Error"].contains(&name.as_str());
+            if name.starts_with(char::is_uppercase) && !own && names(line, &format!("crate::{name}")) {
+                found.push((n + 1, format!("crate::{name}")));
             }
         }
     }
@@ -105,6 +122,8 @@ mod tests {
         assert!(violations("use crate::types::accel::BuildInput;", &forbidden("cpu")).is_empty());
         assert_eq!(violations("x: crate::cpu::CpuContext", &forbidden("types")), [(1, "crate::cpu::".to_owned())]);
         assert!(violations("raykit_crate::context::X", &forbidden("vulkan")).is_empty());
+        assert_eq!(violations("-> crate::Result<crate::Gas>", &forbidden("cpu")), [(1, "crate::Gas".to_owned())]);
+        assert!(violations("/// see [`Gas`](crate::Gas)", &forbidden("cpu")).is_empty());
     }
 
     #[test]

@@ -122,8 +122,8 @@ impl<'a> GasBuilder<'a> {
     /// Submits the build and returns without waiting.
     pub fn submit(self, ctx: &Context) -> Result<PendingBuild<Gas>> {
         if let Some(cpu) = ctx.cpu() {
-            let gas = crate::cpu::accel::build_gas(cpu, &self.inputs, self.options)?;
-            return Ok(PendingBuild::ready(gas));
+            let (gas, shapes, size) = crate::cpu::accel::build_gas(cpu, &self.inputs, self.options)?;
+            return Ok(PendingBuild::ready(Gas::from_cpu(gas, shapes, self.options, size)));
         }
         let (in_flight, mut gases) = submit_gases(ctx.vulkan("a GAS build")?, std::slice::from_ref(&self))?;
         let gas =
@@ -202,7 +202,10 @@ impl Gas {
             }
             let gases = builds
                 .iter()
-                .map(|b| crate::cpu::accel::build_gas(cpu, &b.inputs, b.options))
+                .map(|b| {
+                    let (gas, shapes, size) = crate::cpu::accel::build_gas(cpu, &b.inputs, b.options)?;
+                    Ok(Gas::from_cpu(gas, shapes, b.options, size))
+                })
                 .collect::<Result<Vec<_>>>()?;
             return Ok(PendingBuild::ready(gases));
         }
@@ -333,12 +336,7 @@ impl Gas {
     }
 
     /// A GAS of the CPU backend built from validated inputs.
-    pub(crate) fn from_cpu(
-        accel: Arc<crate::cpu::accel::CpuGas>,
-        shapes: Vec<Shape>,
-        options: BuildOptions,
-        size: u64,
-    ) -> Gas {
+    fn from_cpu(accel: Arc<crate::cpu::accel::CpuGas>, shapes: Vec<Shape>, options: BuildOptions, size: u64) -> Gas {
         let sizes = AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 };
         let compacted_size = options.allow_compaction.then_some(size);
         Gas { repr: GasRepr::Cpu(accel), shapes, options, sizes, compacted_size, compaction: None }

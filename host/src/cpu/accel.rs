@@ -320,17 +320,18 @@ impl CpuGas {
     }
 }
 
-/// Builds a GAS of the CPU backend from `inputs`.
+/// Builds a GAS of the CPU backend from `inputs`: the tree, each geometry's
+/// shape, and the tree's size in bytes.
 pub(crate) fn build_gas(
     ctx: &Arc<super::CpuContext>,
     inputs: &[BuildInput<'_>],
     options: crate::types::accel::BuildOptions,
-) -> crate::Result<crate::Gas> {
+) -> crate::Result<(Arc<CpuGas>, Vec<crate::types::accel::Shape>, u64)> {
     let shapes = crate::validate::accel::validate(inputs, &super::LIMITS, options.allow_update)?;
     let data = GasData::build(inputs);
     let size = data.size();
     let gas = CpuGas { ctx: ctx.clone(), data: std::sync::Mutex::new(Arc::new(data)), version: Default::default() };
-    Ok(crate::Gas::from_cpu(Arc::new(gas), shapes, options, size))
+    Ok((Arc::new(gas), shapes, size))
 }
 
 /// An instance's row-major 3×4 transform as an affine map.
