@@ -16,8 +16,8 @@
 //! ([`validate`]) every buffer view against its buffer and each accessor it
 //! reads against its view: its type and component type, a count of at least
 //! one, its offset, stride and last element inside the view, its sparse
-//! counts, index types, and that every vertex attribute has as many elements
-//! as `POSITION`. The node graph is walked with an explicit stack
+//! counts and indices, index types, and that every vertex attribute has as
+//! many elements as `POSITION`. The node graph is walked with an explicit stack
 //! ([`nodes`]): a node that is its own ancestor is a [`GltfError::NodeCycle`],
 //! a subtree shared by several parents is instanced once per path, up to
 //! [`nodes::MAX_NODE_INSTANCES`] node instances in all.
@@ -205,6 +205,22 @@ pub enum GltfError {
         accessor: usize,
         /// The sparse count.
         sparse: usize,
+        /// The accessor's count.
+        count: usize,
+    },
+    /// A sparse index is not above the one before it, or not below the accessor's count.
+    #[error("glTF {path}: accessors[{accessor}].sparse.indices[{at}] is {index}; sparse indices increase strictly and stay below the accessor's count, {count}: re-export the mesh")]
+    SparseIndex {
+        /// Where the accessor is used.
+        path: String,
+        /// The accessor.
+        accessor: usize,
+        /// The index's position in the sparse indices.
+        at: usize,
+        /// The index.
+        index: u64,
+        /// The index before it.
+        previous: Option<u64>,
         /// The accessor's count.
         count: usize,
     },
@@ -464,14 +480,14 @@ fn load_primitive(
     let position_accessor =
         primitive.get(&Semantic::Positions).ok_or(GltfError::MissingPositions { mesh: m, primitive: p })?;
     let position_path = format!("{place}.attributes.POSITION");
-    let vertices = validate::accessor(&position_accessor, &position_path, Use::Position)?;
+    let vertices = validate::accessor(&position_accessor, &position_path, Use::Position, buffers)?;
     // The other attributes read: one element per vertex each.
     let attributes =
         [(Semantic::Normals, Use::Normal), (Semantic::TexCoords(0), Use::TexCoord), (Semantic::Tangents, Use::Tangent)];
     for (semantic, usage) in attributes {
         if let Some(accessor) = primitive.get(&semantic) {
             let path = format!("{place}.attributes.{}", semantic.to_string());
-            let count = validate::accessor(&accessor, &path, usage)?;
+            let count = validate::accessor(&accessor, &path, usage, buffers)?;
             if count != vertices {
                 return Err(GltfError::AttributeCount { path, accessor: accessor.index(), count, positions: vertices });
             }
@@ -479,7 +495,7 @@ fn load_primitive(
     }
     let index_path = format!("{place}.indices");
     if let Some(accessor) = primitive.indices() {
-        validate::accessor(&accessor, &index_path, Use::Index)?;
+        validate::accessor(&accessor, &index_path, Use::Index, buffers)?;
     }
 
     let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));

@@ -279,6 +279,27 @@ fn sparse_values_past_their_view_are_out_of_bounds() {
 }
 
 #[test]
+fn a_sparse_index_past_the_count_is_a_sparse_index_error() {
+    // The sparse index is the u16 at byte 4 of the index view: 2, past a count of 2.
+    let accessors = r#"[{"min": [0, 0, 0], "max": [1, 1, 0], "bufferView": 0, "componentType": 5126, "count": 2, "type": "VEC3",
+        "sparse": {"count": 1, "indices": {"bufferView": 3, "byteOffset": 4, "componentType": 5123}, "values": {"bufferView": 0}}}]"#;
+    let doc = Doc::triangle().accessors(accessors).primitive(r#"{"attributes": {"POSITION": 0}}"#);
+    let e = error_naming(&doc, "sparse_index_past", POSITION);
+    assert!(matches!(e, GltfError::SparseIndex { at: 0, index: 2, previous: None, count: 2, .. }), "{e}");
+    assert!(e.to_string().contains("accessors[0].sparse.indices[0]"), "{e}");
+}
+
+#[test]
+fn sparse_indices_that_do_not_increase_are_a_sparse_index_error() {
+    // The index view's bytes read as UNSIGNED_BYTE: 0, 0, 1, ...
+    let accessors = r#"[{"min": [0, 0, 0], "max": [1, 1, 0], "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+        "sparse": {"count": 2, "indices": {"bufferView": 3, "componentType": 5121}, "values": {"bufferView": 0}}}]"#;
+    let doc = Doc::triangle().accessors(accessors).primitive(r#"{"attributes": {"POSITION": 0}}"#);
+    let e = error_naming(&doc, "sparse_index_repeated", POSITION);
+    assert!(matches!(e, GltfError::SparseIndex { at: 1, index: 0, previous: Some(0), count: 3, .. }), "{e}");
+}
+
+#[test]
 fn float_indices_are_an_accessor_type_error() {
     let accessors = ACCESSORS.replace(
         r#""componentType": 5123, "count": 3, "type": "SCALAR""#,

@@ -104,7 +104,12 @@ pub fn buffer_views(document: &gltf::Document) -> Result<(), GltfError> {
 /// as `usage`: its type and component type, its count, its elements (and sparse
 /// indices and values) inside their views. Returns its count. Views are
 /// checked against their buffers by [`buffer_views`].
-pub fn accessor(accessor: &gltf::Accessor, path: &str, usage: Use) -> Result<usize, GltfError> {
+pub fn accessor(
+    accessor: &gltf::Accessor,
+    path: &str,
+    usage: Use,
+    buffers: &[gltf::buffer::Data],
+) -> Result<usize, GltfError> {
     let index = accessor.index();
     let (dimensions, data_types, expected) = usage.allowed();
     if accessor.dimensions() != dimensions || !data_types.contains(&accessor.data_type()) {
@@ -138,6 +143,7 @@ pub fn accessor(accessor: &gltf::Accessor, path: &str, usage: Use) -> Result<usi
         elements_inside(path, index, ".sparse.indices", &indices.view(), indices.offset(), sparse_count, index_size)?;
         let values = sparse.values();
         elements_inside(path, index, ".sparse.values", &values.view(), values.offset(), sparse_count, element)?;
+        sparse_indices_increase(path, index, &indices, sparse_count, count, buffers)?;
     }
     Ok(count)
 }
@@ -177,6 +183,40 @@ fn elements_inside(
             end,
             length: view.length(),
         });
+    }
+    Ok(())
+}
+
+/// Checks that a sparse accessor's indices, inside their view (checked), increase
+/// strictly and stay below the accessor's `count`.
+fn sparse_indices_increase(
+    path: &str,
+    accessor: usize,
+    indices: &gltf::accessor::sparse::Indices,
+    sparse_count: usize,
+    count: usize,
+    buffers: &[gltf::buffer::Data],
+) -> Result<(), GltfError> {
+    let view = indices.view();
+    let size = indices.index_type().size();
+    let stride = view.stride().unwrap_or(size);
+    let unreadable = || GltfError::UnreadableAccessor {
+        path: path.to_owned(),
+        accessor,
+        reason: format!("bufferViews[{}] is not inside buffers[{}]'s data", view.index(), view.buffer().index()),
+    };
+    let data = buffers.get(view.buffer().index()).ok_or_else(unreadable)?;
+    // The view lies inside the buffer and the indices inside the view: no sum here overflows.
+    let first = view.offset() + indices.offset();
+    let mut previous: Option<u64> = None;
+    for at in 0..sparse_count {
+        let start = first + at * stride;
+        let bytes = data.0.get(start..start + size).ok_or_else(unreadable)?;
+        let index = bytes.iter().rev().fold(0u64, |value, &byte| value << 8 | byte as u64);
+        if index >= count as u64 || previous.is_some_and(|p| index <= p) {
+            return Err(GltfError::SparseIndex { path: path.to_owned(), accessor, at, index, previous, count });
+        }
+        previous = Some(index);
     }
     Ok(())
 }
