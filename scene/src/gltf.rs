@@ -449,8 +449,8 @@ impl GltfScene {
         let mut meshes = Vec::new();
         for mesh in document.meshes() {
             let mut primitives = Vec::new();
-            for (p, primitive) in mesh.primitives().enumerate() {
-                primitives.push(load_primitive(mesh.index(), p, &primitive, &buffers, default_material)?);
+            for (primitive_index, primitive) in mesh.primitives().enumerate() {
+                primitives.push(load_primitive(mesh.index(), primitive_index, &primitive, &buffers, default_material)?);
             }
             meshes.push(Mesh { name: mesh.name().map(str::to_owned), primitives });
         }
@@ -465,8 +465,8 @@ impl GltfScene {
 
 /// One primitive, its accessors checked ([`validate::accessor`]) before they are read.
 fn load_primitive(
-    m: usize,
-    p: usize,
+    mesh_index: usize,
+    primitive_index: usize,
     primitive: &gltf::Primitive,
     buffers: &[gltf::buffer::Data],
     default_material: usize,
@@ -474,11 +474,16 @@ fn load_primitive(
     use gltf::Semantic;
     use validate::Use;
     if primitive.mode() != gltf::mesh::Mode::Triangles {
-        return Err(GltfError::NotTriangles { mesh: m, primitive: p, mode: format!("{:?}", primitive.mode()) });
+        return Err(GltfError::NotTriangles {
+            mesh: mesh_index,
+            primitive: primitive_index,
+            mode: format!("{:?}", primitive.mode()),
+        });
     }
-    let place = format!("meshes[{m}].primitives[{p}]");
-    let position_accessor =
-        primitive.get(&Semantic::Positions).ok_or(GltfError::MissingPositions { mesh: m, primitive: p })?;
+    let place = format!("meshes[{mesh_index}].primitives[{primitive_index}]");
+    let position_accessor = primitive
+        .get(&Semantic::Positions)
+        .ok_or(GltfError::MissingPositions { mesh: mesh_index, primitive: primitive_index })?;
     let position_path = format!("{place}.attributes.POSITION");
     let vertices = validate::accessor(&position_accessor, &position_path, Use::Position, buffers)?;
     // The other attributes read: one element per vertex each.
@@ -502,19 +507,25 @@ fn load_primitive(
     let positions: Vec<Vec3> = validate::read(&position_path, position_accessor.index(), || {
         reader.read_positions().map(|it| it.map(Vec3::from_array).collect())
     })?;
-    let n = positions.len();
+    let vertex_count = positions.len();
     let indices: Vec<u32> = match primitive.indices() {
         Some(accessor) => {
             validate::read(&index_path, accessor.index(), || reader.read_indices().map(|i| i.into_u32().collect()))?
         }
         // `validate::accessor` caps counts at `u32::MAX`.
-        None => (0..n as u32).collect(),
+        None => (0..vertex_count as u32).collect(),
     };
     if !indices.len().is_multiple_of(3) {
-        return Err(GltfError::IndexCount { mesh: m, primitive: p, count: indices.len() });
+        return Err(GltfError::IndexCount { mesh: mesh_index, primitive: primitive_index, count: indices.len() });
     }
-    if let Some((at, &index)) = indices.iter().enumerate().find(|(_, &i)| i as usize >= n) {
-        return Err(GltfError::IndexOutOfRange { mesh: m, primitive: p, index, at, vertices: n });
+    if let Some((at, &index)) = indices.iter().enumerate().find(|(_, &i)| i as usize >= vertex_count) {
+        return Err(GltfError::IndexOutOfRange {
+            mesh: mesh_index,
+            primitive: primitive_index,
+            index,
+            at,
+            vertices: vertex_count,
+        });
     }
     let normals = match primitive.get(&Semantic::Normals) {
         Some(accessor) => validate::read(&format!("{place}.attributes.NORMAL"), accessor.index(), || {
@@ -526,7 +537,7 @@ fn load_primitive(
         Some(accessor) => validate::read(&format!("{place}.attributes.TEXCOORD_0"), accessor.index(), || {
             reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from_array).collect())
         })?,
-        None => vec![Vec2::ZERO; n],
+        None => vec![Vec2::ZERO; vertex_count],
     };
     let tangents = match primitive.get(&Semantic::Tangents) {
         Some(accessor) => validate::read(&format!("{place}.attributes.TANGENT"), accessor.index(), || {

@@ -160,6 +160,42 @@ fn a_valid_triangle_loads_exactly() {
     assert_eq!(scene, expected);
 }
 
+/// The document as binary glTF: the JSON chunk, then the buffer as the BIN chunk.
+fn glb(doc: &Doc) -> Vec<u8> {
+    let data_uri = format!(r#", "uri": "data:application/octet-stream;base64,{}""#, base64(&doc.bin));
+    let mut json = doc.json().replace(&data_uri, "").into_bytes();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    let mut bin = doc.bin.clone();
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = Vec::new();
+    for word in [0x4654_6C67, 2, total as u32, json.len() as u32, 0x4E4F_534A] {
+        out.extend(u32::to_le_bytes(word));
+    }
+    out.extend(json);
+    for word in [bin.len() as u32, 0x004E_4942] {
+        out.extend(u32::to_le_bytes(word));
+    }
+    out.extend(bin);
+    out
+}
+
+#[test]
+fn a_valid_glb_loads_as_its_gltf() {
+    let doc = Doc::triangle();
+    let dir = std::env::temp_dir().join(format!("raykit_scene_gltf_{}_glb", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temporary directory");
+    let path = dir.join("scene.glb");
+    std::fs::write(&path, glb(&doc)).expect("write the test file");
+    let loaded = GltfScene::load(&path);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(loaded.expect("the .glb loads"), doc.load("glb_as_gltf").expect("the .gltf loads"));
+}
+
 #[test]
 fn a_valid_hierarchy_and_a_sparse_accessor_load_as_written() {
     // POSITION: zeros without a view, vertices 1 and 2 replaced by the sparse values (bytes 12..36).
