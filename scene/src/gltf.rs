@@ -5,16 +5,34 @@
 //! mesh with a geometry per primitive, one instance per [`MeshInstance`]) is up
 //! to the renderer.
 //!
-//! Bad files are [`GltfError`]s naming the problem and the fix: a buffer whose
-//! file is missing, a primitive that is not triangles, an index past the
-//! vertices, a primitive without positions, an image format with no texture
-//! format.
+//! Bad files are [`GltfError`]s naming the problem, its place in the file as a
+//! glTF path (`meshes[0].primitives[0].attributes.POSITION`) and the fix: a
+//! buffer whose file is missing, a primitive that is not triangles, an index
+//! past the vertices, a primitive without positions, an image format with no
+//! texture format.
+//!
+//! Hostile files are errors too, never a panic, a hang or a stack overflow.
+//! Before the `gltf` crate's readers see an accessor, the loader checks
+//! ([`validate`]) every buffer view against its buffer and each accessor it
+//! reads against its view: its type and component type, a count of at least
+//! one, its offset, stride and last element inside the view, its sparse
+//! counts and indices, index types, and that every vertex attribute has as
+//! many elements as `POSITION`. The node graph is walked with an explicit stack
+//! ([`nodes`]): a node that is its own ancestor is a [`GltfError::NodeCycle`],
+//! a subtree shared by several parents is instanced once per path, up to
+//! [`nodes::MAX_NODE_INSTANCES`] node instances in all.
 
 use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
-/// Why a glTF file could not be loaded.
+pub mod nodes;
+#[cfg(test)]
+mod tests;
+pub mod validate;
+
+/// Why a glTF file could not be loaded. Each names the problem, where it is (a
+/// glTF path such as `meshes[0].primitives[0].attributes.POSITION`) and the fix.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum GltfError {
@@ -27,7 +45,7 @@ pub enum GltfError {
         source: gltf::Error,
     },
     /// A buffer's file is missing.
-    #[error("glTF {path}: buffer {buffer} refers to `{uri}`, which is not at {resolved}; put the file beside the .gltf or fix the buffer's uri")]
+    #[error("glTF {path}: buffers[{buffer}].uri refers to `{uri}`, which is not at {resolved}; put the file beside the .gltf or fix the buffer's uri")]
     MissingBuffer {
         /// The glTF file.
         path: PathBuf,
@@ -39,7 +57,7 @@ pub enum GltfError {
         resolved: PathBuf,
     },
     /// A primitive is not a triangle list.
-    #[error("glTF mesh {mesh} primitive {primitive} has mode {mode}; only triangles are ray traced: triangulate it in the exporter (strips and fans too)")]
+    #[error("glTF meshes[{mesh}].primitives[{primitive}].mode is {mode}; only triangles are ray traced: triangulate it in the exporter (strips and fans too)")]
     NotTriangles {
         /// The mesh.
         mesh: usize,
@@ -49,7 +67,7 @@ pub enum GltfError {
         mode: String,
     },
     /// A primitive has no positions.
-    #[error("glTF mesh {mesh} primitive {primitive} has no POSITION attribute; export the mesh with positions")]
+    #[error("glTF meshes[{mesh}].primitives[{primitive}].attributes has no POSITION attribute; export the mesh with positions")]
     MissingPositions {
         /// The mesh.
         mesh: usize,
@@ -57,7 +75,7 @@ pub enum GltfError {
         primitive: usize,
     },
     /// An index names a vertex past the primitive's vertices.
-    #[error("glTF mesh {mesh} primitive {primitive}: index {index} at position {at} names vertex {index} of {vertices}; the index buffer does not belong to these vertices (re-export the mesh)")]
+    #[error("glTF meshes[{mesh}].primitives[{primitive}].indices: index {index} at position {at} names vertex {index} of {vertices}; the index buffer does not belong to these vertices (re-export the mesh)")]
     IndexOutOfRange {
         /// The mesh.
         mesh: usize,
@@ -71,7 +89,7 @@ pub enum GltfError {
         vertices: usize,
     },
     /// The index count is not a multiple of 3.
-    #[error("glTF mesh {mesh} primitive {primitive} has {count} indices, not a multiple of 3; a triangle list needs 3 per triangle")]
+    #[error("glTF meshes[{mesh}].primitives[{primitive}].indices has {count} indices, not a multiple of 3; a triangle list needs 3 per triangle")]
     IndexCount {
         /// The mesh.
         mesh: usize,
@@ -81,12 +99,170 @@ pub enum GltfError {
         count: usize,
     },
     /// An image's pixel format has no texture format.
-    #[error("glTF image {image} has pixel format {format}; save it as 8-bit (grey, RGB or RGBA) or 32-bit float")]
+    #[error("glTF images[{image}] has pixel format {format}; save it as 8-bit (grey, RGB or RGBA) or 32-bit float")]
     ImageFormat {
         /// The image.
         image: usize,
         /// Its format.
         format: String,
+    },
+    /// A buffer view's bytes reach past the end of its buffer (or past 2⁶⁴).
+    #[error("glTF {path}: bytes {start}..{end} of buffers[{buffer}], which has {length} bytes; fix the view's byteOffset and byteLength to lie inside the buffer")]
+    ViewOutOfBounds {
+        /// The view, as a glTF path (`bufferViews[2]`).
+        path: String,
+        /// Its buffer.
+        buffer: usize,
+        /// The view's first byte in the buffer.
+        start: u128,
+        /// One past its last byte.
+        end: u128,
+        /// The buffer's length.
+        length: usize,
+    },
+    /// An accessor's type or component type is not one its use allows.
+    #[error("glTF {path}: accessors[{accessor}] is {found}, but this must be {expected}; re-export the mesh with {expected}")]
+    AccessorType {
+        /// Where the accessor is used (`meshes[0].primitives[0].indices`).
+        path: String,
+        /// The accessor.
+        accessor: usize,
+        /// Its type and component type (`VEC2 of FLOAT`).
+        found: String,
+        /// What this use allows.
+        expected: &'static str,
+    },
+    /// An accessor has no elements.
+    #[error("glTF {path}: accessors[{accessor}] has count 0; an accessor holds at least one element: export the data or remove the attribute")]
+    EmptyAccessor {
+        /// Where the accessor is used.
+        path: String,
+        /// The accessor.
+        accessor: usize,
+    },
+    /// An accessor has more elements than the loader takes.
+    #[error("glTF {path}: accessors[{accessor}] has count {count}, over the limit of {limit}; split the mesh into smaller ones")]
+    AccessorTooLarge {
+        /// Where the accessor is used.
+        path: String,
+        /// The accessor.
+        accessor: usize,
+        /// Its count.
+        count: usize,
+        /// The most elements the loader takes (fewer for accessors without a buffer view, whose elements are zeros).
+        limit: usize,
+    },
+    /// An accessor's elements reach past the end of its buffer view.
+    #[error("glTF {path}: accessors[{accessor}]{part} reads bytes {start}..{end} of bufferViews[{view}], which has {length} bytes; fix its byteOffset and count, or the view's byteLength")]
+    AccessorOutOfBounds {
+        /// Where the accessor is used.
+        path: String,
+        /// The accessor.
+        accessor: usize,
+        /// Which part of it: empty for its elements, `.sparse.indices` or `.sparse.values`.
+        part: &'static str,
+        /// The view.
+        view: usize,
+        /// The first byte read, from the view's start.
+        start: u128,
+        /// One past the last byte read.
+        end: u128,
+        /// The view's length.
+        length: usize,
+    },
+    /// A buffer view's stride is shorter than the elements an accessor reads through it.
+    #[error("glTF {path}: accessors[{accessor}]{part} has {element}-byte elements, but bufferViews[{view}].byteStride is {stride}; make the stride at least the element size")]
+    AccessorStride {
+        /// Where the accessor is used.
+        path: String,
+        /// The accessor.
+        accessor: usize,
+        /// Which part of it: empty for its elements, `.sparse.indices` or `.sparse.values`.
+        part: &'static str,
+        /// The view.
+        view: usize,
+        /// The view's stride.
+        stride: usize,
+        /// The element size.
+        element: usize,
+    },
+    /// An accessor has neither a buffer view nor sparse values.
+    #[error(
+        "glTF {path}: accessors[{accessor}] has no bufferView and no sparse values; give it a bufferView with its data"
+    )]
+    AccessorWithoutData {
+        /// Where the accessor is used.
+        path: String,
+        /// The accessor.
+        accessor: usize,
+    },
+    /// A sparse accessor's count is 0 or more than the accessor's count.
+    #[error("glTF {path}: accessors[{accessor}].sparse.count is {sparse}, but the accessor has {count} elements; a sparse count is between 1 and the accessor's count (remove `sparse` if nothing is replaced)")]
+    SparseCount {
+        /// Where the accessor is used.
+        path: String,
+        /// The accessor.
+        accessor: usize,
+        /// The sparse count.
+        sparse: usize,
+        /// The accessor's count.
+        count: usize,
+    },
+    /// A sparse index is not above the one before it, or not below the accessor's count.
+    #[error("glTF {path}: accessors[{accessor}].sparse.indices[{at}] is {index}; sparse indices increase strictly and stay below the accessor's count, {count}: re-export the mesh")]
+    SparseIndex {
+        /// Where the accessor is used.
+        path: String,
+        /// The accessor.
+        accessor: usize,
+        /// The index's position in the sparse indices.
+        at: usize,
+        /// The index.
+        index: u64,
+        /// The index before it.
+        previous: Option<u64>,
+        /// The accessor's count.
+        count: usize,
+    },
+    /// A vertex attribute has a different number of elements than `POSITION`.
+    #[error("glTF {path}: accessors[{accessor}] has {count} elements, but POSITION has {positions}; every vertex attribute has one element per vertex: re-export the mesh")]
+    AttributeCount {
+        /// The attribute (`meshes[0].primitives[0].attributes.NORMAL`).
+        path: String,
+        /// Its accessor.
+        accessor: usize,
+        /// Its count.
+        count: usize,
+        /// The number of positions.
+        positions: usize,
+    },
+    /// The `gltf` crate could not read an accessor that passed the checks.
+    #[error("glTF {path}: accessors[{accessor}] could not be read ({reason}); check the file with the Khronos glTF validator")]
+    UnreadableAccessor {
+        /// Where the accessor is used.
+        path: String,
+        /// The accessor.
+        accessor: usize,
+        /// What went wrong.
+        reason: String,
+    },
+    /// A node is its own ancestor.
+    #[error("glTF {path}: node {child} is its own ancestor (nodes {}); the node graph must be a forest: remove the child", nodes::arrows(.cycle))]
+    NodeCycle {
+        /// The child entry that closes the cycle (`nodes[2].children[0]`).
+        path: String,
+        /// The node listed as a child.
+        child: usize,
+        /// The nodes of the cycle, from the repeated node down to it again.
+        cycle: Vec<usize>,
+    },
+    /// The node graph reaches more node instances than the loader takes.
+    #[error("glTF {path}: the scene reaches more than {limit} node instances (a node listed under several parents is instanced once per path); list each node as the child of one parent")]
+    TooManyNodeInstances {
+        /// The child entry (or scene root) past the limit.
+        path: String,
+        /// The limit, [`nodes::MAX_NODE_INSTANCES`].
+        limit: usize,
     },
 }
 
@@ -217,7 +393,7 @@ impl GltfScene {
     /// Loads `path` (.gltf with its buffers and images beside it, or .glb).
     pub fn load(path: &Path) -> Result<GltfScene, GltfError> {
         let parse = |source| GltfError::Parse { path: path.to_owned(), source };
-        let document = gltf::Gltf::open(path).map_err(parse)?;
+        let gltf::Gltf { document, blob } = gltf::Gltf::open(path).map_err(parse)?;
         let base = path.parent().unwrap_or(Path::new("."));
         for buffer in document.buffers() {
             if let gltf::buffer::Source::Uri(uri) = buffer.source() {
@@ -235,7 +411,10 @@ impl GltfScene {
                 }
             }
         }
-        let (document, buffers, images) = gltf::import(path).map_err(parse)?;
+        // Image views are sliced while importing: every view is checked first.
+        validate::buffer_views(&document)?;
+        let buffers = gltf::import_buffers(&document, Some(base), blob).map_err(parse)?;
+        let images = gltf::import_images(&document, Some(base), &buffers).map_err(parse)?;
 
         let images =
             images.into_iter().enumerate().map(|(i, data)| to_rgba8(i, data)).collect::<Result<Vec<_>, _>>()?;
@@ -270,65 +449,104 @@ impl GltfScene {
         let mut meshes = Vec::new();
         for mesh in document.meshes() {
             let mut primitives = Vec::new();
-            for (p, primitive) in mesh.primitives().enumerate() {
-                let m = mesh.index();
-                if primitive.mode() != gltf::mesh::Mode::Triangles {
-                    return Err(GltfError::NotTriangles {
-                        mesh: m,
-                        primitive: p,
-                        mode: format!("{:?}", primitive.mode()),
-                    });
-                }
-                let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-                let positions: Vec<Vec3> = reader
-                    .read_positions()
-                    .ok_or(GltfError::MissingPositions { mesh: m, primitive: p })?
-                    .map(Vec3::from_array)
-                    .collect();
-                let n = positions.len();
-                let indices: Vec<u32> = match reader.read_indices() {
-                    Some(i) => i.into_u32().collect(),
-                    None => (0..n as u32).collect(),
-                };
-                if !indices.len().is_multiple_of(3) {
-                    return Err(GltfError::IndexCount { mesh: m, primitive: p, count: indices.len() });
-                }
-                if let Some((at, &index)) = indices.iter().enumerate().find(|(_, &i)| i as usize >= n) {
-                    return Err(GltfError::IndexOutOfRange { mesh: m, primitive: p, index, at, vertices: n });
-                }
-                let normals = match reader.read_normals() {
-                    Some(it) => it.map(Vec3::from_array).collect(),
-                    None => face_normals(&positions, &indices),
-                };
-                let uvs = match reader.read_tex_coords(0) {
-                    Some(t) => t.into_f32().map(Vec2::from_array).collect(),
-                    None => vec![Vec2::ZERO; n],
-                };
-                let tangents = reader.read_tangents().map(|t| t.map(Vec4::from_array).collect()).unwrap_or_default();
-                let material = primitive.material().index().unwrap_or(default_material);
-                primitives.push(Primitive { positions, normals, uvs, tangents, indices, material });
+            for (primitive_index, primitive) in mesh.primitives().enumerate() {
+                primitives.push(load_primitive(mesh.index(), primitive_index, &primitive, &buffers, default_material)?);
             }
             meshes.push(Mesh { name: mesh.name().map(str::to_owned), primitives });
         }
 
-        let mut instances = Vec::new();
-        if let Some(scene) = document.default_scene().or_else(|| document.scenes().next()) {
-            for node in scene.nodes() {
-                collect_instances(&node, Mat4::IDENTITY, &mut instances);
-            }
-        }
+        let instances = match document.default_scene().or_else(|| document.scenes().next()) {
+            Some(scene) => nodes::instances(&document, &scene)?,
+            None => Vec::new(),
+        };
         Ok(GltfScene { meshes, instances, materials, images })
     }
 }
 
-fn collect_instances(node: &gltf::Node, parent: Mat4, out: &mut Vec<MeshInstance>) {
-    let transform = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-    if let Some(mesh) = node.mesh() {
-        out.push(MeshInstance { mesh: mesh.index(), node: node.index(), transform });
+/// One primitive, its accessors checked ([`validate::accessor`]) before they are read.
+fn load_primitive(
+    mesh_index: usize,
+    primitive_index: usize,
+    primitive: &gltf::Primitive,
+    buffers: &[gltf::buffer::Data],
+    default_material: usize,
+) -> Result<Primitive, GltfError> {
+    use gltf::Semantic;
+    use validate::Use;
+    if primitive.mode() != gltf::mesh::Mode::Triangles {
+        return Err(GltfError::NotTriangles {
+            mesh: mesh_index,
+            primitive: primitive_index,
+            mode: format!("{:?}", primitive.mode()),
+        });
     }
-    for child in node.children() {
-        collect_instances(&child, transform, out);
+    let place = format!("meshes[{mesh_index}].primitives[{primitive_index}]");
+    let position_accessor = primitive
+        .get(&Semantic::Positions)
+        .ok_or(GltfError::MissingPositions { mesh: mesh_index, primitive: primitive_index })?;
+    let position_path = format!("{place}.attributes.POSITION");
+    let vertices = validate::accessor(&position_accessor, &position_path, Use::Position, buffers)?;
+    // The other attributes read: one element per vertex each.
+    let attributes =
+        [(Semantic::Normals, Use::Normal), (Semantic::TexCoords(0), Use::TexCoord), (Semantic::Tangents, Use::Tangent)];
+    for (semantic, usage) in attributes {
+        if let Some(accessor) = primitive.get(&semantic) {
+            let path = format!("{place}.attributes.{}", semantic.to_string());
+            let count = validate::accessor(&accessor, &path, usage, buffers)?;
+            if count != vertices {
+                return Err(GltfError::AttributeCount { path, accessor: accessor.index(), count, positions: vertices });
+            }
+        }
     }
+    let index_path = format!("{place}.indices");
+    if let Some(accessor) = primitive.indices() {
+        validate::accessor(&accessor, &index_path, Use::Index, buffers)?;
+    }
+
+    let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let positions: Vec<Vec3> = validate::read(&position_path, position_accessor.index(), || {
+        reader.read_positions().map(|it| it.map(Vec3::from_array).collect())
+    })?;
+    let vertex_count = positions.len();
+    let indices: Vec<u32> = match primitive.indices() {
+        Some(accessor) => {
+            validate::read(&index_path, accessor.index(), || reader.read_indices().map(|i| i.into_u32().collect()))?
+        }
+        // `validate::accessor` caps counts at `u32::MAX`.
+        None => (0..vertex_count as u32).collect(),
+    };
+    if !indices.len().is_multiple_of(3) {
+        return Err(GltfError::IndexCount { mesh: mesh_index, primitive: primitive_index, count: indices.len() });
+    }
+    if let Some((at, &index)) = indices.iter().enumerate().find(|(_, &i)| i as usize >= vertex_count) {
+        return Err(GltfError::IndexOutOfRange {
+            mesh: mesh_index,
+            primitive: primitive_index,
+            index,
+            at,
+            vertices: vertex_count,
+        });
+    }
+    let normals = match primitive.get(&Semantic::Normals) {
+        Some(accessor) => validate::read(&format!("{place}.attributes.NORMAL"), accessor.index(), || {
+            reader.read_normals().map(|it| it.map(Vec3::from_array).collect())
+        })?,
+        None => face_normals(&positions, &indices),
+    };
+    let uvs = match primitive.get(&Semantic::TexCoords(0)) {
+        Some(accessor) => validate::read(&format!("{place}.attributes.TEXCOORD_0"), accessor.index(), || {
+            reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from_array).collect())
+        })?,
+        None => vec![Vec2::ZERO; vertex_count],
+    };
+    let tangents = match primitive.get(&Semantic::Tangents) {
+        Some(accessor) => validate::read(&format!("{place}.attributes.TANGENT"), accessor.index(), || {
+            reader.read_tangents().map(|t| t.map(Vec4::from_array).collect())
+        })?,
+        None => Vec::new(),
+    };
+    let material = primitive.material().index().unwrap_or(default_material);
+    Ok(Primitive { positions, normals, uvs, tangents, indices, material })
 }
 
 /// Area-weighted vertex normals from the triangles.
