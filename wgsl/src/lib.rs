@@ -241,12 +241,18 @@ const UNSUPPORTED: &[(&str, &str)] = &[
 /// [`STACK_SIZE`] stack; a panic there becomes [`WgslError::Internal`]. `path`
 /// names the source in diagnostics.
 pub fn compile(source: &str, path: &str) -> Result<Vec<u32>, WgslError> {
+    on_naga_thread(path, || compile_here(source, path))
+}
+
+/// Runs `work` on a thread with a [`STACK_SIZE`] stack; its panic becomes
+/// [`WgslError::Internal`].
+fn on_naga_thread<T: Send>(path: &str, work: impl FnOnce() -> Result<T, WgslError> + Send) -> Result<T, WgslError> {
     let internal = |reason: String| WgslError::Internal { path: path.to_owned(), reason };
     std::thread::scope(|scope| {
         let worker = std::thread::Builder::new()
             .name("raykit-wgsl".to_owned())
             .stack_size(STACK_SIZE)
-            .spawn_scoped(scope, || compile_here(source, path))
+            .spawn_scoped(scope, work)
             .map_err(|e| internal(format!("starting naga's thread: {e}")))?;
         worker.join().map_err(|panic| internal(panic_message(panic.as_ref())))?
     })
@@ -486,6 +492,12 @@ mod tests {
                 .map(|e| e.to_string())
                 .unwrap_or_default();
         assert!(err.contains("bad.wgsl:4:13") && err.contains('^'), "{err}");
+    }
+
+    #[test]
+    fn a_panic_on_nagas_thread_becomes_an_internal_error() {
+        let err = on_naga_thread("p.wgsl", || -> Result<(), WgslError> { panic!("naga gave up") }).err();
+        assert!(matches!(&err, Some(WgslError::Internal { reason, .. }) if reason.contains("naga gave up")), "{err:?}");
     }
 
     #[test]

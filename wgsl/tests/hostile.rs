@@ -158,3 +158,17 @@ fn huge_values_and_payloads_are_refused() {
     let source = raygen("var<ray_payload> payload: array<f32, 4194304>;", "    payload[0] = 1.0;");
     over_budget(&source, "payload", 16 << 20);
 }
+
+#[test]
+fn the_deepest_source_the_limits_allow_compiles() {
+    let chain = chain(MAX_EXPRESSION_DEPTH - 24);
+    let opened = "    {\n".repeat(MAX_NESTING - 4);
+    let closed = "    }\n".repeat(MAX_NESTING - 4);
+    compiles(&raygen("", &format!("    var y: f32 = 1.0;\n{opened}    y = {chain};\n{closed}")));
+    let mut globals = String::new();
+    for i in 0..MAX_DECLARATIONS - 8 {
+        globals.push_str(&format!("const c{i} = c{};\n", i + 1));
+    }
+    globals.push_str(&format!("const c{} = 1.0;", MAX_DECLARATIONS - 8));
+    compiles(&raygen(&globals, "    var y: f32 = c0;"));
+}
