@@ -51,7 +51,11 @@
 //!   bigger stack: it would need hundreds of MiB there, and the scan's count is
 //!   the same in every build. The limits are far above hand-written code, and nesting
 //!   stays below naga's own limit (200 nested statements and expressions, which it
-//!   reports without a position);
+//!   reports without a position); and, since naga's front end takes time
+//!   quadratic in a function's length (about 1.5 s for the longest function
+//!   allowed, unoptimised), a function (parameters and body) of more than
+//!   [`MAX_FUNCTION_TOKENS`] (16,384) tokens and a source of more than
+//!   [`MAX_TOKENS`] (262,144);
 //! * after validation refuses, with [`WgslError::Memory`] naming the variable,
 //!   an entry point needing more than [`MEMORY_BUDGET`] (64 KiB) per invocation:
 //!   the `var<private>` and ray payload variables it uses plus the
@@ -75,7 +79,9 @@ mod limits;
 use std::path::Path;
 
 pub use fixup::{HIT_ATTRIBUTES_BINDING, RECORD_AND_ATTRIBUTES_GROUP, SHADER_RECORD_BINDING, TRAVERSABLE_GROUP};
-pub use limits::{MAX_DECLARATIONS, MAX_EXPRESSION_DEPTH, MAX_NESTING, MEMORY_BUDGET, STACK_SIZE};
+pub use limits::{
+    MAX_DECLARATIONS, MAX_EXPRESSION_DEPTH, MAX_FUNCTION_TOKENS, MAX_NESTING, MAX_TOKENS, MEMORY_BUDGET, STACK_SIZE,
+};
 
 /// The prelude: the declarations raykit expects, to copy into WGSL programs.
 pub const PRELUDE: &str = include_str!("../prelude.wgsl");
@@ -149,7 +155,8 @@ pub enum WgslError {
     },
 
     /// The source exceeds one of the limits that keep naga's recursion bounded
-    /// ([`MAX_EXPRESSION_DEPTH`], [`MAX_NESTING`], [`MAX_DECLARATIONS`]).
+    /// and its time bounded ([`MAX_EXPRESSION_DEPTH`], [`MAX_NESTING`],
+    /// [`MAX_DECLARATIONS`], [`MAX_FUNCTION_TOKENS`], [`MAX_TOKENS`]).
     #[error("{path}:{line}:{column}: {what} {limit}; {fix}")]
     Limit {
         /// The file name given.

@@ -17,6 +17,15 @@ pub const MAX_NESTING: usize = 64;
 /// `alias`, `const_assert`) in one source.
 pub const MAX_DECLARATIONS: usize = 4096;
 
+/// The most tokens in one module-scope declaration's brackets and braces (a
+/// function's parameters and body): naga's front end takes time quadratic in a
+/// function's length.
+pub const MAX_FUNCTION_TOKENS: usize = 16384;
+
+/// The most tokens in one source: with [`MAX_FUNCTION_TOKENS`] this bounds
+/// naga's time (seconds in an unoptimised build).
+pub const MAX_TOKENS: usize = 1 << 18;
+
 /// The most bytes one invocation of an entry point may hold in `var<private>`,
 /// `var<function>` (its own and its callees'), ray payload variables and
 /// composite values (`let`, constants).
@@ -51,6 +60,10 @@ struct Scan<'a> {
     /// Open brackets plus the sum of `else_ifs` over `levels`.
     nesting: usize,
     declarations: usize,
+    /// Tokens inside the current module-scope declaration's brackets.
+    tokens: usize,
+    /// Tokens in the whole source.
+    all_tokens: usize,
     line: u32,
     line_start: usize,
 }
@@ -141,6 +154,8 @@ pub(crate) fn scan(source: &str, path: &str) -> Result<(), WgslError> {
         depth: 0,
         nesting: 0,
         declarations: 0,
+        tokens: 0,
+        all_tokens: 0,
         line: 1,
         line_start: 0,
     };
@@ -196,6 +211,23 @@ pub(crate) fn scan(source: &str, path: &str) -> Result<(), WgslError> {
         }
         previous_close_brace = false;
         let was_else = std::mem::take(&mut previous_else);
+        s.all_tokens += 1;
+        if s.all_tokens > MAX_TOKENS {
+            return Err(s.refuse(start, "a source with more tokens than", MAX_TOKENS, "split the module"));
+        }
+        if s.levels.len() == 1 {
+            s.tokens = 0;
+        } else {
+            s.tokens += 1;
+            if s.tokens > MAX_FUNCTION_TOKENS {
+                return Err(s.refuse(
+                    start,
+                    "a function with more tokens than",
+                    MAX_FUNCTION_TOKENS,
+                    "split the function into smaller ones",
+                ));
+            }
+        }
         if is_word(c) && !c.is_ascii_digit() {
             while bytes.get(i).is_some_and(|&b| is_word(b)) {
                 i += 1;

@@ -1,7 +1,10 @@
 //! Hostile and runaway WGSL: refused with typed errors, never a crash or an
 //! unbounded compile. Each test runs on the test harness's small thread stack.
 
-use raykit_wgsl::{compile, WgslError, MAX_DECLARATIONS, MAX_EXPRESSION_DEPTH, MAX_NESTING, MEMORY_BUDGET};
+use raykit_wgsl::{
+    compile, WgslError, MAX_DECLARATIONS, MAX_EXPRESSION_DEPTH, MAX_FUNCTION_TOKENS, MAX_NESTING, MAX_TOKENS,
+    MEMORY_BUDGET,
+};
 
 /// A raygen whose body is `body`; its first line is line 4 of the source.
 fn raygen(globals: &str, body: &str) -> String {
@@ -171,4 +174,17 @@ fn the_deepest_source_the_limits_allow_compiles() {
     }
     globals.push_str(&format!("const c{} = 1.0;", MAX_DECLARATIONS - 8));
     compiles(&raygen(&globals, "    var y: f32 = c0;"));
+}
+
+#[test]
+fn long_functions_and_sources_are_refused() {
+    // `b = b + 1.0;` is 6 tokens; naga's front end is quadratic in a function's length.
+    let statements = |n: usize| "    b = b + 1.0;\n".repeat(n);
+    let long = raygen("", &format!("    var b = 1.0;\n{}", statements(MAX_FUNCTION_TOKENS / 6 + 1)));
+    let message = limit(&long, 5 + (MAX_FUNCTION_TOKENS / 6) as u32, MAX_FUNCTION_TOKENS);
+    assert!(message.contains("split the function"), "{message}");
+    let function = |i: usize| format!("fn f{i}() {{\n    var b = 1.0;\n{}}}\n", statements(1000));
+    let many: String = (0..MAX_TOKENS / 6000 + 1).map(function).collect();
+    let err = refused(&raygen(&many, ""));
+    assert!(matches!(&err, WgslError::Limit { limit, .. } if *limit == MAX_TOKENS), "{err:?}");
 }
