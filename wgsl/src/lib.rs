@@ -40,31 +40,35 @@
 //! * runs naga (and everything else it does) on a thread of its own with a
 //!   [`STACK_SIZE`] (64 MiB) stack, whatever the caller's stack; a panic there
 //!   becomes [`WgslError::Internal`];
-//! * first scans the source's tokens and refuses, with [`WgslError::Limit`]
-//!   naming the line, an expression with more than [`MAX_EXPRESSION_DEPTH`]
-//!   (1024) operators, calls and brackets on one path (`,` and `;` start afresh),
-//!   nesting of `(`, `[`, `{` and `else if` deeper than [`MAX_NESTING`] (64), and
-//!   more than [`MAX_DECLARATIONS`] (4096) module-scope declarations. naga
-//!   recurses once per level of each (about 7 KiB of stack per level of an
-//!   expression in an unoptimised build), so these bound its stack well within
-//!   its thread's. A 50,000-term chain is refused rather than compiled on a
-//!   bigger stack: it would need hundreds of MiB there, and the scan's count is
-//!   the same in every build. The limits are far above hand-written code, and nesting
-//!   stays below naga's own limit (200 nested statements and expressions, which it
-//!   reports without a position); and, since naga's front end takes time
-//!   quadratic in a function's length (about 1.5 s for the longest function
-//!   allowed, unoptimised), a function (parameters and body) of more than
-//!   [`MAX_FUNCTION_TOKENS`] (16,384) tokens and a source of more than
-//!   [`MAX_TOKENS`] (262,144);
-//! * after validation refuses, with [`WgslError::Memory`] naming the variable,
-//!   an entry point needing more than [`MEMORY_BUDGET`] (64 KiB) per invocation:
-//!   the `var<private>` and ray payload variables it uses plus the
-//!   `var<function>` variables along its heaviest call path, sized by naga's
-//!   layouter; and any constant or value (`let`) over the budget alone. Drivers
-//!   keep such memory per ray in registers or scratch (lavapipe takes minutes to
-//!   compile a 16 MiB private array); large data belongs in a `Buffer<T>`.
-//!   WGSL's own limits are 8 KiB each for private and function memory; raykit
-//!   allows more, for ray-tracing programs' small stacks and tables.
+//! * first scans the source's tokens and refuses with [`WgslError::Limit`],
+//!   naming the line, the limit and the fix:
+//!   * an expression with more than [`MAX_EXPRESSION_DEPTH`] (1024) operators,
+//!     calls, indexing and brackets on one path (`,` and `;` start afresh);
+//!   * nesting of `(`, `[`, `{` and `else if` deeper than [`MAX_NESTING`] (64);
+//!   * more than [`MAX_DECLARATIONS`] (4096) module-scope declarations;
+//!   * a function (parameters and body) of more than [`MAX_FUNCTION_TOKENS`]
+//!     (16,384) tokens, and a source of more than [`MAX_TOKENS`] (262,144).
+//!
+//!   naga recurses once per level of the first three (several KiB of stack per
+//!   level of an expression in an unoptimised build), so they keep its stack well
+//!   within its thread's; its front end takes time quadratic in a function's
+//!   length (about 1.5 s, unoptimised, for the longest function allowed), which
+//!   the last bounds. A 50,000-term chain is refused rather than compiled on a
+//!   bigger stack: it would need hundreds of MiB, and the scan counts the same in
+//!   every build. The limits are far above hand-written code, and the nesting
+//!   limit keeps below naga's own (200 nested statements and expressions, which
+//!   it reports without a position). The scan counts tokens, not naga's tree, so
+//!   it may refuse what naga would take, never the reverse;
+//! * after validation refuses with [`WgslError::Memory`], naming the variable,
+//!   its size and the budget, an entry point needing more than [`MEMORY_BUDGET`]
+//!   (64 KiB) per invocation: the `var<private>` and ray payload variables it
+//!   uses plus the `var<function>` variables along its heaviest call path, sized
+//!   by naga's layouter; and any constant or value (a `let`) over the budget
+//!   alone. Drivers keep this memory per ray in registers or scratch (lavapipe
+//!   takes minutes to compile a 16 MiB private array); large data belongs in a
+//!   `Buffer<T>`. WGSL's own limits are 8 KiB each for private and function
+//!   memory; raykit allows more, for ray-tracing programs' small stacks and
+//!   tables.
 //!
 //! This crate has no Vulkan dependency, so a `build.rs` can compile `.wgsl` files
 //! to SPIR-V at build time ([`compile_file`]); raykit's `Module::from_wgsl` compiles

@@ -1,6 +1,6 @@
-//! Limits on hostile or runaway WGSL: a pre-scan of the source for depth that
-//! would exhaust naga's recursion, and a per-invocation memory budget checked on
-//! the validated module.
+//! Limits on hostile or runaway WGSL: a scan of the source for depth that would
+//! exhaust naga's recursion and length that would make it slow, and a
+//! per-invocation memory budget checked on the validated module.
 
 use naga::{AddressSpace, Block, Handle, Statement};
 
@@ -27,8 +27,8 @@ pub const MAX_FUNCTION_TOKENS: usize = 16384;
 pub const MAX_TOKENS: usize = 1 << 18;
 
 /// The most bytes one invocation of an entry point may hold in `var<private>`,
-/// `var<function>` (its own and its callees'), ray payload variables and
-/// composite values (`let`, constants).
+/// ray payload and `var<function>` variables (its own and its callees'); no
+/// constant or value may exceed it alone.
 pub const MEMORY_BUDGET: u64 = 64 * 1024;
 
 /// The stack of the thread that runs naga.
