@@ -32,6 +32,44 @@
 //! [`WgslError::Unsupported`]. Write those programs in Rust or GLSL and link them
 //! with WGSL programs in one pipeline.
 //!
+//! ## Limits
+//!
+//! Source from anyone must not take the process down nor hand a driver a module
+//! it takes minutes to compile, so [`compile`]:
+//!
+//! * runs naga (and everything else it does) on a thread of its own with a
+//!   [`STACK_SIZE`] (64 MiB) stack, whatever the caller's stack; a panic there
+//!   becomes [`WgslError::Internal`];
+//! * first scans the source's tokens and refuses with [`WgslError::Limit`],
+//!   naming the line, the limit and the fix:
+//!   * an expression with more than [`MAX_EXPRESSION_DEPTH`] (1024) operators,
+//!     calls, indexing and brackets on one path (`,` and `;` start afresh);
+//!   * nesting of `(`, `[`, `{` and `else if` deeper than [`MAX_NESTING`] (64);
+//!   * more than [`MAX_DECLARATIONS`] (4096) module-scope declarations;
+//!   * a function (parameters and body) of more than [`MAX_FUNCTION_TOKENS`]
+//!     (16,384) tokens, and a source of more than [`MAX_TOKENS`] (262,144).
+//!
+//!   naga recurses once per level of the first three (several KiB of stack per
+//!   level of an expression in an unoptimised build), so they keep its stack well
+//!   within its thread's; its front end takes time quadratic in a function's
+//!   length (about 1.5 s, unoptimised, for the longest function allowed), which
+//!   the last bounds. A 50,000-term chain is refused rather than compiled on a
+//!   bigger stack: it would need hundreds of MiB, and the scan counts the same in
+//!   every build. The limits are far above hand-written code, and the nesting
+//!   limit keeps below naga's own (200 nested statements and expressions, which
+//!   it reports without a position). The scan counts tokens, not naga's tree, so
+//!   it may refuse what naga would take, never the reverse;
+//! * after validation refuses with [`WgslError::Memory`], naming the variable,
+//!   its size and the budget, an entry point needing more than [`MEMORY_BUDGET`]
+//!   (64 KiB) per invocation: the `var<private>` and ray payload variables it
+//!   uses plus the `var<function>` variables along its heaviest call path, sized
+//!   by naga's layouter; and any constant or value (a `let`) over the budget
+//!   alone. Drivers keep this memory per ray in registers or scratch (lavapipe
+//!   takes minutes to compile a 16 MiB private array); large data belongs in a
+//!   `Buffer<T>`. WGSL's own limits are 8 KiB each for private and function
+//!   memory; raykit allows more, for ray-tracing programs' small stacks and
+//!   tables.
+//!
 //! This crate has no Vulkan dependency, so a `build.rs` can compile `.wgsl` files
 //! to SPIR-V at build time ([`compile_file`]); raykit's `Module::from_wgsl` compiles
 //! at run time.
@@ -40,10 +78,14 @@
 #![forbid(unsafe_code)]
 
 mod fixup;
+mod limits;
 
 use std::path::Path;
 
 pub use fixup::{HIT_ATTRIBUTES_BINDING, RECORD_AND_ATTRIBUTES_GROUP, SHADER_RECORD_BINDING, TRAVERSABLE_GROUP};
+pub use limits::{
+    MAX_DECLARATIONS, MAX_EXPRESSION_DEPTH, MAX_FUNCTION_TOKENS, MAX_NESTING, MAX_TOKENS, MEMORY_BUDGET, STACK_SIZE,
+};
 
 /// The prelude: the declarations raykit expects, to copy into WGSL programs.
 pub const PRELUDE: &str = include_str!("../prelude.wgsl");
@@ -116,6 +158,54 @@ pub enum WgslError {
         reason: String,
     },
 
+    /// The source exceeds one of the limits that keep naga's recursion bounded
+    /// and its time bounded ([`MAX_EXPRESSION_DEPTH`], [`MAX_NESTING`],
+    /// [`MAX_DECLARATIONS`], [`MAX_FUNCTION_TOKENS`], [`MAX_TOKENS`]).
+    #[error("{path}:{line}:{column}: {what} {limit}; {fix}")]
+    Limit {
+        /// The file name given.
+        path: String,
+        /// 1-based line where the limit is passed.
+        line: u32,
+        /// 1-based column where the limit is passed.
+        column: u32,
+        /// What is counted.
+        what: &'static str,
+        /// The limit.
+        limit: usize,
+        /// How to stay within it.
+        fix: &'static str,
+    },
+
+    /// An entry point needs more per-invocation memory than [`MEMORY_BUDGET`], or
+    /// a constant or value alone is larger.
+    #[error("{path}: `{variable}` ({space}, {size} bytes){} is over the per-invocation memory budget of {budget} bytes; put large data in a Buffer<T> (a storage buffer in the bindless table) instead", in_entry(.entry_point, .total))]
+    Memory {
+        /// The file name given.
+        path: String,
+        /// The entry point over the budget, if the item belongs to one.
+        entry_point: Option<String>,
+        /// The largest variable or value (`function::name` for locals).
+        variable: String,
+        /// Its address space, or `const` or `value`.
+        space: &'static str,
+        /// Its size in bytes.
+        size: u64,
+        /// The entry point's total in bytes (`size` when the item alone is over).
+        total: u64,
+        /// The budget in bytes.
+        budget: u64,
+    },
+
+    /// naga panicked, or its thread could not start.
+    #[error("naga failed on {path}: {reason}")]
+    Internal {
+        /// The file name given.
+        path: String,
+        /// The panic's message or the thread's error.
+        reason: String,
+    },
+
     /// A `.wgsl` file could not be read.
     #[error("reading WGSL file {path}: {source}")]
     Io {
@@ -125,6 +215,13 @@ pub enum WgslError {
         #[source]
         source: std::io::Error,
     },
+}
+
+fn in_entry(entry_point: &Option<String>, total: &u64) -> String {
+    match entry_point {
+        Some(e) => format!(" takes entry point `{e}` to {total} bytes, which"),
+        None => String::new(),
+    }
 }
 
 fn at(line: &Option<u32>, column: &Option<u32>) -> String {
@@ -149,10 +246,41 @@ const UNSUPPORTED: &[(&str, &str)] = &[
     ("hit_attribute", "hit-attribute address space (raykit maps @group(3) @binding(1) instead)"),
 ];
 
-/// Compiles WGSL source to SPIR-V words ready for raykit: parse, validate, write
-/// SPIR-V 1.5, then apply raykit's conventions (module docs). `path` names the
-/// source in diagnostics.
+/// Compiles WGSL source to SPIR-V words ready for raykit: check the limits,
+/// parse, validate, check the memory budget, write SPIR-V 1.5, then apply
+/// raykit's conventions (module docs). naga runs on a thread of its own with a
+/// [`STACK_SIZE`] stack; a panic there becomes [`WgslError::Internal`]. `path`
+/// names the source in diagnostics.
 pub fn compile(source: &str, path: &str) -> Result<Vec<u32>, WgslError> {
+    on_naga_thread(path, || compile_here(source, path))
+}
+
+/// Runs `work` on a thread with a [`STACK_SIZE`] stack; its panic becomes
+/// [`WgslError::Internal`].
+fn on_naga_thread<T: Send>(path: &str, work: impl FnOnce() -> Result<T, WgslError> + Send) -> Result<T, WgslError> {
+    let internal = |reason: String| WgslError::Internal { path: path.to_owned(), reason };
+    std::thread::scope(|scope| {
+        let worker = std::thread::Builder::new()
+            .name("raykit-wgsl".to_owned())
+            .stack_size(STACK_SIZE)
+            .spawn_scoped(scope, work)
+            .map_err(|e| internal(format!("starting naga's thread: {e}")))?;
+        worker.join().map_err(|panic| internal(panic_message(panic.as_ref())))?
+    })
+}
+
+fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    let message = panic
+        .downcast_ref::<&str>()
+        .map(|s| (*s).to_owned())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a panic without a message".to_owned());
+    format!("panicked: {message}")
+}
+
+/// [`compile`]'s work, on naga's thread.
+fn compile_here(source: &str, path: &str) -> Result<Vec<u32>, WgslError> {
+    limits::scan(source, path)?;
     let module = naga::front::wgsl::parse_str(source).map_err(|e| parse_error(&e, source, path))?;
     let capabilities = naga::valid::Capabilities::RAY_TRACING_PIPELINE
         | naga::valid::Capabilities::IMMEDIATES
@@ -171,6 +299,7 @@ pub fn compile(source: &str, path: &str) -> Result<Vec<u32>, WgslError> {
                 rendered: e.emit_to_string_with_path(source, path),
             }
         })?;
+    limits::check_memory(&module, &info, path)?;
     let options = naga::back::spv::Options {
         lang_version: (1, 5),
         // Names for reflection's messages (params fields), no other debug info.
@@ -374,6 +503,12 @@ mod tests {
                 .map(|e| e.to_string())
                 .unwrap_or_default();
         assert!(err.contains("bad.wgsl:4:13") && err.contains('^'), "{err}");
+    }
+
+    #[test]
+    fn a_panic_on_nagas_thread_becomes_an_internal_error() {
+        let err = on_naga_thread("p.wgsl", || -> Result<(), WgslError> { panic!("naga gave up") }).err();
+        assert!(matches!(&err, Some(WgslError::Internal { reason, .. }) if reason.contains("naga gave up")), "{err:?}");
     }
 
     #[test]
