@@ -117,8 +117,14 @@ impl DeviceBuild {
             return Ok(name.clone());
         }
         let manifest = self.crate_dir.join("Cargo.toml");
-        let text = std::fs::read_to_string(&manifest).map_err(|_| Error::NotACrate { path: self.crate_dir.clone() })?;
-        package_name_of(&text).ok_or_else(|| Error::NotACrate { path: self.crate_dir.clone() })
+        let text = std::fs::read_to_string(&manifest).map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => Error::NotACrate { path: self.crate_dir.clone() },
+            _ => io("reading", &manifest)(e),
+        })?;
+        package_name_of(&text).ok_or_else(|| Error::Manifest {
+            path: manifest.clone(),
+            problem: "it has no `name = \"...\"` in a [package] table (or is not TOML cargo can read)",
+        })
     }
 
     /// The directories whose files decide whether the crate must be rebuilt.
@@ -346,6 +352,17 @@ mod tests {
         if std::env::var_os("CARGO_TARGET_DIR").is_none() {
             assert_eq!(target_dir_of(out), Path::new("/p/target"));
         }
+    }
+
+    #[test]
+    fn a_manifest_without_a_package_name_is_a_manifest_error_not_a_missing_crate() {
+        let dir = std::env::temp_dir().join(format!("raykit-builder-manifest-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("a temp dir");
+        std::fs::write(dir.join("Cargo.toml"), "[package\nname = broken").expect("a manifest");
+        let err = DeviceBuild::new(&dir).package_name().unwrap_err();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(matches!(err, Error::Manifest { .. }), "{err}");
+        assert!(err.to_string().contains("Cargo.toml names no package"), "{err}");
     }
 
     #[test]

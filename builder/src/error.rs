@@ -62,6 +62,14 @@ pub enum Error {
         /// The path given.
         path: PathBuf,
     },
+    /// A device crate's `Cargo.toml` names no package.
+    #[error("{path} names no package: {problem}; give it a [package] table with name = \"...\"")]
+    Manifest {
+        /// The manifest.
+        path: PathBuf,
+        /// What is wrong with it.
+        problem: &'static str,
+    },
     /// A new project's directory already has files.
     #[error("{path} is not empty: choose a new directory for the project")]
     NotEmpty {
