@@ -693,7 +693,7 @@ impl<'c> AshTracer<'c> {
             unsafe {
                 d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, pipeline);
                 d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, layout, 0, &[self.set], &[]);
-                d.cmd_push_constants(cmd, layout, rt_stages(), 0, params);
+                d.cmd_push_constants(cmd, layout, crate::launch::rt_stages(), 0, params);
                 if let Some(pool) = self.timestamps {
                     d.cmd_reset_query_pool(cmd, pool, 0, 2);
                     d.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0);
@@ -771,13 +771,4 @@ impl Drop for AshTracer<'_> {
             }
         }
     }
-}
-
-fn rt_stages() -> vk::ShaderStageFlags {
-    vk::ShaderStageFlags::RAYGEN_KHR
-        | vk::ShaderStageFlags::MISS_KHR
-        | vk::ShaderStageFlags::CLOSEST_HIT_KHR
-        | vk::ShaderStageFlags::ANY_HIT_KHR
-        | vk::ShaderStageFlags::INTERSECTION_KHR
-        | vk::ShaderStageFlags::CALLABLE_KHR
 }

@@ -138,7 +138,8 @@ impl Drop for AshLauncher<'_> {
     }
 }
 
-fn rt_stages() -> vk::ShaderStageFlags {
+/// Every ray-tracing stage: what the hand-written launches push constants to.
+pub(crate) fn rt_stages() -> vk::ShaderStageFlags {
     vk::ShaderStageFlags::RAYGEN_KHR
         | vk::ShaderStageFlags::MISS_KHR
         | vk::ShaderStageFlags::CLOSEST_HIT_KHR
