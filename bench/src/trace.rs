@@ -52,8 +52,14 @@ pub struct Options {
     /// The OptiX twin's executable (or its folder) for the `optix` suite; else
     /// `optix/raykit-optix` next to this binary.
     pub optix_bin: Option<std::path::PathBuf>,
+    /// How the primary-ray scene's GAS and IAS are built.
+    pub primary_gas: GasChoice,
     /// Image sizes of the `optix` suite's primary rays.
     pub optix_sizes: Vec<(u32, u32)>,
+    /// Rounds of the `optix` suite: each runs raykit's variants interleaved,
+    /// then the OptiX twin (single GAS, then IAS), so that both sides see the
+    /// GPU in the same states.
+    pub optix_rounds: usize,
 }
 
 /// One variant's results.
@@ -217,15 +223,24 @@ pub struct PrimaryScene {
     pub params: PrimaryParams,
 }
 
-/// Builds the height field of `triangles` triangles over [0,1]² and a camera
-/// above it whose every ray hits it.
-pub fn primary_scene(ctx: &Context, triangles: usize, (width, height): (u32, u32)) -> anyhow::Result<PrimaryScene> {
+/// Builds the height field of `triangles` triangles over [0,1]² (a compacted
+/// GAS for fast trace under a one-instance IAS) and a camera above it whose
+/// every ray hits it.
+pub fn primary_scene(
+    ctx: &Context,
+    triangles: usize,
+    (width, height): (u32, u32),
+    choice: GasChoice,
+) -> anyhow::Result<PrimaryScene> {
     let (vertices, indices) = crate::accel::grid(triangles);
+    let mut options = raykit::accel::BuildOptions::default().allow_compaction(choice.compact);
+    options.preference = choice.preference;
     let gas = Gas::builder()
         .triangles(Triangles::new(&vertices).indices_u32(&indices).flags(raykit::GeometryFlags::OPAQUE))
-        .options(raykit::accel::BuildOptions::default().fast_trace())
+        .options(options)
         .build(ctx)?;
-    let ias = Ias::single(ctx, &gas)?;
+    let gas = if choice.compact { gas.compact()? } else { gas };
+    let ias = Ias::new(ctx, &[raykit::Instance::new(&gas).flags(choice.instance_flags)])?;
     let image = ctx.buffer::<u32>(width as usize * height as usize)?;
     let aspect = width as f32 / height as f32;
     let half_height = 0.45 / aspect.max(1.0);
@@ -242,11 +257,58 @@ pub fn primary_scene(ctx: &Context, triangles: usize, (width, height): (u32, u32
     Ok(PrimaryScene { ias, image, params })
 }
 
+/// How the primary-ray scene is built (`--primary-gas`, comma-separated):
+/// `fast-trace` (default), `fast-build` or `neither`; `compact` (default) or
+/// `no-compact`, as the OptiX twin's GAS is compacted; the instance's flags
+/// `cull-disable` and `force-opaque` (default none).
+#[derive(Clone, Copy, Debug)]
+pub struct GasChoice {
+    /// The GAS build's preference.
+    pub preference: raykit::accel::BuildPreference,
+    /// Whether the GAS is compacted after its build.
+    pub compact: bool,
+    /// The one instance's flags.
+    pub instance_flags: raykit::InstanceFlags,
+}
+
+impl Default for GasChoice {
+    fn default() -> GasChoice {
+        GasChoice {
+            preference: raykit::accel::BuildPreference::FastTrace,
+            compact: true,
+            instance_flags: raykit::InstanceFlags::NONE,
+        }
+    }
+}
+
+impl GasChoice {
+    /// Parses `--primary-gas`'s value.
+    pub fn parse(value: &str) -> anyhow::Result<GasChoice> {
+        let mut c = GasChoice::default();
+        for token in value.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+            match token {
+                "fast-trace" => c.preference = raykit::accel::BuildPreference::FastTrace,
+                "fast-build" => c.preference = raykit::accel::BuildPreference::FastBuild,
+                "neither" => c.preference = raykit::accel::BuildPreference::Neither,
+                "compact" => c.compact = true,
+                "no-compact" => c.compact = false,
+                "cull-disable" => c.instance_flags = c.instance_flags | raykit::InstanceFlags::DISABLE_TRIANGLE_CULLING,
+                "force-opaque" => c.instance_flags = c.instance_flags | raykit::InstanceFlags::FORCE_OPAQUE,
+                other => anyhow::bail!(
+                    "--primary-gas: unknown `{other}` (fast-trace, fast-build, neither, compact, no-compact, \
+                     cull-disable, force-opaque)"
+                ),
+            }
+        }
+        Ok(c)
+    }
+}
+
 /// The `primary` suite.
 pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> anyhow::Result<Vec<Row>> {
     let (width, height) = opts.primary_size;
     let built = Instant::now();
-    let scene = primary_scene(ctx, opts.triangles, opts.primary_size)?;
+    let scene = primary_scene(ctx, opts.triangles, opts.primary_size, opts.primary_gas)?;
     eprintln!("primary: {} triangles built in {:.1} s", opts.triangles, built.elapsed().as_secs_f64());
     let rust = primary_pipeline(ctx, Language::Rust)?;
     let glsl = primary_pipeline(ctx, Language::Glsl)?;

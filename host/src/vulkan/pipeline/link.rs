@@ -130,7 +130,10 @@ pub(crate) fn link_groups<P: LaunchParams>(
     crate::validate::check_programs(groups, max_trace_depth, &shaders.spec_values(), params_delivery::<P>())?;
     let specialization = shaders.specialization();
     let stages = shaders.stages(&specialization);
-    let create_info = vk::RayTracingPipelineCreateInfoKHR::default().stages(&stages).groups(&shaders.group_infos);
+    let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
+        .flags(primitive_flags(inner, &shaders))
+        .stages(&stages)
+        .groups(&shaders.group_infos);
     let name = format!("raykit pipeline [{}]", shaders.names().join(", "));
     let parts = PipelineParts {
         groups: groups
@@ -142,6 +145,21 @@ pub(crate) fn link_groups<P: LaunchParams>(
         libraries: Vec::new(),
     };
     PipelineInner::new::<P>(inner, max_trace_depth, create_info, &name, parts)
+}
+
+/// `SKIP_AABBS` for a pipeline none of whose hit groups has an intersection
+/// program, where the device can cull primitives: traversal then never visits
+/// AABB geometry, which such a pipeline could not intersect anyway (OptiX's
+/// `usesPrimitiveTypeFlags = TRIANGLE`). Libraries are linked without it: a
+/// linked pipeline and its libraries must agree on the flag.
+fn primitive_flags(ctx: &ContextInner, shaders: &ShaderGroups) -> vk::PipelineCreateFlags {
+    let procedural =
+        shaders.group_infos.iter().any(|g| g.ty == vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP);
+    if ctx.primitive_culling && !procedural {
+        vk::PipelineCreateFlags::RAY_TRACING_SKIP_AABBS_KHR
+    } else {
+        vk::PipelineCreateFlags::empty()
+    }
 }
 
 /// Links a pipeline for params `P` from checked `libraries` (made with
