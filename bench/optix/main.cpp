@@ -1,6 +1,7 @@
 // raykit-optix: the OptiX twin of raykit-bench's `primary` and `path` suites.
 //
 //   raykit-optix primary|path SCENE OUT [--launches N] [--warmup N] [--module FILE] [--ias 0|1]
+//       [--gas-build fast-trace|fast-build|neither]
 //
 // Reads the scene raykit-bench wrote (SCENE, see `Scene files` below), builds a
 // compacted GAS (OPTIX_BUILD_FLAG_PREFER_FAST_TRACE) — with `--ias 1` also an
@@ -142,9 +143,9 @@ struct Gas {
     double build_ms = 0.0;
 };
 
-Gas build_gas(OptixDeviceContext ctx, std::vector<OptixBuildInput>& inputs) {
+Gas build_gas(OptixDeviceContext ctx, std::vector<OptixBuildInput>& inputs, unsigned int preference) {
     OptixAccelBuildOptions options = {};
-    options.buildFlags = OPTIX_BUILD_FLAG_PREFER_FAST_TRACE | OPTIX_BUILD_FLAG_ALLOW_COMPACTION;
+    options.buildFlags = preference | OPTIX_BUILD_FLAG_ALLOW_COMPACTION;
     options.operation = OPTIX_BUILD_OPERATION_BUILD;
     OptixAccelBufferSizes sizes = {};
     OPTIX(optixAccelComputeMemoryUsage(ctx, &options, inputs.data(), (unsigned int)inputs.size(), &sizes));
@@ -405,6 +406,8 @@ struct Options {
     int launches = 20;
     int warmup = 3;
     bool ias = false;
+    // OPTIX_BUILD_FLAG_PREFER_FAST_TRACE (default), _PREFER_FAST_BUILD or none.
+    unsigned int preference = OPTIX_BUILD_FLAG_PREFER_FAST_TRACE;
 };
 
 std::string exe_dir(const char* argv0) {
@@ -460,7 +463,7 @@ void run_primary(OptixDeviceContext ctx, const Options& o) {
     input.triangleArray.indexBuffer = d_indices;
     input.triangleArray.flags = flags;
     input.triangleArray.numSbtRecords = 1;
-    Gas gas = build_gas(ctx, inputs);
+    Gas gas = build_gas(ctx, inputs, o.preference);
     Ias ias;
     if (o.ias) {
         ias = build_ias(ctx, gas.handle);
@@ -553,7 +556,7 @@ void run_path(OptixDeviceContext ctx, const Options& o) {
         input.triangleArray.flags = flags;
         input.triangleArray.numSbtRecords = 1;
     }
-    Gas gas = build_gas(ctx, inputs);
+    Gas gas = build_gas(ctx, inputs, o.preference);
     Ias ias;
     if (o.ias) {
         ias = build_ias(ctx, gas.handle);
@@ -609,7 +612,8 @@ void run_path(OptixDeviceContext ctx, const Options& o) {
 Options parse(int argc, char** argv) {
     if (argc < 4) {
         throw Failure(
-            "usage: raykit-optix primary|path SCENE OUT [--launches N] [--warmup N] [--module FILE] [--ias 0|1]");
+            "usage: raykit-optix primary|path SCENE OUT [--launches N] [--warmup N] [--module FILE] [--ias 0|1] "
+            "[--gas-build fast-trace|fast-build|neither]");
     }
     Options o;
     o.suite = argv[1];
@@ -628,6 +632,16 @@ Options parse(int argc, char** argv) {
             o.launches = std::max(1, std::atoi(v.c_str()));
         } else if (a == "--warmup") {
             o.warmup = std::max(0, std::atoi(v.c_str()));
+        } else if (a == "--gas-build") {
+            if (v == "fast-trace") {
+                o.preference = OPTIX_BUILD_FLAG_PREFER_FAST_TRACE;
+            } else if (v == "fast-build") {
+                o.preference = OPTIX_BUILD_FLAG_PREFER_FAST_BUILD;
+            } else if (v == "neither") {
+                o.preference = OPTIX_BUILD_FLAG_NONE;
+            } else {
+                throw Failure("--gas-build takes fast-trace, fast-build or neither");
+            }
         } else if (a == "--ias") {
             o.ias = v == "1";
         } else if (a == "--module") {

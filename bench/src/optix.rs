@@ -107,7 +107,7 @@ impl Traversable {
     fn file_suffix(self) -> &'static str {
         match self {
             Traversable::Gas => "",
-            Traversable::Ias => ".ias",
+            Traversable::Ias => "_ias",
         }
     }
 }
@@ -143,7 +143,10 @@ impl TwinRuns {
 
     fn reports(&self) -> Value {
         Value::Object(
-            self.runs.iter().map(|(t, r, _)| (t.row_name().to_owned(), r.report.clone())).collect::<serde_json::Map<_, _>>(),
+            self.runs
+                .iter()
+                .map(|(t, r, _)| (t.row_name().to_owned(), r.report.clone()))
+                .collect::<serde_json::Map<_, _>>(),
         )
     }
 }
@@ -166,7 +169,13 @@ fn run_twin(
     out: &Path,
     launches: usize,
     traversable: Traversable,
+    preference: raykit::accel::BuildPreference,
 ) -> anyhow::Result<(OptixRun, Vec<u8>)> {
+    let build = match preference {
+        raykit::accel::BuildPreference::FastTrace => "fast-trace",
+        raykit::accel::BuildPreference::FastBuild => "fast-build",
+        raykit::accel::BuildPreference::Neither => "neither",
+    };
     let ias = match traversable {
         Traversable::Gas => "0",
         Traversable::Ias => "1",
@@ -175,7 +184,7 @@ fn run_twin(
         .arg(suite)
         .arg(scene)
         .arg(out)
-        .args(["--launches", &launches.to_string(), "--warmup", "3", "--ias", ias])
+        .args(["--launches", &launches.to_string(), "--warmup", "3", "--ias", ias, "--gas-build", build])
         .output()
         .with_context(|| format!("starting {}", bin.display()))?;
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -342,16 +351,29 @@ fn primary(
         }
         std::fs::write(&scene_path, &w.0).with_context(|| format!("writing {}", scene_path.display()))?;
     }
-    let names = ["Rust", "GLSL", "ash"];
+    // The WGSL twin as it is and with tiled launch indices (see
+    // `Language::WgslTiled`), where the image divides into the tiles.
+    let wgsl = crate::trace::primary_pipeline(ctx, Language::Wgsl)?;
+    let tiles: Vec<(&'static str, crate::trace::PrimaryPipeline)> = [("WGSL 8x4", (8, 4)), ("WGSL 4x8", (4, 8))]
+        .into_iter()
+        .filter(|(_, (tw, th))| width % tw == 0 && height % th == 0)
+        .map(|(name, tile)| Ok((name, crate::trace::primary_pipeline(ctx, Language::WgslTiled(tile.0, tile.1))?)))
+        .collect::<anyhow::Result<_>>()?;
+    let mut names = vec!["Rust", "GLSL", "ash", "WGSL"];
+    names.extend(tiles.iter().map(|(name, _)| *name));
     let mut variants: Vec<Variant<'_>> = vec![
         ("Rust", Box::new(|| launch(&rust))),
         ("GLSL", Box::new(|| launch(&glsl))),
         ("ash", Box::new(|| Ok((crate::trace::ash_launch(&ash, &rust, &ash_params, dims)?, rays)))),
+        ("WGSL", Box::new(|| launch(&wgsl))),
     ];
+    for (name, pipeline) in &tiles {
+        variants.push((name, Box::new(|| launch(pipeline))));
+    }
     let out = dir.join(format!("primary_{width}x{height}"));
     let (results, runs) = rounds(&mut variants, opts, twin, |bin, traversable| {
         let out = out.with_file_name(format!("primary_{width}x{height}{}", traversable.file_suffix()));
-        run_twin(bin, "primary", &scene_path, &out, opts.reps, traversable)
+        run_twin(bin, "primary", &scene_path, &out, opts.reps, traversable, opts.primary_gas.preference)
     })?;
     drop(variants);
     let mut rows = interleaved_rows(&names, &results, timing_name(timer));
@@ -359,6 +381,15 @@ fn primary(
     rust.pipeline.launch(&rust.sbt, &scene.params, dims)?;
     let picture = scene.image.read()?;
     let ash_differs = picture.iter().zip(ash.picture()?).filter(|(a, b)| **a != *b).count();
+    // The tiled WGSL programs must draw the plain WGSL picture.
+    wgsl.pipeline.launch(&wgsl.sbt, &scene.params, dims)?;
+    let wgsl_picture = scene.image.read()?;
+    let mut tiled_differs = 0;
+    for (_, pipeline) in &tiles {
+        pipeline.pipeline.launch(&pipeline.sbt, &scene.params, dims)?;
+        tiled_differs += scene.image.read()?.iter().zip(&wgsl_picture).filter(|(a, b)| a != b).count();
+    }
+    let ash_differs = ash_differs + tiled_differs;
     if runs.runs.is_empty() {
         return Ok(Section {
             suite: "primary",
@@ -379,7 +410,7 @@ fn primary(
         let row = optix_row(traversable.row_name(), run, &rows[0]);
         rows.push(row);
     }
-    let check = format!("{}; ash: {ash_differs} differ", checks.join("; "));
+    let check = format!("{}; ash and the tiled WGSL: {ash_differs} differ", checks.join("; "));
     // raykit's picture, for a closer look beside the twin's.
     let ours_path = dir.join(format!("primary_{width}x{height}.raykit.img"));
     let bytes: Vec<u8> = picture.iter().flat_map(|p| p.to_le_bytes()).collect();
@@ -507,12 +538,19 @@ fn path(
         vec![("Rust", Box::new(|| launch(&mut rust))), ("GLSL", Box::new(|| launch(&mut glsl)))];
     let (results, runs) = rounds(&mut variants, opts, twin, |bin, traversable| {
         let out = dir.join(format!("path_{size}{}", traversable.file_suffix()));
-        run_twin(bin, "path", &scene_path, &out, opts.reps, traversable)
+        run_twin(bin, "path", &scene_path, &out, opts.reps, traversable, raykit::accel::BuildPreference::FastTrace)
     })?;
     drop(variants);
     let mut rows = interleaved_rows(&names, &results, timing_name(timer));
     if runs.runs.is_empty() {
-        return Ok(Section { suite: "path", setup, rows, check: "OptiX not run".to_owned(), passed: None, optix: None });
+        return Ok(Section {
+            suite: "path",
+            setup,
+            rows,
+            check: "OptiX not run".to_owned(),
+            passed: None,
+            optix: None,
+        });
     }
     // raykit's picture, from a last launch of the Rust programs.
     rust.reset();

@@ -160,10 +160,41 @@ pub enum Language {
     Glsl,
     /// naga.
     Wgsl,
+    /// The WGSL twin with its launch index remapped so that each run of 32
+    /// consecutive invocations covers a `W`×`H` tile of pixels (`W`·`H` = 32)
+    /// instead of a 32-pixel row: a study of how the driver groups
+    /// invocations into warps. The same picture where the image's width is a
+    /// multiple of `W` and its height of `H`.
+    WgslTiled(u32, u32),
+}
+
+/// The primary-ray WGSL twin whose raygen reads its pixel from a `tile`-tiled
+/// launch index (see [`Language::WgslTiled`]).
+fn tiled_wgsl((tw, th): (u32, u32)) -> anyhow::Result<String> {
+    let source = include_str!("../../examples/triangle/wgsl/triangle.wgsl");
+    let header = "fn rg(@builtin(ray_invocation_id) id: vec3<u32>, @builtin(num_ray_invocations) dims: vec3<u32>) {";
+    anyhow::ensure!(source.contains(header), "the WGSL twin's raygen signature changed");
+    let tiled = format!(
+        "fn rg(@builtin(ray_invocation_id) launch_id: vec3<u32>, @builtin(num_ray_invocations) dims: vec3<u32>) {{\n    \
+         let linear = launch_id.x + dims.x * launch_id.y;\n    \
+         let tile = linear / {lanes}u;\n    let lane = linear % {lanes}u;\n    \
+         let tiles_x = dims.x / {tw}u;\n    \
+         let id = vec3<u32>((tile % tiles_x) * {tw}u + lane % {tw}u, (tile / tiles_x) * {th}u + lane / {tw}u, 0u);",
+        lanes = tw * th
+    );
+    Ok(source.replace(header, &tiled))
 }
 
 /// The primary-ray programs: Rust (`triangle-device`), the GLSL twin or the WGSL twin.
 fn primary_programs(ctx: &Context, language: Language) -> anyhow::Result<[ProgramGroup; 3]> {
+    if let Language::WgslTiled(tw, th) = language {
+        let module = Module::from_wgsl_named(ctx, &tiled_wgsl((tw, th))?, "triangle.wgsl, tiled launch index")?;
+        return Ok([
+            ProgramGroup::raygen(&module, "rg")?,
+            ProgramGroup::miss(&module, "ms")?,
+            ProgramGroup::hit_group(&module).closest_hit("ch").build()?,
+        ]);
+    }
     if language == Language::Wgsl {
         let source = include_str!("../../examples/triangle/wgsl/triangle.wgsl");
         let module = Module::from_wgsl_named(ctx, source, "examples/triangle/wgsl/triangle.wgsl")?;

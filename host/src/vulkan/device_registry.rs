@@ -338,8 +338,7 @@ fn create_device(
     let mut features = Features::required();
     // Optional: lets pipelines without intersection programs skip AABB geometry
     // in traversal (`SKIP_AABBS`), as OptiX's `usesPrimitiveTypeFlags` does.
-    let primitive_culling =
-        Features::query(vk_instance, physical).rt.ray_traversal_primitive_culling == vk::TRUE;
+    let primitive_culling = Features::query(vk_instance, physical).rt.ray_traversal_primitive_culling == vk::TRUE;
     features.rt = features.rt.ray_traversal_primitive_culling(primitive_culling);
     let priorities = [1.0f32];
     let queue_infos =

@@ -153,8 +153,7 @@ pub(crate) fn link_groups<P: LaunchParams>(
 /// `usesPrimitiveTypeFlags = TRIANGLE`). Libraries are linked without it: a
 /// linked pipeline and its libraries must agree on the flag.
 fn primitive_flags(ctx: &ContextInner, shaders: &ShaderGroups) -> vk::PipelineCreateFlags {
-    let procedural =
-        shaders.group_infos.iter().any(|g| g.ty == vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP);
+    let procedural = shaders.group_infos.iter().any(|g| g.ty == vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP);
     if ctx.primitive_culling && !procedural {
         vk::PipelineCreateFlags::RAY_TRACING_SKIP_AABBS_KHR
     } else {
