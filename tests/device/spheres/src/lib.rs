@@ -36,7 +36,7 @@ pub const MISS: u32 = 99;
 
 /// The record of the sphere hit group: the spheres of the GAS its instance holds.
 #[repr(C)]
-#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, SbtRecordData)]
+#[derive(Copy, Clone, Debug, bytemuck::Zeroable, SbtRecordData)]
 pub struct SphereRecord {
     /// `raykit::Gas::sphere_buffer` of the instance's GAS.
     pub spheres: Buffer<Vec4>,
