@@ -3,7 +3,7 @@ use raykit_device::{Buffer, SbtRecordData};
 
 // Deriving both: `Pod` already makes the type record data, without handle checks.
 #[repr(C)]
-#[derive(Copy, Clone, bytemuck::Zeroable, SbtRecordData)]
+#[derive(Copy, Clone, bytemuck::Pod, bytemuck::Zeroable, SbtRecordData)]
 struct Material {
     colors: Buffer<Vec4>,
     index: u32,
