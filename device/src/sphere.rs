@@ -61,7 +61,7 @@
 //! program); the parametric distance is the closest-hit's `ctx.hit_t()`.
 //! [`SphereHit::surface`] takes all of it to world space ([`SurfaceHit`]), and
 //! [`SurfaceHit::spawn_origin`] offsets the point along the normal by its error
-//! bound and by [`offset_ray_origin`](crate::ray::offset_ray_origin), so
+//! bound and by [`offset_ray_origin`], so
 //! secondary rays from a radius-1000 ground start outside it with `t_min = 0`.
 
 use spirv_std::glam::{Vec3, Vec4};
@@ -202,13 +202,7 @@ pub fn hit_at(origin: Vec3, direction: Vec3, sphere: Vec4, t: f32) -> SphereHit 
 
 /// The nearest hit of the ray with the sphere with `t` in `[t_min, t_max]`:
 /// its distance, hit kind ([`FRONT_FACE`] or [`BACK_FACE`]) and attributes.
-pub fn intersect(
-    origin: Vec3,
-    direction: Vec3,
-    sphere: Vec4,
-    t_min: f32,
-    t_max: f32,
-) -> Option<(f32, u32, SphereHit)> {
+pub fn intersect(origin: Vec3, direction: Vec3, sphere: Vec4, t_min: f32, t_max: f32) -> Option<(f32, u32, SphereHit)> {
     let (near, far) = roots(origin, direction, sphere)?;
     if near >= t_min && near <= t_max {
         Some((near, FRONT_FACE, hit_at(origin, direction, sphere, near)))

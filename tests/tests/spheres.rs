@@ -170,8 +170,7 @@ fn trace(ctx: &raykit::Context, rays: &[(TestRay, Vec3)]) -> anyhow::Result<Vec<
         SphereRecord { spheres: gas_a.sphere_buffer().ok_or_else(|| anyhow::anyhow!("no sphere buffer"))? },
         SphereRecord { spheres: gas_b.sphere_buffer().ok_or_else(|| anyhow::anyhow!("no sphere buffer"))? },
     ];
-    let scene =
-        Ias::new(ctx, &[Instance::new(&gas_a), Instance::new(&gas_b).transform(transform_b()).sbt_offset(1)])?;
+    let scene = Ias::new(ctx, &[Instance::new(&gas_a), Instance::new(&gas_b).transform(transform_b()).sbt_offset(1)])?;
     // The IAS keeps the GASes and their spheres alive.
     drop((gas_a, gas_b));
 
@@ -183,8 +182,12 @@ fn trace(ctx: &raykit::Context, rays: &[(TestRay, Vec3)]) -> anyhow::Result<Vec<
         .closest_hit(spheres_test_device::CH_SPHERE)
         .build()?;
     let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
-    let sbt =
-        Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).hit(&hit, records[0]).hit(&hit, records[1]).build()?;
+    let sbt = Sbt::builder(&pipeline)
+        .raygen(&raygen, ())
+        .miss(&miss, ())
+        .hit(&hit, records[0])
+        .hit(&hit, records[1])
+        .build()?;
 
     let words: Vec<Vec4> = rays
         .iter()
@@ -301,7 +304,8 @@ fn check(ctx: &raykit::Context, name: &str, rays: &[TestRay], seed: u32) -> anyh
 fn random_rays(rng: &mut Pcg, n: usize) -> Vec<TestRay> {
     (0..n)
         .map(|i| {
-            let origin = Vec3::new(16.0 * rng.next_f32() - 8.0, 0.2 + 6.0 * rng.next_f32(), 16.0 * rng.next_f32() - 8.0);
+            let origin =
+                Vec3::new(16.0 * rng.next_f32() - 8.0, 0.2 + 6.0 * rng.next_f32(), 16.0 * rng.next_f32() - 8.0);
             let target = Vec3::new(12.0 * rng.next_f32() - 6.0, 2.5 * rng.next_f32(), 12.0 * rng.next_f32() - 8.0);
             let direction = (target - origin) * (0.25 + 2.0 * rng.next_f32());
             let t_max = if i % 3 == 0 { 0.2 + 2.0 * rng.next_f32() } else { 1e30 };

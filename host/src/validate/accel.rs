@@ -47,7 +47,8 @@ pub(crate) fn spheres(centres: &[glam::Vec3], radii: &[f32]) -> Result<()> {
             Some("its radius is infinite; give a finite radius ≥ 0 (a plane is two triangles)")
         } else if radius < 0.0 {
             Some("its radius is negative; give a radius ≥ 0")
-        } else if !(*centre - glam::Vec3::splat(radius)).is_finite() || !(*centre + glam::Vec3::splat(radius)).is_finite()
+        } else if !(*centre - glam::Vec3::splat(radius)).is_finite()
+            || !(*centre + glam::Vec3::splat(radius)).is_finite()
         {
             Some("centre ± radius overflows f32; make the sphere smaller or scale the scene down")
         } else {
