@@ -72,7 +72,7 @@ pub fn render(ctx: &Context, size: UVec2, samples: u32, launches: u32) -> raykit
     let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
     let mut sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ());
     for (group, gas) in groups.iter().zip(&gases) {
-        let spheres = gas.sphere_buffer().unwrap_or(raykit::Buffer::from_table_index(0));
+        let spheres = gas.sphere_buffer().expect("a GAS made by Gas::spheres has its sphere buffer");
         sbt = sbt.hit(&hit, Material { spheres, ..group.material });
     }
     let sbt = sbt.build()?;

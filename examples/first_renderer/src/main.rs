@@ -15,9 +15,13 @@ fn main() -> anyhow::Result<()> {
     };
     let (width, height, spp) = (number(1, 600)?, number(2, 400)?, number(3, 64)?);
     let ctx = raykit::Context::new(raykit::ContextOptions::default())?;
-    let steps = first_renderer::render(&ctx, UVec2::new(width, height), spp.min(16), spp.div_ceil(16))?;
+    // Launches of at most 16 samples per pixel, so each stays short.
+    let launches = spp.div_ceil(16).max(1);
+    let per_launch = spp.div_ceil(launches);
+    let steps = first_renderer::render(&ctx, UVec2::new(width, height), per_launch, launches)?;
     let last = steps.last().context("no launch")?;
     raykit_scene::write_png_rgba8(std::path::Path::new(&output), width, height, &first_renderer::to_rgba8(last))?;
+    let spp = per_launch * launches;
     println!("rendered {width}x{height}, {spp} spp on {} to {output}", ctx.device_name());
     Ok(())
 }
