@@ -52,8 +52,9 @@
 //!
 //! # Hit attributes ([`SphereHit`]) and hit kinds
 //! * `normal`: the object-space outward unit normal;
-//! * `point`: the hit point refined onto the sphere (`centre + radius · normal`,
-//!   object space), so that points on large spheres do not land inside them;
+//! * `point`: the hit point projected onto the sphere (`centre + radius · normal`,
+//!   object space), within `error` of it: no `f32` point lies exactly on a large
+//!   sphere, so secondary rays start from [`SurfaceHit::spawn_origin`], outside;
 //! * `error`: a bound on the point's distance from the exact surface.
 //!
 //! The hit kind is [`FRONT_FACE`] (the ray enters the sphere) or [`BACK_FACE`]
@@ -85,7 +86,7 @@ const UNIT_ROUNDOFF: f32 = 1.0 / 16_777_216.0;
 pub struct SphereHit {
     /// Outward unit normal at the hit, in object space.
     pub normal: Vec3,
-    /// The hit point refined onto the sphere, in object space.
+    /// The hit point projected onto the sphere, in object space.
     pub point: Vec3,
     /// A bound on `point`'s distance from the exact surface (object space).
     pub error: f32,
@@ -289,7 +290,7 @@ mod tests {
 
     #[test]
     fn large_sphere_hits_are_on_the_surface() {
-        // The radius-1000 ground under a camera 13 away: the refined point is
+        // The radius-1000 ground under a camera 13 away: the projected point is
         // within its error bound of the exact surface, and bounce rays start outside.
         let ground = Vec4::new(0.0, -1000.0, 0.0, 1000.0);
         let origin = Vec3::new(13.0, 2.0, 3.0);
