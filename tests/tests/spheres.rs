@@ -1,7 +1,8 @@
 //! Built-in spheres (`Gas::spheres` and `raykit_device::sphere`) against an
 //! analytic reference in plain f64 Rust, on each backend: random rays (cut by
 //! their interval), rays from inside spheres, grazing rays just inside and
-//! outside the rim, and a camera 13 units from a radius-1000 ground, as in the
+//! outside the rim, rays whose entries an any-hit program ignores (the exits
+//! are hit), and a camera 13 units from a radius-1000 ground, as in the
 //! final scene of *Ray Tracing in One Weekend*. For every hit: the sphere, the
 //! face, the distance, the surface point within its error bound of the exact
 //! sphere and the normal; and a bounce ray from the spawn origin, which must
@@ -119,7 +120,7 @@ fn roots(ray: &TestRay, s: &WorldSphere) -> (Option<(f64, f64, f64)>, f64) {
 /// The nearest hit in the ray's interval, or `None`; `Err` when the ray is too
 /// close to an ambiguity (tangency, an interval end, two nearly equal hits) for
 /// f32 to be held to one answer.
-fn nearest(ray: &TestRay, spheres: &[WorldSphere]) -> Result<Option<Reference>, ()> {
+fn nearest(ray: &TestRay, spheres: &[WorldSphere], exits_only: bool) -> Result<Option<Reference>, ()> {
     let mut hits: Vec<Reference> = Vec::new();
     for s in spheres {
         let (found, margin) = roots(ray, s);
@@ -132,7 +133,7 @@ fn nearest(ray: &TestRay, spheres: &[WorldSphere]) -> Result<Option<Reference>, 
             if (t - ray.t_min as f64).abs() < 4.0 * scale || (t - ray.t_max as f64).abs() < 4.0 * scale {
                 return Err(());
             }
-            if t >= ray.t_min as f64 && t <= ray.t_max as f64 {
+            if t >= ray.t_min as f64 && t <= ray.t_max as f64 && !(exits_only && front) {
                 hits.push(Reference { t, front, sphere: *s, t_tolerance: tol });
             }
         }
@@ -161,8 +162,9 @@ struct DeviceHit {
     bounce: Vec4,
 }
 
-/// Traces `rays` with their bounce directions (zero for none) on `ctx`.
-fn trace(ctx: &raykit::Context, rays: &[(TestRay, Vec3)]) -> anyhow::Result<Vec<DeviceHit>> {
+/// Traces `rays` with their bounce directions (zero for none) on `ctx`; with
+/// `exits_only`, an any-hit program ignores every entry.
+fn trace(ctx: &raykit::Context, rays: &[(TestRay, Vec3)], exits_only: bool) -> anyhow::Result<Vec<DeviceHit>> {
     let (centres, radii) = spheres_a();
     let gas_a = Gas::spheres(ctx, &centres, &radii)?;
     let gas_b = Gas::spheres(ctx, &[B_CENTRE], &[B_RADIUS])?;
@@ -177,10 +179,13 @@ fn trace(ctx: &raykit::Context, rays: &[(TestRay, Vec3)]) -> anyhow::Result<Vec<
     let module = Module::from_device_crate(ctx, "spheres-test-device")?;
     let raygen = ProgramGroup::raygen(&module, spheres_test_device::RG)?;
     let miss = ProgramGroup::miss(&module, spheres_test_device::MS)?;
-    let hit = ProgramGroup::hit_group(&module)
+    let mut hit = ProgramGroup::hit_group(&module)
         .intersection(spheres_test_device::IS_SPHERE)
-        .closest_hit(spheres_test_device::CH_SPHERE)
-        .build()?;
+        .closest_hit(spheres_test_device::CH_SPHERE);
+    if exits_only {
+        hit = hit.any_hit(spheres_test_device::AH_IGNORE_ENTRIES);
+    }
+    let hit = hit.build()?;
     let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
     let sbt = Sbt::builder(&pipeline)
         .raygen(&raygen, ())
@@ -241,9 +246,21 @@ struct Seen {
 
 /// Traces `rays` and checks each against the reference; returns what it saw.
 fn check(ctx: &raykit::Context, name: &str, rays: &[TestRay], seed: u32) -> anyhow::Result<Seen> {
+    check_with(ctx, name, rays, seed, false)
+}
+
+/// [`check`], with every entry ignored by an any-hit program when `exits_only`.
+fn check_with(
+    ctx: &raykit::Context,
+    name: &str,
+    rays: &[TestRay],
+    seed: u32,
+    exits_only: bool,
+) -> anyhow::Result<Seen> {
     let spheres = world_spheres();
     let mut rng = Pcg::new(seed, 77);
-    let references: Vec<Result<Option<Reference>, ()>> = rays.iter().map(|r| nearest(r, &spheres)).collect();
+    let references: Vec<Result<Option<Reference>, ()>> =
+        rays.iter().map(|r| nearest(r, &spheres, exits_only)).collect();
     // Each hit bounces off along a direction outward from the exact normal.
     let with_bounces: Vec<(TestRay, Vec3)> = rays
         .iter()
@@ -259,7 +276,7 @@ fn check(ctx: &raykit::Context, name: &str, rays: &[TestRay], seed: u32) -> anyh
             (*r, bounce)
         })
         .collect();
-    let got = trace(ctx, &with_bounces)?;
+    let got = trace(ctx, &with_bounces, exits_only)?;
     let mut seen = Seen::default();
     for (i, ((ray, reference), hit)) in rays.iter().zip(&references).zip(&got).enumerate() {
         let Ok(reference) = reference else {
@@ -350,6 +367,10 @@ fn spheres_match_the_analytic_reference() -> anyhow::Result<()> {
             .collect();
         let seen = check(ctx, "grazing", &grazing, 3)?;
         anyhow::ensure!(seen.hits >= 300 && seen.misses >= 200, "grazing: {seen:?}");
+
+        // An any-hit program that ignores every entry: the exits are hit instead.
+        let seen = check_with(ctx, "entries ignored", &random_rays(&mut rng, 1500), 5, true)?;
+        anyhow::ensure!(seen.hits > 500 && seen.back_faces == seen.hits, "entries ignored: {seen:?}");
         Ok(())
     })
 }

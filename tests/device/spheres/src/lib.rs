@@ -10,8 +10,8 @@
 use raykit_device::glam::{Vec3, Vec4};
 use raykit_device::sphere::{self, SphereHit};
 use raykit_device::{
-    closest_hit, intersection, miss, raygen, Buffer, ClosestHit, Intersection, LaunchParams, Miss, Ray, RayType,
-    Raygen, SbtRecordData, Traversable,
+    any_hit, closest_hit, intersection, miss, raygen, AnyHit, Buffer, ClosestHit, Intersection, LaunchParams, Miss,
+    Ray, RayType, Raygen, SbtRecordData, Traversable,
 };
 
 /// Launch params.
@@ -118,6 +118,14 @@ fn ms(_ctx: &mut Miss, #[payload] hit: &mut HitRecord) {
 #[intersection]
 fn is_sphere(ctx: &mut Intersection, #[record] r: &SphereRecord, #[attributes] hit: &mut SphereHit) {
     sphere::report(ctx, r.spheres, hit);
+}
+
+/// Ignores every entry, so the intersection program falls back to the exit.
+#[any_hit(ray = Probe)]
+fn ah_ignore_entries(ctx: &mut AnyHit, #[payload] _hit: &mut HitRecord) {
+    if ctx.hit_kind() == sphere::FRONT_FACE {
+        ctx.ignore_intersection();
+    }
 }
 
 #[closest_hit(ray = Probe)]
