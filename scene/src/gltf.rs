@@ -393,7 +393,16 @@ impl GltfScene {
     /// Loads `path` (.gltf with its buffers and images beside it, or .glb).
     pub fn load(path: &Path) -> Result<GltfScene, GltfError> {
         let parse = |source| GltfError::Parse { path: path.to_owned(), source };
-        let gltf::Gltf { document, blob } = gltf::Gltf::open(path).map_err(parse)?;
+        let bytes = std::fs::read(path).map_err(|e| parse(gltf::Error::Io(e)))?;
+        GltfScene::from_slice(&bytes, path)
+    }
+
+    /// Loads a glTF (JSON) or GLB file already in memory, as [`GltfScene::load`]
+    /// would the file at `path`: buffers and images it names by relative URI are
+    /// read beside `path`, and errors name `path`.
+    pub fn from_slice(bytes: &[u8], path: &Path) -> Result<GltfScene, GltfError> {
+        let parse = |source| GltfError::Parse { path: path.to_owned(), source };
+        let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(parse)?;
         let base = path.parent().unwrap_or(Path::new("."));
         for buffer in document.buffers() {
             if let gltf::buffer::Source::Uri(uri) = buffer.source() {

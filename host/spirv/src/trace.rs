@@ -28,6 +28,9 @@ pub struct EntryTraces {
     /// Whether it calls callables (`OpExecuteCallableKHR`), whose traces count
     /// towards its depth.
     pub executes_callables: bool,
+    /// The SBT index of each `OpExecuteCallableKHR` it reaches: the constant, or
+    /// `None` when it is computed at run time.
+    pub callables: Vec<Option<u32>>,
 }
 
 impl EntryTraces {
@@ -53,7 +56,7 @@ pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
         _ => None,
     };
     // Per function: its direct traces, callees and callable use.
-    let mut own: HashMap<u32, (Vec<TraceCall>, Vec<u32>, bool)> = HashMap::new();
+    let mut own: HashMap<u32, (Vec<TraceCall>, Vec<u32>, Vec<Option<u32>>)> = HashMap::new();
     for function in &module.functions {
         let Some(id) = function.def_id() else { continue };
         let entry = own.entry(id).or_default();
@@ -68,7 +71,9 @@ pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
                     });
                 }
                 Op::FunctionCall => entry.1.extend(id_at(&inst.operands, 0)),
-                Op::ExecuteCallableKHR | Op::ExecuteCallableNV => entry.2 = true,
+                Op::ExecuteCallableKHR | Op::ExecuteCallableNV => {
+                    entry.2.push(id_at(&inst.operands, 0).and_then(|id| constants.get(&id).copied()));
+                }
                 _ => {}
             }
         }
@@ -89,7 +94,8 @@ pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
             }
             if let Some((calls, callees, callables)) = own.get(&f) {
                 traces.calls.extend_from_slice(calls);
-                traces.executes_callables |= *callables;
+                traces.executes_callables |= !callables.is_empty();
+                traces.callables.extend_from_slice(callables);
                 todo.extend_from_slice(callees);
             }
         }

@@ -13,6 +13,7 @@ use std::cell::RefCell;
 use corosensei::stack::{DefaultStack, Stack, StackPointer};
 use corosensei::{Coroutine, CoroutineResult, Yielder};
 
+use super::overflow::Overflow;
 use super::packet::WIDTH;
 use super::THREAD_STACK;
 use crate::error::DeviceError;
@@ -58,20 +59,23 @@ thread_local! {
 /// Runs `body(lane, yielder)` for each lane of `0..count` (at most
 /// [`WIDTH`]), each in a coroutine of its own. Whenever every lane has
 /// suspended or returned, and some suspended, `trace` runs and those lanes
-/// are resumed.
-pub(crate) fn run_lanes<F, T>(count: usize, body: &F, mut trace: T) -> Result<()>
+/// are resumed. A lane that overflows its stack ends there (see
+/// [`super::overflow`]); the overflows are returned.
+pub(crate) fn run_lanes<F, T>(count: usize, body: &F, mut trace: T) -> Result<Vec<Overflow>>
 where
     F: Fn(usize, &LaneYielder),
     T: FnMut(),
 {
     debug_assert!(count <= WIDTH);
     let mut lanes: Vec<Lane> = Vec::with_capacity(count);
+    let mut guard_pages = Vec::with_capacity(count);
     for lane in 0..count {
         let stack = match STACKS.with_borrow_mut(Vec::pop) {
             Some(stack) => stack,
             None => DefaultStack::new(THREAD_STACK)
                 .map_err(|e| Error::Device(DeviceError::CpuThreads { reason: e.to_string() }))?,
         };
+        guard_pages.push(super::overflow::guard_page_of(&stack));
         let stack = LaneStack { stack, offset: lane * STAGGER };
         // SAFETY: the coroutine borrows `body`, which outlives this function;
         // every lane is driven to completion below or dropped (unwound) before
@@ -80,10 +84,13 @@ where
             Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder))
         });
     }
+    let mut overflows = Vec::new();
     loop {
         let mut suspended = false;
-        for coroutine in lanes.iter_mut().filter(|lane| !lane.done()) {
-            suspended |= matches!(coroutine.resume(()), CoroutineResult::Yield(()));
+        for (coroutine, guard_page) in lanes.iter_mut().zip(&guard_pages).filter(|(lane, _)| !lane.done()) {
+            let (result, overflow) = super::overflow::resume_guarded(coroutine, *guard_page);
+            suspended |= matches!(result, CoroutineResult::Yield(()));
+            overflows.extend(overflow);
         }
         if !suspended {
             break;
@@ -91,5 +98,5 @@ where
         trace();
     }
     STACKS.with_borrow_mut(|stacks| stacks.extend(lanes.into_iter().map(|lane| lane.into_stack().stack)));
-    Ok(())
+    Ok(overflows)
 }
