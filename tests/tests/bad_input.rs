@@ -2114,7 +2114,7 @@ fn sbt_without_the_callable_a_program_calls() -> anyhow::Result<()> {
         },
         |e| {
             matches!(e, Error::Sbt(raykit::SbtError::CallableMissing { what, have: 2, program })
-                if what == "callable 2" && program == "main")
+                if what.as_str() == "callable 2" && program.as_str() == "main")
         },
     )
 }

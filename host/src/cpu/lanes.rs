@@ -84,19 +84,24 @@ where
             Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder))
         });
     }
-    let mut overflows = Vec::new();
+    let mut overflows: Vec<Option<Overflow>> = vec![None; count];
     loop {
         let mut suspended = false;
-        for (coroutine, guard_page) in lanes.iter_mut().zip(&guard_pages).filter(|(lane, _)| !lane.done()) {
-            let (result, overflow) = super::overflow::resume_guarded(coroutine, *guard_page);
+        for (lane, coroutine) in lanes.iter_mut().enumerate().filter(|(_, lane)| !lane.done()) {
+            let (result, overflow) = super::overflow::resume_guarded(coroutine, guard_pages[lane]);
             suspended |= matches!(result, CoroutineResult::Yield(()));
-            overflows.extend(overflow);
+            if overflow.is_some() {
+                overflows[lane] = overflow;
+            }
         }
         if !suspended {
             break;
         }
         trace();
     }
-    STACKS.with_borrow_mut(|stacks| stacks.extend(lanes.into_iter().map(|lane| lane.into_stack().stack)));
-    Ok(overflows)
+    // The stack of a lane that overflowed is given back (its pages are all
+    // touched), the others kept for the next block.
+    let kept = lanes.into_iter().zip(&overflows).filter(|(_, o)| o.is_none()).map(|(lane, _)| lane.into_stack().stack);
+    STACKS.with_borrow_mut(|stacks| stacks.extend(kept));
+    Ok(overflows.into_iter().flatten().collect())
 }

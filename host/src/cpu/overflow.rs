@@ -107,19 +107,14 @@ pub(crate) fn run_guarded<F: FnOnce()>(f: F) -> Result<Option<Overflow>> {
             .map_err(|e| Error::Device(DeviceError::CpuThreads { reason: e.to_string() }))?,
     };
     let guard_page = guard_page_of(&stack);
-    let mut f = Some(f);
     // SAFETY: the coroutine borrows `f`'s captures, which outlive it: it is
     // driven to completion below (it never suspends), or made to return by the
     // trap handler, before this function returns.
-    let mut coroutine: Coroutine<(), (), (), DefaultStack> = unsafe {
-        Coroutine::with_stack_unchecked(stack, move |_, ()| {
-            if let Some(f) = f.take() {
-                f()
-            }
-        })
-    };
+    let mut coroutine: Coroutine<(), (), (), DefaultStack> =
+        unsafe { Coroutine::with_stack_unchecked(stack, move |_: &corosensei::Yielder<(), ()>, ()| f()) };
     let (_, overflow) = resume_guarded(&mut coroutine, guard_page);
-    if coroutine.done() {
+    // A stack that overflowed is given back (its pages are all touched).
+    if coroutine.done() && overflow.is_none() {
         STACKS.with_borrow_mut(|stacks| stacks.push(coroutine.into_stack()));
     }
     Ok(overflow)
@@ -131,9 +126,12 @@ mod handler {
 
     use std::sync::OnceLock;
 
-    use super::{CAUGHT, GUARD, RUNNING};
+    use corosensei::trap::TrapHandlerRegs;
 
-    /// The handler raykit replaced, for the faults that are not its own.
+    use super::{Overflow, CAUGHT, GUARD, RUNNING};
+
+    /// The handlers raykit replaced (`SIGSEGV`, `SIGBUS`), for the faults that
+    /// are not its own.
     static PREVIOUS: OnceLock<[libc::sigaction; 2]> = OnceLock::new();
 
     /// Bytes of each thread's alternate signal stack, where the handler runs
@@ -145,29 +143,33 @@ mod handler {
         static ALT_STACK_READY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
     }
 
+    type Handler = extern "C" fn(libc::c_int, *mut libc::siginfo_t, *mut libc::c_void);
+
     /// Installs the handler once per process, and an alternate signal stack
     /// once per thread where it has none.
     pub(super) fn install() {
         PREVIOUS.get_or_init(|| {
-            // SAFETY: plain sigaction calls with zeroed, then filled, structs; the
-            // handler is async-signal-safe in what it touches (thread-local cells).
-            unsafe {
-                let mut action: libc::sigaction = std::mem::zeroed();
-                action.sa_sigaction = on_fault as usize;
-                action.sa_flags = libc::SA_SIGINFO | libc::SA_ONSTACK;
-                libc::sigemptyset(&mut action.sa_mask);
-                let mut previous: [libc::sigaction; 2] = std::mem::zeroed();
-                for (signal, old) in [libc::SIGSEGV, libc::SIGBUS].into_iter().zip(previous.iter_mut()) {
-                    libc::sigaction(signal, &action, old);
-                }
-                previous
+            // SAFETY: an all-zero `sigaction` is a valid value (no handler, no flags).
+            let mut action: libc::sigaction = unsafe { std::mem::zeroed() };
+            action.sa_sigaction = on_fault as Handler as libc::sighandler_t;
+            action.sa_flags = libc::SA_SIGINFO | libc::SA_ONSTACK;
+            // SAFETY: the mask is a valid `sigset_t` to empty.
+            unsafe { libc::sigemptyset(&mut action.sa_mask) };
+            // SAFETY: as above; the calls below overwrite them.
+            let mut previous: [libc::sigaction; 2] = unsafe { std::mem::zeroed() };
+            for (signal, old) in [libc::SIGSEGV, libc::SIGBUS].into_iter().zip(previous.iter_mut()) {
+                // SAFETY: valid pointers to a filled action and to where the old one goes;
+                // the handler only touches thread-local cells and the trap state.
+                unsafe { libc::sigaction(signal, &action, old) };
             }
+            previous
         });
         if ALT_STACK_READY.get() {
             return;
         }
-        // SAFETY: sigaltstack with a null new stack only reads the current one.
+        // SAFETY: an all-zero `stack_t` is a valid value to read into.
         let mut current: libc::stack_t = unsafe { std::mem::zeroed() };
+        // SAFETY: a null new stack only reads the current one into `current`.
         unsafe { libc::sigaltstack(std::ptr::null(), &mut current) };
         if current.ss_flags & libc::SS_DISABLE != 0 {
             // Leaked: the thread may take a signal until it ends (Rust's own
@@ -187,73 +189,58 @@ mod handler {
     }
 
     /// The stack pointer of the interrupted context.
-    ///
-    /// # Safety
-    /// `context` is the `ucontext_t` the kernel passed the handler.
-    unsafe fn stack_pointer(context: *mut libc::c_void) -> usize {
-        let context = context.cast::<libc::ucontext_t>();
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: the caller's guarantee.
-        unsafe {
-            (*context).uc_mcontext.gregs[libc::REG_RSP as usize] as usize
-        }
-        #[cfg(target_arch = "aarch64")]
-        // SAFETY: the caller's guarantee.
-        unsafe {
-            (*context).uc_mcontext.sp as usize
-        }
+    #[cfg(target_arch = "x86_64")]
+    fn stack_pointer(context: &libc::ucontext_t) -> usize {
+        context.uc_mcontext.gregs[libc::REG_RSP as usize] as usize
+    }
+
+    /// The stack pointer of the interrupted context.
+    #[cfg(target_arch = "aarch64")]
+    fn stack_pointer(context: &libc::ucontext_t) -> usize {
+        context.uc_mcontext.sp as usize
     }
 
     /// Points the interrupted context at the trap return corosensei prepared.
-    ///
-    /// # Safety
-    /// `context` is the `ucontext_t` the kernel passed the handler.
-    unsafe fn redirect(context: *mut libc::c_void, regs: corosensei::trap::TrapHandlerRegs) {
-        let context = context.cast::<libc::ucontext_t>();
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: the caller's guarantee.
-        unsafe {
-            let corosensei::trap::TrapHandlerRegs { rip, rsp, rbp, rdi, rsi } = regs;
-            let gregs = &mut (*context).uc_mcontext.gregs;
-            gregs[libc::REG_RIP as usize] = rip as i64;
-            gregs[libc::REG_RSP as usize] = rsp as i64;
-            gregs[libc::REG_RBP as usize] = rbp as i64;
-            gregs[libc::REG_RDI as usize] = rdi as i64;
-            gregs[libc::REG_RSI as usize] = rsi as i64;
-        }
-        #[cfg(target_arch = "aarch64")]
-        // SAFETY: the caller's guarantee.
-        unsafe {
-            let corosensei::trap::TrapHandlerRegs { pc, sp, x0, x1, x29, lr } = regs;
-            let mcontext = &mut (*context).uc_mcontext;
-            mcontext.pc = pc;
-            mcontext.sp = sp;
-            mcontext.regs[0] = x0;
-            mcontext.regs[1] = x1;
-            mcontext.regs[29] = x29;
-            mcontext.regs[30] = lr;
-        }
+    #[cfg(target_arch = "x86_64")]
+    fn redirect(context: &mut libc::ucontext_t, regs: TrapHandlerRegs) {
+        let TrapHandlerRegs { rip, rsp, rbp, rdi, rsi } = regs;
+        let gregs = &mut context.uc_mcontext.gregs;
+        gregs[libc::REG_RIP as usize] = rip as i64;
+        gregs[libc::REG_RSP as usize] = rsp as i64;
+        gregs[libc::REG_RBP as usize] = rbp as i64;
+        gregs[libc::REG_RDI as usize] = rdi as i64;
+        gregs[libc::REG_RSI as usize] = rsi as i64;
+    }
+
+    /// Points the interrupted context at the trap return corosensei prepared.
+    #[cfg(target_arch = "aarch64")]
+    fn redirect(context: &mut libc::ucontext_t, regs: TrapHandlerRegs) {
+        let TrapHandlerRegs { pc, sp, x0, x1, x29, lr } = regs;
+        let mcontext = &mut context.uc_mcontext;
+        mcontext.pc = pc;
+        mcontext.sp = sp;
+        mcontext.regs[0] = x0;
+        mcontext.regs[1] = x1;
+        mcontext.regs[29] = x29;
+        mcontext.regs[30] = lr;
     }
 
     /// The handler: a fault in the guard page of the coroutine running on this
     /// thread ends the coroutine; any other goes to the handler replaced.
     extern "C" fn on_fault(signal: libc::c_int, info: *mut libc::siginfo_t, context: *mut libc::c_void) {
-        // SAFETY: the kernel passes a valid siginfo_t.
-        let address = unsafe { (*info).si_addr() } as usize;
+        // SAFETY: the kernel passes a valid `siginfo_t` and `ucontext_t`.
+        let (address, context) = unsafe { ((*info).si_addr() as usize, &mut *context.cast::<libc::ucontext_t>()) };
         if let Some(guard) = GUARD.get() {
-            // SAFETY: `context` is the kernel's ucontext_t.
-            let sp = unsafe { stack_pointer(context) };
             let in_guard = address >= guard.guard_page && address < guard.guard_page + page_size();
-            if in_guard && guard.handler.stack_ptr_in_bounds(sp) {
+            if in_guard && guard.handler.stack_ptr_in_bounds(stack_pointer(context)) {
                 GUARD.set(None);
-                CAUGHT.set(RUNNING.get().or(Some(super::Overflow { program: "(unknown)", launch_index: [0; 3] })));
+                CAUGHT.set(Some(RUNNING.get().unwrap_or(Overflow { program: "(unknown)", launch_index: [0; 3] })));
                 // SAFETY: the stack pointer is inside the coroutine, as
                 // `setup_trap_handler` requires, and the registers it names are
-                // written back below. The coroutine writes outside itself only
-                // to the launch's per-tile state, which is dropped after the launch.
+                // written back at once. The coroutine wrote outside itself only to
+                // the launch's per-tile state, which is dropped after the launch.
                 let regs = unsafe { guard.handler.setup_trap_handler(|| ()) };
-                // SAFETY: `context` is the kernel's ucontext_t.
-                unsafe { redirect(context, regs) };
+                redirect(context, regs);
                 return;
             }
         }
@@ -262,22 +249,21 @@ mod handler {
 
     /// Hands the fault to the handler raykit replaced (Rust's, which reports
     /// overflows of thread stacks, or the default action).
-    fn chain(signal: libc::c_int, info: *mut libc::siginfo_t, context: *mut libc::c_void) {
+    fn chain(signal: libc::c_int, info: *mut libc::siginfo_t, context: &mut libc::ucontext_t) {
         let Some(previous) = PREVIOUS.get() else { return };
         let previous = if signal == libc::SIGBUS { &previous[1] } else { &previous[0] };
         let handler = previous.sa_sigaction;
         if handler == libc::SIG_DFL || handler == libc::SIG_IGN {
-            // SAFETY: restoring the old action; returning re-runs the faulting
+            // SAFETY: restores the old action; returning re-runs the faulting
             // instruction, which then takes it.
             unsafe { libc::sigaction(signal, previous, std::ptr::null_mut()) };
         } else if previous.sa_flags & libc::SA_SIGINFO != 0 {
             // SAFETY: the previous handler was installed as a three-argument one.
-            let f: extern "C" fn(libc::c_int, *mut libc::siginfo_t, *mut libc::c_void) =
-                unsafe { std::mem::transmute(handler) };
-            f(signal, info, context);
+            let f: Handler = unsafe { std::mem::transmute::<libc::sighandler_t, Handler>(handler) };
+            f(signal, info, (context as *mut libc::ucontext_t).cast());
         } else {
             // SAFETY: the previous handler was installed as a one-argument one.
-            let f: extern "C" fn(libc::c_int) = unsafe { std::mem::transmute(handler) };
+            let f = unsafe { std::mem::transmute::<libc::sighandler_t, extern "C" fn(libc::c_int)>(handler) };
             f(signal);
         }
     }

@@ -319,7 +319,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             }
             PipelineRepr::Cpu(pipeline) => (crate::cpu::LIMITS, pipeline.exception_group, &pipeline.needs[..]),
         };
-        for (region, records) in SbtRegion::ALL.into_iter().zip([std::slice::from_ref(&raygen), &miss, &hit, &self.callable])
+        for (region, records) in SbtRegion::ALL.into_iter().zip([std::slice::from_ref(&raygen), &miss[..], &hit[..], &self.callable[..]])
         {
             let data = records.iter().map(|r| RecordData { group: r.group_index, bytes: r.data.len() });
             check_record_sizes(needs, region, data)?;

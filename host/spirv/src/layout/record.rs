@@ -98,7 +98,7 @@ mod tests {
         b.capability(Capability::Shader);
         b.capability(Capability::RayTracingKHR);
         b.memory_model(AddressingModel::Logical, MemoryModel::GLSL450);
-        let f32_ty = b.type_float(32);
+        let f32_ty = b.type_float(32, None);
         let runtime = b.type_runtime_array(f32_ty);
         b.decorate(runtime, Decoration::ArrayStride, [Operand::LiteralBit32(4)]);
         let mut members = vec![f32_ty; floats as usize];
