@@ -2274,3 +2274,59 @@ fn cpu_program_recursing_without_end() -> anyhow::Result<()> {
         Ok(())
     })
 }
+
+/// The texture test's pipeline (every group of `tests/device/texture`) and an
+/// SBT for it built as that test builds it, with `ch_data` as the first
+/// closest-hit's record and the callable only when `callable` says so.
+fn texture_sbt<T: raykit::SbtRecordData>(ctx: &Context, ch_data: T, callable: bool) -> anyhow::Result<Error> {
+    use texture_test_device::{ViaAnyHit, ViaCallable, ViaClosestHit, ViaMiss};
+    use texture_test_device::{AH, CH, CH_CALL, MS, MS_SAMPLE, RG, SAMPLE_TEXTURE};
+    let module = Module::from_device_crate(ctx, "texture-test-device")?;
+    let groups = [
+        ProgramGroup::raygen(&module, RG)?,
+        ProgramGroup::miss(&module, MS)?,
+        ProgramGroup::miss(&module, MS_SAMPLE)?,
+        ProgramGroup::hit_group(&module).closest_hit(CH).build()?,
+        ProgramGroup::hit_group(&module).any_hit(AH).build()?,
+        ProgramGroup::hit_group(&module).closest_hit(CH_CALL).build()?,
+        ProgramGroup::callable(&module, SAMPLE_TEXTURE)?,
+    ];
+    let refs: Vec<&ProgramGroup> = groups.iter().collect();
+    let pipeline = Pipeline::<texture_test_device::Params>::new(ctx, &refs, LinkOptions { max_trace_depth: 1 })?;
+    let [rg, ms, ms_sample, ch, ah, ch_call, sample] = &groups;
+    let mut builder = Sbt::builder(&pipeline)
+        .raygen(rg, ())
+        .miss_for::<ViaClosestHit, _>(ms, ())
+        .miss_for::<ViaMiss, _>(ms_sample, ())
+        .hit_for::<ViaClosestHit, _>(0, ch, ch_data)
+        .hit_for::<ViaAnyHit, _>(0, ah, ())
+        .hit_for::<ViaCallable, _>(0, ch_call, ());
+    if callable {
+        builder = builder.callable(sample, ());
+    }
+    refused(builder.build(), "the texture test's SBT")
+}
+
+#[test]
+fn hit_record_given_no_data_for_a_closest_hit_that_reads_one() -> anyhow::Result<()> {
+    let reads = std::mem::size_of::<texture_test_device::HitRecord>();
+    case_on_each_backend(
+        "hit_record_given_no_data_for_a_closest_hit_that_reads_one",
+        &["hit record 0 carries 0 bytes", "`__closesthit__ch` reads"],
+        |ctx| texture_sbt(ctx, (), true),
+        |e| record_too_small(e, raykit::SbtRegion::Hit, 0, reads, 0),
+    )
+}
+
+#[test]
+fn sbt_without_the_callable_a_rust_closest_hit_calls() -> anyhow::Result<()> {
+    case(
+        "sbt_without_the_callable_a_rust_closest_hit_calls",
+        &["0 callable record(s)", "`__closesthit__ch_call` calls callable 0"],
+        |ctx| texture_sbt(ctx, texture_test_device::HitRecord { texture: raykit::Texture2D::NULL }, false),
+        |e| {
+            matches!(e, Error::Sbt(raykit::SbtError::CallableMissing { what, have: 0, program })
+                if what.as_str() == "callable 0" && program.as_str() == "__closesthit__ch_call")
+        },
+    )
+}
