@@ -40,6 +40,10 @@ impl EntryTraces {
     }
 }
 
+/// What one function contains: its traces, the functions it calls, and the SBT
+/// indices of its callable calls.
+type FunctionCalls = (Vec<TraceCall>, Vec<u32>, Vec<Option<u32>>);
+
 /// The traces of every entry point of `module`, by entry-point name.
 pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
     let constants: HashMap<u32, u32> = module
@@ -56,7 +60,7 @@ pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
         _ => None,
     };
     // Per function: its direct traces, callees and callable use.
-    let mut own: HashMap<u32, (Vec<TraceCall>, Vec<u32>, Vec<Option<u32>>)> = HashMap::new();
+    let mut own: HashMap<u32, FunctionCalls> = HashMap::new();
     for function in &module.functions {
         let Some(id) = function.def_id() else { continue };
         let entry = own.entry(id).or_default();

@@ -164,7 +164,7 @@ pub enum LaunchError {
     /// An instance selects a hit record whose group is of the other kind than
     /// its geometry: a procedural hit group (one with an intersection program)
     /// for triangles, or a triangles hit group for AABBs.
-    #[error("instance {instance} of the IAS in params field `{field}` has {geometry_kind} (geometry {geometry} of its GAS), but hit record {slot} it selects (stride {stride}, ray offset {ray_offset}, a trace in `{program}`) holds a {group_kind} hit group; {fix}")]
+    #[error("instance {instance} of the IAS in params field `{field}` has {} (geometry {geometry} of its GAS), but hit record {slot} it selects (stride {stride}, ray offset {ray_offset}, a trace in `{program}`) holds a {} hit group; {}", hit_kind_names(*.aabbs).0, hit_kind_names(*.aabbs).1, hit_kind_fix(*.aabbs))]
     HitGroupKind {
         /// The params field holding the IAS.
         field: String,
@@ -172,8 +172,9 @@ pub enum LaunchError {
         instance: usize,
         /// The geometry's index in the instance's GAS.
         geometry: u32,
-        /// `"triangles"` or `"AABBs"`.
-        geometry_kind: &'static str,
+        /// Whether the geometry is AABBs (the group then has no intersection
+        /// program) rather than triangles (the group has one).
+        aabbs: bool,
         /// The hit record it selects.
         slot: u64,
         /// `sbtRecordStride` of the trace.
@@ -182,10 +183,6 @@ pub enum LaunchError {
         ray_offset: u32,
         /// A program making such a trace.
         program: String,
-        /// `"procedural"` or `"triangles"`.
-        group_kind: &'static str,
-        /// What to change.
-        fix: &'static str,
     },
 
     /// Launch dimensions are zero or too large.
@@ -206,4 +203,22 @@ pub enum LaunchError {
         /// The first `EXCEPTION_CAPACITY` of them, in the order they were recorded.
         exceptions: Vec<UserException>,
     },
+}
+
+/// The geometry's kind and the hit group's, for [`LaunchError::HitGroupKind`].
+fn hit_kind_names(aabbs: bool) -> (&'static str, &'static str) {
+    if aabbs {
+        ("AABBs", "triangles")
+    } else {
+        ("triangles", "procedural")
+    }
+}
+
+/// What to change, for [`LaunchError::HitGroupKind`].
+fn hit_kind_fix(aabbs: bool) -> &'static str {
+    if aabbs {
+        "AABB geometry needs a hit group with an intersection program (ProgramGroup::hit_group(..).intersection(..)) at that record"
+    } else {
+        "triangle geometry needs a hit group without an intersection program at that record; place the procedural group where only AABB instances select it"
+    }
 }

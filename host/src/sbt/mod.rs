@@ -319,12 +319,14 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             }
             PipelineRepr::Cpu(pipeline) => (crate::cpu::LIMITS, pipeline.exception_group, &pipeline.needs[..]),
         };
-        for (region, records) in SbtRegion::ALL.into_iter().zip([std::slice::from_ref(&raygen), &miss[..], &hit[..], &self.callable[..]])
+        for (region, records) in
+            SbtRegion::ALL.into_iter().zip([std::slice::from_ref(&raygen), &miss[..], &hit[..], &self.callable[..]])
         {
             let data = records.iter().map(|r| RecordData { group: r.group_index, bytes: r.data.len() });
             check_record_sizes(needs, region, data)?;
         }
-        let hit_kinds = HitKinds::new(hit.iter().map(|r| needs.get(r.group_index).is_some_and(|n| n.procedural)).collect());
+        let hit_kinds =
+            HitKinds::new(hit.iter().map(|r| needs.get(r.group_index).is_some_and(|n| n.procedural)).collect());
         let max_data = |records: &[PackedRecord]| records.iter().map(|r| r.data.len()).max().unwrap_or(0);
         let check = |layout: RegionLayout, data: usize| -> Result<RegionLayout> {
             if layout.stride > limits.max_shader_group_stride as u64 {

@@ -111,8 +111,7 @@ mod tests {
         use crate::validate::records::HitKinds;
         // Instance 0: two triangle geometries at offset 0; instance 1: AABBs at offset 2;
         // instance 2: AABBs, masked out, at offset 0.
-        let reach =
-            HitReach::from_parts([(0, 2, 0xff, false), (2, 1, 0xff, true), (0, 1, 0, true)].into_iter());
+        let reach = HitReach::from_parts([(0, 2, 0xff, false), (2, 1, 0xff, true), (0, 1, 0, true)].into_iter());
         let right = HitKinds::new(vec![false, false, true]);
         assert_eq!(reach.kind_mismatch(&right, 1, 0), None);
         // A procedural group at record 1, selected by instance 0's second geometry.

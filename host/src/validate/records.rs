@@ -117,7 +117,8 @@ mod tests {
 
     #[test]
     fn a_record_smaller_than_its_program_reads_is_refused_and_larger_data_is_not() {
-        let needs = [GroupNeeds::default(), GroupNeeds { record: Some((12, "__miss__ms".to_owned())), procedural: false }];
+        let needs =
+            [GroupNeeds::default(), GroupNeeds { record: Some((12, "__miss__ms".to_owned())), procedural: false }];
         let records = |sizes: &[(usize, usize)]| {
             sizes.iter().map(|&(group, bytes)| RecordData { group, bytes }).collect::<Vec<_>>()
         };

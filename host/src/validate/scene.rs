@@ -86,25 +86,16 @@ pub(crate) fn check_scene(
                     program: program.clone(),
                 }));
             }
-            if let Some((instance, geometry, slot, procedural)) =
-                scene.kind_mismatch(hit_kinds, *stride, *ray_offset)
-            {
-                let (geometry_kind, group_kind, fix) = if procedural {
-                    ("AABBs", "triangles", "AABB geometry needs a hit group with an intersection program (ProgramGroup::hit_group(..).intersection(..)) at that record")
-                } else {
-                    ("triangles", "procedural", "triangle geometry needs a hit group without an intersection program at that record; place the procedural group where only AABB instances select it")
-                };
+            if let Some((instance, geometry, slot, procedural)) = scene.kind_mismatch(hit_kinds, *stride, *ray_offset) {
                 return Err(Error::Launch(LaunchError::HitGroupKind {
                     field: name.to_owned(),
                     instance,
                     geometry,
-                    geometry_kind,
+                    aabbs: procedural,
                     slot,
                     stride: *stride,
                     ray_offset: *ray_offset,
                     program: program.clone(),
-                    group_kind,
-                    fix,
                 }));
             }
         }
