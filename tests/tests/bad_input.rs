@@ -2118,9 +2118,10 @@ fn sbt_without_the_callable_a_program_calls() -> anyhow::Result<()> {
 
 /// The accel test's programs with a procedural hit group (the sphere
 /// intersection) at hit record 0 and a triangles one at 1, launched over an
-/// instance of a GAS of AABBs or triangles whose SBT offset is `sbt_offset`;
+/// instance of a GAS of AABBs or triangles whose SBT offset is `sbt_offset`
+/// and whose mask is `mask`;
 /// returns pixel (1, 1), which sees the geometry.
-fn launch_with_hit_kinds(ctx: &Context, aabbs: bool, sbt_offset: u32) -> raykit::Result<u32> {
+fn launch_with_hit_kinds(ctx: &Context, aabbs: bool, sbt_offset: u32, mask: u8) -> raykit::Result<u32> {
     use accel_test_device::{ColorData, Params as AccelParams};
     let module = Module::from_device_crate(ctx, "accel-test-device")?;
     let raygen = ProgramGroup::raygen(&module, accel_test_device::RG)?;
@@ -2147,7 +2148,7 @@ fn launch_with_hit_kinds(ctx: &Context, aabbs: bool, sbt_offset: u32) -> raykit:
     // Pixel (1, 1) of the window sees world (-1.25, 0.25): inside the sphere of
     // AABB 0 (centre (-1, 0), radius 0.4), and inside the triangle moved there.
     let moved = if aabbs { Affine3A::IDENTITY } else { Affine3A::from_translation(Vec3::new(-1.25, 0.25, 0.0)) };
-    let scene = Ias::new(ctx, &[Instance::new(&gas).transform(moved).sbt_offset(sbt_offset)])?;
+    let scene = Ias::new(ctx, &[Instance::new(&gas).transform(moved).sbt_offset(sbt_offset).mask(mask)])?;
     let image = ctx.buffer::<u32>(16)?;
     let params = AccelParams {
         image: image.handle(),
@@ -2173,11 +2174,11 @@ fn procedural_hit_group_for_a_triangle_gas() -> anyhow::Result<()> {
             // Each kind at its own record renders the geometry white …
             let white = accel_test_device::pack_unorm(Vec3::ONE);
             for (aabbs, offset) in [(true, 0), (false, 1)] {
-                let pixel = launch_with_hit_kinds(ctx, aabbs, offset)?;
+                let pixel = launch_with_hit_kinds(ctx, aabbs, offset, 0xff)?;
                 anyhow::ensure!(pixel == white, "AABBs {aabbs}: pixel (1, 1) is {pixel:#010x}, not white");
             }
             // … and triangles at the procedural group's record are refused.
-            refused(launch_with_hit_kinds(ctx, false, 0), "a procedural hit group for triangles")
+            refused(launch_with_hit_kinds(ctx, false, 0, 0xff), "a procedural hit group for triangles")
         },
         |e| {
             matches!(
@@ -2199,7 +2200,7 @@ fn triangles_hit_group_for_an_aabb_gas() -> anyhow::Result<()> {
     case_on_each_backend(
         "triangles_hit_group_for_an_aabb_gas",
         &["has AABBs", "hit record 1", "triangles hit group", ".intersection(..)"],
-        |ctx| refused(launch_with_hit_kinds(ctx, true, 1), "a triangles hit group for AABBs"),
+        |ctx| refused(launch_with_hit_kinds(ctx, true, 1, 0xff), "a triangles hit group for AABBs"),
         |e| matches!(e, Error::Launch(raykit::LaunchError::HitGroupKind { slot: 1, aabbs: true, .. })),
     )
 }
@@ -2334,4 +2335,17 @@ fn sbt_without_the_callable_a_rust_closest_hit_calls() -> anyhow::Result<()> {
                 if what.as_str() == "callable 0" && program.as_str() == "__closesthit__ch_call")
         },
     )
+}
+
+#[test]
+fn hit_group_of_the_other_kind_for_an_instance_no_ray_can_hit_is_accepted() -> anyhow::Result<()> {
+    raykit_tests::with_each_backend("hit_group_of_the_other_kind_for_an_instance_no_ray_can_hit", |ctx, _| {
+        // Mask 0: no ray hits the triangle, so its procedural record is never run.
+        let pixel = launch_with_hit_kinds(ctx, false, 0, 0)?;
+        anyhow::ensure!(
+            pixel == accel_test_device::pack_unorm(Vec3::ZERO),
+            "pixel (1, 1) is {pixel:#010x}, not the miss"
+        );
+        still_usable(ctx)
+    })
 }

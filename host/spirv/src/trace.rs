@@ -107,3 +107,47 @@ pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layout::parse;
+    use rspirv::binary::Assemble;
+    use rspirv::spirv::{AddressingModel, Capability, ExecutionModel, FunctionControl, MemoryModel, StorageClass};
+
+    #[test]
+    fn callable_indices_are_read_as_constants_or_as_computed() {
+        let mut b = rspirv::dr::Builder::new();
+        b.capability(Capability::Shader);
+        b.capability(Capability::RayTracingKHR);
+        b.memory_model(AddressingModel::Logical, MemoryModel::GLSL450);
+        let u32_ty = b.type_int(32, 0);
+        let three = b.constant_bit32(u32_ty, 3);
+        let data_ptr = b.type_pointer(None, StorageClass::CallableDataKHR, u32_ty);
+        let data = b.variable(data_ptr, None, StorageClass::CallableDataKHR, None);
+        let void = b.type_void();
+        let fn_ty = b.type_function(void, []);
+        // A helper that calls callable 3, and the entry point, which calls it and
+        // then calls the callable whose index its data holds.
+        let helper = b.begin_function(void, None, FunctionControl::NONE, fn_ty).unwrap_or_default();
+        let _ = b.begin_block(None);
+        let _ = b.execute_callable_khr(three, data);
+        let _ = b.ret();
+        let _ = b.end_function();
+        let main = b.begin_function(void, None, FunctionControl::NONE, fn_ty).unwrap_or_default();
+        let _ = b.begin_block(None);
+        let _ = b.function_call(void, None, helper, []);
+        let computed = b.load(u32_ty, None, data, None, []).unwrap_or_default();
+        let _ = b.execute_callable_khr(computed, data);
+        let _ = b.ret();
+        let _ = b.end_function();
+        b.entry_point(ExecutionModel::RayGenerationKHR, main, "main", [data]);
+        let module = parse(&b.module().assemble()).unwrap_or_else(|e| panic!("{e}"));
+        let traces = reflect_traces(&module);
+        let main = traces.get("main").cloned().unwrap_or_default();
+        assert!(main.executes_callables);
+        let mut callables = main.callables.clone();
+        callables.sort();
+        assert_eq!(callables, [None, Some(3)]);
+    }
+}

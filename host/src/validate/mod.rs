@@ -19,6 +19,17 @@
 //! sbtRecordOffset)` pair the traces use, the furthest instance's SBT offset +
 //! (geometries − 1) × stride + offset must be below the hit record count
 //! ([`LaunchError::SbtTooSmallForScene`](crate::LaunchError::SbtTooSmallForScene)).
+//!
+//! **Callables.** The SBT index of every `OpExecuteCallableKHR` a program
+//! reaches is read too: an SBT with fewer callables than the highest constant
+//! index is [`SbtError::CallableMissing`](crate::SbtError::CallableMissing).
+//! A computed index cannot be bounded; it needs one callable at least when the
+//! pipeline has callable groups (raykit's own call of the exception program is
+//! such a call, and needs none).
+//!
+//! **Records and hit group kinds**: see `records` (record sizes against the
+//! programs that read them; the kind of each hit group against the geometry
+//! that selects it).
 
 pub(crate) mod accel;
 pub mod handles;
