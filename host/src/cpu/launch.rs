@@ -347,6 +347,8 @@ fn invoke(state: &InvocationState<'_>, exceptions: &mut Vec<UserException>) -> O
         inv.record = record.data.ptr();
         frame.run(raygen, &mut inv);
     }));
+    // A panic unwound past the programs' notes of what runs: none runs now.
+    super::overflow::leave(None);
     {
         let mut thrown = state.exceptions.borrow_mut();
         if !thrown.is_empty() {
