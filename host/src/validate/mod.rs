@@ -22,7 +22,7 @@
 //!
 //! **Callables.** The SBT index of every `OpExecuteCallableKHR` a program
 //! reaches is read too: an SBT with fewer callables than the highest constant
-//! index is [`SbtError::CallableMissing`](crate::SbtError::CallableMissing).
+//! index is [`SbtError::CallableMissing`].
 //! A computed index cannot be bounded; it needs one callable at least when the
 //! pipeline has callable groups (raykit's own call of the exception program is
 //! such a call, and needs none).
