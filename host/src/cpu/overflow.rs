@@ -27,8 +27,11 @@
 //! being dropped, so whatever they owned (heap allocations of the program,
 //! reference counts) is leaked, once per overflowing launch. Only the
 //! launch's own per-tile state is touched by those frames; it is dropped
-//! after the launch. On targets other than Linux on x86-64 and AArch64 no
-//! handler is installed and an overflow still aborts the process.
+//! after the launch. The stack that overflowed is unmapped rather than reused,
+//! so nothing can still point into it unnoticed; a program that lends its stack
+//! to other threads (scoped threads) must not overflow while they run. On
+//! targets other than Linux on x86-64 and AArch64 no handler is installed and an
+//! overflow still aborts the process.
 
 use std::cell::Cell;
 
