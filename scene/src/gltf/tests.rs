@@ -559,3 +559,18 @@ fn a_data_uri_that_is_not_base64_or_is_short_is_an_error() {
     let short = json.replace(&data, &base64(&triangle_bin()[..48]));
     assert!(GltfScene::from_slice(short.as_bytes(), std::path::Path::new("short.gltf")).is_err());
 }
+
+#[test]
+fn a_position_accessor_past_the_accessors_is_a_dangling_index_not_a_panic() {
+    // Found by fuzzing: the `gltf` crate's validation indexed it and panicked.
+    let doc =
+        Doc::triangle().primitive(r#"{"attributes": {"POSITION": 4, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3}"#);
+    let err = error_naming(&doc, "dangling_position", POSITION);
+    assert!(matches!(err, GltfError::DanglingIndex { index: 4, count: 4, target: "accessors", .. }), "{err:?}");
+    let path = std::env::temp_dir().join("raykit-scene-no-such-folder").join("scene.glb");
+    let from_glb = GltfScene::from_slice(&glb(&doc), &path);
+    assert!(matches!(from_glb, Err(GltfError::DanglingIndex { index: 4, .. })), "{from_glb:?}");
+    // A NORMAL past them is the `gltf` crate's own validation error.
+    let doc = Doc::triangle().primitive(r#"{"attributes": {"POSITION": 0, "NORMAL": 9}, "indices": 3}"#);
+    assert!(matches!(doc.load("dangling_normal"), Err(GltfError::Parse { .. })));
+}
