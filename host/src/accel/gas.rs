@@ -380,6 +380,12 @@ impl Gas {
         self.shapes.len()
     }
 
+    /// Whether its geometries are AABBs (procedural), which only procedural hit
+    /// groups (with an intersection program) may be used with.
+    pub(crate) fn is_procedural(&self) -> bool {
+        matches!(self.shapes.first(), Some(Shape::Aabbs { .. }))
+    }
+
     /// Number of triangles or AABBs over all geometries.
     pub fn primitive_count(&self) -> u64 {
         self.shapes.iter().map(|s| s.primitives() as u64).sum()

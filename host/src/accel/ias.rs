@@ -31,6 +31,8 @@ pub struct Instance {
     pub(crate) placement: InstancePlacement,
     /// Geometries of its GAS: the hit records it spans per ray type.
     geometries: u32,
+    /// Whether its GAS holds AABBs rather than triangles.
+    procedural: bool,
 }
 
 impl Instance {
@@ -47,6 +49,7 @@ impl Instance {
                 flags: InstanceFlags::NONE,
             },
             geometries: u32::try_from(gas.geometry_count()).unwrap_or(u32::MAX),
+            procedural: gas.is_procedural(),
         }
     }
 
@@ -401,5 +404,7 @@ impl std::fmt::Debug for Ias {
 /// What `instances` can select in the SBT's hit region. Instances with a mask of 0
 /// are never hit and select no record.
 fn hit_reach(instances: &[Instance]) -> HitReach {
-    HitReach::from_parts(instances.iter().map(|i| (i.placement.sbt_offset, i.geometries, i.placement.mask)))
+    HitReach::from_parts(
+        instances.iter().map(|i| (i.placement.sbt_offset, i.geometries, i.placement.mask, i.procedural)),
+    )
 }

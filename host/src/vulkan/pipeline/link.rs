@@ -40,6 +40,8 @@ pub(crate) struct PipelineInner {
     pub(crate) max_trace_depth: u32,
     /// The SBT records its programs' traces select.
     pub(crate) reach: crate::validate::TraceReach,
+    /// What each group needs of its records, in pipeline order.
+    pub(crate) needs: Vec<crate::validate::records::GroupNeeds>,
     /// The stack size every launch sets (`vkCmdSetRayTracingPipelineStackSizeKHR`).
     pub(crate) stack_size: AtomicU32,
     /// Where programs record user exceptions: one buffer per set of programs
@@ -98,8 +100,10 @@ impl PipelineInner {
             parts.groups.iter().map(|g| LinkedGroup::read(ctx, pipeline.handle, g)).collect();
         let default = stack::vulkan_default(&super::shader_groups::stack_sizes(&groups), max_trace_depth);
         let reach = crate::validate::TraceReach::of(parts.groups.iter().map(|g| g.group));
+        let needs = parts.groups.iter().map(|g| crate::validate::records::GroupNeeds::of(g.group)).collect();
         Ok(PipelineInner {
             reach,
+            needs,
             pipeline,
             params_uniform,
             layout,
