@@ -419,6 +419,9 @@ fn primary(
     Ok(Section { suite: "primary", setup, rows, check, passed: Some(all_same), optix: Some(runs.reports()) })
 }
 
+/// One variant's (seconds, rays) per launch.
+type VariantResults = Vec<(f64, u64)>;
+
 /// `opts.optix_rounds` rounds: raykit's `variants` interleaved (`opts.reps`
 /// each), then, where the twin is built, `twin_run` for its GAS and its IAS.
 /// Returns raykit's results and the twin's runs, each pooled over the rounds.
@@ -427,8 +430,8 @@ fn rounds(
     opts: &Options,
     twin: &Twin,
     mut twin_run: impl FnMut(&Path, Traversable) -> anyhow::Result<(OptixRun, Vec<u8>)>,
-) -> anyhow::Result<(Vec<Vec<(f64, u64)>>, TwinRuns)> {
-    let mut results: Vec<Vec<(f64, u64)>> = vec![Vec::new(); variants.len()];
+) -> anyhow::Result<(Vec<VariantResults>, TwinRuns)> {
+    let mut results: Vec<VariantResults> = vec![Vec::new(); variants.len()];
     let mut runs = TwinRuns::new();
     for _ in 0..opts.optix_rounds.max(1) {
         for (pooled, round) in results.iter_mut().zip(interleave(variants, opts.reps)?) {
