@@ -2,8 +2,13 @@
 //!
 //! The device side of raykit: OptiX 7's programs (`__raygen__`, `__miss__`,
 //! `__closesthit__`, …) written as plain Rust functions and compiled to SPIR-V by
-//! rust-gpu. The attribute macros [`raygen`], [`miss`] and [`closest_hit`] wrap a
-//! function and emit the Vulkan entry point with the OptiX-prefixed name.
+//! rust-gpu. The attribute macros wrap a function and emit the Vulkan entry point
+//! with the OptiX-prefixed name, one per program kind, each documented with an
+//! example: [`raygen`], [`miss`], [`closest_hit`], [`any_hit`], [`intersection`],
+//! [`direct_callable`], [`continuation_callable`], [`exception`](macro@exception). The derives
+//! [`LaunchParams`](macro@LaunchParams), [`SbtRecordData`](macro@SbtRecordData) and
+//! [`Element`](macro@Element) record the layouts of what crosses to the device:
+//! launch params, SBT records, and user structs in buffers ([`mod@element`]).
 //!
 //! A program receives a *stage context* ([`Raygen`], [`Miss`], [`ClosestHit`]) that
 //! offers exactly what that stage may use (launch index, tracing, barycentrics, …),
