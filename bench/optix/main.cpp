@@ -1,9 +1,12 @@
 // raykit-optix: the OptiX twin of raykit-bench's `primary` and `path` suites.
 //
-//   raykit-optix primary|path SCENE OUT [--launches N] [--warmup N] [--module FILE]
+//   raykit-optix primary|path SCENE OUT [--launches N] [--warmup N] [--module FILE] [--ias 0|1]
+//       [--gas-build fast-trace|fast-build|neither]
 //
 // Reads the scene raykit-bench wrote (SCENE, see `Scene files` below), builds a
-// compacted GAS (OPTIX_BUILD_FLAG_PREFER_FAST_TRACE), links the programs of
+// compacted GAS (OPTIX_BUILD_FLAG_PREFER_FAST_TRACE) — with `--ias 1` also an
+// IAS of one identity instance over it, traced as Vulkan traces (a top level
+// over a bottom level), else the GAS alone (ALLOW_SINGLE_GAS) — links the programs of
 // primary.optixir or path.optixir (next to this executable, or --module), and
 // launches N times after the warm-up launches, each launch timed by CUDA events
 // around optixLaunch. Writes OUT.img (the last launch's output: RGBA8 pixels as
@@ -140,9 +143,9 @@ struct Gas {
     double build_ms = 0.0;
 };
 
-Gas build_gas(OptixDeviceContext ctx, std::vector<OptixBuildInput>& inputs) {
+Gas build_gas(OptixDeviceContext ctx, std::vector<OptixBuildInput>& inputs, unsigned int preference) {
     OptixAccelBuildOptions options = {};
-    options.buildFlags = OPTIX_BUILD_FLAG_PREFER_FAST_TRACE | OPTIX_BUILD_FLAG_ALLOW_COMPACTION;
+    options.buildFlags = preference | OPTIX_BUILD_FLAG_ALLOW_COMPACTION;
     options.operation = OPTIX_BUILD_OPERATION_BUILD;
     OptixAccelBufferSizes sizes = {};
     OPTIX(optixAccelComputeMemoryUsage(ctx, &options, inputs.data(), (unsigned int)inputs.size(), &sizes));
@@ -186,6 +189,45 @@ Gas build_gas(OptixDeviceContext ctx, std::vector<OptixBuildInput>& inputs) {
     CUDA(cudaEventDestroy(start));
     CUDA(cudaEventDestroy(stop));
     return gas;
+}
+
+// An IAS of one identity instance over `gas` (what Vulkan always traces: a
+// top level over a bottom level). Not compacted: one instance.
+struct Ias {
+    OptixTraversableHandle handle = 0;
+    CUdeviceptr buffer = 0;
+    CUdeviceptr instances = 0;
+};
+
+Ias build_ias(OptixDeviceContext ctx, OptixTraversableHandle gas) {
+    OptixInstance instance = {};
+    const float identity[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+    std::memcpy(instance.transform, identity, sizeof(identity));
+    instance.instanceId = 0;
+    instance.sbtOffset = 0;
+    instance.visibilityMask = 255;
+    instance.flags = OPTIX_INSTANCE_FLAG_NONE;
+    instance.traversableHandle = gas;
+    Ias ias;
+    ias.instances = upload_bytes(&instance, sizeof(instance));
+    OptixBuildInput input = {};
+    input.type = OPTIX_BUILD_INPUT_TYPE_INSTANCES;
+    input.instanceArray.instances = ias.instances;
+    input.instanceArray.numInstances = 1;
+    OptixAccelBuildOptions options = {};
+    options.buildFlags = OPTIX_BUILD_FLAG_PREFER_FAST_TRACE;
+    options.operation = OPTIX_BUILD_OPERATION_BUILD;
+    OptixAccelBufferSizes sizes = {};
+    OPTIX(optixAccelComputeMemoryUsage(ctx, &options, &input, 1, &sizes));
+    void *temp = nullptr, *output = nullptr;
+    CUDA(cudaMalloc(&temp, sizes.tempSizeInBytes));
+    CUDA(cudaMalloc(&output, sizes.outputSizeInBytes));
+    OPTIX(optixAccelBuild(ctx, 0, &options, &input, 1, reinterpret_cast<CUdeviceptr>(temp), sizes.tempSizeInBytes,
+                          reinterpret_cast<CUdeviceptr>(output), sizes.outputSizeInBytes, &ias.handle, nullptr, 0));
+    CUDA(cudaDeviceSynchronize());
+    CUDA(cudaFree(temp));
+    ias.buffer = reinterpret_cast<CUdeviceptr>(output);
+    return ias;
 }
 
 // One program group of `kind` with entry points in `module` (null names: none).
@@ -233,7 +275,7 @@ struct Programs {
     OptixPipeline pipeline = nullptr;
 };
 
-Programs link(OptixDeviceContext ctx, const std::string& module_path, unsigned int payloads,
+Programs link(OptixDeviceContext ctx, const std::string& module_path, unsigned int payloads, bool ias,
               const std::vector<std::pair<OptixProgramGroupKind, const char*>>& entries) {
     std::vector<char> code = read_file(module_path);
     OptixModuleCompileOptions module_options = {};
@@ -242,7 +284,8 @@ Programs link(OptixDeviceContext ctx, const std::string& module_path, unsigned i
     module_options.debugLevel = OPTIX_COMPILE_DEBUG_LEVEL_NONE;
     OptixPipelineCompileOptions pipeline_options = {};
     pipeline_options.usesMotionBlur = 0;
-    pipeline_options.traversableGraphFlags = OPTIX_TRAVERSABLE_GRAPH_FLAG_ALLOW_SINGLE_GAS;
+    pipeline_options.traversableGraphFlags =
+        ias ? OPTIX_TRAVERSABLE_GRAPH_FLAG_ALLOW_SINGLE_LEVEL_INSTANCING : OPTIX_TRAVERSABLE_GRAPH_FLAG_ALLOW_SINGLE_GAS;
     pipeline_options.numPayloadValues = (int)payloads;
     pipeline_options.numAttributeValues = 2;
     pipeline_options.exceptionFlags = OPTIX_EXCEPTION_FLAG_NONE;
@@ -264,7 +307,7 @@ Programs link(OptixDeviceContext ctx, const std::string& module_path, unsigned i
     }
     unsigned int from_traversal = 0, from_state = 0, continuation = 0;
     OPTIX(optixUtilComputeStackSizes(&stack, 1, 0, 0, &from_traversal, &from_state, &continuation));
-    OPTIX(optixPipelineSetStackSize(p.pipeline, from_traversal, from_state, continuation, 1));
+    OPTIX(optixPipelineSetStackSize(p.pipeline, from_traversal, from_state, continuation, ias ? 2 : 1));
     return p;
 }
 
@@ -340,7 +383,7 @@ std::string device_name() {
 }
 
 void write_report(const std::string& out, const char* suite, unsigned int width, unsigned int height,
-                  const Gas& gas, const Timing& t, double rays, const std::string& extra) {
+                  const Gas& gas, bool ias, const Timing& t, double rays, const std::string& extra) {
     int driver = 0;
     CUDA(cudaDriverGetVersion(&driver));
     std::ostringstream s;
@@ -350,6 +393,7 @@ void write_report(const std::string& out, const char* suite, unsigned int width,
       << "  \"width\": " << width << ",\n  \"height\": " << height << ",\n"
       << "  \"gas_bytes\": " << gas.built_bytes << ",\n  \"gas_compacted_bytes\": " << gas.compacted_bytes << ",\n"
       << "  \"gas_build_ms\": " << gas.build_ms << ",\n"
+      << "  \"traversable\": \"" << (ias ? "ias" : "gas") << "\",\n"
       << "  \"rays_per_launch\": " << rays << ",\n"
       << "  \"launch_ms\": " << json_numbers(t.launch_ms) << ",\n"
       << "  \"median_ms\": " << median(t.launch_ms) << extra << "\n}\n";
@@ -361,6 +405,9 @@ struct Options {
     std::string suite, scene, out, module;
     int launches = 20;
     int warmup = 3;
+    bool ias = false;
+    // OPTIX_BUILD_FLAG_PREFER_FAST_TRACE (default), _PREFER_FAST_BUILD or none.
+    unsigned int preference = OPTIX_BUILD_FLAG_PREFER_FAST_TRACE;
 };
 
 std::string exe_dir(const char* argv0) {
@@ -416,10 +463,14 @@ void run_primary(OptixDeviceContext ctx, const Options& o) {
     input.triangleArray.indexBuffer = d_indices;
     input.triangleArray.flags = flags;
     input.triangleArray.numSbtRecords = 1;
-    Gas gas = build_gas(ctx, inputs);
-    params.handle = gas.handle;
+    Gas gas = build_gas(ctx, inputs, o.preference);
+    Ias ias;
+    if (o.ias) {
+        ias = build_ias(ctx, gas.handle);
+    }
+    params.handle = o.ias ? ias.handle : gas.handle;
 
-    Programs p = link(ctx, o.module, 3,
+    Programs p = link(ctx, o.module, 3, o.ias,
                       {{OPTIX_PROGRAM_GROUP_KIND_RAYGEN, "__raygen__rg"},
                        {OPTIX_PROGRAM_GROUP_KIND_MISS, "__miss__ms"},
                        {OPTIX_PROGRAM_GROUP_KIND_HITGROUP, "__closesthit__ch"}});
@@ -444,7 +495,7 @@ void run_primary(OptixDeviceContext ctx, const Options& o) {
     std::vector<uint32_t> host(pixels);
     CUDA(cudaMemcpy(host.data(), image, pixels * 4, cudaMemcpyDeviceToHost));
     write_file(o.out + ".img", host.data(), pixels * 4);
-    write_report(o.out, "primary", width, height, gas, t, double(pixels), "");
+    write_report(o.out, "primary", width, height, gas, o.ias, t, double(pixels), "");
 }
 
 void run_path(OptixDeviceContext ctx, const Options& o) {
@@ -505,13 +556,17 @@ void run_path(OptixDeviceContext ctx, const Options& o) {
         input.triangleArray.flags = flags;
         input.triangleArray.numSbtRecords = 1;
     }
-    Gas gas = build_gas(ctx, inputs);
-    params.handle = gas.handle;
+    Gas gas = build_gas(ctx, inputs, o.preference);
+    Ias ias;
+    if (o.ias) {
+        ias = build_ias(ctx, gas.handle);
+    }
+    params.handle = o.ias ? ias.handle : gas.handle;
     for (PathHitData& m : materials) {
         m.pad = 0;
     }
 
-    Programs p = link(ctx, o.module, 10,
+    Programs p = link(ctx, o.module, 10, o.ias,
                       {{OPTIX_PROGRAM_GROUP_KIND_RAYGEN, "__raygen__rg"},
                        {OPTIX_PROGRAM_GROUP_KIND_MISS, "__miss__ms"},
                        {OPTIX_PROGRAM_GROUP_KIND_MISS, "__miss__ms_shadow"},
@@ -551,12 +606,14 @@ void run_path(OptixDeviceContext ctx, const Options& o) {
     }
     std::ostringstream extra;
     extra << ",\n  \"samples\": " << samples << ",\n  \"max_depth\": " << max_depth;
-    write_report(o.out, "path", width, height, gas, t, rays, extra.str());
+    write_report(o.out, "path", width, height, gas, o.ias, t, rays, extra.str());
 }
 
 Options parse(int argc, char** argv) {
     if (argc < 4) {
-        throw Failure("usage: raykit-optix primary|path SCENE OUT [--launches N] [--warmup N] [--module FILE]");
+        throw Failure(
+            "usage: raykit-optix primary|path SCENE OUT [--launches N] [--warmup N] [--module FILE] [--ias 0|1] "
+            "[--gas-build fast-trace|fast-build|neither]");
     }
     Options o;
     o.suite = argv[1];
@@ -575,6 +632,18 @@ Options parse(int argc, char** argv) {
             o.launches = std::max(1, std::atoi(v.c_str()));
         } else if (a == "--warmup") {
             o.warmup = std::max(0, std::atoi(v.c_str()));
+        } else if (a == "--gas-build") {
+            if (v == "fast-trace") {
+                o.preference = OPTIX_BUILD_FLAG_PREFER_FAST_TRACE;
+            } else if (v == "fast-build") {
+                o.preference = OPTIX_BUILD_FLAG_PREFER_FAST_BUILD;
+            } else if (v == "neither") {
+                o.preference = OPTIX_BUILD_FLAG_NONE;
+            } else {
+                throw Failure("--gas-build takes fast-trace, fast-build or neither");
+            }
+        } else if (a == "--ias") {
+            o.ias = v == "1";
         } else if (a == "--module") {
             o.module = v;
         } else {

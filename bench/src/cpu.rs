@@ -80,10 +80,10 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
     let dims = [width, height, 1];
     let rays = u64::from(width) * u64::from(height);
     let built = Instant::now();
-    let scene_v = primary_scene(vulkan, opts.triangles, opts.primary_size)?;
+    let scene_v = primary_scene(vulkan, opts.triangles, opts.primary_size, opts.primary_gas)?;
     let vulkan_build = built.elapsed().as_secs_f64();
     let built = Instant::now();
-    let scene_c = primary_scene(&cpu, opts.triangles, opts.primary_size)?;
+    let scene_c = primary_scene(&cpu, opts.triangles, opts.primary_size, opts.primary_gas)?;
     let cpu_build = built.elapsed().as_secs_f64();
     eprintln!("cpu: {} triangles built in {vulkan_build:.2} s (Vulkan) and {cpu_build:.2} s (CPU)", opts.triangles);
     let pv = primary_pipeline(vulkan, Language::Rust)?;

@@ -40,9 +40,9 @@
 //!   the tracing suites (defaults 1000000, 1920x1080, 512, 1, 1000).
 //! * `--devices all|N`, `--spp-per-launch N` — the `devices` suite's group (default `all`) and
 //!   launches (default 16 paths per pixel each; `--spp` 1 means 64 in all there).
-//! * `--optix-bin PATH`, `--optix-sizes WxH,WxH` — the `optix` suite's OptiX executable
-//!   (default `optix/raykit-optix` next to this binary) and primary-ray sizes
-//!   (default 1920x1080,3840x2160).
+//! * `--optix-bin PATH`, `--optix-sizes WxH,WxH`, `--optix-rounds N` — the `optix` suite's
+//!   OptiX executable (default `optix/raykit-optix` next to this binary), primary-ray sizes
+//!   (default 1920x1080,3840x2160) and rounds (default 3: raykit's variants, then OptiX's, in turn).
 //!
 //! The binary needs only the Vulkan loader (and the SPIR-V files for suites that
 //! trace): build it here with `cargo build --release -p raykit-bench` and copy

@@ -7,7 +7,11 @@
 //!   scene (vertices, indices, camera, background, size) is written to a file and
 //!   the OptiX program (`raykit-optix primary`) builds its own compacted GAS from
 //!   it and launches `--reps` times after warm-up launches, each timed by CUDA
-//!   events around `optixLaunch`. The pictures are compared pixel by pixel.
+//!   events around `optixLaunch`, tracing the GAS alone (`OptiX`) and then a
+//!   one-instance IAS over it (`OptiX (IAS)`: the two levels a Vulkan trace always
+//!   has). The pictures are compared pixel by pixel. All of this repeats for
+//!   `--optix-rounds` rounds (default 3), so that both sides meet the GPU in the
+//!   same states; launch times are pooled.
 //! * The path tracer on the Cornell box at `--path-size` with `--spp` paths per
 //!   pixel in one launch: Rust and GLSL interleaved, then `raykit-optix path`
 //!   (the same programs ported line for line: the same random numbers, so the
@@ -82,6 +86,71 @@ fn locate(opts: &Options) -> Twin {
     Twin::Ready(bin)
 }
 
+/// What the OptiX twin traces: its GAS alone (`ALLOW_SINGLE_GAS`, as the OptiX
+/// SDK's samples), or a one-instance IAS over it, as every Vulkan trace does.
+#[derive(Clone, Copy)]
+enum Traversable {
+    Gas,
+    Ias,
+}
+
+impl Traversable {
+    const BOTH: [Traversable; 2] = [Traversable::Gas, Traversable::Ias];
+
+    fn row_name(self) -> &'static str {
+        match self {
+            Traversable::Gas => "OptiX",
+            Traversable::Ias => "OptiX (IAS)",
+        }
+    }
+
+    fn file_suffix(self) -> &'static str {
+        match self {
+            Traversable::Gas => "",
+            Traversable::Ias => "_ias",
+        }
+    }
+}
+
+/// The OptiX runs of every round, per traversable: their launch times pooled,
+/// the last run's report and image.
+struct TwinRuns {
+    runs: Vec<(Traversable, OptixRun, Vec<u8>)>,
+}
+
+impl TwinRuns {
+    fn new() -> TwinRuns {
+        TwinRuns { runs: Vec::new() }
+    }
+
+    /// Adds one run, pooling its launch times with earlier runs of `traversable`.
+    fn add(&mut self, traversable: Traversable, run: OptixRun, image: Vec<u8>) {
+        let index = traversable as usize;
+        match self.runs.iter_mut().find(|(t, _, _)| *t as usize == index) {
+            Some((_, pooled, last)) => {
+                pooled.seconds.extend(run.seconds);
+                pooled.rays = run.rays;
+                pooled.report = run.report;
+                *last = image;
+            }
+            None => self.runs.push((traversable, run, image)),
+        }
+    }
+
+    fn get(&self, traversable: Traversable) -> Option<(&OptixRun, &[u8])> {
+        self.runs.iter().find(|(t, _, _)| *t as usize == traversable as usize).map(|(_, r, i)| (r, i.as_slice()))
+    }
+
+    fn reports(&self) -> Value {
+        Value::Object(
+            self.runs
+                .iter()
+                .map(|(t, r, _)| (t.row_name().to_owned(), r.report.clone()))
+                .collect::<serde_json::Map<_, _>>(),
+        )
+    }
+}
+
 /// What one run of the OptiX program reported.
 struct OptixRun {
     /// Seconds of each timed launch.
@@ -93,12 +162,29 @@ struct OptixRun {
 }
 
 /// Runs `raykit-optix SUITE SCENE OUT`; returns its report and its image's bytes.
-fn run_twin(bin: &Path, suite: &str, scene: &Path, out: &Path, launches: usize) -> anyhow::Result<(OptixRun, Vec<u8>)> {
+fn run_twin(
+    bin: &Path,
+    suite: &str,
+    scene: &Path,
+    out: &Path,
+    launches: usize,
+    traversable: Traversable,
+    preference: raykit::accel::BuildPreference,
+) -> anyhow::Result<(OptixRun, Vec<u8>)> {
+    let build = match preference {
+        raykit::accel::BuildPreference::FastTrace => "fast-trace",
+        raykit::accel::BuildPreference::FastBuild => "fast-build",
+        raykit::accel::BuildPreference::Neither => "neither",
+    };
+    let ias = match traversable {
+        Traversable::Gas => "0",
+        Traversable::Ias => "1",
+    };
     let output = Command::new(bin)
         .arg(suite)
         .arg(scene)
         .arg(out)
-        .args(["--launches", &launches.to_string(), "--warmup", "3"])
+        .args(["--launches", &launches.to_string(), "--warmup", "3", "--ias", ias, "--gas-build", build])
         .output()
         .with_context(|| format!("starting {}", bin.display()))?;
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -198,12 +284,12 @@ fn interleaved_rows(names: &[&'static str], results: &[Vec<(f64, u64)>], timing:
 }
 
 /// The OptiX row, against the Rust row's median.
-fn optix_row(run: &OptixRun, rust: &VariantRow) -> VariantRow {
+fn optix_row(programs: &'static str, run: &OptixRun, rust: &VariantRow) -> VariantRow {
     let mrays: Vec<f64> = run.seconds.iter().map(|s| run.rays as f64 / s / 1e6).collect();
     let mrays = Summary::of(&mrays);
     let over = rust.mrays.median / mrays.median;
     VariantRow {
-        programs: "OptiX",
+        programs,
         launches: run.seconds.len(),
         rays: run.rays,
         seconds: Summary::of(&run.seconds),
@@ -230,7 +316,7 @@ fn primary(
     dir: &Path,
     (width, height): (u32, u32),
 ) -> anyhow::Result<Section> {
-    let scene = crate::trace::primary_scene(ctx, opts.triangles, (width, height))?;
+    let scene = crate::trace::primary_scene(ctx, opts.triangles, (width, height), opts.primary_gas)?;
     let rust = crate::trace::primary_pipeline(ctx, Language::Rust)?;
     let glsl = crate::trace::primary_pipeline(ctx, Language::Glsl)?;
     let ash = AshTracer::new(ctx, width as usize * height as usize)?;
@@ -248,53 +334,122 @@ fn primary(
         };
         Ok((s, rays))
     };
-    let names = ["Rust", "GLSL", "ash"];
+    let setup = format!("{} triangles, {width}x{height}, 1 ray/pixel", opts.triangles);
+    // The scene as raykit traces it, for the twin.
+    let scene_path = dir.join(format!("primary_{width}x{height}.scene"));
+    if let Twin::Ready(_) = twin {
+        let (vertices, indices) = crate::accel::grid(opts.triangles);
+        let p = &scene.params;
+        let mut w = Writer::header(1);
+        w.u32(width).u32(height).u32(vertices.len() as u32).u32(indices.len() as u32);
+        w.vec3(p.cam_eye).vec3(p.cam_u).vec3(p.cam_v).vec3(p.cam_w).vec3(BACKGROUND);
+        for v in &vertices {
+            w.vec3(*v);
+        }
+        for &i in &indices {
+            w.u32(i);
+        }
+        std::fs::write(&scene_path, &w.0).with_context(|| format!("writing {}", scene_path.display()))?;
+    }
+    // The WGSL twin as it is and with tiled launch indices (see
+    // `Language::WgslTiled`), where the image divides into the tiles.
+    let wgsl = crate::trace::primary_pipeline(ctx, Language::Wgsl)?;
+    let tiles: Vec<(&'static str, crate::trace::PrimaryPipeline)> = [("WGSL 8x4", (8, 4)), ("WGSL 4x8", (4, 8))]
+        .into_iter()
+        .filter(|(_, (tw, th))| width % tw == 0 && height % th == 0)
+        .map(|(name, tile)| Ok((name, crate::trace::primary_pipeline(ctx, Language::WgslTiled(tile.0, tile.1))?)))
+        .collect::<anyhow::Result<_>>()?;
+    let mut names = vec!["Rust", "GLSL", "ash", "WGSL"];
+    names.extend(tiles.iter().map(|(name, _)| *name));
     let mut variants: Vec<Variant<'_>> = vec![
         ("Rust", Box::new(|| launch(&rust))),
         ("GLSL", Box::new(|| launch(&glsl))),
         ("ash", Box::new(|| Ok((crate::trace::ash_launch(&ash, &rust, &ash_params, dims)?, rays)))),
+        ("WGSL", Box::new(|| launch(&wgsl))),
     ];
-    let results = interleave(&mut variants, opts.reps)?;
+    for (name, pipeline) in &tiles {
+        variants.push((name, Box::new(|| launch(pipeline))));
+    }
+    let out = dir.join(format!("primary_{width}x{height}"));
+    let (results, runs) = rounds(&mut variants, opts, twin, |bin, traversable| {
+        let out = out.with_file_name(format!("primary_{width}x{height}{}", traversable.file_suffix()));
+        run_twin(bin, "primary", &scene_path, &out, opts.reps, traversable, opts.primary_gas.preference)
+    })?;
     drop(variants);
     let mut rows = interleaved_rows(&names, &results, timing_name(timer));
     // raykit's picture, from a last launch of the Rust programs.
     rust.pipeline.launch(&rust.sbt, &scene.params, dims)?;
     let picture = scene.image.read()?;
     let ash_differs = picture.iter().zip(ash.picture()?).filter(|(a, b)| **a != *b).count();
-    let setup = format!("{} triangles, {width}x{height}, 1 ray/pixel", opts.triangles);
+    // The tiled WGSL programs must draw the plain WGSL picture.
+    wgsl.pipeline.launch(&wgsl.sbt, &scene.params, dims)?;
+    let wgsl_picture = scene.image.read()?;
+    let mut tiled_differs = 0;
+    for (_, pipeline) in &tiles {
+        pipeline.pipeline.launch(&pipeline.sbt, &scene.params, dims)?;
+        tiled_differs += scene.image.read()?.iter().zip(&wgsl_picture).filter(|(a, b)| a != b).count();
+    }
+    let ash_differs = ash_differs + tiled_differs;
+    if runs.runs.is_empty() {
+        return Ok(Section {
+            suite: "primary",
+            setup,
+            rows,
+            check: format!("ash: {ash_differs} pixels differ from raykit's; OptiX not run"),
+            passed: Some(ash_differs == 0),
+            optix: None,
+        });
+    }
+    let mut checks = Vec::new();
+    let mut all_same = ash_differs == 0;
+    for traversable in Traversable::BOTH {
+        let Some((run, image)) = runs.get(traversable) else { continue };
+        let (check, same) = compare_primary(&picture, image, traversable.row_name())?;
+        checks.push(check);
+        all_same &= same;
+        let row = optix_row(traversable.row_name(), run, &rows[0]);
+        rows.push(row);
+    }
+    let check = format!("{}; ash and the tiled WGSL: {ash_differs} differ", checks.join("; "));
+    // raykit's picture, for a closer look beside the twin's.
+    let ours_path = dir.join(format!("primary_{width}x{height}.raykit.img"));
+    let bytes: Vec<u8> = picture.iter().flat_map(|p| p.to_le_bytes()).collect();
+    std::fs::write(&ours_path, bytes).with_context(|| format!("writing {}", ours_path.display()))?;
+    eprintln!("optix: primary {width}x{height}: {check}");
+    Ok(Section { suite: "primary", setup, rows, check, passed: Some(all_same), optix: Some(runs.reports()) })
+}
 
-    let bin = match twin {
-        Twin::Ready(bin) => bin,
-        Twin::Missing(_) => {
-            return Ok(Section {
-                suite: "primary",
-                setup,
-                rows,
-                check: format!("ash: {ash_differs} pixels differ from raykit's; OptiX not run"),
-                passed: Some(ash_differs == 0),
-                optix: None,
-            })
+/// `opts.optix_rounds` rounds: raykit's `variants` interleaved (`opts.reps`
+/// each), then, where the twin is built, `twin_run` for its GAS and its IAS.
+/// Returns raykit's results and the twin's runs, each pooled over the rounds.
+fn rounds(
+    variants: &mut [Variant<'_>],
+    opts: &Options,
+    twin: &Twin,
+    mut twin_run: impl FnMut(&Path, Traversable) -> anyhow::Result<(OptixRun, Vec<u8>)>,
+) -> anyhow::Result<(Vec<Vec<(f64, u64)>>, TwinRuns)> {
+    let mut results: Vec<Vec<(f64, u64)>> = vec![Vec::new(); variants.len()];
+    let mut runs = TwinRuns::new();
+    for _ in 0..opts.optix_rounds.max(1) {
+        for (pooled, round) in results.iter_mut().zip(interleave(variants, opts.reps)?) {
+            pooled.extend(round);
         }
-    };
-    // The scene as raykit traced it.
-    let (vertices, indices) = crate::accel::grid(opts.triangles);
-    let p = &scene.params;
-    let mut w = Writer::header(1);
-    w.u32(width).u32(height).u32(vertices.len() as u32).u32(indices.len() as u32);
-    w.vec3(p.cam_eye).vec3(p.cam_u).vec3(p.cam_v).vec3(p.cam_w).vec3(BACKGROUND);
-    for v in &vertices {
-        w.vec3(*v);
+        if let Twin::Ready(bin) = twin {
+            for traversable in Traversable::BOTH {
+                let (run, image) = twin_run(bin, traversable)?;
+                runs.add(traversable, run, image);
+            }
+        }
     }
-    for &i in &indices {
-        w.u32(i);
-    }
-    let scene_path = dir.join(format!("primary_{width}x{height}.scene"));
-    std::fs::write(&scene_path, &w.0).with_context(|| format!("writing {}", scene_path.display()))?;
-    let (run, image) =
-        run_twin(bin, "primary", &scene_path, &dir.join(format!("primary_{width}x{height}")), opts.reps)?;
+    Ok((results, runs))
+}
+
+/// Compares raykit's primary-ray `picture` with the twin's `image` (RGBA8 as
+/// little-endian u32); returns the check's text and whether they are equal.
+fn compare_primary(picture: &[u32], image: &[u8], name: &str) -> anyhow::Result<(String, bool)> {
     anyhow::ensure!(
         image.len() == picture.len() * 4,
-        "the OptiX picture has {} bytes, not {}",
+        "the {name} picture has {} bytes, not {}",
         image.len(),
         picture.len() * 4
     );
@@ -316,25 +471,11 @@ fn primary(
     }
     let total = picture.len();
     let check = format!(
-        "OptiX: {differ} of {total} pixels differ ({:.4}%): {off_by_one} by 1 in a channel at most (the colour rounded the other way), {} by more (another triangle or other barycentrics; largest channel difference {max_channel}), {hit_miss} hit on one side and missed on the other; ash: {ash_differs} differ",
+        "{name}: {differ} of {total} pixels differ ({:.4}%): {off_by_one} by 1 in a channel at most (the colour rounded the other way), {} by more (another triangle or other barycentrics; largest channel difference {max_channel}), {hit_miss} hit on one side and missed on the other",
         100.0 * differ as f64 / total as f64,
         differ - off_by_one
     );
-    // Both pictures, for a closer look.
-    let ours_path = dir.join(format!("primary_{width}x{height}.raykit.img"));
-    let bytes: Vec<u8> = picture.iter().flat_map(|p| p.to_le_bytes()).collect();
-    std::fs::write(&ours_path, bytes).with_context(|| format!("writing {}", ours_path.display()))?;
-    eprintln!("optix: primary {width}x{height}: {check}");
-    let optix = optix_row(&run, &rows[0]);
-    rows.push(optix);
-    Ok(Section {
-        suite: "primary",
-        setup,
-        rows,
-        check,
-        passed: Some(differ == 0 && ash_differs == 0),
-        optix: Some(run.report),
-    })
+    Ok((check, differ == 0))
 }
 
 /// Mean of per-pixel values and its standard error (pixel spread / √n).
@@ -358,6 +499,28 @@ fn path(
     let spp = opts.spp;
     let mut rust = Renderer::new(ctx, &PathPrograms::rust(ctx)?, &scene_gpu, size, size)?;
     let mut glsl = Renderer::new(ctx, &PathPrograms::glsl(ctx)?, &scene_gpu, size, size)?;
+    let setup = format!("Cornell box, {size}x{size}, {spp} spp, max depth {}", scene::MAX_DEPTH);
+    // The scene for the twin.
+    let scene_path = dir.join(format!("path_{size}.scene"));
+    if let Twin::Ready(_) = twin {
+        let camera = path_tracer::camera_frame(1.0);
+        let light = scene::LIGHT;
+        let mut w = Writer::header(2);
+        w.u32(size).u32(size).u32(spp).u32(scene::MAX_DEPTH);
+        w.u32(MATERIALS.len() as u32).u32((VERTICES.len() / 3) as u32);
+        w.vec3(camera.eye).vec3(camera.u).vec3(camera.v).vec3(camera.w);
+        w.vec3(light.corner).vec3(light.v1).vec3(light.v2).vec3(light.emission);
+        for group in MATERIALS {
+            w.u32(group.first_triangle).u32(group.triangles).vec3(group.emission).vec3(group.albedo);
+        }
+        for v in VERTICES {
+            w.vec3(v);
+        }
+        for n in path_tracer::triangle_normals() {
+            w.vec3(n);
+        }
+        std::fs::write(&scene_path, &w.0).with_context(|| format!("writing {}", scene_path.display()))?;
+    }
     let launch = |r: &mut Renderer| -> anyhow::Result<(f64, u64)> {
         r.reset();
         let s = match timer {
@@ -373,23 +536,22 @@ fn path(
     let names = ["Rust", "GLSL"];
     let mut variants: Vec<Variant<'_>> =
         vec![("Rust", Box::new(|| launch(&mut rust))), ("GLSL", Box::new(|| launch(&mut glsl)))];
-    let results = interleave(&mut variants, opts.reps)?;
+    let (results, runs) = rounds(&mut variants, opts, twin, |bin, traversable| {
+        let out = dir.join(format!("path_{size}{}", traversable.file_suffix()));
+        run_twin(bin, "path", &scene_path, &out, opts.reps, traversable, raykit::accel::BuildPreference::FastTrace)
+    })?;
     drop(variants);
     let mut rows = interleaved_rows(&names, &results, timing_name(timer));
-    let setup = format!("Cornell box, {size}x{size}, {spp} spp, max depth {}", scene::MAX_DEPTH);
-    let bin = match twin {
-        Twin::Ready(bin) => bin,
-        Twin::Missing(_) => {
-            return Ok(Section {
-                suite: "path",
-                setup,
-                rows,
-                check: "OptiX not run".to_owned(),
-                passed: None,
-                optix: None,
-            })
-        }
-    };
+    if runs.runs.is_empty() {
+        return Ok(Section {
+            suite: "path",
+            setup,
+            rows,
+            check: "OptiX not run".to_owned(),
+            passed: None,
+            optix: None,
+        });
+    }
     // raykit's picture, from a last launch of the Rust programs.
     rust.reset();
     rust.launch(spp)?;
@@ -397,28 +559,34 @@ fn path(
     let ours_path = dir.join(format!("path_{size}.raykit.img"));
     let bytes: Vec<u8> = ours.iter().flat_map(|p| p.to_array()).flat_map(f32::to_le_bytes).collect();
     std::fs::write(&ours_path, bytes).with_context(|| format!("writing {}", ours_path.display()))?;
+    let mut checks = Vec::new();
+    let mut passed = true;
+    for traversable in Traversable::BOTH {
+        let Some((run, image)) = runs.get(traversable) else { continue };
+        let (check, same) = compare_path(&ours, image, spp, run.rays, traversable.row_name())?;
+        checks.push(check);
+        passed &= same;
+        let row = optix_row(traversable.row_name(), run, &rows[0]);
+        rows.push(row);
+    }
+    let check = checks.join("; ");
+    eprintln!("optix: path: {check}");
+    Ok(Section { suite: "path", setup, rows, check, passed: Some(passed), optix: Some(runs.reports()) })
+}
 
-    let camera = path_tracer::camera_frame(1.0);
-    let light = scene::LIGHT;
-    let mut w = Writer::header(2);
-    w.u32(size).u32(size).u32(spp).u32(scene::MAX_DEPTH).u32(MATERIALS.len() as u32).u32((VERTICES.len() / 3) as u32);
-    w.vec3(camera.eye).vec3(camera.u).vec3(camera.v).vec3(camera.w);
-    w.vec3(light.corner).vec3(light.v1).vec3(light.v2).vec3(light.emission);
-    for group in MATERIALS {
-        w.u32(group.first_triangle).u32(group.triangles).vec3(group.emission).vec3(group.albedo);
-    }
-    for v in VERTICES {
-        w.vec3(v);
-    }
-    for n in path_tracer::triangle_normals() {
-        w.vec3(n);
-    }
-    let scene_path = dir.join(format!("path_{size}.scene"));
-    std::fs::write(&scene_path, &w.0).with_context(|| format!("writing {}", scene_path.display()))?;
-    let (run, image) = run_twin(bin, "path", &scene_path, &dir.join(format!("path_{size}")), opts.reps)?;
+/// Compares raykit's accumulation `ours` (`spp` paths per pixel) with the twin's
+/// `image` (4 × f32 per pixel, `their_rays` rays); returns the check's text and
+/// whether the mean radiances agree within their standard error.
+fn compare_path(
+    ours: &[raykit::glam::Vec4],
+    image: &[u8],
+    spp: u32,
+    their_rays: u64,
+    name: &str,
+) -> anyhow::Result<(String, bool)> {
     anyhow::ensure!(
         image.len() == ours.len() * 16,
-        "the OptiX accumulation has {} bytes, not {}",
+        "the {name} accumulation has {} bytes, not {}",
         image.len(),
         ours.len() * 16
     );
@@ -447,7 +615,7 @@ fn path(
     let (r, g, b) = (channel(0), channel(1), channel(2));
     let passed = delta.abs() <= se;
     let check = format!(
-        "mean radiance raykit {our_mean:.5} ± {our_se:.5}, OptiX {their_mean:.5} ± {their_se:.5} (RGB raykit {:.4} {:.4} {:.4}, OptiX {:.4} {:.4} {:.4}): Δ = {delta:.2e} = {:.3} standard errors ({}; paired: {:.2} SE of the per-pixel differences); {same} of {} pixels equal bit for bit; rays raykit {our_rays:.0}, OptiX {}",
+        "{name}: mean radiance raykit {our_mean:.5} ± {our_se:.5}, {name} {their_mean:.5} ± {their_se:.5} (RGB raykit {:.4} {:.4} {:.4}, {name} {:.4} {:.4} {:.4}): Δ = {delta:.2e} = {:.3} standard errors ({}; paired: {:.2} SE of the per-pixel differences); {same} of {} pixels equal bit for bit; rays raykit {our_rays:.0}, {name} {their_rays}",
         r.0,
         g.0,
         b.0,
@@ -458,12 +626,8 @@ fn path(
         if passed { "within" } else { "NOT within" },
         if paired_se > 0.0 { delta / paired_se } else { 0.0 },
         ours.len(),
-        run.rays
     );
-    eprintln!("optix: path: {check}");
-    let optix = optix_row(&run, &rows[0]);
-    rows.push(optix);
-    Ok(Section { suite: "path", setup, rows, check, passed: Some(passed), optix: Some(run.report) })
+    Ok((check, passed))
 }
 
 /// Runs the suite; returns its Markdown section and JSON.
@@ -490,7 +654,7 @@ pub fn run(
 
 fn markdown(sections: &[Section], twin: &Twin) -> String {
     let mut s = String::from(
-        "raykit's Rust programs against their GLSL twin, the hand-written ash launch (device-local output) and the OptiX twin (`bench/optix`, CUDA events around `optixLaunch`, compacted GAS, fast trace). Rust, GLSL and ash interleaved after a warm-up launch each; OptiX in its own process after 3 warm-up launches. Median (± half the interquartile range); `raykit / X` is raykit's Mrays/s over X's (> 1: raykit faster): median of per-repetition ratios, against OptiX the ratio of medians.\n\n",
+        "raykit's Rust programs against their GLSL twin, the hand-written ash launch (device-local output) and the OptiX twin (`bench/optix`, CUDA events around `optixLaunch`, compacted GAS, fast trace). In each of `--optix-rounds` rounds, Rust, GLSL and ash run interleaved after a warm-up launch each, then OptiX in its own process after 3 warm-up launches, tracing its GAS alone (`OptiX`, as the SDK's samples) and a one-instance IAS over it (`OptiX (IAS)`, the two levels every Vulkan trace has); launch times are pooled over the rounds. Median (± half the interquartile range); `raykit / X` is raykit's Mrays/s over X's (> 1: raykit faster): median of per-repetition ratios, against OptiX the ratio of medians.\n\n",
     );
     if let Twin::Missing(why) = twin {
         s.push_str(&format!("**OptiX not run**: {why}\n\n"));
@@ -516,7 +680,9 @@ fn markdown(sections: &[Section], twin: &Twin) -> String {
             ));
         }
     }
-    s.push_str("\n| suite | setup | raykit / GLSL | raykit / ash | raykit / OptiX |\n|---|---|---:|---:|---:|\n");
+    s.push_str(
+        "\n| suite | setup | raykit / GLSL | raykit / ash | raykit / OptiX | raykit / OptiX (IAS) |\n|---|---|---:|---:|---:|---:|\n",
+    );
     for sec in sections {
         let ratio = |name: &str| {
             sec.rows
@@ -525,12 +691,13 @@ fn markdown(sections: &[Section], twin: &Twin) -> String {
                 .map_or("–".to_owned(), |r| format!("{:.3}", r.raykit_over.median))
         };
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} |\n",
             sec.suite,
             sec.setup,
             ratio("GLSL"),
             ratio("ash"),
-            ratio("OptiX")
+            ratio("OptiX"),
+            ratio("OptiX (IAS)")
         ));
     }
     s.push_str("\nPicture checks:\n\n");

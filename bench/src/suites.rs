@@ -21,12 +21,15 @@ pub fn default_options() -> Options {
         spp_per_launch: 16,
         optix_bin: None,
         optix_sizes: vec![(1920, 1080), (3840, 2160)],
+        optix_rounds: 3,
+        primary_gas: crate::trace::GasChoice::default(),
     }
 }
 
 /// Parses one option of these suites (`--triangles`, `--primary-size WxH`,
 /// `--path-size N`, `--spp N`, `--launches N`, `--devices all|N`,
-/// `--spp-per-launch N`, `--optix-bin PATH`, `--optix-sizes WxH,WxH`); returns
+/// `--spp-per-launch N`, `--optix-bin PATH`, `--optix-sizes WxH,WxH`,
+/// `--optix-rounds N`, `--primary-gas LIST`); returns
 /// false when `name` is not one.
 pub fn parse_option(
     opts: &mut Options,
@@ -49,6 +52,11 @@ pub fn parse_option(
             anyhow::ensure!(opts.spp_per_launch > 0, "--spp-per-launch must be at least 1");
         }
         "--optix-bin" => opts.optix_bin = Some(value()?.into()),
+        "--primary-gas" => opts.primary_gas = crate::trace::GasChoice::parse(&value()?)?,
+        "--optix-rounds" => {
+            opts.optix_rounds = value()?.parse().context("--optix-rounds takes a number")?;
+            anyhow::ensure!(opts.optix_rounds > 0, "--optix-rounds must be at least 1");
+        }
         "--optix-sizes" => {
             opts.optix_sizes = value()?
                 .split(',')
@@ -78,13 +86,13 @@ pub fn run(suite: &str, ctx: &Context, opts: &Options, out: &Path) -> anyhow::Re
             (crate::trace::markdown(&rows), crate::trace::json(&rows))
         }
         "launch" => {
-            let scene = crate::trace::primary_scene(ctx, opts.triangles, opts.primary_size)?;
+            let scene = crate::trace::primary_scene(ctx, opts.triangles, opts.primary_size, opts.primary_gas)?;
             let mut rows = crate::launch::launches(ctx, &scene, opts.primary_size, opts.reps)?;
             rows.extend(crate::launch::creation(ctx, opts.reps * 4)?);
             (crate::launch::markdown(&rows), crate::launch::json(&rows))
         }
         "launch-loop" => {
-            let scene = crate::trace::primary_scene(ctx, opts.triangles, opts.primary_size)?;
+            let scene = crate::trace::primary_scene(ctx, opts.triangles, opts.primary_size, opts.primary_gas)?;
             let rows = crate::launch::launch_loop(ctx, &scene, opts.launches, opts.reps)?;
             (crate::launch::markdown(&rows), crate::launch::json(&rows))
         }

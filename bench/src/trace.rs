@@ -52,8 +52,14 @@ pub struct Options {
     /// The OptiX twin's executable (or its folder) for the `optix` suite; else
     /// `optix/raykit-optix` next to this binary.
     pub optix_bin: Option<std::path::PathBuf>,
+    /// How the primary-ray scene's GAS and IAS are built.
+    pub primary_gas: GasChoice,
     /// Image sizes of the `optix` suite's primary rays.
     pub optix_sizes: Vec<(u32, u32)>,
+    /// Rounds of the `optix` suite: each runs raykit's variants interleaved,
+    /// then the OptiX twin (single GAS, then IAS), so that both sides see the
+    /// GPU in the same states.
+    pub optix_rounds: usize,
 }
 
 /// One variant's results.
@@ -154,10 +160,41 @@ pub enum Language {
     Glsl,
     /// naga.
     Wgsl,
+    /// The WGSL twin with its launch index remapped so that each run of 32
+    /// consecutive invocations covers a `W`×`H` tile of pixels (`W`·`H` = 32)
+    /// instead of a 32-pixel row: a study of how the driver groups
+    /// invocations into warps. The same picture where the image's width is a
+    /// multiple of `W` and its height of `H`.
+    WgslTiled(u32, u32),
+}
+
+/// The primary-ray WGSL twin whose raygen reads its pixel from a `tile`-tiled
+/// launch index (see [`Language::WgslTiled`]).
+fn tiled_wgsl((tw, th): (u32, u32)) -> anyhow::Result<String> {
+    let source = include_str!("../../examples/triangle/wgsl/triangle.wgsl");
+    let header = "fn rg(@builtin(ray_invocation_id) id: vec3<u32>, @builtin(num_ray_invocations) dims: vec3<u32>) {";
+    anyhow::ensure!(source.contains(header), "the WGSL twin's raygen signature changed");
+    let tiled = format!(
+        "fn rg(@builtin(ray_invocation_id) launch_id: vec3<u32>, @builtin(num_ray_invocations) dims: vec3<u32>) {{\n    \
+         let linear = launch_id.x + dims.x * launch_id.y;\n    \
+         let tile = linear / {lanes}u;\n    let lane = linear % {lanes}u;\n    \
+         let tiles_x = dims.x / {tw}u;\n    \
+         let id = vec3<u32>((tile % tiles_x) * {tw}u + lane % {tw}u, (tile / tiles_x) * {th}u + lane / {tw}u, 0u);",
+        lanes = tw * th
+    );
+    Ok(source.replace(header, &tiled))
 }
 
 /// The primary-ray programs: Rust (`triangle-device`), the GLSL twin or the WGSL twin.
 fn primary_programs(ctx: &Context, language: Language) -> anyhow::Result<[ProgramGroup; 3]> {
+    if let Language::WgslTiled(tw, th) = language {
+        let module = Module::from_wgsl_named(ctx, &tiled_wgsl((tw, th))?, "triangle.wgsl, tiled launch index")?;
+        return Ok([
+            ProgramGroup::raygen(&module, "rg")?,
+            ProgramGroup::miss(&module, "ms")?,
+            ProgramGroup::hit_group(&module).closest_hit("ch").build()?,
+        ]);
+    }
     if language == Language::Wgsl {
         let source = include_str!("../../examples/triangle/wgsl/triangle.wgsl");
         let module = Module::from_wgsl_named(ctx, source, "examples/triangle/wgsl/triangle.wgsl")?;
@@ -217,15 +254,24 @@ pub struct PrimaryScene {
     pub params: PrimaryParams,
 }
 
-/// Builds the height field of `triangles` triangles over [0,1]² and a camera
-/// above it whose every ray hits it.
-pub fn primary_scene(ctx: &Context, triangles: usize, (width, height): (u32, u32)) -> anyhow::Result<PrimaryScene> {
+/// Builds the height field of `triangles` triangles over [0,1]² (a compacted
+/// GAS for fast trace under a one-instance IAS) and a camera above it whose
+/// every ray hits it.
+pub fn primary_scene(
+    ctx: &Context,
+    triangles: usize,
+    (width, height): (u32, u32),
+    choice: GasChoice,
+) -> anyhow::Result<PrimaryScene> {
     let (vertices, indices) = crate::accel::grid(triangles);
+    let mut options = raykit::accel::BuildOptions::default().allow_compaction(choice.compact);
+    options.preference = choice.preference;
     let gas = Gas::builder()
         .triangles(Triangles::new(&vertices).indices_u32(&indices).flags(raykit::GeometryFlags::OPAQUE))
-        .options(raykit::accel::BuildOptions::default().fast_trace())
+        .options(options)
         .build(ctx)?;
-    let ias = Ias::single(ctx, &gas)?;
+    let gas = if choice.compact { gas.compact()? } else { gas };
+    let ias = Ias::new(ctx, &[raykit::Instance::new(&gas).flags(choice.instance_flags)])?;
     let image = ctx.buffer::<u32>(width as usize * height as usize)?;
     let aspect = width as f32 / height as f32;
     let half_height = 0.45 / aspect.max(1.0);
@@ -242,11 +288,58 @@ pub fn primary_scene(ctx: &Context, triangles: usize, (width, height): (u32, u32
     Ok(PrimaryScene { ias, image, params })
 }
 
+/// How the primary-ray scene is built (`--primary-gas`, comma-separated):
+/// `fast-trace` (default), `fast-build` or `neither`; `compact` (default) or
+/// `no-compact`, as the OptiX twin's GAS is compacted; the instance's flags
+/// `cull-disable` and `force-opaque` (default none).
+#[derive(Clone, Copy, Debug)]
+pub struct GasChoice {
+    /// The GAS build's preference.
+    pub preference: raykit::accel::BuildPreference,
+    /// Whether the GAS is compacted after its build.
+    pub compact: bool,
+    /// The one instance's flags.
+    pub instance_flags: raykit::InstanceFlags,
+}
+
+impl Default for GasChoice {
+    fn default() -> GasChoice {
+        GasChoice {
+            preference: raykit::accel::BuildPreference::FastTrace,
+            compact: true,
+            instance_flags: raykit::InstanceFlags::NONE,
+        }
+    }
+}
+
+impl GasChoice {
+    /// Parses `--primary-gas`'s value.
+    pub fn parse(value: &str) -> anyhow::Result<GasChoice> {
+        let mut c = GasChoice::default();
+        for token in value.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+            match token {
+                "fast-trace" => c.preference = raykit::accel::BuildPreference::FastTrace,
+                "fast-build" => c.preference = raykit::accel::BuildPreference::FastBuild,
+                "neither" => c.preference = raykit::accel::BuildPreference::Neither,
+                "compact" => c.compact = true,
+                "no-compact" => c.compact = false,
+                "cull-disable" => c.instance_flags = c.instance_flags | raykit::InstanceFlags::DISABLE_TRIANGLE_CULLING,
+                "force-opaque" => c.instance_flags = c.instance_flags | raykit::InstanceFlags::FORCE_OPAQUE,
+                other => anyhow::bail!(
+                    "--primary-gas: unknown `{other}` (fast-trace, fast-build, neither, compact, no-compact, \
+                     cull-disable, force-opaque)"
+                ),
+            }
+        }
+        Ok(c)
+    }
+}
+
 /// The `primary` suite.
 pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> anyhow::Result<Vec<Row>> {
     let (width, height) = opts.primary_size;
     let built = Instant::now();
-    let scene = primary_scene(ctx, opts.triangles, opts.primary_size)?;
+    let scene = primary_scene(ctx, opts.triangles, opts.primary_size, opts.primary_gas)?;
     eprintln!("primary: {} triangles built in {:.1} s", opts.triangles, built.elapsed().as_secs_f64());
     let rust = primary_pipeline(ctx, Language::Rust)?;
     let glsl = primary_pipeline(ctx, Language::Glsl)?;

@@ -60,6 +60,13 @@
 //! assert_eq!(MS.name, "__miss__ms");
 //! ```
 //!
+//! Beside the program model, the pieces every small renderer writes:
+//! [`sphere`] (built-in spheres: the intersection test and its hit attributes),
+//! [`sampling`] (random numbers, unit vectors, points in the unit sphere and
+//! disk, cosine-weighted directions), [`optics`] (reflect, refract, Fresnel and
+//! Schlick), [`camera`] (a thin-lens camera), [`ray::offset_ray_origin`]
+//! (self-intersection-free ray origins) and [`color`] (sRGB and RGBA8).
+//!
 //! This crate also compiles for the host target: launch-params structs, record data
 //! types, [`Buffer`] and [`Traversable`] handles and the [`EntryPoint`] constants the
 //! macros generate are shared between the two sides.
@@ -67,6 +74,10 @@
 #![cfg_attr(target_arch = "spirv", feature(asm_experimental_arch))]
 #![deny(missing_docs)]
 
+// The derives name this crate `::raykit_device`, in it too (`camera::ThinLensCamera`).
+extern crate self as raykit_device;
+
+pub mod camera;
 pub mod color;
 #[cfg(not(target_arch = "spirv"))]
 pub mod cpu;
@@ -76,10 +87,12 @@ pub mod environment;
 pub mod exception;
 pub mod handles;
 pub mod math;
+pub mod optics;
 pub mod params;
 pub mod ray;
 pub mod record;
 pub mod sampling;
+pub mod sphere;
 pub mod stage;
 pub mod texture;
 

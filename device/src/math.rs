@@ -41,3 +41,16 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
         x.sin_cos()
     }
 }
+
+/// Tangent.
+pub fn tan(x: f32) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    {
+        use spirv_std::num_traits::Float;
+        x.tan()
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        x.tan()
+    }
+}

@@ -1,15 +1,22 @@
 //! Random numbers and the sampling routines path tracers share: counter-based
 //! random numbers ([`tea4`] seeds, an [`Lcg`] stream as sutil's, and a [`Pcg`]
-//! stream), an orthonormal basis ([`Onb`]), cosine-weighted hemisphere sampling,
+//! stream), an orthonormal basis ([`Onb`]), the standard samplers (a uniform
+//! [unit vector](random_unit_vector), a point [in the unit sphere](random_in_unit_sphere)
+//! or [disk](random_in_unit_disk), cosine-weighted directions
+//! [around +z](cosine_sample_hemisphere) or [a normal](cosine_sample_around)),
 //! GGX (Trowbridge–Reitz) microfacet sampling of the visible normals (Heitz 2018),
 //! and normals from object to world space.
+//!
+//! The samplers map uniform numbers in `[0, 1)` to their distribution directly
+//! (no rejection loops, so every invocation takes the same steps); [`Pcg`] has
+//! a method for each.
 //!
 //! Everything compiles for SPIR-V and for the host (CPU references compute the
 //! same bits): integer arithmetic wraps explicitly.
 
 use spirv_std::glam::{Vec2, Vec3};
 
-use crate::math::{sin_cos, sqrt};
+use crate::math::{powf, sin_cos, sqrt};
 use crate::Matrix4x3;
 
 /// π.
@@ -94,6 +101,59 @@ impl Pcg {
         let x = self.next_f32();
         Vec2::new(x, self.next_f32())
     }
+    /// Three uniform numbers in `[0, 1)`.
+    pub fn next_vec3(&mut self) -> Vec3 {
+        let xy = self.next_vec2();
+        Vec3::new(xy.x, xy.y, self.next_f32())
+    }
+    /// A uniformly distributed unit vector ([`random_unit_vector`]).
+    pub fn unit_vector(&mut self) -> Vec3 {
+        random_unit_vector(self.next_vec2())
+    }
+    /// A uniformly distributed point in the unit ball ([`random_in_unit_sphere`]).
+    pub fn in_unit_sphere(&mut self) -> Vec3 {
+        random_in_unit_sphere(self.next_vec3())
+    }
+    /// A uniformly distributed point in the unit disk, `z = 0` ([`random_in_unit_disk`]).
+    pub fn in_unit_disk(&mut self) -> Vec3 {
+        random_in_unit_disk(self.next_vec2())
+    }
+    /// A cosine-distributed direction around unit `normal` ([`cosine_sample_around`]).
+    pub fn cosine_around(&mut self, normal: Vec3) -> Vec3 {
+        cosine_sample_around(normal, self.next_vec2())
+    }
+}
+
+/// A unit vector uniformly distributed over the sphere, from two uniform
+/// numbers in `[0, 1)` (`z = 1 − 2u.x`, azimuth `2π u.y`: Archimedes' hat-box
+/// theorem); pdf `1 / 4π` per steradian.
+pub fn random_unit_vector(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = sqrt((1.0 - z * z).max(0.0));
+    let (s, c) = sin_cos(2.0 * PI * u.y);
+    Vec3::new(r * c, r * s, z)
+}
+
+/// A point uniformly distributed in the unit ball, from three uniform numbers
+/// in `[0, 1)`: a [`random_unit_vector`] of `u.xy` scaled by `∛u.z`.
+pub fn random_in_unit_sphere(u: Vec3) -> Vec3 {
+    random_unit_vector(Vec2::new(u.x, u.y)) * powf(u.z, 1.0 / 3.0)
+}
+
+/// A point uniformly distributed in the unit disk of the xy-plane (`z = 0`),
+/// from two uniform numbers in `[0, 1)`: radius `√u.x`, angle `2π u.y`. A
+/// thin lens samples its aperture with it.
+pub fn random_in_unit_disk(u: Vec2) -> Vec3 {
+    let r = sqrt(u.x);
+    let (s, c) = sin_cos(2.0 * PI * u.y);
+    Vec3::new(r * c, r * s, 0.0)
+}
+
+/// A cosine-weighted direction on the hemisphere around unit `normal` (a
+/// [`cosine_sample_hemisphere`] in the normal's [`Onb`]); pdf
+/// [`cosine_hemisphere_pdf`] of `normal · direction`. The Lambertian bounce.
+pub fn cosine_sample_around(normal: Vec3, u: Vec2) -> Vec3 {
+    Onb::new(normal).to_world(cosine_sample_hemisphere(u.x, u.y))
 }
 
 /// An orthonormal basis around a unit normal (optixPathTracer's `Onb`):
@@ -194,10 +254,7 @@ pub fn ggx_vndf_pdf(v: Vec3, h: Vec3, alpha: f32) -> f32 {
     ggx_g1(v.z, alpha) * v.dot(h).max(0.0) * ggx_d(h.z, alpha) / v.z.max(1e-20)
 }
 
-/// `d` reflected about unit `n`.
-pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
-    d - 2.0 * d.dot(n) * n
-}
+pub use crate::optics::reflect;
 
 /// An object-space normal in world space, through the inverse transpose of the
 /// object-to-world transform, given as the hit's world-to-object matrix
@@ -284,6 +341,71 @@ mod tests {
             / n as f64;
         // Var(cos θ) = 1/2 - 4/9 = 1/18.
         assert!((mean - 2.0 / 3.0).abs() < 5.0 * (1.0 / 18.0 / n as f64).sqrt(), "{mean}");
+    }
+
+    /// Whether `value` is within 5 standard errors of the `expected` mean.
+    fn near(value: f64, expected: f64, se: f64) -> bool {
+        (value - expected).abs() < 5.0 * se
+    }
+
+    #[test]
+    fn unit_vectors_are_uniform_on_the_sphere() {
+        let mut rng = Pcg::new(40, 1);
+        let n = 200_000;
+        let samples: Vec<Vec3> = (0..n).map(|_| rng.unit_vector()).collect();
+        assert!(samples.iter().all(|v| (v.length() - 1.0).abs() < 1e-5));
+        // The cap cos θ > 1/2 around any axis covers a quarter of the sphere;
+        // each coordinate has mean 0 and variance 1/3.
+        for axis in [Vec3::X, Vec3::Y, Vec3::Z, Vec3::new(1.0, -2.0, 0.5).normalize()] {
+            let cap = samples.iter().filter(|v| v.dot(axis) > 0.5).count() as f64 / n as f64;
+            assert!(near(cap, 0.25, (0.25 * 0.75 / n as f64).sqrt()), "{axis}: {cap}");
+            let mean = samples.iter().map(|v| v.dot(axis) as f64).sum::<f64>() / n as f64;
+            assert!(near(mean, 0.0, (1.0 / 3.0 / n as f64).sqrt()), "{axis}: {mean}");
+        }
+    }
+
+    #[test]
+    fn points_in_the_unit_sphere_and_disk_are_uniform() {
+        let mut rng = Pcg::new(41, 1);
+        let n = 200_000;
+        let ball: Vec<Vec3> = (0..n).map(|_| rng.in_unit_sphere()).collect();
+        assert!(ball.iter().all(|p| p.length() <= 1.0 + 1e-6));
+        // Volume fractions: the ball of radius 1/2 holds 1/8; the octant x, y, z > 0 holds 1/8.
+        let inner = ball.iter().filter(|p| p.length() < 0.5).count() as f64 / n as f64;
+        let octant = ball.iter().filter(|p| p.x > 0.0 && p.y > 0.0 && p.z > 0.0).count() as f64 / n as f64;
+        let se = (0.125 * 0.875 / n as f64).sqrt();
+        assert!(near(inner, 0.125, se) && near(octant, 0.125, se), "{inner} {octant}");
+        // E|p|² = 3/5, Var |p|² = 3/7 - 9/25.
+        let m2 = ball.iter().map(|p| p.length_squared() as f64).sum::<f64>() / n as f64;
+        assert!(near(m2, 0.6, ((3.0 / 7.0 - 0.36) / n as f64).sqrt()), "{m2}");
+
+        let disk: Vec<Vec3> = (0..n).map(|_| rng.in_unit_disk()).collect();
+        assert!(disk.iter().all(|p| p.z == 0.0 && p.length() <= 1.0 + 1e-6));
+        // Area fractions: radius 1/2 holds 1/4, as does each quadrant.
+        let inner = disk.iter().filter(|p| p.length() < 0.5).count() as f64 / n as f64;
+        let quadrant = disk.iter().filter(|p| p.x < 0.0 && p.y > 0.0).count() as f64 / n as f64;
+        let se = (0.25 * 0.75 / n as f64).sqrt();
+        assert!(near(inner, 0.25, se) && near(quadrant, 0.25, se), "{inner} {quadrant}");
+    }
+
+    #[test]
+    fn cosine_directions_around_a_normal() {
+        let mut rng = Pcg::new(42, 1);
+        let normal = Vec3::new(-0.3, 0.8, 0.2).normalize();
+        let n = 200_000;
+        let cosines: Vec<f64> = (0..n)
+            .map(|_| {
+                let d = rng.cosine_around(normal);
+                assert!((d.length() - 1.0).abs() < 1e-4);
+                d.dot(normal) as f64
+            })
+            .collect();
+        assert!(cosines.iter().all(|&c| c >= -1e-6));
+        // Under pdf cos θ / π: P(cos θ > c) = 1 - c², E[cos θ] = 2/3 (variance 1/18).
+        let above = cosines.iter().filter(|&&c| c > 0.5).count() as f64 / n as f64;
+        assert!(near(above, 0.75, (0.75 * 0.25 / n as f64).sqrt()), "{above}");
+        let mean = cosines.iter().sum::<f64>() / n as f64;
+        assert!(near(mean, 2.0 / 3.0, (1.0 / 18.0 / n as f64).sqrt()), "{mean}");
     }
 
     /// Mean and standard error of `n` samples of `f`.

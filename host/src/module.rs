@@ -313,6 +313,7 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
     let module = parse(&words)?;
     let mut params = raykit_spirv::reflect_params(&module)?;
     let mut interfaces = raykit_spirv::reflect_interface_sizes(&module)?;
+    let mut records = raykit_spirv::reflect_record_sizes(&module)?;
     let mut traces = raykit_spirv::reflect_traces(&module);
     let mut bindings = raykit_spirv::reflect_bindings(&module);
     let mut entries = Vec::new();
@@ -334,6 +335,7 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
             execution_model: format!("{model:?}"),
             params: params.remove(name).unwrap_or_default(),
             interface: interfaces.remove(name).unwrap_or_default(),
+            record: records.remove(name).unwrap_or_default(),
             traces: traces.remove(name).unwrap_or_default(),
             bindings: bindings.remove(name).unwrap_or_default(),
         });

@@ -44,6 +44,18 @@ pub enum GltfError {
         /// The parser's error.
         source: gltf::Error,
     },
+    /// An index in the file names an element past the end of its array.
+    #[error("glTF {path}: {target}[{index}] does not exist, the file has {count}; fix the index")]
+    DanglingIndex {
+        /// Where the index is.
+        path: String,
+        /// The array it indexes (`accessors`, …).
+        target: &'static str,
+        /// The index.
+        index: usize,
+        /// The array's length.
+        count: usize,
+    },
     /// A buffer's file is missing.
     #[error("glTF {path}: buffers[{buffer}].uri refers to `{uri}`, which is not at {resolved}; put the file beside the .gltf or fix the buffer's uri")]
     MissingBuffer {
@@ -393,7 +405,20 @@ impl GltfScene {
     /// Loads `path` (.gltf with its buffers and images beside it, or .glb).
     pub fn load(path: &Path) -> Result<GltfScene, GltfError> {
         let parse = |source| GltfError::Parse { path: path.to_owned(), source };
-        let gltf::Gltf { document, blob } = gltf::Gltf::open(path).map_err(parse)?;
+        let bytes = std::fs::read(path).map_err(|e| parse(gltf::Error::Io(e)))?;
+        GltfScene::from_slice(&bytes, path)
+    }
+
+    /// Loads a glTF (JSON) or GLB file already in memory, as [`GltfScene::load`]
+    /// would the file at `path`: buffers and images it names by relative URI are
+    /// read beside `path`, and errors name `path`.
+    pub fn from_slice(bytes: &[u8], path: &Path) -> Result<GltfScene, GltfError> {
+        let parse = |source| GltfError::Parse { path: path.to_owned(), source };
+        let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(parse)?;
+        // The `gltf` crate's validation reads the POSITION accessor before
+        // checking its index: that index is checked first.
+        validate::position_indices(document.as_json())?;
+        let document = gltf::Document::from_json(document.into_json()).map_err(parse)?;
         let base = path.parent().unwrap_or(Path::new("."));
         for buffer in document.buffers() {
             if let gltf::buffer::Source::Uri(uri) = buffer.source() {

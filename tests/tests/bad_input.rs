@@ -1985,3 +1985,367 @@ fn hit_group_placed_for_another_ray_type() -> anyhow::Result<()> {
         },
     )
 }
+
+// ------------------------------------------------- records, callables, hit kinds
+
+/// Whether `e` is `RecordTooSmall` for `region` record `index`, reading `reads` of `given` bytes.
+fn record_too_small(e: &Error, region: raykit::SbtRegion, index: usize, reads: usize, given: usize) -> bool {
+    matches!(e, Error::Sbt(raykit::SbtError::RecordTooSmall { region: r, index: i, reads: n, given: g, .. })
+        if (*r, *i, *n, *g) == (region, index, reads, given))
+}
+
+#[test]
+fn miss_record_given_no_data_for_a_program_that_reads_12_bytes() -> anyhow::Result<()> {
+    // Accepted once, and the miss program read the hit record's handle (or
+    // zeros on the CPU) as its colour: the background came out black.
+    case_on_each_backend(
+        "miss_record_given_no_data_for_a_program_that_reads_12_bytes",
+        &["miss record 0 carries 0 bytes", "`__miss__ms` reads 12 bytes", "#[record]"],
+        |ctx| triangle_sbt(ctx, |b, l| b.miss(&l.miss, ()).hit(&l.hit, ())),
+        |e| record_too_small(e, raykit::SbtRegion::Miss, 0, 12, 0),
+    )
+}
+
+#[test]
+fn miss_record_of_a_smaller_type_than_the_program_reads() -> anyhow::Result<()> {
+    case_on_each_backend(
+        "miss_record_of_a_smaller_type_than_the_program_reads",
+        &["miss record 1 carries 8 bytes", "reads 12 bytes"],
+        |ctx| {
+            triangle_sbt(ctx, |b, l| {
+                b.miss(&l.miss, MissData { bg_color: BG_COLOR }).miss(&l.miss, [0.5f32; 2]).hit(&l.hit, ())
+            })
+        },
+        |e| record_too_small(e, raykit::SbtRegion::Miss, 1, 12, 8),
+    )
+}
+
+#[test]
+fn miss_record_larger_than_the_program_reads_is_accepted_and_read_as_its_prefix() -> anyhow::Result<()> {
+    raykit_tests::with_each_backend("miss_record_larger_than_the_program_reads", |ctx, _| {
+        let l = linked(ctx)?;
+        let data = [BG_COLOR.x, BG_COLOR.y, BG_COLOR.z, 7.0];
+        let sbt = Sbt::builder(&l.pipeline).raygen(&l.raygen, ()).miss(&l.miss, data).hit(&l.hit, ()).build()?;
+        let gas = Gas::triangles(ctx, &triangle::VERTICES, None)?;
+        let scene = Ias::single(ctx, &gas)?;
+        let image = ctx.buffer::<u32>(16 * 16)?;
+        l.pipeline.launch(&sbt, &triangle::params(16, 16, image.handle(), scene.handle()), [16, 16, 1])?;
+        let pixels = image.read()?;
+        anyhow::ensure!(pixels[0] == make_color(BG_COLOR), "corner {:#010x} is not the background", pixels[0]);
+        still_usable(ctx)
+    })
+}
+
+#[test]
+fn glsl_miss_record_given_no_data() -> anyhow::Result<()> {
+    case(
+        "glsl_miss_record_given_no_data",
+        &["miss record 0 carries 0 bytes", "`main` reads 12 bytes"],
+        |ctx| {
+            let p = triangle::Programs::glsl(ctx)?;
+            let pipeline = Pipeline::<Params>::new(ctx, &[&p.raygen, &p.miss, &p.hit], LinkOptions::default())?;
+            refused(Sbt::builder(&pipeline).raygen(&p.raygen, ()).miss(&p.miss, ()).hit(&p.hit, ()).build(), "the SBT")
+        },
+        |e| record_too_small(e, raykit::SbtRegion::Miss, 0, 12, 0),
+    )
+}
+
+#[test]
+fn wgsl_miss_reading_4012_bytes_against_a_12_byte_record() -> anyhow::Result<()> {
+    case(
+        "wgsl_miss_reading_4012_bytes_against_a_12_byte_record",
+        &["miss record 0 carries 12 bytes", "`ms` reads 4012 bytes"],
+        |ctx| {
+            let source = triangle::WGSL.replace(
+                "struct MissData { bg_color: Vec3f }",
+                "struct MissData { bg_color: Vec3f, more: array<f32, 1000> }",
+            );
+            anyhow::ensure!(source != triangle::WGSL, "the WGSL twin's MissData changed");
+            let module = Module::from_wgsl_named(ctx, &source, "big_record.wgsl")?;
+            let raygen = ProgramGroup::raygen(&module, "rg")?;
+            let miss = ProgramGroup::miss(&module, "ms")?;
+            let hit = ProgramGroup::hit_group(&module).closest_hit("ch").build()?;
+            let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions::default())?;
+            let built = Sbt::builder(&pipeline)
+                .raygen(&raygen, ())
+                .miss(&miss, MissData { bg_color: BG_COLOR })
+                .hit(&hit, ())
+                .build();
+            refused(built, "the SBT")
+        },
+        |e| record_too_small(e, raykit::SbtRegion::Miss, 0, 4012, 12),
+    )
+}
+
+/// The GLSL raygen that calls callable 2, and the callable that answers it.
+fn callable_programs(ctx: &Context) -> anyhow::Result<(ProgramGroup, ProgramGroup)> {
+    let raygen = Module::new(ctx, include_bytes!("../data/raygen_calls_callable_2.rgen.spv"))?;
+    let callable = Module::new(ctx, include_bytes!("../data/callable_white.rcall.spv"))?;
+    Ok((ProgramGroup::raygen(&raygen, "main")?, ProgramGroup::callable(&callable, "main")?))
+}
+
+#[test]
+fn sbt_without_the_callable_a_program_calls() -> anyhow::Result<()> {
+    case(
+        "sbt_without_the_callable_a_program_calls",
+        &["2 callable record(s)", "`main` calls callable 2", ".callable(..)"],
+        |ctx| {
+            let (raygen, callable) = callable_programs(ctx)?;
+            let pipeline = Pipeline::<Params>::new(ctx, &[&raygen, &callable], LinkOptions::default())?;
+            // None, then two: both short of index 2.
+            let none = refused(Sbt::builder(&pipeline).raygen(&raygen, ()).build(), "an SBT without callables")?;
+            anyhow::ensure!(matches!(&none, Error::Sbt(raykit::SbtError::CallableMissing { have: 0, .. })), "{none:?}");
+            let two = Sbt::builder(&pipeline).raygen(&raygen, ()).callable(&callable, ()).callable(&callable, ());
+            let err = refused(two.build(), "an SBT with two callables")?;
+            // Three are enough, and the launch runs.
+            let three = Sbt::builder(&pipeline)
+                .raygen(&raygen, ())
+                .callable(&callable, ())
+                .callable(&callable, ())
+                .callable(&callable, ())
+                .build()?;
+            let image = ctx.buffer::<u32>(1)?;
+            let params = triangle::params(1, 1, image.handle(), raykit::Traversable::NULL);
+            pipeline.launch(&three, &params, [4, 4, 1])?;
+            Ok(err)
+        },
+        |e| {
+            matches!(e, Error::Sbt(raykit::SbtError::CallableMissing { what, have: 2, program })
+                if what.as_str() == "callable 2" && program.as_str() == "main")
+        },
+    )
+}
+
+/// The accel test's programs with a procedural hit group (the sphere
+/// intersection) at hit record 0 and a triangles one at 1, launched over an
+/// instance of a GAS of AABBs or triangles whose SBT offset is `sbt_offset`
+/// and whose mask is `mask`;
+/// returns pixel (1, 1), which sees the geometry.
+fn launch_with_hit_kinds(ctx: &Context, aabbs: bool, sbt_offset: u32, mask: u8) -> raykit::Result<u32> {
+    use accel_test_device::{ColorData, Params as AccelParams};
+    let module = Module::from_device_crate(ctx, "accel-test-device")?;
+    let raygen = ProgramGroup::raygen(&module, accel_test_device::RG)?;
+    let miss = ProgramGroup::miss(&module, accel_test_device::MS)?;
+    let sphere = ProgramGroup::hit_group(&module)
+        .intersection(accel_test_device::IS_SPHERE)
+        .closest_hit(accel_test_device::CH_RECORD)
+        .build()?;
+    let triangles = ProgramGroup::hit_group(&module).closest_hit(accel_test_device::CH_RECORD).build()?;
+    let pipeline =
+        Pipeline::<AccelParams>::new(ctx, &[&raygen, &miss, &sphere, &triangles], LinkOptions { max_trace_depth: 1 })?;
+    let color = ColorData { color: Vec3::ONE };
+    let sbt = Sbt::builder(&pipeline)
+        .raygen(&raygen, ())
+        .miss(&miss, ColorData { color: Vec3::ZERO })
+        .hit(&sphere, color)
+        .hit(&triangles, color)
+        .build()?;
+    let gas = if aabbs {
+        Gas::aabbs(ctx, &[raykit::Aabb::new(Vec3::new(-1.4, -0.4, -0.4), Vec3::new(-0.6, 0.4, 0.4))])?
+    } else {
+        Gas::triangles(ctx, &triangle::VERTICES, None)?
+    };
+    // Pixel (1, 1) of the window sees world (-1.25, 0.25): inside the sphere of
+    // AABB 0 (centre (-1, 0), radius 0.4), and inside the triangle moved there.
+    let moved = if aabbs { Affine3A::IDENTITY } else { Affine3A::from_translation(Vec3::new(-1.25, 0.25, 0.0)) };
+    let scene = Ias::new(ctx, &[Instance::new(&gas).transform(moved).sbt_offset(sbt_offset).mask(mask)])?;
+    let image = ctx.buffer::<u32>(16)?;
+    let params = AccelParams {
+        image: image.handle(),
+        width: 4,
+        height: 4,
+        _pad: 0,
+        x0: -2.0,
+        y0: -1.0,
+        x1: 0.0,
+        y1: 1.0,
+        scene: scene.handle(),
+    };
+    pipeline.launch(&sbt, &params, [4, 4, 1])?;
+    Ok(image.read()?[5])
+}
+
+#[test]
+fn procedural_hit_group_for_a_triangle_gas() -> anyhow::Result<()> {
+    case_on_each_backend(
+        "procedural_hit_group_for_a_triangle_gas",
+        &["has triangles (geometry 0 of its GAS)", "hit record 0", "procedural hit group", "`__raygen__rg`"],
+        |ctx| {
+            // Each kind at its own record renders the geometry white …
+            let white = accel_test_device::pack_unorm(Vec3::ONE);
+            for (aabbs, offset) in [(true, 0), (false, 1)] {
+                let pixel = launch_with_hit_kinds(ctx, aabbs, offset, 0xff)?;
+                anyhow::ensure!(pixel == white, "AABBs {aabbs}: pixel (1, 1) is {pixel:#010x}, not white");
+            }
+            // … and triangles at the procedural group's record are refused.
+            refused(launch_with_hit_kinds(ctx, false, 0, 0xff), "a procedural hit group for triangles")
+        },
+        |e| {
+            matches!(
+                e,
+                Error::Launch(raykit::LaunchError::HitGroupKind {
+                    instance: 0,
+                    geometry: 0,
+                    slot: 0,
+                    aabbs: false,
+                    ..
+                })
+            )
+        },
+    )
+}
+
+#[test]
+fn triangles_hit_group_for_an_aabb_gas() -> anyhow::Result<()> {
+    case_on_each_backend(
+        "triangles_hit_group_for_an_aabb_gas",
+        &["has AABBs", "hit record 1", "triangles hit group", ".intersection(..)"],
+        |ctx| refused(launch_with_hit_kinds(ctx, true, 1, 0xff), "a triangles hit group for AABBs"),
+        |e| matches!(e, Error::Launch(raykit::LaunchError::HitGroupKind { slot: 1, aabbs: true, .. })),
+    )
+}
+
+/// A CPU context, with packet tracing (lanes) on or off.
+fn cpu_context(packets: bool) -> anyhow::Result<Context> {
+    let options = ContextOptions {
+        backend: Some(raykit::Backend::Cpu),
+        cpu_packets: Some(packets),
+        ..raykit_tests::test_options()
+    };
+    Ok(Context::new(options)?)
+}
+
+/// The launch error of a CPU program that overflows its stack: the raygen
+/// itself, or a closest-hit it traces into.
+fn overflow_error(ctx: &Context, in_closest_hit: bool) -> anyhow::Result<Error> {
+    use accel_test_device::{ColorData, Params as AccelParams};
+    let module = Module::from_device_crate(ctx, "accel-test-device")?;
+    let raygen = if in_closest_hit { accel_test_device::RG } else { accel_test_device::RG_RECURSING };
+    let raygen = ProgramGroup::raygen(&module, raygen)?;
+    let miss = ProgramGroup::miss(&module, accel_test_device::MS)?;
+    let hit = ProgramGroup::hit_group(&module).closest_hit(accel_test_device::CH_RECURSING).build()?;
+    let pipeline = Pipeline::<AccelParams>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
+    let sbt = Sbt::builder(&pipeline)
+        .raygen(&raygen, ())
+        .miss(&miss, ColorData { color: Vec3::ZERO })
+        .hit(&hit, ())
+        .build()?;
+    let gas = Gas::triangles(ctx, &triangle::VERTICES, None)?;
+    let scene = Ias::single(ctx, &gas)?;
+    let image = ctx.buffer::<u32>(16)?;
+    let params = AccelParams {
+        image: image.handle(),
+        width: 4,
+        height: 4,
+        _pad: 0,
+        x0: -1.0,
+        y0: -1.0,
+        x1: 1.0,
+        y1: 1.0,
+        scene: scene.handle(),
+    };
+    refused(pipeline.launch(&sbt, &params, [4, 4, 1]), "a launch whose program recurses without end")
+}
+
+#[test]
+fn cpu_program_recursing_without_end() -> anyhow::Result<()> {
+    // Killed the process with SIGSEGV once: in a child.
+    in_child("cpu_program_recursing_without_end", || {
+        for packets in [false, true] {
+            let ctx = cpu_context(packets)?;
+            for (in_closest_hit, program, index) in
+                [(false, "__raygen__rg_recursing", [0, 0, 0]), (true, "__closesthit__ch_recursing", [1, 2, 0])]
+            {
+                let err = overflow_error(&ctx, in_closest_hit)?;
+                let label = format!("packets {packets}, {program}");
+                match &err {
+                    Error::Launch(raykit::LaunchError::StackOverflow { program: p, launch_index, .. }) => {
+                        anyhow::ensure!(p == program, "{label}: named {p}");
+                        // The closest-hit runs where the triangle covers the
+                        // window: (1, 2) is the first such index in launch order.
+                        anyhow::ensure!(*launch_index == index, "{label}: at {launch_index:?}");
+                    }
+                    other => anyhow::bail!("{label}: {other:?}"),
+                }
+                let text = err.to_string();
+                anyhow::ensure!(text.contains("overflowed its stack") && text.contains(program), "{text}");
+                // The context goes on: twice more, then a picture.
+                anyhow::ensure!(matches!(
+                    overflow_error(&ctx, in_closest_hit)?,
+                    Error::Launch(raykit::LaunchError::StackOverflow { .. })
+                ));
+                still_usable(&ctx)?;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// The texture test's pipeline (every group of `tests/device/texture`) and an
+/// SBT for it built as that test builds it, with `ch_data` as the first
+/// closest-hit's record and the callable only when `callable` says so.
+fn texture_sbt<T: raykit::SbtRecordData>(ctx: &Context, ch_data: T, callable: bool) -> anyhow::Result<Error> {
+    use texture_test_device::{ViaAnyHit, ViaCallable, ViaClosestHit, ViaMiss};
+    use texture_test_device::{AH, CH, CH_CALL, MS, MS_SAMPLE, RG, SAMPLE_TEXTURE};
+    let module = Module::from_device_crate(ctx, "texture-test-device")?;
+    let groups = [
+        ProgramGroup::raygen(&module, RG)?,
+        ProgramGroup::miss(&module, MS)?,
+        ProgramGroup::miss(&module, MS_SAMPLE)?,
+        ProgramGroup::hit_group(&module).closest_hit(CH).build()?,
+        ProgramGroup::hit_group(&module).any_hit(AH).build()?,
+        ProgramGroup::hit_group(&module).closest_hit(CH_CALL).build()?,
+        ProgramGroup::callable(&module, SAMPLE_TEXTURE)?,
+    ];
+    let refs: Vec<&ProgramGroup> = groups.iter().collect();
+    let pipeline = Pipeline::<texture_test_device::Params>::new(ctx, &refs, LinkOptions { max_trace_depth: 1 })?;
+    let [rg, ms, ms_sample, ch, ah, ch_call, sample] = &groups;
+    let mut builder = Sbt::builder(&pipeline)
+        .raygen(rg, ())
+        .miss_for::<ViaClosestHit, _>(ms, ())
+        .miss_for::<ViaMiss, _>(ms_sample, ())
+        .hit_for::<ViaClosestHit, _>(0, ch, ch_data)
+        .hit_for::<ViaAnyHit, _>(0, ah, ())
+        .hit_for::<ViaCallable, _>(0, ch_call, ());
+    if callable {
+        builder = builder.callable(sample, ());
+    }
+    refused(builder.build(), "the texture test's SBT")
+}
+
+#[test]
+fn hit_record_given_no_data_for_a_closest_hit_that_reads_one() -> anyhow::Result<()> {
+    let reads = std::mem::size_of::<texture_test_device::HitRecord>();
+    case_on_each_backend(
+        "hit_record_given_no_data_for_a_closest_hit_that_reads_one",
+        &["hit record 0 carries 0 bytes", "`__closesthit__ch` reads"],
+        |ctx| texture_sbt(ctx, (), true),
+        |e| record_too_small(e, raykit::SbtRegion::Hit, 0, reads, 0),
+    )
+}
+
+#[test]
+fn sbt_without_the_callable_a_rust_closest_hit_calls() -> anyhow::Result<()> {
+    case(
+        "sbt_without_the_callable_a_rust_closest_hit_calls",
+        &["0 callable record(s)", "`__closesthit__ch_call` calls callable 0"],
+        |ctx| texture_sbt(ctx, texture_test_device::HitRecord { texture: raykit::Texture2D::NULL }, false),
+        |e| {
+            matches!(e, Error::Sbt(raykit::SbtError::CallableMissing { what, have: 0, program })
+                if what.as_str() == "callable 0" && program.as_str() == "__closesthit__ch_call")
+        },
+    )
+}
+
+#[test]
+fn hit_group_of_the_other_kind_for_an_instance_no_ray_can_hit_is_accepted() -> anyhow::Result<()> {
+    raykit_tests::with_each_backend("hit_group_of_the_other_kind_for_an_instance_no_ray_can_hit", |ctx, _| {
+        // Mask 0: no ray hits the triangle, so its procedural record is never run.
+        let pixel = launch_with_hit_kinds(ctx, false, 0, 0)?;
+        anyhow::ensure!(
+            pixel == accel_test_device::pack_unorm(Vec3::ZERO),
+            "pixel (1, 1) is {pixel:#010x}, not the miss"
+        );
+        still_usable(ctx)
+    })
+}

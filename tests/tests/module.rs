@@ -134,7 +134,10 @@ fn bad_modules_and_link_options_are_typed_errors() -> anyhow::Result<()> {
         );
         let err = raykit::Sbt::builder(&pipeline).raygen(&miss, ()).build().err();
         assert!(matches!(err, Some(Error::Sbt(raykit::SbtError::GroupKind { .. }))), "{err:?}");
-        let sbt = raykit::Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).build()?;
+        let err = raykit::Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).build().err();
+        assert!(matches!(err, Some(Error::Sbt(raykit::SbtError::RecordTooSmall { .. }))), "{err:?}");
+        let miss_data = triangle_device::MissData { bg_color: triangle::BG_COLOR };
+        let sbt = raykit::Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, miss_data).build()?;
         let params: triangle_device::Params = bytemuck_zeroed();
         let err = pipeline.launch(&sbt, &params, [0, 1, 1]).err();
         assert!(matches!(err, Some(Error::Launch(raykit::LaunchError::Dimensions { .. }))), "{err:?}");

@@ -4,7 +4,7 @@
 //! ray-tracing stages):
 //!
 //! * [`layout`]: each entry point's launch-params block (`Offset`, `ArrayStride`,
-//!   `MatrixStride` decorations) and ray-payload and hit-attribute sizes, and the
+//!   `MatrixStride` decorations), ray-payload, hit-attribute and record sizes, and the
 //!   check of a params block against the layout `#[derive(LaunchParams)]`
 //!   recorded on the host;
 //! * [`bindings`]: the descriptor bindings each entry point declares;
@@ -26,7 +26,7 @@ pub use bindings::{reflect_bindings, DescriptorBinding, DescriptorKind};
 pub use generate::empty_raygen;
 pub use layout::{
     built_spirv_path, check, check_element, check_element_file, check_file, element_entry, parse,
-    reflect_interface_sizes, reflect_params, BlockMember, BlockType, InterfaceSizes, LayoutError, ParamsBlock,
-    ParamsDelivery,
+    reflect_interface_sizes, reflect_params, reflect_record_sizes, BlockMember, BlockType, InterfaceSizes, LayoutError,
+    ParamsBlock, ParamsDelivery,
 };
 pub use trace::{reflect_traces, EntryTraces, TraceCall};

@@ -28,6 +28,9 @@ pub struct EntryTraces {
     /// Whether it calls callables (`OpExecuteCallableKHR`), whose traces count
     /// towards its depth.
     pub executes_callables: bool,
+    /// The SBT index of each `OpExecuteCallableKHR` it reaches: the constant, or
+    /// `None` when it is computed at run time.
+    pub callables: Vec<Option<u32>>,
 }
 
 impl EntryTraces {
@@ -36,6 +39,10 @@ impl EntryTraces {
         !self.calls.is_empty()
     }
 }
+
+/// What one function contains: its traces, the functions it calls, and the SBT
+/// indices of its callable calls.
+type FunctionCalls = (Vec<TraceCall>, Vec<u32>, Vec<Option<u32>>);
 
 /// The traces of every entry point of `module`, by entry-point name.
 pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
@@ -53,7 +60,7 @@ pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
         _ => None,
     };
     // Per function: its direct traces, callees and callable use.
-    let mut own: HashMap<u32, (Vec<TraceCall>, Vec<u32>, bool)> = HashMap::new();
+    let mut own: HashMap<u32, FunctionCalls> = HashMap::new();
     for function in &module.functions {
         let Some(id) = function.def_id() else { continue };
         let entry = own.entry(id).or_default();
@@ -68,7 +75,9 @@ pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
                     });
                 }
                 Op::FunctionCall => entry.1.extend(id_at(&inst.operands, 0)),
-                Op::ExecuteCallableKHR | Op::ExecuteCallableNV => entry.2 = true,
+                Op::ExecuteCallableKHR | Op::ExecuteCallableNV => {
+                    entry.2.push(id_at(&inst.operands, 0).and_then(|id| constants.get(&id).copied()));
+                }
                 _ => {}
             }
         }
@@ -89,11 +98,56 @@ pub fn reflect_traces(module: &Module) -> HashMap<String, EntryTraces> {
             }
             if let Some((calls, callees, callables)) = own.get(&f) {
                 traces.calls.extend_from_slice(calls);
-                traces.executes_callables |= *callables;
+                traces.executes_callables |= !callables.is_empty();
+                traces.callables.extend_from_slice(callables);
                 todo.extend_from_slice(callees);
             }
         }
         out.insert(name.clone(), traces);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layout::parse;
+    use rspirv::binary::Assemble;
+    use rspirv::spirv::{AddressingModel, Capability, ExecutionModel, FunctionControl, MemoryModel, StorageClass};
+
+    #[test]
+    fn callable_indices_are_read_as_constants_or_as_computed() {
+        let mut b = rspirv::dr::Builder::new();
+        b.capability(Capability::Shader);
+        b.capability(Capability::RayTracingKHR);
+        b.memory_model(AddressingModel::Logical, MemoryModel::GLSL450);
+        let u32_ty = b.type_int(32, 0);
+        let three = b.constant_bit32(u32_ty, 3);
+        let data_ptr = b.type_pointer(None, StorageClass::CallableDataKHR, u32_ty);
+        let data = b.variable(data_ptr, None, StorageClass::CallableDataKHR, None);
+        let void = b.type_void();
+        let fn_ty = b.type_function(void, []);
+        // A helper that calls callable 3, and the entry point, which calls it and
+        // then calls the callable whose index its data holds.
+        let helper = b.begin_function(void, None, FunctionControl::NONE, fn_ty).unwrap_or_default();
+        let _ = b.begin_block(None);
+        let _ = b.execute_callable_khr(three, data);
+        let _ = b.ret();
+        let _ = b.end_function();
+        let main = b.begin_function(void, None, FunctionControl::NONE, fn_ty).unwrap_or_default();
+        let _ = b.begin_block(None);
+        let _ = b.function_call(void, None, helper, []);
+        let computed = b.load(u32_ty, None, data, None, []).unwrap_or_default();
+        let _ = b.execute_callable_khr(computed, data);
+        let _ = b.ret();
+        let _ = b.end_function();
+        b.entry_point(ExecutionModel::RayGenerationKHR, main, "main", [data]);
+        let module = parse(&b.module().assemble()).unwrap_or_else(|e| panic!("{e}"));
+        let traces = reflect_traces(&module);
+        let main = traces.get("main").cloned().unwrap_or_default();
+        assert!(main.executes_callables);
+        let mut callables = main.callables.clone();
+        callables.sort();
+        assert_eq!(callables, [None, Some(3)]);
+    }
 }

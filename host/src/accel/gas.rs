@@ -6,13 +6,14 @@
 
 use std::sync::Arc;
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::Context;
 use crate::error::AccelError;
 use crate::error::{Error, Result};
+use crate::memory::DeviceBuffer;
 use crate::types::accel::{Aabb, Aabbs, BuildInput, Shape, Triangles};
 use crate::validate::accel as input;
 use crate::vulkan::accel::build;
@@ -33,6 +34,8 @@ pub struct Compaction {
 /// trace it.
 pub struct Gas {
     pub(crate) repr: GasRepr,
+    /// The spheres of [`Gas::spheres`], for its intersection program.
+    pub(crate) spheres: Option<Arc<DeviceBuffer<Vec4>>>,
     shapes: Vec<Shape>,
     options: BuildOptions,
     sizes: AccelSizes,
@@ -153,6 +156,7 @@ fn submit_gases(ctx: &Arc<ContextInner>, builds: &[GasBuilder<'_>]) -> Result<(b
         .zip(builds)
         .map(|(b, builder)| Gas {
             repr: GasRepr::Vulkan(Arc::new(b.accel)),
+            spheres: None,
             shapes: b.shapes,
             options: builder.options,
             sizes: b.sizes,
@@ -182,6 +186,51 @@ impl Gas {
     /// A GAS over boxes for an intersection program, built and waited for.
     pub fn aabbs(ctx: &Context, boxes: &[Aabb]) -> Result<Gas> {
         Gas::builder().aabbs(Aabbs::new(boxes)).build(ctx)
+    }
+
+    /// A GAS of built-in spheres (OptiX's `OPTIX_PRIMITIVE_TYPE_SPHERE`): sphere
+    /// `i` has centre `centres[i]` and radius `radii[i]`, and is primitive `i`
+    /// of the GAS's one geometry. Vulkan has no sphere primitive, so each is an
+    /// AABB (its box rounded outwards) hit through an intersection program, and
+    /// the GAS keeps the spheres in device memory for it: put
+    /// [`Gas::sphere_buffer`] in the launch params or the hit group's record and
+    /// call `raykit_device::sphere::report` from the hit group's
+    /// `#[intersection]` program (see `raykit_device::sphere` for the test and
+    /// the hit attributes). Built for fast trace, and waited for.
+    ///
+    /// Refused with [`AccelError::SphereCount`](crate::AccelError::SphereCount)
+    /// when the counts differ, [`AccelError::InvalidSphere`](crate::AccelError::InvalidSphere)
+    /// for a centre that is not finite or a radius that is NaN, infinite or
+    /// negative, and [`AccelError::Empty`](crate::AccelError::Empty) for no spheres.
+    /// A radius of 0 is a sphere no ray hits.
+    ///
+    /// ```
+    /// use raykit::glam::Vec3;
+    /// use raykit::{AccelError, Backend, Context, ContextOptions, Error, Gas, Ias};
+    /// let ctx = Context::new(ContextOptions { backend: Some(Backend::Cpu), ..Default::default() })?;
+    /// let gas = Gas::spheres(&ctx, &[Vec3::new(0.0, -1000.0, 0.0), Vec3::Y], &[1000.0, 1.0])?;
+    /// let spheres = gas.sphere_buffer(); // Some(Buffer<Vec4>): centre xyz, radius w
+    /// let scene = Ias::single(&ctx, &gas)?; // keeps the spheres alive with the GAS
+    /// let refused = Gas::spheres(&ctx, &[Vec3::ZERO], &[-1.0]);
+    /// assert!(matches!(refused, Err(Error::Accel(AccelError::InvalidSphere { sphere: 0, .. }))));
+    /// # let _ = (spheres, scene);
+    /// # Ok::<(), raykit::Error>(())
+    /// ```
+    pub fn spheres(ctx: &Context, centres: &[Vec3], radii: &[f32]) -> Result<Gas> {
+        input::spheres(centres, radii)?;
+        let boxes: Vec<Aabb> = centres.iter().zip(radii).map(|(&c, &r)| Aabb::around_sphere(c, r)).collect();
+        let data: Vec<Vec4> = centres.iter().zip(radii).map(|(&c, &r)| c.extend(r)).collect();
+        let mut gas = Gas::aabbs(ctx, &boxes)?;
+        gas.spheres = Some(Arc::new(DeviceBuffer::from_slice(ctx, &data)?));
+        Ok(gas)
+    }
+
+    /// The spheres of a GAS made by [`Gas::spheres`] (centre in `xyz`, radius in
+    /// `w`, indexed by primitive), for its intersection program; `None` for
+    /// other GASes. The buffer lives as long as the GAS or an
+    /// [`Ias`](super::Ias) over it.
+    pub fn sphere_buffer(&self) -> Option<raykit_device::Buffer<Vec4>> {
+        self.spheres.as_ref().map(|b| b.handle())
     }
 
     /// Builds several GASes in one submission and waits for all of them.
@@ -225,6 +274,14 @@ impl Gas {
     /// rebuild the [`Ias`](super::Ias)es that instance this GAS afterwards, so
     /// their bounds follow.
     pub fn update(&mut self, inputs: &[BuildInput<'_>]) -> Result<()> {
+        if self.spheres.is_some() {
+            return Err(Error::Accel(AccelError::UpdateRefused {
+                what: "GAS",
+                reason: "it holds built-in spheres, whose buffer a refit of its boxes would leave behind; \
+                         make a new one with Gas::spheres"
+                    .to_owned(),
+            }));
+        }
         if !self.options.allow_update {
             return Err(Error::Accel(AccelError::UpdateRefused {
                 what: "GAS",
@@ -255,6 +312,7 @@ impl Gas {
 
     /// Rebuilds the GAS from `inputs` with its options; the topology may change.
     /// The structure may move: rebuild the [`Ias`](super::Ias)es that instance it.
+    /// A GAS of [`Gas::spheres`] becomes a GAS of `inputs` without spheres.
     pub fn rebuild(&mut self, inputs: &[BuildInput<'_>]) -> Result<()> {
         let ctx = self.repr.context();
         let rebuilt = GasBuilder { inputs: inputs.to_vec(), options: self.options }.build(&ctx)?;
@@ -281,6 +339,7 @@ impl Gas {
         Ok(Gas {
             compaction: Some(Compaction { before: accel.size, after: compacted.size }),
             repr: GasRepr::Vulkan(Arc::new(compacted)),
+            spheres: self.spheres,
             shapes: self.shapes,
             options: self.options,
             sizes: self.sizes,
@@ -321,6 +380,12 @@ impl Gas {
         self.shapes.len()
     }
 
+    /// Whether its geometries are AABBs (procedural), which only procedural hit
+    /// groups (with an intersection program) may be used with.
+    pub(crate) fn is_procedural(&self) -> bool {
+        matches!(self.shapes.first(), Some(Shape::Aabbs { .. }))
+    }
+
     /// Number of triangles or AABBs over all geometries.
     pub fn primitive_count(&self) -> u64 {
         self.shapes.iter().map(|s| s.primitives() as u64).sum()
@@ -339,7 +404,7 @@ impl Gas {
     fn from_cpu(accel: Arc<crate::cpu::accel::CpuGas>, shapes: Vec<Shape>, options: BuildOptions, size: u64) -> Gas {
         let sizes = AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 };
         let compacted_size = options.allow_compaction.then_some(size);
-        Gas { repr: GasRepr::Cpu(accel), shapes, options, sizes, compacted_size, compaction: None }
+        Gas { repr: GasRepr::Cpu(accel), spheres: None, shapes, options, sizes, compacted_size, compaction: None }
     }
 }
 

@@ -6,7 +6,7 @@
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
-use glam::Affine3A;
+use glam::{Affine3A, Vec4};
 use raykit_device::Traversable;
 
 use super::gas::{Gas, GasRepr};
@@ -15,6 +15,7 @@ use super::{AccelSizes, BuildOptions};
 use crate::context::Context;
 use crate::error::{AccelError, DeviceError};
 use crate::error::{Error, Result};
+use crate::memory::DeviceBuffer;
 use crate::types::accel::{transform_rows, InstanceFlags, InstancePlacement};
 use crate::validate::hit_reach::HitReach;
 use crate::vulkan::accel::structure::AccelStructure;
@@ -25,9 +26,13 @@ use crate::vulkan::context::ContextInner;
 #[must_use]
 pub struct Instance {
     pub(crate) accel: GasRepr,
+    /// The spheres of a [`Gas::spheres`] GAS, kept alive with the IAS.
+    spheres: Option<Arc<DeviceBuffer<Vec4>>>,
     pub(crate) placement: InstancePlacement,
     /// Geometries of its GAS: the hit records it spans per ray type.
     geometries: u32,
+    /// Whether its GAS holds AABBs rather than triangles.
+    procedural: bool,
 }
 
 impl Instance {
@@ -35,6 +40,7 @@ impl Instance {
     pub fn new(gas: &Gas) -> Instance {
         Instance {
             accel: gas.repr.clone(),
+            spheres: gas.spheres.clone(),
             placement: InstancePlacement {
                 transform: transform_rows(&Affine3A::IDENTITY),
                 custom_index: 0,
@@ -43,6 +49,7 @@ impl Instance {
                 flags: InstanceFlags::NONE,
             },
             geometries: u32::try_from(gas.geometry_count()).unwrap_or(u32::MAX),
+            procedural: gas.is_procedural(),
         }
     }
 
@@ -180,6 +187,7 @@ impl IasBuilder<'_> {
             let ias = Ias {
                 repr: IasRepr::Cpu { ctx: cpu.clone(), address: crate::cpu::next_scene_address() },
                 gases: Vec::new(),
+                spheres: Vec::new(),
                 options: self.options,
                 sizes: AccelSizes::default(),
                 reach: Arc::new(HitReach::default()),
@@ -195,6 +203,7 @@ impl IasBuilder<'_> {
         let ias = Ias {
             repr: IasRepr::Vulkan(accel),
             gases: self.instances.iter().map(|i| i.accel.clone()).collect(),
+            spheres: sphere_buffers(self.instances),
             options: self.options,
             sizes,
             reach: Arc::new(hit_reach(self.instances)),
@@ -202,6 +211,11 @@ impl IasBuilder<'_> {
         ias.register();
         Ok(PendingBuild::new(in_flight, ias, |_, _| {}))
     }
+}
+
+/// The sphere buffers the instances' GASes hold.
+fn sphere_buffers(instances: &[Instance]) -> Vec<Arc<DeviceBuffer<Vec4>>> {
+    instances.iter().filter_map(|i| i.spheres.clone()).collect()
 }
 
 /// What an [`Ias`] is underneath.
@@ -226,6 +240,8 @@ pub struct Ias {
     // Field order: the structure goes before the GASes it references.
     repr: IasRepr,
     gases: Vec<GasRepr>,
+    /// The sphere buffers of its GASes, for their intersection programs.
+    spheres: Vec<Arc<DeviceBuffer<Vec4>>>,
     options: BuildOptions,
     sizes: AccelSizes,
     /// The hit records its instances can select, checked by every launch.
@@ -272,6 +288,7 @@ impl Ias {
         validate(&accel.ctx, instances)?;
         crate::vulkan::accel::ias::refit(accel, &placements(instances), self.options)?;
         self.gases = instances.iter().map(|i| i.accel.clone()).collect();
+        self.spheres = sphere_buffers(instances);
         self.reach = Arc::new(hit_reach(instances));
         self.register();
         Ok(())
@@ -312,6 +329,7 @@ impl Ias {
         let size = data.size();
         self.sizes = AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 };
         self.gases = instances.iter().map(|i| i.accel.clone()).collect();
+        self.spheres = sphere_buffers(instances);
         self.reach = Arc::new(hit_reach(instances));
         let over = self.gases.iter().map(|g| (g.version().clone(), g.version().load(Ordering::Acquire))).collect();
         let check = crate::validate::handles::LiveIas { over, reach: self.reach.clone() };
@@ -386,5 +404,7 @@ impl std::fmt::Debug for Ias {
 /// What `instances` can select in the SBT's hit region. Instances with a mask of 0
 /// are never hit and select no record.
 fn hit_reach(instances: &[Instance]) -> HitReach {
-    HitReach::from_parts(instances.iter().map(|i| (i.placement.sbt_offset, i.geometries, i.placement.mask)))
+    HitReach::from_parts(
+        instances.iter().map(|i| (i.placement.sbt_offset, i.geometries, i.placement.mask, i.procedural)),
+    )
 }

@@ -13,6 +13,7 @@ use std::cell::RefCell;
 use corosensei::stack::{DefaultStack, Stack, StackPointer};
 use corosensei::{Coroutine, CoroutineResult, Yielder};
 
+use super::overflow::Overflow;
 use super::packet::WIDTH;
 use super::THREAD_STACK;
 use crate::error::DeviceError;
@@ -58,20 +59,23 @@ thread_local! {
 /// Runs `body(lane, yielder)` for each lane of `0..count` (at most
 /// [`WIDTH`]), each in a coroutine of its own. Whenever every lane has
 /// suspended or returned, and some suspended, `trace` runs and those lanes
-/// are resumed.
-pub(crate) fn run_lanes<F, T>(count: usize, body: &F, mut trace: T) -> Result<()>
+/// are resumed. A lane that overflows its stack ends there (see
+/// [`super::overflow`]); the overflows are returned.
+pub(crate) fn run_lanes<F, T>(count: usize, body: &F, mut trace: T) -> Result<Vec<Overflow>>
 where
     F: Fn(usize, &LaneYielder),
     T: FnMut(),
 {
     debug_assert!(count <= WIDTH);
     let mut lanes: Vec<Lane> = Vec::with_capacity(count);
+    let mut guard_pages = Vec::with_capacity(count);
     for lane in 0..count {
         let stack = match STACKS.with_borrow_mut(Vec::pop) {
             Some(stack) => stack,
             None => DefaultStack::new(THREAD_STACK)
                 .map_err(|e| Error::Device(DeviceError::CpuThreads { reason: e.to_string() }))?,
         };
+        guard_pages.push(super::overflow::guard_page_of(&stack));
         let stack = LaneStack { stack, offset: lane * STAGGER };
         // SAFETY: the coroutine borrows `body`, which outlives this function;
         // every lane is driven to completion below or dropped (unwound) before
@@ -80,16 +84,24 @@ where
             Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder))
         });
     }
+    let mut overflows: Vec<Option<Overflow>> = vec![None; count];
     loop {
         let mut suspended = false;
-        for coroutine in lanes.iter_mut().filter(|lane| !lane.done()) {
-            suspended |= matches!(coroutine.resume(()), CoroutineResult::Yield(()));
+        for (lane, coroutine) in lanes.iter_mut().enumerate().filter(|(_, lane)| !lane.done()) {
+            let (result, overflow) = super::overflow::resume_guarded(coroutine, guard_pages[lane]);
+            suspended |= matches!(result, CoroutineResult::Yield(()));
+            if overflow.is_some() {
+                overflows[lane] = overflow;
+            }
         }
         if !suspended {
             break;
         }
         trace();
     }
-    STACKS.with_borrow_mut(|stacks| stacks.extend(lanes.into_iter().map(|lane| lane.into_stack().stack)));
-    Ok(())
+    // The stack of a lane that overflowed is given back (its pages are all
+    // touched), the others kept for the next block.
+    let kept = lanes.into_iter().zip(&overflows).filter(|(_, o)| o.is_none()).map(|(lane, _)| lane.into_stack().stack);
+    STACKS.with_borrow_mut(|stacks| stacks.extend(kept));
+    Ok(overflows.into_iter().flatten().collect())
 }

@@ -93,6 +93,13 @@ fn has_avx2() -> bool {
 enum Failure {
     Panicked { program: &'static str, message: String },
     Fault { program: &'static str, problem: String },
+    StackOverflow { program: &'static str },
+}
+
+/// The failure of an invocation that overflowed its stack.
+fn overflowed(job: &LaunchJob, overflow: super::overflow::Overflow) -> LaunchFailure {
+    let index = overflow.launch_index;
+    (linear_index(job.dims, index), index, Failure::StackOverflow { program: overflow.program })
 }
 
 /// What one invocation (or tile) left.
@@ -140,18 +147,32 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                     }
                     return outcome;
                 }
-                // One state for the tile's invocations, its lists reused.
+                // One state for the tile's invocations, its lists reused; on a
+                // stack whose overflow ends the tile, not the process.
                 let mut state = InvocationState::new(job);
-                for y in ty * tile_size..((ty + 1) * tile_size).min(h) {
-                    for x in tx * tile_size..((tx + 1) * tile_size).min(w) {
-                        state.launch_index = UVec3::new(x, y, z);
-                        state.failed_in.set(None);
-                        outcome.failure = invoke(&state, &mut outcome.exceptions);
-                        if outcome.failure.is_some() {
-                            stop.store(true, Ordering::Relaxed);
-                            return outcome;
+                let guarded = super::overflow::run_guarded(|| {
+                    for y in ty * tile_size..((ty + 1) * tile_size).min(h) {
+                        for x in tx * tile_size..((tx + 1) * tile_size).min(w) {
+                            state.launch_index = UVec3::new(x, y, z);
+                            state.failed_in.set(None);
+                            outcome.failure = invoke(&state, &mut outcome.exceptions);
+                            if outcome.failure.is_some() {
+                                return;
+                            }
                         }
                     }
+                });
+                match guarded {
+                    Ok(None) => {}
+                    Ok(Some(overflow)) => outcome.failure = Some(overflowed(job, overflow)),
+                    Err(e) => {
+                        let index = [tx * tile_size, ty * tile_size, z];
+                        let failure = Failure::Fault { program: "(launch)", problem: e.to_string() };
+                        outcome.failure = Some((linear_index(job.dims, index), index, failure));
+                    }
+                }
+                if outcome.failure.is_some() {
+                    stop.store(true, Ordering::Relaxed);
                 }
                 outcome
             })
@@ -172,6 +193,11 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
             Failure::Fault { program, problem } => {
                 Error::Launch(LaunchError::CpuLaunchFault { program: program.to_owned(), launch_index, problem })
             }
+            Failure::StackOverflow { program } => Error::Launch(LaunchError::StackOverflow {
+                program: program.to_owned(),
+                launch_index,
+                stack_bytes: super::THREAD_STACK,
+            }),
         });
     }
     if exceptions.is_empty() {
@@ -277,13 +303,24 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
         packet_rays += u64::from(packet.trace_waiting());
     });
     job.ctx.packet_rays.fetch_add(packet_rays, Ordering::Relaxed);
-    if let Err(e) = traced {
-        let index = [x0, y0, z];
-        let failure = Failure::Fault { program: "(launch)", problem: e.to_string() };
-        outcome.failure = Some((linear_index(job.dims, index), index, failure));
-        return;
+    let overflows = match traced {
+        Ok(overflows) => overflows,
+        Err(e) => {
+            let index = [x0, y0, z];
+            let failure = Failure::Fault { program: "(launch)", problem: e.to_string() };
+            outcome.failure = Some((linear_index(job.dims, index), index, failure));
+            return;
+        }
+    };
+    for overflow in overflows {
+        let failure = overflowed(job, overflow);
+        if outcome.failure.as_ref().is_none_or(|f| failure.0 < f.0) {
+            outcome.failure = Some(failure);
+        }
     }
     for lane in outcomes {
+        // A lane that overflowed left its outcome borrowed: its frames were
+        // discarded, not dropped; the outcome itself is whole.
         let mut lane = lane.into_inner();
         outcome.exceptions.append(&mut lane.exceptions);
         if let Some(failure) = lane.failure {
@@ -310,6 +347,8 @@ fn invoke(state: &InvocationState<'_>, exceptions: &mut Vec<UserException>) -> O
         inv.record = record.data.ptr();
         frame.run(raygen, &mut inv);
     }));
+    // A panic unwound past the programs' notes of what runs: none runs now.
+    super::overflow::leave(None);
     {
         let mut thrown = state.exceptions.borrow_mut();
         if !thrown.is_empty() {

@@ -50,6 +50,9 @@
 //! * The trace depth is checked on every trace, for every ray type: a trace past
 //!   the pipeline's `max_trace_depth` is not made and the launch returns
 //!   [`LaunchError::RecursionTooDeep`](crate::LaunchError::RecursionTooDeep).
+//! * A program that overflows its stack (recursion without end) ends its
+//!   launch with [`LaunchError::StackOverflow`](crate::LaunchError::StackOverflow), naming the program and the
+//!   launch index, instead of the process (see `cpu::overflow`).
 //! * A launch runs in parallel over tiles of its grid (8 × 8 invocations, or
 //!   32 × 32 in lanes, 16 × 16 where that would leave a thread fewer than 64
 //!   tiles) on a thread pool of the context
@@ -73,6 +76,7 @@ pub(crate) mod flat;
 mod intersect;
 pub(crate) mod lanes;
 pub(crate) mod launch;
+pub(crate) mod overflow;
 pub(crate) mod packet;
 pub(crate) mod program;
 mod runtime;

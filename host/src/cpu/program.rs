@@ -61,6 +61,8 @@ pub(crate) struct PipelineData {
     /// The SBT records its programs' traces may select, checked against the
     /// scene by every launch (see [`crate::validate::scene`]).
     pub(crate) reach: crate::validate::TraceReach,
+    /// What each group needs of its records, in pipeline order.
+    pub(crate) needs: Vec<crate::validate::records::GroupNeeds>,
 }
 
 impl PipelineData {
@@ -162,6 +164,7 @@ pub(crate) fn link<P: raykit_device::LaunchParams, S: SpirvCode>(
         specialization: constants.values().to_vec(),
         handle_fields: crate::validate::handles::handle_fields(&P::LAYOUT),
         reach: crate::validate::TraceReach::of(groups.iter().copied()),
+        needs: groups.iter().map(|g| crate::validate::records::GroupNeeds::of(g)).collect(),
     })
 }
 

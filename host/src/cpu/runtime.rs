@@ -92,7 +92,9 @@ impl<'j> Frame<'_, 'j> {
     /// coming from it, unless a program it called was noted first.
     pub(super) fn run(&self, program: Program, inv: &mut Invocation<'_>) {
         let unwinding = NoteUnwinding { failed_in: &self.state.failed_in, program: program.name };
+        let running = super::overflow::enter(program.name, self.state.launch_index.to_array());
         (program.cpu.run)(inv);
+        super::overflow::leave(running);
         std::mem::forget(unwinding);
         // A failure the program caught itself is not the invocation's.
         self.state.failed_in.set(None);

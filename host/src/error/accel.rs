@@ -106,6 +106,29 @@ pub enum AccelError {
         reason: &'static str,
     },
 
+    /// Built-in spheres given a different number of centres and radii.
+    #[error("built-in spheres: {centres} centres but {radii} radii; give one radius per centre")]
+    SphereCount {
+        /// Number of centres.
+        centres: usize,
+        /// Number of radii.
+        radii: usize,
+    },
+
+    /// A built-in sphere whose centre is not finite or whose radius is not a
+    /// finite number ≥ 0.
+    #[error("built-in sphere {sphere} (centre {centre:?}, radius {radius}) is invalid: {reason}")]
+    InvalidSphere {
+        /// Sphere number.
+        sphere: usize,
+        /// Its centre.
+        centre: [f32; 3],
+        /// Its radius.
+        radius: f32,
+        /// What is wrong, and the fix.
+        reason: &'static str,
+    },
+
     /// A geometry or instance transform is NaN or infinite.
     #[error("{what} is not finite; give a finite affine transform")]
     NonFiniteTransform {

@@ -83,6 +83,19 @@ pub enum LaunchError {
         problem: String,
     },
 
+    /// A device program ran out of stack on the CPU backend (recursion without
+    /// end, or frames larger than the stack): the launch stopped, and the
+    /// context goes on working.
+    #[error("device program `{program}` overflowed its stack of {stack_bytes} bytes at launch index {launch_index:?} (recursion without end, or too deep); bound the recursion, or keep large data in buffers rather than on the stack")]
+    StackOverflow {
+        /// The innermost program running when the stack ran out.
+        program: String,
+        /// The launch index of the invocation.
+        launch_index: [u32; 3],
+        /// The stack each invocation runs on.
+        stack_bytes: usize,
+    },
+
     /// A handle in the launch params, or in the data of an SBT record whose type
     /// derives `SbtRecordData`, does not name a live object of the launching
     /// context: a dropped or foreign buffer, a dropped or foreign IAS, or an IAS
@@ -148,6 +161,30 @@ pub enum LaunchError {
         program: String,
     },
 
+    /// An instance selects a hit record whose group is of the other kind than
+    /// its geometry: a procedural hit group (one with an intersection program)
+    /// for triangles, or a triangles hit group for AABBs.
+    #[error("instance {instance} of the IAS in params field `{field}` has {} (geometry {geometry} of its GAS), but hit record {slot} it selects (stride {stride}, ray offset {ray_offset}, a trace in `{program}`) holds a {} hit group; {}", hit_kind_names(*.aabbs).0, hit_kind_names(*.aabbs).1, hit_kind_fix(*.aabbs))]
+    HitGroupKind {
+        /// The params field holding the IAS.
+        field: String,
+        /// The instance's index in the IAS.
+        instance: usize,
+        /// The geometry's index in the instance's GAS.
+        geometry: u32,
+        /// Whether the geometry is AABBs (the group then has no intersection
+        /// program) rather than triangles (the group has one).
+        aabbs: bool,
+        /// The hit record it selects.
+        slot: u64,
+        /// `sbtRecordStride` of the trace.
+        stride: u32,
+        /// `sbtRecordOffset` of the trace.
+        ray_offset: u32,
+        /// A program making such a trace.
+        program: String,
+    },
+
     /// Launch dimensions are zero or too large.
     #[error("launch dimensions {dims:?}: {reason}")]
     Dimensions {
@@ -166,4 +203,22 @@ pub enum LaunchError {
         /// The first `EXCEPTION_CAPACITY` of them, in the order they were recorded.
         exceptions: Vec<UserException>,
     },
+}
+
+/// The geometry's kind and the hit group's, for [`LaunchError::HitGroupKind`].
+fn hit_kind_names(aabbs: bool) -> (&'static str, &'static str) {
+    if aabbs {
+        ("AABBs", "triangles")
+    } else {
+        ("triangles", "procedural")
+    }
+}
+
+/// What to change, for [`LaunchError::HitGroupKind`].
+fn hit_kind_fix(aabbs: bool) -> &'static str {
+    if aabbs {
+        "AABB geometry needs a hit group with an intersection program (ProgramGroup::hit_group(..).intersection(..)) at that record"
+    } else {
+        "triangle geometry needs a hit group without an intersection program at that record; place the procedural group where only AABB instances select it"
+    }
 }

@@ -116,4 +116,30 @@ pub enum SbtError {
         /// `maxShaderGroupStride`.
         limit: u32,
     },
+
+    /// A record's data is smaller than what a program of its group reads.
+    #[error("SBT {region} record {index} carries {given} bytes of data, but `{program}` reads {reads} bytes of record data; give the record data of the type the program declares for its record (`#[record]` in Rust, the shader record block in GLSL or WGSL), or make the program read less")]
+    RecordTooSmall {
+        /// The region.
+        region: SbtRegion,
+        /// The record's index in it.
+        index: usize,
+        /// The program that reads past the data.
+        program: String,
+        /// The bytes of record data it reads.
+        reads: usize,
+        /// The bytes of data the record carries.
+        given: usize,
+    },
+
+    /// The SBT lacks a callable record that a program of its pipeline calls.
+    #[error("the SBT has {have} callable record(s), but `{program}` calls {what}; add callables with Sbt::builder(..).callable(..) in index order (the n-th call of `callable` is index n)")]
+    CallableMissing {
+        /// What the program calls: `callable N`, or callables at a computed index.
+        what: String,
+        /// How many callable records the user gave.
+        have: usize,
+        /// The program whose call selects the missing record.
+        program: String,
+    },
 }

@@ -8,6 +8,14 @@
 //! stride fits its largest record. See
 //! [the SBT chapter of the Vulkan spec](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#shader-binding-table).
 //!
+//! # Records fit their programs
+//! [`SbtBuilder::build`] refuses a record whose data is smaller than what a
+//! program of its group reads (`SbtError::RecordTooSmall`), for Rust, GLSL and
+//! WGSL programs alike, and an SBT with fewer callables than the constant
+//! callable indices its programs call (`SbtError::CallableMissing`); launches
+//! refuse a hit group of the wrong kind for the geometry that selects it
+//! (`LaunchError::HitGroupKind`).
+//!
 //! # Handles in records
 //! The `Buffer<T>` and `Traversable` fields of records whose data type derives
 //! `SbtRecordData` are recorded by the builder and by [`Sbt::update`], and every
@@ -30,6 +38,7 @@ use crate::program_group::{GroupKind, ProgramGroup};
 pub use crate::types::sbt::{region_layout, RegionLayout, SbtRegion};
 use crate::validate::handles::HandleField;
 use crate::validate::launch::{CheckedRecord, SbtChecks};
+use crate::validate::records::{check_record_sizes, HitKinds, RecordData};
 use crate::vulkan::sbt::VulkanSbt;
 use raykit_device::{RayType, SbtRecordData};
 
@@ -300,15 +309,24 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         };
         let miss = filled(self.miss, SbtRegion::Miss)?;
         let hit = filled(self.hit, SbtRegion::Hit)?;
-        let (limits, exception_group) = match &self.pipeline.repr {
+        let (limits, exception_group, needs) = match &self.pipeline.repr {
             PipelineRepr::Vulkan(pipeline) => {
                 let has = |kind: GroupKind| pipeline.groups.iter().any(|g| g.kind == kind);
                 pipeline.reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
+                pipeline.reach.check_callables(has(GroupKind::Callable), self.callable.len())?;
                 let exception = pipeline.groups.iter().position(|g| g.kind == GroupKind::Exception);
-                (pipeline.ctx.limits, exception)
+                (pipeline.ctx.limits, exception, &pipeline.needs[..])
             }
-            PipelineRepr::Cpu(pipeline) => (crate::cpu::LIMITS, pipeline.exception_group),
+            PipelineRepr::Cpu(pipeline) => (crate::cpu::LIMITS, pipeline.exception_group, &pipeline.needs[..]),
         };
+        for (region, records) in
+            SbtRegion::ALL.into_iter().zip([std::slice::from_ref(&raygen), &miss[..], &hit[..], &self.callable[..]])
+        {
+            let data = records.iter().map(|r| RecordData { group: r.group_index, bytes: r.data.len() });
+            check_record_sizes(needs, region, data)?;
+        }
+        let hit_kinds =
+            HitKinds::new(hit.iter().map(|r| needs.get(r.group_index).is_some_and(|n| n.procedural)).collect());
         let max_data = |records: &[PackedRecord]| records.iter().map(|r| r.data.len()).max().unwrap_or(0);
         let check = |layout: RegionLayout, data: usize| -> Result<RegionLayout> {
             if layout.stride > limits.max_shader_group_stride as u64 {
@@ -378,7 +396,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
                     pipeline: pipeline.clone(),
                     data: Arc::new(crate::cpu::program::SbtData { regions: data }),
                 };
-                return Ok(Sbt { repr: device, layouts, counts, data_types, exception_index, checked });
+                return Ok(Sbt { repr: device, layouts, counts, data_types, exception_index, checked, hit_kinds });
             }
         };
 
@@ -398,7 +416,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
             }
         }
         let device = SbtRepr::Vulkan(VulkanSbt::new(pipeline, &bytes, layouts, exception_index)?);
-        Ok(Sbt { repr: device, layouts, counts, data_types, exception_index, checked })
+        Ok(Sbt { repr: device, layouts, counts, data_types, exception_index, checked, hit_kinds })
     }
 }
 
@@ -434,6 +452,8 @@ pub struct Sbt {
     pub(crate) exception_index: Option<u32>,
     /// The records whose data holds handles, which launches check.
     pub(crate) checked: Vec<CheckedRecord>,
+    /// The kinds of its hit groups, which launches check against the scene.
+    hit_kinds: HitKinds,
 }
 
 impl Sbt {
@@ -531,7 +551,7 @@ impl Sbt {
 
     /// What a launch with this SBT checks: its records with handles and its hit record count.
     pub(crate) fn checks(&self) -> SbtChecks<'_> {
-        SbtChecks { records: &self.checked, hit_records: self.record_count(SbtRegion::Hit) }
+        SbtChecks { records: &self.checked, hit_records: self.record_count(SbtRegion::Hit), hit_kinds: &self.hit_kinds }
     }
 }
 

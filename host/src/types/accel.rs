@@ -201,6 +201,14 @@ impl Aabb {
     pub fn new(min: Vec3, max: Vec3) -> Self {
         Aabb { min: min.to_array(), max: max.to_array() }
     }
+
+    /// The smallest `f32` box that holds the sphere exactly: `centre ∓ radius`
+    /// rounded outwards.
+    pub fn around_sphere(centre: Vec3, radius: f32) -> Self {
+        let min = (centre - Vec3::splat(radius)).to_array().map(f32::next_down);
+        let max = (centre + Vec3::splat(radius)).to_array().map(f32::next_up);
+        Aabb { min, max }
+    }
 }
 
 /// A procedural geometry: boxes whose contents an intersection program decides.

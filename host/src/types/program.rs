@@ -25,6 +25,10 @@ pub struct EntryPointInfo {
     /// The bytes of ray payload and hit attributes it declares, which a
     /// [`crate::PipelineLibrary`]'s interface must cover.
     pub interface: InterfaceSizes,
+    /// The bytes of SBT record data it reads (its `ShaderRecordBufferKHR`
+    /// block, up to the end of the last member); 0 when it reads none. Every
+    /// SBT gives its group's records at least this much.
+    pub record: u32,
     /// The rays it traces (through its call graph), with their constant SBT operands.
     pub traces: raykit_spirv::EntryTraces,
     /// The descriptor bindings it declares.

@@ -32,6 +32,35 @@ fn check_transform(what: String, t: &Affine3A) -> Result<()> {
     Ok(())
 }
 
+/// Checks the inputs of `Gas::spheres`: one radius per centre, finite
+/// centres, radii finite and ≥ 0, and boxes (centre ± radius) within `f32`.
+pub(crate) fn spheres(centres: &[glam::Vec3], radii: &[f32]) -> Result<()> {
+    if centres.len() != radii.len() {
+        return Err(Error::Accel(AccelError::SphereCount { centres: centres.len(), radii: radii.len() }));
+    }
+    for (sphere, (centre, &radius)) in centres.iter().zip(radii).enumerate() {
+        let reason = if !centre.is_finite() {
+            Some("its centre is not finite; give finite coordinates")
+        } else if radius.is_nan() {
+            Some("its radius is NaN; give a finite radius ≥ 0")
+        } else if radius.is_infinite() {
+            Some("its radius is infinite; give a finite radius ≥ 0 (a plane is two triangles)")
+        } else if radius < 0.0 {
+            Some("its radius is negative; give a radius ≥ 0")
+        } else if !(*centre - glam::Vec3::splat(radius)).is_finite()
+            || !(*centre + glam::Vec3::splat(radius)).is_finite()
+        {
+            Some("centre ± radius overflows f32; make the sphere smaller or scale the scene down")
+        } else {
+            None
+        };
+        if let Some(reason) = reason {
+            return Err(Error::Accel(AccelError::InvalidSphere { sphere, centre: centre.to_array(), radius, reason }));
+        }
+    }
+    Ok(())
+}
+
 /// Checks `inputs` against Vulkan's rules and `limits`; returns each geometry's
 /// shape. Pure: nothing is uploaded. `for_update` also fingerprints the index
 /// data (needed only by builds that allow updates).
@@ -305,6 +334,27 @@ mod tests {
         let nan = [Aabb::new(Vec3::ZERO, Vec3::ONE), Aabb::new(Vec3::ZERO, Vec3::splat(f32::NAN))];
         let err = validate(&[Aabbs::new(&nan).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::Accel(AccelError::InvalidAabb { primitive: 1, .. })), "{err}");
+    }
+
+    #[test]
+    fn spheres_need_finite_centres_and_radii() {
+        use glam::Vec3;
+        let ok = [Vec3::ZERO, Vec3::X];
+        assert!(spheres(&ok, &[1.0, 0.0]).is_ok());
+        let err = spheres(&ok, &[1.0]).unwrap_err();
+        assert!(matches!(err, Error::Accel(AccelError::SphereCount { centres: 2, radii: 1 })), "{err}");
+        for (radius, what) in [(f32::NAN, "NaN"), (f32::INFINITY, "infinite"), (-1.0, "negative")] {
+            let err = spheres(&ok, &[1.0, radius]).unwrap_err();
+            assert!(matches!(err, Error::Accel(AccelError::InvalidSphere { sphere: 1, .. })), "{err}");
+            assert!(err.to_string().contains(what), "{err}");
+        }
+        let err = spheres(&[Vec3::new(f32::MAX, 0.0, 0.0)], &[1e38]).unwrap_err();
+        assert!(err.to_string().contains("overflows"), "{err}");
+        let err = spheres(&[Vec3::new(0.0, f32::NAN, 0.0)], &[1.0]).unwrap_err();
+        assert!(err.to_string().contains("centre is not finite"), "{err}");
+        // The box holds the sphere: rounded outwards.
+        let b = crate::types::accel::Aabb::around_sphere(Vec3::new(0.1, -1000.0, 3.0), 1000.0);
+        assert!(b.min[0] < 0.1 - 1000.0 && b.max[1] > 0.0 && b.min[1] < -2000.0 && b.max[2] > 1003.0);
         let boxes = [Aabb::new(Vec3::ZERO, Vec3::ONE)];
         let err = validate(&[Triangles::new(&TRI).into(), Aabbs::new(&boxes).into()], &limits(), true).unwrap_err();
         assert!(matches!(err, Error::Accel(AccelError::MixedGeometryTypes { first: 0, other: 1 })), "{err}");

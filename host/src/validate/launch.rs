@@ -30,6 +30,8 @@ pub(crate) struct CheckedRecord {
 pub(crate) struct SbtChecks<'a> {
     pub(crate) records: &'a [CheckedRecord],
     pub(crate) hit_records: usize,
+    /// The kinds of its hit groups, record by record.
+    pub(crate) hit_kinds: &'a crate::validate::records::HitKinds,
 }
 
 /// What a backend knows of its context's live objects, under the lock its
@@ -47,7 +49,7 @@ pub(crate) trait Liveness {
 
 /// The launch checks, in order: the params' handles (laid out as `fields` says),
 /// each checked record's handles, then the reach of the params' scenes into the
-/// SBT for the traces `reach` describes.
+/// SBT for the traces `reach` describes, and the kinds of the hit groups they select.
 pub(crate) fn check_launch(
     live: &impl Liveness,
     fields: &[HandleField],
@@ -65,5 +67,5 @@ pub(crate) fn check_launch(
         let region: Option<(SbtRegion, usize)> = Some((record.region, record.index));
         check_handles(&record.fields, &record.data, region, buffer, texture, traversable)?;
     }
-    check_scene(|address| live.hit_reach(address), fields, params, sbt.hit_records, reach)
+    check_scene(|address| live.hit_reach(address), fields, params, sbt.hit_records, sbt.hit_kinds, reach)
 }

@@ -19,11 +19,23 @@
 //! sbtRecordOffset)` pair the traces use, the furthest instance's SBT offset +
 //! (geometries − 1) × stride + offset must be below the hit record count
 //! ([`LaunchError::SbtTooSmallForScene`](crate::LaunchError::SbtTooSmallForScene)).
+//!
+//! **Callables.** The SBT index of every `OpExecuteCallableKHR` a program
+//! reaches is read too: an SBT with fewer callables than the highest constant
+//! index is [`SbtError::CallableMissing`].
+//! A computed index cannot be bounded; it needs one callable at least when the
+//! pipeline has callable groups (raykit's own call of the exception program is
+//! such a call, and needs none).
+//!
+//! **Records and hit group kinds**: see `records` (record sizes against the
+//! programs that read them; the kind of each hit group against the geometry
+//! that selects it).
 
 pub(crate) mod accel;
 pub mod handles;
 pub(crate) mod hit_reach;
 pub(crate) mod launch;
+pub(crate) mod records;
 pub(crate) mod scene;
 pub mod spirv;
 
@@ -70,6 +82,10 @@ pub(crate) struct TraceReach {
     /// bits), each with a program using it: what a launch's scene is checked
     /// against (see [`scene`]).
     pub(crate) hit_selectors: Vec<(u32, u32, String)>,
+    /// The highest constant callable index a program calls, and the program.
+    pub(crate) callable_index: Option<(u32, String)>,
+    /// A program that calls a callable at an index computed at run time.
+    pub(crate) dynamic_callable: Option<String>,
 }
 
 impl TraceReach {
@@ -118,6 +134,14 @@ impl TraceReach {
                     }
                     continue;
                 };
+                for index in &info.traces.callables {
+                    match index {
+                        Some(_) => higher(&mut reach.callable_index, *index, &info.name),
+                        None => {
+                            reach.dynamic_callable.get_or_insert_with(|| info.name.clone());
+                        }
+                    }
+                }
                 if !info.traces.traces() {
                     continue;
                 }
@@ -185,6 +209,31 @@ impl TraceReach {
             };
             if count < needed {
                 return Err(Error::Sbt(SbtError::Incomplete { region, needed, have: count, program: program.clone() }));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl TraceReach {
+    /// Refuses an SBT with `callables` callable records of the user's (the
+    /// exception program's not counted) when a program calls a callable index
+    /// past them. A call at an index computed at run time cannot be bounded:
+    /// it needs one record at least when the pipeline has callable groups
+    /// (`has_callables`); without them it is the exception program's call,
+    /// which raykit places itself.
+    pub(crate) fn check_callables(&self, has_callables: bool, callables: usize) -> Result<()> {
+        let missing = |what: String, program: &String| {
+            Err(Error::Sbt(SbtError::CallableMissing { what, have: callables, program: program.clone() }))
+        };
+        if let Some((index, program)) = &self.callable_index {
+            if *index as usize >= callables {
+                return missing(format!("callable {index}"), program);
+            }
+        }
+        if let Some(program) = &self.dynamic_callable {
+            if has_callables && callables == 0 {
+                return missing("callables at an index computed at run time".to_owned(), program);
             }
         }
         Ok(())

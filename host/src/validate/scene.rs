@@ -28,6 +28,14 @@
 //! * an SBT without hit records (a pipeline without hit groups) has nothing to
 //!   overrun: Vulkan then runs no hit programs.
 //!
+//! The same launches check that every hit record an instance selects holds a
+//! hit group of its geometry's kind: a procedural one (with an intersection
+//! program) for AABBs, a triangles one for triangles
+//! ([`LaunchError::HitGroupKind`](crate::LaunchError::HitGroupKind); Vulkan leaves
+//! the other kind undefined). This costs nothing more when the SBT's hit groups
+//! are all of the one kind the scene's geometry has; otherwise it looks at one
+//! record per geometry of each hittable instance, per `(stride, offset)` pair.
+//!
 //! Scenes reached otherwise than through the params (a traversable stored in a
 //! buffer or an SBT record) are not seen, as for [`crate::validate::handles`].
 
@@ -49,6 +57,7 @@ pub(crate) fn check_scene(
     fields: &[HandleField],
     params: &[u8],
     hit_records: usize,
+    hit_kinds: &crate::validate::records::HitKinds,
     reach: &TraceReach,
 ) -> Result<()> {
     if hit_records == 0 || reach.hit_selectors.is_empty() {
@@ -74,6 +83,18 @@ pub(crate) fn check_scene(
                     ray_offset: *ray_offset,
                     slot,
                     hit_records,
+                    program: program.clone(),
+                }));
+            }
+            if let Some((instance, geometry, slot, procedural)) = scene.kind_mismatch(hit_kinds, *stride, *ray_offset) {
+                return Err(Error::Launch(LaunchError::HitGroupKind {
+                    field: name.to_owned(),
+                    instance,
+                    geometry,
+                    aabbs: procedural,
+                    slot,
+                    stride: *stride,
+                    ray_offset: *ray_offset,
                     program: program.clone(),
                 }));
             }

@@ -55,6 +55,8 @@ pub(crate) struct ContextInner {
     pub(crate) non_semantic_info: bool,
     /// Whether `VK_KHR_pipeline_library` is enabled (see [`crate::PipelineLibrary`]).
     pub(crate) pipeline_library: bool,
+    /// Whether pipelines may be created with `SKIP_AABBS` (`rayTraversalPrimitiveCulling`).
+    pub(crate) primitive_culling: bool,
     /// Whether the driver is lavapipe (Mesa's CPU driver), whose workarounds
     /// raykit applies (see [`PipelineLibrary`](crate::PipelineLibrary)).
     pub(crate) lavapipe: bool,
@@ -144,6 +146,7 @@ pub(crate) fn create(options: &ContextOptions) -> Result<Arc<ContextInner>> {
         launch_dimension_limits: shared.launch_dimension_limits,
         non_semantic_info: shared.non_semantic_info,
         pipeline_library: shared.pipeline_library,
+        primitive_culling: shared.primitive_culling,
         lavapipe: shared.lavapipe,
         pipeline_cache,
         shared,

@@ -158,6 +158,9 @@ pub(crate) struct SharedDevice {
     pub(crate) launch_dimension_limits: [u64; 3],
     pub(crate) non_semantic_info: bool,
     pub(crate) pipeline_library: bool,
+    /// Whether `rayTraversalPrimitiveCulling` is enabled: pipelines without
+    /// intersection programs are then created with `SKIP_AABBS`.
+    pub(crate) primitive_culling: bool,
     pub(crate) lavapipe: bool,
     /// Set once any call on the device returned `VK_ERROR_DEVICE_LOST`.
     lost: AtomicBool,
@@ -333,6 +336,10 @@ fn create_device(
 ) -> Result<SharedDevice> {
     let vk_instance = &instance.instance;
     let mut features = Features::required();
+    // Optional: lets pipelines without intersection programs skip AABB geometry
+    // in traversal (`SKIP_AABBS`), as OptiX's `usesPrimitiveTypeFlags` does.
+    let primitive_culling = Features::query(vk_instance, physical).rt.ray_traversal_primitive_culling == vk::TRUE;
+    features.rt = features.rt.ray_traversal_primitive_culling(primitive_culling);
     let priorities = [1.0f32];
     let queue_infos =
         [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
@@ -388,6 +395,7 @@ fn create_device(
         launch_dimension_limits,
         non_semantic_info,
         pipeline_library,
+        primitive_culling,
         lavapipe: driver_id == vk::DriverId::MESA_LLVMPIPE,
         lost: AtomicBool::new(false),
         inject_loss: AtomicBool::new(false),

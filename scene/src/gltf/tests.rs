@@ -489,3 +489,88 @@ fn the_existing_messages_name_their_paths() {
     let e = error_naming(&two_indices, "two_indices", "meshes[0].primitives[0].indices");
     assert!(matches!(e, GltfError::IndexCount { count: 2, .. }), "{e}");
 }
+
+/// `bytes` loaded from memory as `name`; must be refused with a parse error.
+fn parse_error_of(bytes: &[u8], name: &str) -> GltfError {
+    let path = std::env::temp_dir().join("raykit-scene-no-such-folder").join(name);
+    match GltfScene::from_slice(bytes, &path) {
+        Ok(_) => panic!("{name}: the hostile bytes loaded"),
+        Err(e) => {
+            assert!(matches!(e, GltfError::Parse { .. }), "{name}: {e:?}");
+            assert!(e.to_string().contains(name), "{name}: `{e}` does not name the file");
+            e
+        }
+    }
+}
+
+#[test]
+fn a_scene_in_memory_loads_as_its_file() {
+    let doc = Doc::triangle();
+    let path = std::env::temp_dir().join("raykit-scene-no-such-folder").join("scene.glb");
+    let from_memory = GltfScene::from_slice(&glb(&doc), &path).expect("the .glb loads from memory");
+    assert_eq!(from_memory, doc.load("memory_as_file").expect("the .gltf loads"));
+}
+
+#[test]
+fn empty_and_truncated_files_are_parse_errors() {
+    parse_error_of(b"", "empty.gltf");
+    parse_error_of(b"glTF", "magic_only.glb");
+    let whole = glb(&Doc::triangle());
+    for cut in [12, 20, whole.len() / 2, whole.len() - 1] {
+        parse_error_of(&whole[..cut], "truncated.glb");
+    }
+}
+
+#[test]
+fn glb_headers_that_lie_are_parse_errors() {
+    let whole = glb(&Doc::triangle());
+    let with_word = |at: usize, word: u32| {
+        let mut bytes = whole.clone();
+        bytes[at..at + 4].copy_from_slice(&word.to_le_bytes());
+        bytes
+    };
+    // Version 1, a total length of 4 GiB, a JSON chunk past the end, a first chunk that is not JSON.
+    for (at, word) in [(4, 1), (8, u32::MAX), (12, u32::MAX - 3), (16, 0x004E_4942)] {
+        parse_error_of(&with_word(at, word), "lying_header.glb");
+    }
+}
+
+#[test]
+fn json_nested_past_the_parser_limit_is_a_parse_error_not_a_stack_overflow() {
+    let depth = 200_000;
+    let json = format!(r#"{{"asset": {{"version": "2.0"}}, "extras": {}{}}}"#, "[".repeat(depth), "]".repeat(depth));
+    parse_error_of(json.as_bytes(), "nested.gltf");
+}
+
+#[test]
+fn json_that_is_not_utf8_or_not_gltf_is_a_parse_error() {
+    parse_error_of(b"{\"asset\": {\"version\": \"2.0\xff\"}}", "not_utf8.gltf");
+    parse_error_of(b"[1, 2, 3]", "array.gltf");
+    parse_error_of(br#"{"asset": {"version": "2.0"}, "meshes": 7}"#, "meshes_not_an_array.gltf");
+}
+
+#[test]
+fn a_data_uri_that_is_not_base64_or_is_short_is_an_error() {
+    let json = Doc::triangle().json();
+    let data = base64(&triangle_bin());
+    let bad = json.replace(&data, "!!!not base64!!!");
+    assert!(GltfScene::from_slice(bad.as_bytes(), std::path::Path::new("bad_base64.gltf")).is_err());
+    // Half the bytes the buffer declares.
+    let short = json.replace(&data, &base64(&triangle_bin()[..48]));
+    assert!(GltfScene::from_slice(short.as_bytes(), std::path::Path::new("short.gltf")).is_err());
+}
+
+#[test]
+fn a_position_accessor_past_the_accessors_is_a_dangling_index_not_a_panic() {
+    // Found by fuzzing: the `gltf` crate's validation indexed it and panicked.
+    let doc =
+        Doc::triangle().primitive(r#"{"attributes": {"POSITION": 4, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3}"#);
+    let err = error_naming(&doc, "dangling_position", POSITION);
+    assert!(matches!(err, GltfError::DanglingIndex { index: 4, count: 4, target: "accessors", .. }), "{err:?}");
+    let path = std::env::temp_dir().join("raykit-scene-no-such-folder").join("scene.glb");
+    let from_glb = GltfScene::from_slice(&glb(&doc), &path);
+    assert!(matches!(from_glb, Err(GltfError::DanglingIndex { index: 4, .. })), "{from_glb:?}");
+    // A NORMAL past them is the `gltf` crate's own validation error.
+    let doc = Doc::triangle().primitive(r#"{"attributes": {"POSITION": 0, "NORMAL": 9}, "indices": 3}"#);
+    assert!(matches!(doc.load("dangling_normal"), Err(GltfError::Parse { .. })));
+}

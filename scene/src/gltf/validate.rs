@@ -80,6 +80,28 @@ fn component_name(data_type: DataType) -> &'static str {
     }
 }
 
+/// Checks that every primitive's POSITION names an accessor of the file (the
+/// `gltf` crate's validation indexes it unchecked, and panics).
+pub fn position_indices(root: &gltf::json::Root) -> Result<(), GltfError> {
+    use gltf::json::validation::Checked;
+    let positions = Checked::Valid(gltf::json::mesh::Semantic::Positions);
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive.attributes.get(&positions) {
+                if index.value() >= root.accessors.len() {
+                    return Err(GltfError::DanglingIndex {
+                        path: format!("meshes[{m}].primitives[{p}].attributes.POSITION"),
+                        target: "accessors",
+                        index: index.value(),
+                        count: root.accessors.len(),
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Checks that every buffer view lies inside its buffer (the buffer's declared
 /// `byteLength`; importing checks that the data is at least that long).
 pub fn buffer_views(document: &gltf::Document) -> Result<(), GltfError> {

@@ -21,7 +21,7 @@ impl Index<'_> {
             Some(left) => self.budget.set(left),
             None => {
                 return Err(bad(format!(
-                    "the params blocks have too many members (over {DESCRIBE_BUDGET} types described); launch params must be a plain struct"
+                    "the params or record blocks have too many members (over {DESCRIBE_BUDGET} types described); launch params and records must be plain structs"
                 )))
             }
         }

@@ -17,7 +17,8 @@
 //!
 //! The same reader gives each entry point's ray payload and hit attribute sizes
 //! ([`reflect_interface_sizes`]), which pipeline libraries declare as their
-//! interface.
+//! interface, and the size of the SBT record data it reads
+//! ([`reflect_record_sizes`]), which SBTs are checked against.
 //!
 //! The reader is rspirv's data representation (naga's SPIR-V front-end rejects
 //! the ray-tracing stages).
@@ -32,12 +33,14 @@ mod describe;
 mod element;
 mod index;
 mod interface;
+mod record;
 
 pub use built::{built_spirv_path, check_file};
 pub use compare::check;
 pub use describe::reflect_params;
 pub use element::{check_element, check_element_blocks, check_element_file, element_entry};
 pub use interface::reflect_interface_sizes;
+pub use record::reflect_record_sizes;
 
 use raykit_abi::{Scalar, PARAMS_BINDING, PARAMS_SET, PUSH_CONSTANT_BUDGET};
 

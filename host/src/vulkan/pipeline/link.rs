@@ -40,6 +40,8 @@ pub(crate) struct PipelineInner {
     pub(crate) max_trace_depth: u32,
     /// The SBT records its programs' traces select.
     pub(crate) reach: crate::validate::TraceReach,
+    /// What each group needs of its records, in pipeline order.
+    pub(crate) needs: Vec<crate::validate::records::GroupNeeds>,
     /// The stack size every launch sets (`vkCmdSetRayTracingPipelineStackSizeKHR`).
     pub(crate) stack_size: AtomicU32,
     /// Where programs record user exceptions: one buffer per set of programs
@@ -98,8 +100,10 @@ impl PipelineInner {
             parts.groups.iter().map(|g| LinkedGroup::read(ctx, pipeline.handle, g)).collect();
         let default = stack::vulkan_default(&super::shader_groups::stack_sizes(&groups), max_trace_depth);
         let reach = crate::validate::TraceReach::of(parts.groups.iter().map(|g| g.group));
+        let needs = parts.groups.iter().map(|g| crate::validate::records::GroupNeeds::of(g.group)).collect();
         Ok(PipelineInner {
             reach,
+            needs,
             pipeline,
             params_uniform,
             layout,
@@ -130,7 +134,10 @@ pub(crate) fn link_groups<P: LaunchParams>(
     crate::validate::check_programs(groups, max_trace_depth, &shaders.spec_values(), params_delivery::<P>())?;
     let specialization = shaders.specialization();
     let stages = shaders.stages(&specialization);
-    let create_info = vk::RayTracingPipelineCreateInfoKHR::default().stages(&stages).groups(&shaders.group_infos);
+    let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
+        .flags(primitive_flags(inner, &shaders))
+        .stages(&stages)
+        .groups(&shaders.group_infos);
     let name = format!("raykit pipeline [{}]", shaders.names().join(", "));
     let parts = PipelineParts {
         groups: groups
@@ -142,6 +149,20 @@ pub(crate) fn link_groups<P: LaunchParams>(
         libraries: Vec::new(),
     };
     PipelineInner::new::<P>(inner, max_trace_depth, create_info, &name, parts)
+}
+
+/// `SKIP_AABBS` for a pipeline none of whose hit groups has an intersection
+/// program, where the device can cull primitives: traversal then never visits
+/// AABB geometry, which such a pipeline could not intersect anyway (OptiX's
+/// `usesPrimitiveTypeFlags = TRIANGLE`). Libraries are linked without it: a
+/// linked pipeline and its libraries must agree on the flag.
+fn primitive_flags(ctx: &ContextInner, shaders: &ShaderGroups) -> vk::PipelineCreateFlags {
+    let procedural = shaders.group_infos.iter().any(|g| g.ty == vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP);
+    if ctx.primitive_culling && !procedural {
+        vk::PipelineCreateFlags::RAY_TRACING_SKIP_AABBS_KHR
+    } else {
+        vk::PipelineCreateFlags::empty()
+    }
 }
 
 /// Links a pipeline for params `P` from checked `libraries` (made with

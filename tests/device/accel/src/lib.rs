@@ -408,3 +408,32 @@ fn ch_probe(ctx: &mut ClosestHit, #[payload] hit: &mut HitRecord) {
         custom: ctx.instance_custom_index(),
     };
 }
+
+/// How deep [`recurse`] goes on the way to `stop`: one frame of 256 bytes and
+/// more per level, so a bound past what any stack holds recurses without end.
+#[cfg(not(target_arch = "spirv"))]
+pub fn recurse(level: u32, stop: u32) -> u32 {
+    let mut frame = [level; 64];
+    core::hint::black_box(&mut frame);
+    if frame[7] >= stop {
+        return frame[3];
+    }
+    recurse(frame[5] + 1, stop).wrapping_add(frame[9])
+}
+
+/// A raygen that recurses without end (on the CPU backend only: SPIR-V has no
+/// recursion), for the stack-overflow tests.
+#[cfg(not(target_arch = "spirv"))]
+#[raygen]
+fn rg_recursing(ctx: &mut Raygen) {
+    let index: UVec3 = ctx.launch_index();
+    core::hint::black_box(recurse(index.x, u32::MAX));
+}
+
+/// A closest-hit that recurses without end (CPU backend only, as [`rg_recursing`]).
+#[cfg(not(target_arch = "spirv"))]
+#[closest_hit(ray = Radiance)]
+fn ch_recursing(ctx: &mut ClosestHit, #[payload] color: &mut Vec3) {
+    let depth = recurse(ctx.primitive_index(), u32::MAX);
+    *color = Vec3::splat(depth as f32);
+}
