@@ -292,11 +292,13 @@ fn compile(cmd: &mut Command, name: &str, report: Report) -> Result<()> {
         output: String::new(),
     })?;
     let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-    if report != Report::Quiet {
-        eprint!("{stderr}");
-    }
+    // rustc's messages once: in the error when the build failed (whoever reports
+    // the error prints them), else as they came (warnings, progress).
     if !output.status.success() {
         return Err(Error::Compile { krate: name.to_owned(), message: stderr });
+    }
+    if report != Report::Quiet {
+        eprint!("{stderr}");
     }
     Ok(())
 }

@@ -35,8 +35,8 @@ pub enum Error {
         /// rustc's messages.
         message: String,
     },
-    /// A launch-params struct is laid out differently on the host and in the SPIR-V.
-    #[error("a launch-params struct of {krate} disagrees with the SPIR-V built from it:\n{message}")]
+    /// A launch-params or buffer-element struct is laid out differently on the host and in the SPIR-V.
+    #[error("a launch-params or buffer-element struct of {krate} disagrees with the SPIR-V built from it:\n{message}")]
     ParamsLayout {
         /// The device crate.
         krate: String,
@@ -75,6 +75,14 @@ pub enum Error {
     NotEmpty {
         /// The directory.
         path: PathBuf,
+    },
+    /// A new project's directory name makes no package name.
+    #[error("cannot name a project after {path}: {reason}; choose a directory whose name starts with a letter (e.g. my-renderer)")]
+    ProjectName {
+        /// The directory.
+        path: PathBuf,
+        /// Why its name does not do.
+        reason: String,
     },
     /// The file watcher could not start.
     #[error("watching the device crate's sources: {reason}")]

@@ -47,7 +47,7 @@ pub use codegen::{apply_codegen_patch, cache_dir, ShaderBuilder, CODEGEN_CRATE, 
 pub use device::{env_var_name, BuiltModule, DeviceBuild};
 pub use error::{Error, Result};
 pub use report::Report;
-pub use template::{raykit_root, write_new_project};
+pub use template::{project_name, raykit_root, write_new_project};
 pub use toolchain::{ensure_toolchain, nightly, rustup, COMPONENTS, TOOLCHAIN};
 #[cfg(feature = "watch")]
 pub use watch::{DeviceWatcher, Rebuild};

@@ -3,6 +3,9 @@
 //! SPIR-V's params block through raykit-spirv and compares it with the layout
 //! `#[derive(LaunchParams)]` recorded on the host; a disagreement fails with the
 //! same message `Pipeline::new` would give (the field, both offsets, the fix).
+//! Each `#[derive(Element)]` struct of a device crate generates one too
+//! (`__raykit_params_layout_element_<Struct>`), comparing the buffer element's
+//! host layout with the one its hidden entry point records in the SPIR-V.
 
 use std::path::Path;
 use std::process::Command;
@@ -49,17 +52,24 @@ fn run(mut cmd: Command, what: &str, spirv_dir: &Path, report: Report) -> Result
     })?;
     if !output.status.success() {
         let text = format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
-        let reasons: Vec<&str> = text
+        // The layout messages alone when there are any (each once: the test
+        // harness repeats a panic's message); else everything cargo said, so
+        // that a host build error keeps its context.
+        let mut reasons: Vec<&str> = Vec::new();
+        for line in text
             .lines()
-            .filter(|l| l.contains("launch params") || l.contains("reads its params") || l.starts_with("error"))
-            .collect();
-        let message = if reasons.is_empty() {
-            text.clone()
-        } else {
-            format!("{}\n(full output of the check follows)\n{text}", reasons.join("\n"))
-        };
+            .filter(|l| l.contains("launch params") || l.contains("buffer element") || l.contains("reads its params"))
+        {
+            if !reasons.contains(&line) {
+                reasons.push(line);
+            }
+        }
+        let message = if reasons.is_empty() { text.clone() } else { reasons.join("\n") };
         return Err(Error::ParamsLayout { krate: what.to_owned(), message });
     }
-    report.progress(&format!("params layouts of {what} match the SPIR-V ({:.1} s)", started.elapsed().as_secs_f64()));
+    report.progress(&format!(
+        "params and buffer-element layouts of {what} match the SPIR-V ({:.1} s)",
+        started.elapsed().as_secs_f64()
+    ));
     Ok(())
 }

@@ -2,8 +2,13 @@
 //!
 //! The device side of raykit: OptiX 7's programs (`__raygen__`, `__miss__`,
 //! `__closesthit__`, …) written as plain Rust functions and compiled to SPIR-V by
-//! rust-gpu. The attribute macros [`raygen`], [`miss`] and [`closest_hit`] wrap a
-//! function and emit the Vulkan entry point with the OptiX-prefixed name.
+//! rust-gpu. The attribute macros wrap a function and emit the Vulkan entry point
+//! with the OptiX-prefixed name, one per program kind, each documented with an
+//! example: [`raygen`], [`miss`], [`closest_hit`], [`any_hit`], [`intersection`],
+//! [`direct_callable`], [`continuation_callable`], [`exception`](macro@exception). The derives
+//! [`LaunchParams`](macro@LaunchParams), [`SbtRecordData`](macro@SbtRecordData) and
+//! [`Element`](macro@Element) record the layouts of what crosses to the device:
+//! launch params, SBT records, and user structs in buffers ([`mod@element`]).
 //!
 //! A program receives a *stage context* ([`Raygen`], [`Miss`], [`ClosestHit`]) that
 //! offers exactly what that stage may use (launch index, tracing, barycentrics, …),
@@ -76,6 +81,7 @@ pub mod camera;
 pub mod color;
 #[cfg(not(target_arch = "spirv"))]
 pub mod cpu;
+pub mod element;
 pub mod entry;
 pub mod environment;
 pub mod exception;
@@ -91,8 +97,9 @@ pub mod stage;
 pub mod texture;
 
 pub use bytemuck;
+pub use element::Element;
 pub use entry::{EntryPoint, ProgramKind, ProgramPrefix, RayTypeInfo};
-pub use handles::{Buffer, Element, Traversable};
+pub use handles::{Buffer, Traversable};
 pub use params::{
     uses_push_constants, DeviceField, FieldLayout, LaunchParams, ParamsLayout, Scalar, ScalarKind, Shape,
     PARAMS_BINDING, PARAMS_SET, PUSH_CONSTANT_BUDGET,
@@ -100,8 +107,8 @@ pub use params::{
 pub use ray::{Ray, RayFlags, RayType};
 pub use raykit_abi as abi;
 pub use raykit_macros::{
-    any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, LaunchParams,
-    SbtRecordData,
+    any_hit, closest_hit, continuation_callable, direct_callable, exception, intersection, miss, raygen, Element,
+    LaunchParams, SbtRecordData,
 };
 pub use record::SbtRecordData;
 pub use spirv_std;
@@ -127,4 +134,26 @@ pub mod __private {
     #[cfg(not(target_arch = "spirv"))]
     pub use raykit_spirv;
     pub use spirv_std::spirv;
+
+    /// The body of the entry point `#[derive(Element)]` gives a device crate's
+    /// SPIR-V for each element struct: it reads the struct from the push constants
+    /// (so the SPIR-V keeps the block, with the struct's layout) and writes it to
+    /// slot 0 of the buffer table. It is never part of a pipeline, so never runs.
+    #[cfg(target_arch = "spirv")]
+    pub fn record_element<T: crate::Element>(element: &T, buffers: &mut crate::BufferTable) {
+        // SAFETY: slot 0 is in the table, and a write past a buffer's end is
+        // defined (robustBufferAccess2, see `crate::Buffer`); the program never runs.
+        unsafe {
+            let words: &mut [u32] = buffers.index_mut(0);
+            element.write_unchecked(words, 0);
+        }
+    }
+
+    /// The check of `#[derive(Element)]` structs' layout against a built SPIR-V
+    /// file, run by the tests the derive generates in device crates (host only).
+    #[cfg(not(target_arch = "spirv"))]
+    #[allow(clippy::result_large_err)] // as raykit-spirv's layout errors: rare, built once
+    pub fn check_element_file<T: crate::Element>(path: &std::path::Path) -> Result<(), raykit_spirv::LayoutError> {
+        raykit_spirv::layout::check_element_file(path, &T::SHAPE)
+    }
 }

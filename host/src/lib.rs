@@ -25,6 +25,7 @@ pub mod texture;
 mod types;
 pub mod validate;
 mod vulkan;
+#[cfg(feature = "wgsl")]
 pub mod wgsl;
 
 pub use vulkan::timeline;
@@ -55,6 +56,7 @@ pub use raykit_spirv::{BlockMember, BlockType, InterfaceSizes, LayoutError, Para
 pub use sbt::{Sbt, SbtBuilder, SbtRecord, SbtRegion};
 pub use stack::{CallDepths, CallGraph, GroupStackSizes, StackSize, StackSizes};
 pub use texture::{AddressMode, Filter, MipLevel, Mipmaps, SamplerOptions, Texture, TextureFormat};
+#[cfg(feature = "wgsl")]
 pub use wgsl::WgslError;
 
 pub use ash;
@@ -62,8 +64,13 @@ pub use bytemuck;
 pub use glam;
 /// The device crate's shared types, re-exported for host code.
 pub use raykit_device::{
-    self as device, Buffer, EntryPoint, LaunchParams, ProgramKind, SbtRecordData, Texture2D, Traversable,
+    self as device, Buffer, Element, EntryPoint, LaunchParams, ProgramKind, SbtRecordData, Texture2D, Traversable,
 };
+/// What a renderer needs on the host beside the runtime: a pinhole camera, PNG
+/// and PFM output, environment-map tables (`raykit-scene`, without its glTF and
+/// OpenEXR features; depend on `raykit-scene` itself for those).
+pub use raykit_scene as scene;
+pub use raykit_scene::{write_png_rgba8, write_png_srgb, Camera, ImageError};
 /// raykit's SPIR-V reflection and params layout check, for build tooling and tests.
 pub use raykit_spirv as spirv;
 

@@ -5,7 +5,7 @@
 //! `cargo xtask build-shaders` writes). raykit reads the module with rspirv (naga's
 //! SPIR-V reader rejects the ray-tracing stages) and lists its entry points with
 //! their stages, so program groups can be checked before Vulkan sees them. WGSL
-//! source becomes a module through naga with [`Module::from_wgsl`] (see [`crate::wgsl`]). See
+//! source becomes a module through naga with `Module::from_wgsl` (feature `wgsl`, see `raykit::wgsl`). See
 //! [`vkCreateShaderModule`](https://registry.khronos.org/vulkan/specs/latest/man/html/vkCreateShaderModule.html).
 
 use std::path::{Path, PathBuf};
@@ -414,6 +414,24 @@ impl Module {
         let bytes = std::fs::read(path)
             .map_err(|source| Error::Module(ModuleError::SpirvFile { path: path.to_owned(), source }))?;
         Module::named(ctx, &bytes, &path.display().to_string())
+    }
+
+    /// Checks that buffer element `T` (a `#[derive(Element)]` struct of this
+    /// module's device crate) has the layout in the SPIR-V that it has on the host,
+    /// so device programs read the words the host writes. A field placed
+    /// differently is [`ModuleError::ElementLayout`] naming it; so is a module
+    /// that does not record `T` (one built from another crate). `cargo xtask
+    /// build-shaders` runs the same check when it builds the crate; this one
+    /// checks the SPIR-V a program actually loads. On the CPU backend the
+    /// programs are the host's own code: nothing to compare, always `Ok`.
+    pub fn check_element<T: raykit_device::Element>(&self) -> Result<()> {
+        let Some(inner) = self.spirv() else { return Ok(()) };
+        let blocks: std::collections::HashMap<String, Vec<raykit_spirv::ParamsBlock>> =
+            inner.entry_points.iter().map(|e| (e.name.clone(), e.params.clone())).collect();
+        raykit_spirv::check_element(&T::SHAPE, &blocks).map_err(|e| match e {
+            raykit_spirv::LayoutError::InvalidSpirv(reason) => Error::Module(ModuleError::InvalidSpirv { reason }),
+            other => Error::Module(ModuleError::ElementLayout(Box::new(other))),
+        })
     }
 
     /// What the validation layer reported while the module was created (OptiX's

@@ -2,9 +2,10 @@
 //! workspace, built with plain `cargo build` (its build.rs compiles its device
 //! crate through raykit-builder, sharing the per-user codegen cache), run on the
 //! Vulkan driver with validation on, its picture checked against a CPU reference; then its binary
-//! alone, copied into an empty directory, still runs; and a params struct that
+//! alone, copied into an empty directory, still runs; a params struct that
 //! disagrees with its device crate fails `cargo build` with raykit's layout
-//! message.
+//! message; and an error in the device crate is printed once. The package is
+//! named after the project's directory.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -113,19 +114,25 @@ fn run_app(binary: &Path, cwd: &Path) -> Vec<[u8; 3]> {
 fn template_project_builds_runs_alone_and_rejects_a_params_mismatch() {
     let project = temp_dir("template");
     raykit_builder::write_new_project(&project, &raykit_root()).expect("writing the template");
+    // The package is named after the directory: `raykit-template-<pid>-<nanos>`.
+    let name = raykit_builder::project_name(&project).expect("the directory names the package");
+    assert!(name.starts_with("raykit-template-"), "{name}");
+    let manifest = std::fs::read_to_string(project.join("Cargo.toml")).expect("reading the manifest");
+    assert!(manifest.contains(&format!("name = \"{name}\"")), "{manifest}");
+    assert!(manifest.contains(&format!("{name}-device = {{ path = \"device\" }}")), "{manifest}");
 
     // 1. Plain `cargo build`: build.rs compiles the device crate to SPIR-V.
     let started = Instant::now();
     let output = cargo_build(&project);
     assert!(output.status.success(), "cargo build of the template failed:\n{}", text(&output));
     eprintln!("template project built in {:.1} s", started.elapsed().as_secs_f64());
-    let binary = raykit_root().join("target").join("template-project").join("debug").join("my-app");
+    let binary = raykit_root().join("target").join("template-project").join("debug").join(&name);
     let pixels = run_app(&binary, &project);
     check_picture(&pixels);
 
     // 2. The binary alone in an empty directory: the SPIR-V is inside it.
     let alone = temp_dir("template-binary");
-    let copy = alone.join("my-app");
+    let copy = alone.join(&name);
     std::fs::copy(&binary, &copy).expect("copying the binary");
     assert_eq!(std::fs::read_dir(&alone).map(|d| d.count()).unwrap_or(0), 1, "only the binary is there");
     assert_eq!(run_app(&copy, &alone), pixels, "the copied binary renders the same picture");
@@ -148,6 +155,16 @@ fn template_project_builds_runs_alone_and_rejects_a_params_mismatch() {
         log.contains("launch params `Params` do not match the SPIR-V of `__raygen__rg`"),
         "cargo build failed without raykit's layout message:\n{log}"
     );
+    assert_eq!(log.matches("do not match the SPIR-V of `__raygen__rg`").count(), 1, "printed more than once:\n{log}");
+
+    // 4. A type error in the device crate: `cargo build` fails, and rustc's
+    //    message is printed once.
+    std::fs::write(&lib, source.replacen("pub struct Radiance;", "pub struct Radiance;\nconst WRONG: u32 = 1.5;", 1))
+        .expect("editing the device crate");
+    let output = cargo_build(&project);
+    let log = text(&output);
+    assert!(!output.status.success(), "cargo build accepted a type error:\n{log}");
+    assert_eq!(log.matches("error[E0308]").count(), 1, "the error is not printed exactly once:\n{log}");
 
     let _ = std::fs::remove_dir_all(&project);
     let _ = std::fs::remove_dir_all(&alone);

@@ -21,6 +21,7 @@
 //! small `shader-builder` program with the pinned nightly into a per-user cache
 //! and runs it.
 
+mod demo;
 mod layers;
 mod lint;
 mod setup;
@@ -133,33 +134,9 @@ fn main() -> anyhow::Result<()> {
             shaders::build_all(&root, force)?;
         }
         Cmd::Demo { example, output, size, spp, backend } => {
-            setup::ensure_toolchain()?;
-            if backend == "vulkan" {
-                setup::ensure_vulkan(false)?;
-            }
-            shaders::build_all(&root, false)?;
             let output = output.unwrap_or_else(|| PathBuf::from(format!("target/demo/{example}.png")));
             let output = if output.is_absolute() { output } else { root.join(output) };
-            if let Some(dir) = output.parent() {
-                std::fs::create_dir_all(dir)?;
-            }
-            let mut cmd = cargo();
-            cmd.args(["run", "--release", "--quiet", "-p", &example, "--"])
-                .env("RAYKIT_SPIRV_DIR", shaders::spirv_dir(&root))
-                .env("RAYKIT_BACKEND", &backend);
-            match example.as_str() {
-                "path_tracer" => {
-                    let (width, height) = size.split_once('x').context("--size takes WIDTHxHEIGHT, e.g. 512x512")?;
-                    cmd.args(["--width", width, "--height", height, "--spp", &spp.to_string(), "--output"])
-                        .arg(&output);
-                }
-                "triangle" => {
-                    cmd.arg(&output);
-                }
-                other => bail!("unknown example {other:?}; the demos are path_tracer and triangle"),
-            }
-            run(&mut cmd, &format!("the {example} example"))?;
-            println!("demo: wrote {}", output.display());
+            demo::run(&root, &demo::Demo { example, output, size, spp, backend })?;
         }
         Cmd::Lint => lint::run_all(&root)?,
         Cmd::Test { cargo_args } => {
@@ -225,6 +202,8 @@ fn main() -> anyhow::Result<()> {
             for file in files {
                 println!("new-project: wrote {}", file.display());
             }
+            let name = raykit_builder::project_name(&path)?;
+            println!("new-project: package `{name}`, device crate `{name}-device`");
             println!("new-project: now `cd {} && cargo run --release`", path.display());
         }
     }

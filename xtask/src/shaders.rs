@@ -91,6 +91,15 @@ pub fn build_all(root: &Path, force: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Builds device crate `name` alone (skipped when unchanged) with `builder`,
+/// without the build-time params check: what `cargo xtask demo` needs.
+pub fn build_one(root: &Path, name: &str, builder: &ShaderBuilder) -> anyhow::Result<()> {
+    let krate =
+        device_crates(root)?.into_iter().find(|k| k.name == name).with_context(|| format!("no device crate {name}"))?;
+    device_build(root, &krate).build_with(builder)?;
+    Ok(())
+}
+
 /// Rebuilds device crate `name` (its dependencies already built) and returns
 /// the seconds it took: the shader build time the benchmarks report.
 pub fn time_rebuild(root: &Path, name: &str) -> anyhow::Result<f64> {

@@ -44,6 +44,12 @@ pub const PARAMS_SET: u32 = 1;
 /// Binding of the params uniform buffer in [`PARAMS_SET`].
 pub const PARAMS_BINDING: u32 = 0;
 
+/// The prefix of the entry point `#[derive(Element)]` gives a device crate's SPIR-V for
+/// each buffer element struct (`__raykit_element__<Struct>`): a compute entry point that
+/// declares the struct as its push constants, so the SPIR-V records the struct's layout for the check
+/// against the host's. Never part of a pipeline.
+pub const ELEMENT_LAYOUT_ENTRY_PREFIX: &str = "__raykit_element__";
+
 /// Specialization-constant ID carrying the exception buffer's slot in the
 /// bindless table (`"ra"` in its two high bytes). Reserved: programs may not
 /// declare it, and the host sets it when it links a pipeline.

@@ -54,7 +54,7 @@ impl Kind {
     }
 }
 
-fn has_repr_c(input: &DeriveInput) -> bool {
+pub(crate) fn has_repr_c(input: &DeriveInput) -> bool {
     input.attrs.iter().filter(|a| a.path().is_ident("repr")).any(|a| {
         let mut c = false;
         let _ = a.parse_nested_meta(|meta| {
@@ -73,7 +73,7 @@ fn has_repr_c(input: &DeriveInput) -> bool {
 }
 
 /// Why a field type cannot be part of launch params, if it cannot.
-fn refuse(ty: &Type) -> Option<String> {
+pub(crate) fn refuse(ty: &Type) -> Option<String> {
     match ty {
         Type::Reference(_) => Some("references cannot cross to the device; use a `Buffer<T>` handle".to_owned()),
         Type::Ptr(_) => Some("pointers cannot cross to the device; use a `Buffer<T>` handle".to_owned()),

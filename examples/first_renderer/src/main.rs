@@ -20,7 +20,7 @@ fn main() -> anyhow::Result<()> {
     let per_launch = spp.div_ceil(launches);
     let steps = first_renderer::render(&ctx, UVec2::new(width, height), per_launch, launches)?;
     let last = steps.last().context("no launch")?;
-    raykit_scene::write_png_rgba8(std::path::Path::new(&output), width, height, &first_renderer::to_rgba8(last))?;
+    raykit::write_png_rgba8(std::path::Path::new(&output), width, height, &first_renderer::to_rgba8(last))?;
     let spp = per_launch * launches;
     println!("rendered {width}x{height}, {spp} spp on {} to {output}", ctx.device_name());
     Ok(())

@@ -25,7 +25,8 @@ pub mod trace;
 pub use bindings::{reflect_bindings, DescriptorBinding, DescriptorKind};
 pub use generate::empty_raygen;
 pub use layout::{
-    built_spirv_path, check, check_file, parse, reflect_interface_sizes, reflect_params, reflect_record_sizes,
-    BlockMember, BlockType, InterfaceSizes, LayoutError, ParamsBlock, ParamsDelivery,
+    built_spirv_path, check, check_element, check_element_file, check_file, element_entry, parse,
+    reflect_interface_sizes, reflect_params, reflect_record_sizes, BlockMember, BlockType, InterfaceSizes, LayoutError,
+    ParamsBlock, ParamsDelivery,
 };
 pub use trace::{reflect_traces, EntryTraces, TraceCall};

@@ -97,6 +97,13 @@ pub enum ModuleError {
     /// WGSL source could not be compiled: a syntax or validation error (with
     /// naga's diagnostic: `file:line:col` and a caret), a stage or intrinsic naga
     /// lacks, or a declaration against raykit's WGSL conventions.
+    #[cfg(feature = "wgsl")]
     #[error(transparent)]
     Wgsl(Box<raykit_wgsl::WgslError>),
+
+    /// A `#[derive(Element)]` struct is laid out differently in the module's SPIR-V
+    /// than on the host, or the module does not record it (from
+    /// [`Module::check_element`](crate::Module::check_element)).
+    #[error(transparent)]
+    ElementLayout(Box<raykit_spirv::LayoutError>),
 }

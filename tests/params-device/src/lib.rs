@@ -7,6 +7,8 @@
 //! a struct differ), so the host must refuse them.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
+pub mod elements;
+
 use raykit_device::glam::{Mat4, UVec2, Vec2, Vec3, Vec3A, Vec4};
 use raykit_device::{raygen, Buffer, LaunchParams, Raygen};
 

@@ -30,6 +30,7 @@
 mod built;
 mod compare;
 mod describe;
+mod element;
 mod index;
 mod interface;
 mod record;
@@ -37,6 +38,7 @@ mod record;
 pub use built::{built_spirv_path, check_file};
 pub use compare::check;
 pub use describe::reflect_params;
+pub use element::{check_element, check_element_blocks, check_element_file, element_entry};
 pub use interface::reflect_interface_sizes;
 pub use record::reflect_record_sizes;
 
@@ -62,6 +64,24 @@ pub enum LayoutError {
         /// What usually causes this, and the fix.
         cause: String,
     },
+    /// A `#[derive(Element)]` struct's fields sit elsewhere in the SPIR-V than on the host.
+    ElementMismatch {
+        /// The struct's name.
+        struct_name: &'static str,
+        /// The first field that differs (dotted path for nested structs).
+        field: String,
+        /// Its offset and size on the host.
+        host: String,
+        /// Its offset and size in the SPIR-V.
+        device: String,
+    },
+    /// The SPIR-V has no record of a `#[derive(Element)]` struct's device layout.
+    ElementNotRecorded {
+        /// The struct's name.
+        struct_name: &'static str,
+        /// The entry point that records it.
+        entry: String,
+    },
     /// The program reads its params another way than raykit delivers them.
     Delivery {
         /// The host struct's name.
@@ -85,6 +105,21 @@ impl std::fmt::Display for LayoutError {
                 f,
                 "launch params `{struct_name}` do not match the SPIR-V of `{entry}`: field `{field}` is at {host} on the \
                  host but at {device} in the SPIR-V. Likely cause: {cause}"
+            ),
+            LayoutError::ElementMismatch { struct_name, field, host, device } => write!(
+                f,
+                "buffer element `{struct_name}` is laid out differently on the host and in the SPIR-V: field \
+                 `{field}` is at {host} on the host but at {device} in the SPIR-V, so the device would read other \
+                 words than the host writes. Likely cause: the struct differs between the host and the device build \
+                 (a field or its type behind `cfg(target_arch = \"spirv\")` or a feature enabled on one side only), \
+                 or the SPIR-V was built from an older definition (rebuild it with `cargo xtask build-shaders`)"
+            ),
+            LayoutError::ElementNotRecorded { struct_name, entry } => write!(
+                f,
+                "the SPIR-V does not record the device layout of buffer element `{struct_name}` (it has no entry \
+                 point `{entry}`): check the module of the device crate that defines `{struct_name}` \
+                 (`#[derive(Element)]` records it only in crates with `[package.metadata.raykit] device = true`), \
+                 built by `cargo xtask build-shaders`"
             ),
             LayoutError::Delivery { struct_name, size, entry, expected, found } => write!(
                 f,
