@@ -33,6 +33,8 @@ pub use raykit_scene::Camera;
 
 pub use path_tracer_device as device;
 
+pub mod view;
+
 /// optixPathTracer's camera.
 pub const CAMERA: Camera = Camera {
     eye: scene::CAMERA_EYE,
@@ -222,6 +224,41 @@ impl Renderer {
         self.sbt = sbt;
         self.reset();
         Ok(())
+    }
+
+    /// Aims `camera` (the default is [`CAMERA`]) at the image's aspect; starts
+    /// sampling over.
+    pub fn set_camera(&mut self, camera: &Camera) {
+        let size = self.params.size;
+        let (u, v, w) = camera.uvw(size.x as f32 / size.y as f32);
+        (self.params.cam_eye, self.params.cam_u, self.params.cam_v, self.params.cam_w) = (camera.eye, u, v, w);
+        self.reset();
+    }
+
+    /// A new accumulation buffer for `width × height` pixels, the camera kept
+    /// (its frame follows the new aspect); starts sampling over.
+    pub fn resize(&mut self, ctx: &Context, width: u32, height: u32, camera: &Camera) -> raykit::Result<()> {
+        self.accum = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        self.params.accum = self.accum.handle();
+        self.params.size = UVec2::new(width, height);
+        self.set_camera(camera);
+        Ok(())
+    }
+
+    /// Submits a launch adding `samples` paths per pixel without waiting for it
+    /// (the viewer's frames); the accumulation is complete once it has finished.
+    pub fn launch_async(&mut self, samples: u32) -> raykit::Result<raykit::Launch> {
+        let params = Params { subframe: self.subframe, samples, ..self.params };
+        let size = self.params.size;
+        let launch = self.pipeline.launch_async(&self.sbt, &params, [size.x, size.y, 1])?;
+        self.subframe += 1;
+        self.samples_done += samples;
+        Ok(launch)
+    }
+
+    /// The accumulation buffer (per pixel: radiance sum in xyz, rays in w).
+    pub fn accumulation_buffer(&self) -> &DeviceBuffer<Vec4> {
+        &self.accum
     }
 
     /// Sets the safety cap on path length (bounces; the default is
