@@ -232,7 +232,7 @@ mod tests {
         }
         let c = rig.camera();
         let angle = (c.eye - c.look_at).angle_between(c.up).to_degrees();
-        assert!(angle >= POLE_MARGIN_DEGREES && angle <= 180.0 - POLE_MARGIN_DEGREES, "{angle}");
+        assert!((POLE_MARGIN_DEGREES..=180.0 - POLE_MARGIN_DEGREES).contains(&angle), "{angle}");
     }
 
     #[test]

@@ -27,7 +27,7 @@ pub enum Presented {
 /// A window's presenter.
 pub enum Presenter {
     /// A swapchain on raykit's device; the pixels are copied into its images.
-    Vulkan(vulkan::SwapchainPresenter),
+    Vulkan(Box<vulkan::SwapchainPresenter>),
     /// softbuffer; the pixels are read back to the host.
     Soft(soft::SoftPresenter),
 }
@@ -39,7 +39,7 @@ impl Presenter {
     pub fn new(ctx: &Context, window: Arc<Window>) -> Result<(Presenter, PixelFormat)> {
         if ctx.backend() == raykit::Backend::Vulkan {
             match vulkan::SwapchainPresenter::new(ctx, window.clone()) {
-                Ok((presenter, format)) => return Ok((Presenter::Vulkan(presenter), format)),
+                Ok((presenter, format)) => return Ok((Presenter::Vulkan(Box::new(presenter)), format)),
                 Err(ViewerError::Presentation(why)) => {
                     eprintln!("viewer: the Vulkan device cannot present ({why}); presenting through softbuffer")
                 }
