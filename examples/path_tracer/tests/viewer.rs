@@ -225,7 +225,7 @@ fn a_hot_reload_edit_of_the_device_crate_reaches_the_window() -> anyhow::Result<
     )?;
     let mut window = path_tracer();
     window
-        .args(["--width", "32", "--height", "32", "--backend", "vulkan", "--view", "--spp-per-frame", "4"])
+        .args(["--width", "32", "--height", "32", "--view", "--spp-per-frame", "4"])
         .args(["--watch", "--device-dir"])
         .arg(&device)
         .arg("--script")
@@ -237,7 +237,10 @@ fn a_hot_reload_edit_of_the_device_crate_reaches_the_window() -> anyhow::Result<
     let lines = std::thread::spawn(move || BufReader::new(stdout).lines().map_while(Result::ok).collect::<Vec<_>>());
     let started = Instant::now();
     while !before.exists() {
-        anyhow::ensure!(child.try_wait()?.is_none(), "the viewer ended before its first screenshot");
+        if child.try_wait()?.is_some() {
+            let out = child.wait_with_output()?;
+            anyhow::bail!("the viewer ended before its first screenshot:\n{}", String::from_utf8_lossy(&out.stderr));
+        }
         anyhow::ensure!(started.elapsed() < RUN_BOUND, "no first screenshot within {RUN_BOUND:?}");
         std::thread::sleep(Duration::from_millis(50));
     }
