@@ -51,8 +51,8 @@ pub struct Script {
 impl Script {
     /// Reads and parses a script file.
     pub fn from_file(path: &Path) -> Result<Script> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| ViewerError::Read { path: path.to_path_buf(), source })?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| ViewerError::Read { path: path.to_path_buf(), source })?;
         Script::parse(&text)
     }
 
@@ -95,8 +95,9 @@ impl Script {
             let step = match command {
                 "drag" => numbers(2).map(|n| Step::Input(ViewerInput::Drag { dx: n[0], dy: n[1] }))?,
                 "zoom" => numbers(1).map(|n| Step::Input(ViewerInput::Zoom(n[0])))?,
-                "move" => numbers(3)
-                    .map(|n| Step::Input(ViewerInput::Translate { forward: n[0], right: n[1], up: n[2] }))?,
+                "move" => {
+                    numbers(3).map(|n| Step::Input(ViewerInput::Translate { forward: n[0], right: n[1], up: n[2] }))?
+                }
                 "orbit-mode" => bare(ViewerInput::Mode(CameraMode::Orbit))?,
                 "fly-mode" => bare(ViewerInput::Mode(CameraMode::Fly))?,
                 "camera" => match args[..] {

@@ -173,11 +173,8 @@ impl<R: Render> App<R> {
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| ViewerError::Window(e.to_string()))?);
         let (presenter, format) = Presenter::new(renderer.context(), window.clone())?;
         let size = window.inner_size();
-        let (width, height) = if size.width > 0 && size.height > 0 {
-            (size.width, size.height)
-        } else {
-            (options.width, options.height)
-        };
+        let (width, height) =
+            if size.width > 0 && size.height > 0 { (size.width, size.height) } else { (options.width, options.height) };
         let viewer = Viewer::new(renderer, options.camera, width, height, format, options.frames)?;
         println!(
             "viewer: {}x{} on {:?} ({}), presenting through {}",
@@ -257,10 +254,17 @@ impl<R: Render> App<R> {
             (self.held.contains(&plus) as i32 - self.held.contains(&minus) as i32) as f32
         };
         let step = running.viewer.rig().fly_speed() * dt * if self.shift { 4.0 } else { 1.0 };
-        let (forward, right, up) =
-            (axis(KeyCode::KeyW, KeyCode::KeyS), axis(KeyCode::KeyD, KeyCode::KeyA), axis(KeyCode::KeyE, KeyCode::KeyQ));
+        let (forward, right, up) = (
+            axis(KeyCode::KeyW, KeyCode::KeyS),
+            axis(KeyCode::KeyD, KeyCode::KeyA),
+            axis(KeyCode::KeyE, KeyCode::KeyQ),
+        );
         if (forward, right, up) != (0.0, 0.0, 0.0) {
-            running.viewer.input(ViewerInput::Translate { forward: forward * step, right: right * step, up: up * step })?;
+            running.viewer.input(ViewerInput::Translate {
+                forward: forward * step,
+                right: right * step,
+                up: up * step,
+            })?;
         }
         Ok(())
     }
@@ -280,7 +284,10 @@ impl<R: Render> App<R> {
             }
             if tick != Tick::Displayed {
                 if self.close_when_launching && (launching || tick == Tick::Idle) {
-                    println!("viewer: closing {}", if launching { "while a launch runs" } else { "with nothing running" });
+                    println!(
+                        "viewer: closing {}",
+                        if launching { "while a launch runs" } else { "with nothing running" }
+                    );
                     self.close(event_loop);
                 }
                 return Ok(tick);

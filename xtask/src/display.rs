@@ -28,9 +28,7 @@ fn installed(package: &str) -> bool {
 /// Makes sure Xvfb and winit's X11 libraries are installed (as root with apt,
 /// else the command to run).
 pub fn ensure_xvfb() -> anyhow::Result<()> {
-    let missing = || -> Vec<&str> {
-        PACKAGES.into_iter().filter(|package| !installed(package)).collect()
-    };
+    let missing = || -> Vec<&str> { PACKAGES.into_iter().filter(|package| !installed(package)).collect() };
     let absent = missing();
     if absent.is_empty() {
         return Ok(());

@@ -92,7 +92,10 @@ fn window_equals_headless(test: &str, backend: &str) -> anyhow::Result<()> {
     let script = dir.join("move.txt");
     std::fs::write(
         &script,
-        format!("drag 90 -35\nzoom 1.5\nfly-mode\nmove 40 -25 10\nframes 6\nscreenshot {}\nclose\n", window_png.display()),
+        format!(
+            "drag 90 -35\nzoom 1.5\nfly-mode\nmove 40 -25 10\nframes 6\nscreenshot {}\nclose\n",
+            window_png.display()
+        ),
     )?;
     let mut window = path_tracer();
     size_args(&mut window, backend);
@@ -263,7 +266,24 @@ fn a_hot_reload_edit_of_the_device_crate_reaches_the_window() -> anyhow::Result<
     assert!(stdout.contains("reloaded in"), "{stdout}");
     let (r0, g0) = mean_red_green(&rgba(&before)?);
     let (r1, g1) = mean_red_green(&rgba(&after)?);
-    assert!(g1 / r1 < 0.8 * (g0 / r0), "green/red went from {:.3} to {:.3}: the edit did not reach the window", g0 / r0, g1 / r1);
+    assert!(
+        g1 / r1 < 0.8 * (g0 / r0),
+        "green/red went from {:.3} to {:.3}: the edit did not reach the window",
+        g0 / r0,
+        g1 / r1
+    );
     std::fs::remove_dir_all(&dir)?;
+    Ok(())
+}
+
+#[test]
+fn without_a_display_the_viewer_says_so_and_names_headless() -> anyhow::Result<()> {
+    let mut cmd = path_tracer();
+    cmd.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY").args(["--view", "--backend", "cpu"]);
+    let out = cmd.output()?;
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{}", text(&out));
+    assert!(stderr.contains("no display to open a window on (DISPLAY is not set)"), "{stderr}");
+    assert!(stderr.contains("--headless --frames N"), "{stderr}");
     Ok(())
 }

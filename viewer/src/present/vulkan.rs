@@ -94,9 +94,8 @@ impl SwapchainPresenter {
         let destroy_surface = |s| unsafe { surface_fns.destroy_surface(s, None) };
         let surface = Made(surface, &destroy_surface, true);
         // SAFETY: valid physical device, queue family and surface.
-        let supported =
-            unsafe { surface_fns.get_physical_device_surface_support(physical, queue_family, surface.0) }
-                .map_err(ViewerError::vk("vkGetPhysicalDeviceSurfaceSupportKHR"))?;
+        let supported = unsafe { surface_fns.get_physical_device_surface_support(physical, queue_family, surface.0) }
+            .map_err(ViewerError::vk("vkGetPhysicalDeviceSurfaceSupportKHR"))?;
         if !supported {
             return Err(presentation("raykit's queue family cannot present to this surface"));
         }
@@ -123,8 +122,8 @@ impl SwapchainPresenter {
             .queue_family_index(queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: valid device and create info.
-        let pool = unsafe { device.create_command_pool(&pool_info, None) }
-            .map_err(ViewerError::vk("vkCreateCommandPool"))?;
+        let pool =
+            unsafe { device.create_command_pool(&pool_info, None) }.map_err(ViewerError::vk("vkCreateCommandPool"))?;
         // SAFETY: the pool is unused.
         let destroy_pool = |p| unsafe { device.destroy_command_pool(p, None) };
         let pool = Made(pool, &destroy_pool, true);
@@ -133,8 +132,8 @@ impl SwapchainPresenter {
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
         // SAFETY: valid pool; freed with it.
-        let commands = unsafe { device.allocate_command_buffers(&alloc) }
-            .map_err(ViewerError::vk("vkAllocateCommandBuffers"))?[0];
+        let commands =
+            unsafe { device.allocate_command_buffers(&alloc) }.map_err(ViewerError::vk("vkAllocateCommandBuffers"))?[0];
         // SAFETY: valid device.
         let acquired = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
             .map_err(ViewerError::vk("vkCreateSemaphore"))?;
@@ -304,7 +303,8 @@ impl SwapchainPresenter {
             .signal_semaphores(&signals);
         let swapchains = [self.swapchain];
         let indices = [index];
-        let present = vk::PresentInfoKHR::default().wait_semaphores(&signals).swapchains(&swapchains).image_indices(&indices);
+        let present =
+            vk::PresentInfoKHR::default().wait_semaphores(&signals).swapchains(&swapchains).image_indices(&indices);
         // SAFETY: the fence is signalled and not in use (waited for after the last submission).
         unsafe { self.device.reset_fences(&[self.done]) }.map_err(ViewerError::vk("vkResetFences"))?;
         let outcome = self.ctx.with_raw_queue(|queue| {
@@ -333,10 +333,8 @@ impl SwapchainPresenter {
     fn record_copy(&self, buffer: vk::Buffer, image: vk::Image) -> Result<()> {
         let device = &self.device;
         let cb = self.commands;
-        let range = vk::ImageSubresourceRange::default()
-            .aspect_mask(vk::ImageAspectFlags::COLOR)
-            .level_count(1)
-            .layer_count(1);
+        let range =
+            vk::ImageSubresourceRange::default().aspect_mask(vk::ImageAspectFlags::COLOR).level_count(1).layer_count(1);
         // The display pass wrote the buffer in an earlier submission on this queue.
         let written = vk::MemoryBarrier::default()
             .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
@@ -360,7 +358,9 @@ impl SwapchainPresenter {
             .image(image)
             .subresource_range(range);
         let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
+            .image_subresource(
+                vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1),
+            )
             .image_extent(vk::Extent3D { width: self.extent.width, height: self.extent.height, depth: 1 });
         let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         // SAFETY: the command buffer is not in use (its last submission's fence was
