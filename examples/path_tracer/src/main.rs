@@ -265,15 +265,16 @@ fn view(cli: &Cli) -> anyhow::Result<()> {
     let log = ctx.messages();
     let mut renderer = path_tracer::view::ViewRenderer::new(&ctx, cli.width, cli.height, cli.max_depth)?;
     if cli.watch {
-        let (device, out_dir) = match &cli.device_dir {
-            Some(dir) => (dir.clone(), dir.join("target").join("spirv")),
+        let target = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("..").join("target");
+        let (device, out_dir, target) = match &cli.device_dir {
+            // Another crate of the same name builds apart, so its SPIR-V never stands in for this one's.
+            Some(dir) => (dir.clone(), dir.join("target").join("spirv"), target.join("watched-device")),
             None => {
                 let spv = raykit::spirv_path("path-tracer-device");
                 let out = spv.parent().context("the SPIR-V path has a directory")?.to_path_buf();
-                (std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("device"), out)
+                (std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("device"), out, target)
             }
         };
-        let target = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("..").join("target");
         renderer.watch(&device, &out_dir, &target)?;
     }
     let args = &cli.viewer;
