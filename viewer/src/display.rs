@@ -4,7 +4,7 @@
 
 use raykit::glam::Vec4;
 use raykit::{Context, DeviceBuffer, LinkOptions, Module, Pipeline, ProgramGroup, Sbt};
-use raykit_viewer_device::{layout, DisplayParams, DISPLAY};
+use raykit_viewer_device::{display_pixel, layout, DisplayParams, DISPLAY};
 
 use crate::error::Result;
 
@@ -37,6 +37,25 @@ impl PixelFormat {
     }
 }
 
+/// Samples per pixel of an accumulation: `above` in the rows above `split_row`,
+/// `below` from there down (a pass of row bands under way has reached `split_row`).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct Samples {
+    /// Samples per pixel above `split_row`.
+    pub above: u32,
+    /// The first row with `below` samples.
+    pub split_row: u32,
+    /// Samples per pixel from `split_row` down.
+    pub below: u32,
+}
+
+impl Samples {
+    /// `n` samples in every row.
+    pub fn whole(n: u32) -> Samples {
+        Samples { above: n, split_row: u32::MAX, below: n }
+    }
+}
+
 /// The linked display pass and the pixels it writes.
 pub struct DisplayPass {
     pipeline: Pipeline<DisplayParams>,
@@ -45,6 +64,8 @@ pub struct DisplayPass {
     width: u32,
     height: u32,
     format: PixelFormat,
+    /// Whether the context is the CPU backend's.
+    on_cpu: bool,
 }
 
 impl DisplayPass {
@@ -55,7 +76,8 @@ impl DisplayPass {
         let pipeline = Pipeline::<DisplayParams>::new(ctx, &[&raygen], LinkOptions::default())?;
         let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).build()?;
         let pixels = ctx.buffer::<u32>(width as usize * height as usize)?;
-        Ok(DisplayPass { pipeline, sbt, pixels, width, height, format })
+        let on_cpu = ctx.backend() == raykit::Backend::Cpu;
+        Ok(DisplayPass { pipeline, sbt, pixels, width, height, format, on_cpu })
     }
 
     /// A new pixel buffer for `width × height`.
@@ -68,19 +90,42 @@ impl DisplayPass {
         Ok(())
     }
 
-    /// Runs the pass over `accumulation` (`samples` per pixel); waits for it.
-    pub fn run(&self, accumulation: &DeviceBuffer<Vec4>, samples: u32, exposure: f32) -> Result<()> {
+    /// Runs the pass over `accumulation` (`samples` per pixel above `split_row`,
+    /// `samples_below` from there down); waits for it.
+    pub fn run(&mut self, accumulation: &DeviceBuffer<Vec4>, samples: Samples, exposure: f32) -> Result<()> {
         let params = DisplayParams {
             accum: accumulation.handle(),
             pixels: self.pixels.handle(),
             width: self.width,
-            samples,
+            samples: samples.above,
             exposure,
             layout: self.format.layout,
             alpha: self.format.alpha,
-            _pad: 0,
+            split_row: samples.split_row.min(self.height),
+            samples_below: samples.below,
         };
+        if self.on_cpu {
+            return self.run_on_host(accumulation, &params);
+        }
         self.pipeline.launch(&self.sbt, &params, [self.width, self.height, 1])?;
+        Ok(())
+    }
+
+    /// The CPU backend's display pass: the program's own function over the rows
+    /// in parallel, without a launch's per-invocation machinery (the same bytes:
+    /// on the CPU backend a launch calls this function too).
+    fn run_on_host(&mut self, accumulation: &DeviceBuffer<Vec4>, p: &DisplayParams) -> Result<()> {
+        use rayon::prelude::*;
+        let sums = accumulation.read()?;
+        let mut pixels = vec![0u32; sums.len()];
+        let width = p.width.max(1) as usize;
+        pixels.par_chunks_mut(width).zip(sums.par_chunks(width)).enumerate().for_each(|(y, (out, row))| {
+            let samples = if (y as u32) < p.split_row { p.samples } else { p.samples_below };
+            for (pixel, sum) in out.iter_mut().zip(row) {
+                *pixel = display_pixel(sum.truncate(), samples, p.exposure, p.layout, p.alpha);
+            }
+        });
+        self.pixels.write(&pixels)?;
         Ok(())
     }
 

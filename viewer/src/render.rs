@@ -1,6 +1,8 @@
 //! What the viewer asks of a renderer: a progressive accumulation it can launch a
 //! few samples at a time, aim, resize and restart.
 
+use std::ops::Range;
+
 use raykit::glam::Vec4;
 use raykit::{Context, DeviceBuffer, Launch};
 use raykit_scene::Camera;
@@ -29,6 +31,23 @@ pub trait Render {
     /// Submits a launch adding `samples` samples per pixel and returns it without
     /// waiting; the viewer waits for (or polls) it before reading the accumulation.
     fn launch(&mut self, samples: u32) -> Result<Launch, RenderError>;
+
+    /// Whether [`Render::launch_rows`] works: a renderer that can launch a band of
+    /// rows lets the viewer keep frames short when one sample of the whole image
+    /// takes longer than the target frame time.
+    fn launches_rows(&self) -> bool {
+        false
+    }
+
+    /// Submits a launch adding `samples` samples per pixel to the rows `rows` only,
+    /// as part of the current launch of the progressive sequence: the launch that
+    /// reaches the last row completes it (then [`Render::samples_done`] counts
+    /// `samples` more and the next launch is the sequence's next). The viewer sends
+    /// the bands of one pass top to bottom, each starting where the last ended.
+    fn launch_rows(&mut self, samples: u32, rows: Range<u32>) -> Result<Launch, RenderError> {
+        let _ = (samples, rows);
+        Err("this renderer launches whole images only".into())
+    }
 
     /// The accumulation buffer (see the trait's docs).
     fn accumulation(&self) -> &DeviceBuffer<Vec4>;

@@ -11,7 +11,7 @@ use raykit::Launch;
 use raykit_scene::Camera;
 
 use crate::camera::{format_camera, CameraRig};
-use crate::display::{DisplayPass, PixelFormat};
+use crate::display::{DisplayPass, PixelFormat, Samples};
 use crate::error::{Result, ViewerError};
 use crate::input::ViewerInput;
 use crate::render::Render;
@@ -58,8 +58,10 @@ pub enum Tick {
 struct InFlight {
     launch: Launch,
     samples: u32,
+    /// Rows it renders.
+    rows: u32,
     /// Samples per pixel in the accumulation once it has finished.
-    total: u32,
+    shown: Samples,
     submitted: Instant,
 }
 
@@ -104,8 +106,14 @@ pub struct Viewer<R: Render> {
     in_flight: Option<InFlight>,
     /// Samples per pixel of the next frame.
     next_samples: u32,
+    /// Rows of the next frame when one sample of the whole image takes longer
+    /// than the target frame time (and the renderer launches rows); `None`: the
+    /// whole image.
+    band_rows: Option<u32>,
+    /// The first row of the next band of a pass under way (0: none is).
+    band_next_row: u32,
     /// Samples per pixel shown by the last displayed frame.
-    displayed_samples: u32,
+    displayed: Samples,
     frames: u64,
     paused: bool,
     screenshots: Vec<PathBuf>,
@@ -139,7 +147,9 @@ impl<R: Render> Viewer<R> {
             options,
             in_flight: None,
             next_samples,
-            displayed_samples: 0,
+            band_rows: None,
+            band_next_row: 0,
+            displayed: Samples::default(),
             frames: 0,
             paused: false,
             screenshots: Vec::new(),
@@ -174,9 +184,20 @@ impl<R: Render> Viewer<R> {
         self.frames
     }
 
-    /// Samples per pixel in the displayed picture.
+    /// Samples per pixel in every row of the displayed picture (a pass of row
+    /// bands under way has one more above [`Viewer::displayed`]'s split row).
     pub fn displayed_samples(&self) -> u32 {
-        self.displayed_samples
+        self.displayed.below
+    }
+
+    /// Samples per pixel of the displayed picture, by rows.
+    pub fn displayed(&self) -> Samples {
+        self.displayed
+    }
+
+    /// Rows per frame while frames launch bands of rows (`None`: whole images).
+    pub fn band_rows(&self) -> Option<u32> {
+        self.band_rows
     }
 
     /// Samples per pixel the next frame launches.
@@ -241,6 +262,7 @@ impl<R: Render> Viewer<R> {
     /// Starts the accumulation over.
     fn restart(&mut self) {
         self.renderer.reset();
+        self.band_next_row = 0;
         self.stats.rays = 0;
         self.stats.render_seconds = 0.0;
         if self.options.samples_per_frame.is_none() {
@@ -261,7 +283,8 @@ impl<R: Render> Viewer<R> {
         self.renderer.set_camera(&self.rig.camera());
         let ctx = self.renderer.context().clone();
         self.display.resize(&ctx, width, height)?;
-        self.displayed_samples = 0;
+        self.displayed = Samples::default();
+        self.band_rows = self.band_rows.map(|rows| rows.min(height));
         self.restart();
         Ok(())
     }
@@ -282,9 +305,9 @@ impl<R: Render> Viewer<R> {
             if !in_flight.launch.is_done()? {
                 return Ok(Tick::Working);
             }
-            if let Some(InFlight { launch, samples, total, submitted }) = self.in_flight.take() {
+            if let Some(InFlight { launch, samples, rows, shown, submitted }) = self.in_flight.take() {
                 launch.wait()?;
-                self.frame_finished(samples, total, submitted.elapsed())?;
+                self.frame_finished(samples, rows, shown, submitted.elapsed())?;
                 return Ok(Tick::Displayed);
             }
         }
@@ -301,13 +324,35 @@ impl<R: Render> Viewer<R> {
                 Err(e) => eprintln!("keeping the previous pipeline: {e}"),
             }
         }
-        let mut samples = self.next_samples;
-        if let Some(max) = self.options.max_samples {
-            samples = samples.min(max - self.renderer.samples_done());
-        }
-        let launch = self.renderer.launch(samples).map_err(ViewerError::Render)?;
-        let total = self.renderer.samples_done();
-        self.in_flight = Some(InFlight { launch, samples, total, submitted: Instant::now() });
+        let done = self.renderer.samples_done();
+        let height = self.display.size().1;
+        let band = if self.band_next_row > 0 {
+            // A pass under way goes on (in one launch when whole images resume).
+            let start = self.band_next_row;
+            Some(start..(start + self.band_rows.unwrap_or(height).max(1)).min(height))
+        } else {
+            self.band_rows.map(|rows| 0..rows.clamp(1, height))
+        };
+        let in_flight = if let Some(rows) = band {
+            let launch = self.renderer.launch_rows(1, rows.clone()).map_err(ViewerError::Render)?;
+            let shown = if rows.end == height {
+                self.band_next_row = 0;
+                Samples::whole(done + 1)
+            } else {
+                self.band_next_row = rows.end;
+                Samples { above: done + 1, split_row: rows.end, below: done }
+            };
+            InFlight { launch, samples: 1, rows: rows.len() as u32, shown, submitted: Instant::now() }
+        } else {
+            let mut samples = self.next_samples;
+            if let Some(max) = self.options.max_samples {
+                samples = samples.min(max - done);
+            }
+            let launch = self.renderer.launch(samples).map_err(ViewerError::Render)?;
+            let shown = Samples::whole(self.renderer.samples_done());
+            InFlight { launch, samples, rows: height, shown, submitted: Instant::now() }
+        };
+        self.in_flight = Some(in_flight);
         Ok(Tick::Working)
     }
 
@@ -321,9 +366,9 @@ impl<R: Render> Viewer<R> {
                 Tick::Working => {
                     if let Some(in_flight) = self.in_flight.take() {
                         // Blocks; the next tick finds nothing in flight, so hand it back.
-                        let InFlight { launch, samples, total, submitted } = in_flight;
+                        let InFlight { launch, samples, rows, shown, submitted } = in_flight;
                         launch.wait()?;
-                        self.frame_finished(samples, total, submitted.elapsed())?;
+                        self.frame_finished(samples, rows, shown, submitted.elapsed())?;
                         return Ok(true);
                     }
                 }
@@ -331,11 +376,11 @@ impl<R: Render> Viewer<R> {
         }
     }
 
-    /// A launch of `samples` finished in `took`: runs the display pass, counts the
-    /// frame, adapts the samples per frame, writes waiting screenshots.
-    fn frame_finished(&mut self, samples: u32, total: u32, took: Duration) -> Result<()> {
-        self.display.run(self.renderer.accumulation(), total, self.options.exposure)?;
-        self.displayed_samples = total;
+    /// A launch of `samples` over `rows` rows finished in `took`: runs the display
+    /// pass, counts the frame, adapts the work per frame, writes waiting screenshots.
+    fn frame_finished(&mut self, samples: u32, rows: u32, shown: Samples, took: Duration) -> Result<()> {
+        self.display.run(self.renderer.accumulation(), shown, self.options.exposure)?;
+        self.displayed = shown;
         self.frames += 1;
         let now = Instant::now();
         if let Some(last) = self.stats.last_display.replace(now) {
@@ -344,10 +389,7 @@ impl<R: Render> Viewer<R> {
         self.stats.frame_samples.push(samples);
         self.stats.render_seconds += took.as_secs_f64();
         if self.options.samples_per_frame.is_none() {
-            let target = self.options.target_frame_time.as_secs_f64();
-            let rate = samples as f64 / took.as_secs_f64().max(1e-6);
-            let next = (rate * target).floor().clamp(1.0, (2 * samples).max(1) as f64);
-            self.next_samples = (next as u32).min(MAX_SAMPLES_PER_FRAME);
+            self.adapt(samples, rows, took);
         }
         if self.rays_counted_at.is_none_or(|at| at.elapsed() > Duration::from_millis(500)) {
             // The accumulation's w counts rays; no launch runs now, so this does not wait.
@@ -356,6 +398,28 @@ impl<R: Render> Viewer<R> {
             self.rays_counted_at = Some(now);
         }
         self.write_screenshots()
+    }
+
+    /// Sizes the next frame's work to the target frame time from the time a
+    /// frame of `samples` samples over `rows` rows took: whole images of at most
+    /// twice as many samples, or, when one sample of the whole image would take
+    /// longer than the target and the renderer launches rows, bands of at most
+    /// twice as many rows of one sample.
+    fn adapt(&mut self, samples: u32, rows: u32, took: Duration) {
+        let height = self.display.size().1;
+        let target = self.options.target_frame_time.as_secs_f64();
+        // Sample-rows the target frame time affords.
+        let budget = (samples as f64 * rows as f64) * target / took.as_secs_f64().max(1e-6);
+        if budget >= height as f64 || !self.renderer.launches_rows() {
+            let limit = if self.band_rows.is_some() { 1.0 } else { (2 * samples).max(1) as f64 };
+            self.band_rows = None;
+            let next = (budget / height as f64).floor().clamp(1.0, limit);
+            self.next_samples = (next as u32).min(MAX_SAMPLES_PER_FRAME);
+        } else {
+            let limit = (2 * rows).max(1) as f64;
+            self.band_rows = Some((budget.floor().clamp(1.0, limit) as u32).min(height));
+            self.next_samples = 1;
+        }
     }
 
     /// Writes the screenshots asked for.
@@ -379,9 +443,16 @@ impl<R: Render> Viewer<R> {
         }
         let screenshot_error = |source| ViewerError::Screenshot { path: path.to_path_buf(), source };
         raykit_scene::write_png_rgba8(path, width, height, &pixels).map_err(screenshot_error)?;
-        let n = self.displayed_samples.max(1) as f32;
-        let shown = |a: &raykit::glam::Vec4| if self.displayed_samples == 0 { Vec3::ZERO } else { a.truncate() / n };
-        let radiance: Vec<Vec3> = self.renderer.accumulation().read()?.iter().map(shown).collect();
+        let samples = self.displayed;
+        let mean = |(i, a): (usize, &raykit::glam::Vec4)| {
+            let n = if (i as u32 / width) < samples.split_row { samples.above } else { samples.below };
+            if n == 0 {
+                Vec3::ZERO
+            } else {
+                a.truncate() / n as f32
+            }
+        };
+        let radiance: Vec<Vec3> = self.renderer.accumulation().read()?.iter().enumerate().map(mean).collect();
         let exr = path.with_extension("exr");
         raykit_scene::write_exr(&exr, width, height, &radiance)
             .map_err(|source| ViewerError::Screenshot { path: exr.clone(), source })?;
@@ -389,7 +460,7 @@ impl<R: Render> Viewer<R> {
             "screenshot: {} and {} ({width}x{height}, {} spp, camera {})",
             path.display(),
             exr.display(),
-            self.displayed_samples,
+            self.displayed.below,
             format_camera(&self.rig.camera())
         );
         Ok(())
@@ -400,10 +471,13 @@ impl<R: Render> Viewer<R> {
     pub fn stats_line(&self) -> String {
         let ctx = self.renderer.context();
         let frame_ms = self.stats.median_frame_time(15).map_or(String::from("-"), |t| format!("{:.1}", t * 1e3));
+        let per_frame = match self.band_rows {
+            Some(rows) => format!("{rows} rows/frame"),
+            None => format!("{} spp/frame", self.stats.frame_samples.last().copied().unwrap_or(0)),
+        };
         format!(
-            "{} spp · {} spp/frame · {frame_ms} ms/frame · {:.2} Mrays/s · {:?}: {}",
-            self.displayed_samples,
-            self.stats.frame_samples.last().copied().unwrap_or(0),
+            "{} spp · {per_frame} · {frame_ms} ms/frame · {:.2} Mrays/s · {:?}: {}",
+            self.displayed.below,
             self.stats.mrays_per_second(),
             ctx.backend(),
             ctx.device_name()

@@ -256,6 +256,23 @@ impl Renderer {
         Ok(launch)
     }
 
+    /// Submits a launch adding `samples` paths per pixel to the rows `rows` only,
+    /// with the seeds of the current launch of the progressive sequence, without
+    /// waiting; the launch that reaches the last row completes that launch (the
+    /// next one is the sequence's next). A pass of bands from the top to the bottom
+    /// accumulates what one [`Renderer::launch_async`] does, bit for bit.
+    pub fn launch_rows_async(&mut self, samples: u32, rows: Range<u32>) -> raykit::Result<raykit::Launch> {
+        let size = self.params.size;
+        let rows = rows.start.min(size.y)..rows.end.min(size.y);
+        let params = Params { subframe: self.subframe, samples, row_offset: rows.start, ..self.params };
+        let launch = self.pipeline.launch_async(&self.sbt, &params, [size.x, rows.len().max(1) as u32, 1])?;
+        if rows.end == size.y {
+            self.subframe += 1;
+            self.samples_done += samples;
+        }
+        Ok(launch)
+    }
+
     /// The accumulation buffer (per pixel: radiance sum in xyz, rays in w).
     pub fn accumulation_buffer(&self) -> &DeviceBuffer<Vec4> {
         &self.accum

@@ -70,6 +70,14 @@ impl Render for ViewRenderer {
         Ok(self.renderer.launch_async(samples)?)
     }
 
+    fn launches_rows(&self) -> bool {
+        true
+    }
+
+    fn launch_rows(&mut self, samples: u32, rows: std::ops::Range<u32>) -> Result<Launch, RenderError> {
+        Ok(self.renderer.launch_rows_async(samples, rows)?)
+    }
+
     fn accumulation(&self) -> &DeviceBuffer<Vec4> {
         self.renderer.accumulation_buffer()
     }

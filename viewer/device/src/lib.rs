@@ -34,7 +34,7 @@ pub struct DisplayParams {
     pub pixels: Buffer<u32>,
     /// Pixels per row.
     pub width: u32,
-    /// Samples per pixel in `accum` (0 shows black).
+    /// Samples per pixel in `accum` in the rows above `split_row` (0 shows black).
     pub samples: u32,
     /// Scale applied to the mean radiance before the tonemap.
     pub exposure: f32,
@@ -42,8 +42,11 @@ pub struct DisplayParams {
     pub layout: u32,
     /// The alpha byte written (255 for a swapchain image, 0 for softbuffer).
     pub alpha: u32,
-    /// Padding.
-    pub _pad: u32,
+    /// The first row with `samples_below` samples per pixel: a pass of row bands
+    /// has reached the rows above it (the image's height when no pass is under way).
+    pub split_row: u32,
+    /// Samples per pixel in the rows from `split_row` down.
+    pub samples_below: u32,
 }
 
 /// The displayed `u32` of an accumulated radiance sum `sum` after `samples`
@@ -64,7 +67,8 @@ fn display(ctx: &mut Raygen, #[params] p: &DisplayParams) {
     let index = ctx.launch_index();
     let pixel = index.x + p.width * index.y;
     let sum: Vec4 = ctx.load(p.accum, pixel);
-    let value = display_pixel(sum.truncate(), p.samples, p.exposure, p.layout, p.alpha);
+    let samples = if index.y < p.split_row { p.samples } else { p.samples_below };
+    let value = display_pixel(sum.truncate(), samples, p.exposure, p.layout, p.alpha);
     ctx.store(p.pixels, pixel, value);
 }
 
