@@ -367,6 +367,33 @@ impl Context {
     pub fn raw_buffer_table_layout(&self) -> Option<vk::DescriptorSetLayout> {
         self.as_vulkan().map(|inner| inner.buffer_table.layout)
     }
+    /// The Vulkan loader's entry points the instance was made with.
+    pub fn raw_entry(&self) -> Option<&ash::Entry> {
+        self.as_vulkan().map(|inner| &inner.shared.instance.entry)
+    }
+    /// The physical device.
+    pub fn raw_physical_device(&self) -> Option<vk::PhysicalDevice> {
+        self.as_vulkan().map(|inner| inner.shared.physical)
+    }
+    /// Runs `f` with the device's one queue (queue 0 of [`Context::queue_family`])
+    /// while holding the lock every raykit submission takes, so `f` may submit to it
+    /// or present on it (`vkQueueSubmit` and `vkQueuePresentKHR` need the queue
+    /// externally synchronised). `None` on the CPU backend.
+    ///
+    /// Work submitted this way is outside raykit's timeline: wait for it before
+    /// dropping raykit objects it uses.
+    pub fn with_raw_queue<R>(&self, f: impl FnOnce(vk::Queue) -> R) -> Option<R> {
+        let inner = self.as_vulkan()?;
+        let queue = inner.shared.queue.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        Some(f(*queue))
+    }
+    /// Whether windows can present from this device: the instance has
+    /// `VK_KHR_surface` and a window system's surface extension (raykit enables
+    /// those the loader has: Xlib, XCB, Wayland, Win32, Metal), and the device has
+    /// `VK_KHR_swapchain` (enabled where it exists). `false` on the CPU backend.
+    pub fn supports_presentation(&self) -> bool {
+        self.as_vulkan().is_some_and(|inner| inner.shared.swapchain)
+    }
 }
 
 impl std::fmt::Debug for Context {

@@ -32,6 +32,7 @@
 use std::marker::PhantomData;
 use std::sync::Arc;
 
+use ash::vk;
 use gpu_allocator::MemoryLocation;
 use raykit_device::{Buffer, Element};
 
@@ -197,6 +198,17 @@ impl<T: Element> DeviceBuffer<T> {
         match &self.repr {
             BufferRepr::Vulkan(vulkan) => vulkan.mapped().is_some(),
             BufferRepr::Cpu { .. } => true,
+        }
+    }
+
+    /// The `VkBuffer` (usable as a transfer source and destination and as a storage
+    /// buffer), for Vulkan code beside raykit such as a window's presentation; `None`
+    /// on the CPU backend. Work on it submitted outside raykit (see
+    /// [`Context::with_raw_queue`]) must have finished before the buffer is dropped.
+    pub fn raw_buffer(&self) -> Option<vk::Buffer> {
+        match &self.repr {
+            BufferRepr::Vulkan(vulkan) => Some(vulkan.raw.buffer),
+            BufferRepr::Cpu { .. } => None,
         }
     }
 

@@ -22,6 +22,7 @@
 //! and runs it.
 
 mod demo;
+mod display;
 mod layers;
 mod lint;
 mod setup;
@@ -143,6 +144,7 @@ fn main() -> anyhow::Result<()> {
             setup::ensure_toolchain()?;
             setup::ensure_vulkan(true)?;
             setup::ensure_glsl_tools()?;
+            display::ensure_xvfb()?;
             lint::run_all(&root)?;
             shaders::build_all(&root, false)?;
             let mut cmd = cargo();
@@ -158,7 +160,12 @@ fn main() -> anyhow::Result<()> {
                 // device is a failure, not a skip.
                 cmd.env("RAYKIT_REQUIRE_DEVICE", "1");
             }
+            // The viewer's window tests open windows on a virtual display.
+            let xvfb = display::VirtualDisplay::start()?;
+            cmd.env("DISPLAY", &xvfb.display);
+            cmd.env("RAYKIT_REQUIRE_DISPLAY", "1");
             run(&mut cmd, "cargo test")?;
+            drop(xvfb);
         }
         Cmd::Bench { shaders, args } => {
             setup::ensure_vulkan(false)?;

@@ -67,7 +67,7 @@ fn probe() -> Probe {
     Probe { loader: true, devices, validation_layer }
 }
 
-fn is_root() -> bool {
+pub fn is_root() -> bool {
     output(Command::new("id").arg("-u")).is_some_and(|s| s.trim() == "0")
 }
 
@@ -93,7 +93,7 @@ fn backports_configured() -> bool {
     texts.iter().any(|t| t.contains("bookworm-backports"))
 }
 
-fn apt_get(args: &[&str]) -> anyhow::Result<()> {
+pub fn apt_get(args: &[&str]) -> anyhow::Result<()> {
     let mut cmd = Command::new("apt-get");
     cmd.args(args).env("DEBIAN_FRONTEND", "noninteractive");
     crate::run(&mut cmd, &format!("apt-get {}", args.join(" ")))

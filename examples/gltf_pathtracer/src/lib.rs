@@ -23,6 +23,7 @@ use raykit_scene::{Camera, EnvironmentMap};
 pub use gltf_pathtracer_device as device;
 
 pub mod demo_scene;
+pub mod view;
 
 /// A primitive's device buffers.
 struct PrimitiveBuffers {
@@ -411,6 +412,44 @@ impl PathTracer {
     /// Paths per pixel so far.
     pub fn samples_done(&self) -> u32 {
         self.samples_done
+    }
+
+    /// Starts over: the next launch overwrites the accumulation.
+    pub fn reset(&mut self) {
+        self.params.subframe = 0;
+        self.samples_done = 0;
+    }
+
+    /// Aims `camera` at the image's aspect; starts over.
+    pub fn set_camera(&mut self, camera: &Camera) {
+        let size = self.params.size;
+        let (u, v, w) = camera.uvw(size.x as f32 / size.y as f32);
+        (self.params.cam_eye, self.params.cam_u, self.params.cam_v, self.params.cam_w) = (camera.eye, u, v, w);
+        self.reset();
+    }
+
+    /// A new accumulation buffer for `width × height` pixels seen by `camera`; starts over.
+    pub fn resize(&mut self, ctx: &Context, width: u32, height: u32, camera: &Camera) -> anyhow::Result<()> {
+        self.accum = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        self.params.accum = self.accum.handle();
+        self.params.size = UVec2::new(width, height);
+        self.set_camera(camera);
+        Ok(())
+    }
+
+    /// Submits a launch adding `samples` paths per pixel without waiting for it.
+    pub fn launch_async(&mut self, samples: u32) -> anyhow::Result<raykit::Launch> {
+        let params = TraceParams { subframe: self.params.subframe, samples, ..self.params };
+        let size = self.params.size;
+        let launch = self.pipeline.launch_async(&self.sbt, &params, [size.x, size.y, 1])?;
+        self.params.subframe += 1;
+        self.samples_done += samples;
+        Ok(launch)
+    }
+
+    /// The accumulation buffer: per pixel, the radiance sum (xyz) and the rays traced (w).
+    pub fn accumulation(&self) -> &DeviceBuffer<Vec4> {
+        &self.accum
     }
 
     /// Mean radiance per pixel so far, and the rays traced.

@@ -2,7 +2,8 @@
 //! [--spp N] [--max-depth N] [--no-light-sampling] [--materials callables|inlined] [--backend vulkan|cpu]
 //! [-o FILE.png]`: path-traces a glTF scene lit by its emissive triangles and an environment map (an
 //! OpenEXR equirectangular map, or a procedural sky), progressively with a progress bar, to a tonemapped
-//! PNG and the linear radiance as OpenEXR beside it.
+//! PNG and the linear radiance as OpenEXR beside it. `--view` opens the interactive viewer on the scene
+//! instead (`raykit-viewer`), and `--headless --frames N [--camera ...]` writes what its window would show.
 //!
 //! Build the shaders first (`cargo xtask build-shaders`).
 
@@ -57,6 +58,8 @@ struct Cli {
     /// `RAYKIT_BACKEND` environment variable, else `vulkan`.
     #[arg(long, value_parser = ["vulkan", "cpu"])]
     backend: Option<String>,
+    #[command(flatten)]
+    viewer: raykit_viewer::ViewerArgs,
 }
 
 fn load_env(path: &std::path::Path) -> anyhow::Result<EnvironmentMap> {
@@ -85,8 +88,11 @@ fn main() -> anyhow::Result<()> {
     let backend =
         cli.backend.as_deref().map(|b| if b == "cpu" { raykit::Backend::Cpu } else { raykit::Backend::Vulkan });
     let ctx = raykit::Context::new(raykit::ContextOptions { backend, ..Default::default() })?;
-    let gpu = GpuScene::new(&ctx, &scene)?;
     let camera = framing_camera(&scene);
+    if cli.viewer.view || cli.viewer.headless {
+        return view(&cli, &ctx, &scene, &env, camera);
+    }
+    let gpu = GpuScene::new(&ctx, &scene)?;
     if let Some(mode) = &cli.materials {
         let mode = if mode == "callables" { MaterialMode::Callables } else { MaterialMode::Inlined };
         let renderer = MaterialRenderer::new(&ctx, &gpu, mode)?;
@@ -128,6 +134,34 @@ fn main() -> anyhow::Result<()> {
         cli.output.display(),
         exr.display()
     );
+    Ok(())
+}
+
+/// `--view` and `--headless`: the scene in the viewer's window, or what the window
+/// would show written to `--output`.
+fn view(
+    cli: &Cli,
+    ctx: &raykit::Context,
+    scene: &GltfScene,
+    env: &EnvironmentMap,
+    camera: raykit_scene::Camera,
+) -> anyhow::Result<()> {
+    let mut renderer = gltf_pathtracer::view::ViewRenderer::new(ctx, scene, env, &camera)?;
+    renderer.tracer_mut().set_max_depth(cli.max_depth);
+    renderer.tracer_mut().set_light_sampling(!cli.no_light_sampling);
+    let args = &cli.viewer;
+    let camera = args.camera_or(camera)?;
+    let frames = args.frame_options(1.0);
+    let summary = if args.headless {
+        let count = args.frames.context("--headless renders --frames N frames; give N")?;
+        raykit_viewer::headless::run(renderer, camera, cli.width, cli.height, frames, count, &cli.output)?
+    } else {
+        let title = format!("raykit gltf_pathtracer: {}", cli.scene.display());
+        let (width, height, script, frame_limit) = (cli.width, cli.height, args.script()?, args.frames);
+        let options = raykit_viewer::WindowOptions { title, width, height, camera, frames, script, frame_limit };
+        raykit_viewer::window::run(renderer, options)?
+    };
+    println!("viewer: {}", summary.line());
     Ok(())
 }
 

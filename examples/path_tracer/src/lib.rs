@@ -33,6 +33,8 @@ pub use raykit_scene::Camera;
 
 pub use path_tracer_device as device;
 
+pub mod view;
+
 /// optixPathTracer's camera.
 pub const CAMERA: Camera = Camera {
     eye: scene::CAMERA_EYE,
@@ -222,6 +224,58 @@ impl Renderer {
         self.sbt = sbt;
         self.reset();
         Ok(())
+    }
+
+    /// Aims `camera` (the default is [`CAMERA`]) at the image's aspect; starts
+    /// sampling over.
+    pub fn set_camera(&mut self, camera: &Camera) {
+        let size = self.params.size;
+        let (u, v, w) = camera.uvw(size.x as f32 / size.y as f32);
+        (self.params.cam_eye, self.params.cam_u, self.params.cam_v, self.params.cam_w) = (camera.eye, u, v, w);
+        self.reset();
+    }
+
+    /// A new accumulation buffer for `width × height` pixels, the camera kept
+    /// (its frame follows the new aspect); starts sampling over.
+    pub fn resize(&mut self, ctx: &Context, width: u32, height: u32, camera: &Camera) -> raykit::Result<()> {
+        self.accum = ctx.buffer::<Vec4>(width as usize * height as usize)?;
+        self.params.accum = self.accum.handle();
+        self.params.size = UVec2::new(width, height);
+        self.set_camera(camera);
+        Ok(())
+    }
+
+    /// Submits a launch adding `samples` paths per pixel without waiting for it
+    /// (the viewer's frames); the accumulation is complete once it has finished.
+    pub fn launch_async(&mut self, samples: u32) -> raykit::Result<raykit::Launch> {
+        let params = Params { subframe: self.subframe, samples, ..self.params };
+        let size = self.params.size;
+        let launch = self.pipeline.launch_async(&self.sbt, &params, [size.x, size.y, 1])?;
+        self.subframe += 1;
+        self.samples_done += samples;
+        Ok(launch)
+    }
+
+    /// Submits a launch adding `samples` paths per pixel to the rows `rows` only,
+    /// with the seeds of the current launch of the progressive sequence, without
+    /// waiting; the launch that reaches the last row completes that launch (the
+    /// next one is the sequence's next). A pass of bands from the top to the bottom
+    /// accumulates what one [`Renderer::launch_async`] does, bit for bit.
+    pub fn launch_rows_async(&mut self, samples: u32, rows: Range<u32>) -> raykit::Result<raykit::Launch> {
+        let size = self.params.size;
+        let rows = rows.start.min(size.y)..rows.end.min(size.y);
+        let params = Params { subframe: self.subframe, samples, row_offset: rows.start, ..self.params };
+        let launch = self.pipeline.launch_async(&self.sbt, &params, [size.x, rows.len().max(1) as u32, 1])?;
+        if rows.end == size.y {
+            self.subframe += 1;
+            self.samples_done += samples;
+        }
+        Ok(launch)
+    }
+
+    /// The accumulation buffer (per pixel: radiance sum in xyz, rays in w).
+    pub fn accumulation_buffer(&self) -> &DeviceBuffer<Vec4> {
+        &self.accum
     }
 
     /// Sets the safety cap on path length (bounces; the default is

@@ -5,6 +5,12 @@
 //! pipeline and renders the picture again (a compile error is printed and the old
 //! pipeline stays).
 //!
+//! `--view` opens the interactive viewer (`raykit-viewer`) on the box instead: a
+//! window that refines the picture while the camera moves, with `--watch` swapping
+//! the pipeline in the running window. `--headless --frames N [--camera ...]
+//! [--spp-per-frame K]` writes what that window would show after N frames to
+//! `--output` (PNG, and the radiance as EXR).
+//!
 //! With `--devices all` it renders on every ray-tracing GPU at once: each launch
 //! is split into bands of rows by the devices' measured speeds, and the bands are
 //! gathered into one picture, the same as one device's. `--devices N` makes N
@@ -79,6 +85,12 @@ struct Cli {
     /// after each change (hot reload), until interrupted.
     #[arg(long, conflicts_with_all = ["glsl", "wgsl"])]
     watch: bool,
+    /// The device crate `--watch` rebuilds in the viewer (default:
+    /// `examples/path_tracer/device`; another crate's SPIR-V goes to its `target/spirv/`).
+    #[arg(long, requires = "watch")]
+    device_dir: Option<PathBuf>,
+    #[command(flatten)]
+    viewer: raykit_viewer::ViewerArgs,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -86,6 +98,9 @@ fn main() -> anyhow::Result<()> {
     anyhow::ensure!(cli.width > 0 && cli.height > 0, "--width and --height must be at least 1");
     anyhow::ensure!(cli.spp > 0 && cli.spp_per_launch > 0, "--spp and --spp-per-launch must be at least 1");
     anyhow::ensure!(cli.max_depth > 0, "--max-depth must be at least 1");
+    if cli.viewer.view || cli.viewer.headless {
+        return view(&cli);
+    }
     if cli.devices.is_some() || cli.backend.as_deref() == Some("vulkan,cpu") {
         return render_group(&cli);
     }
@@ -232,6 +247,67 @@ fn render(cli: &Cli, ctx: &Context, renderer: &mut Renderer) -> anyhow::Result<(
         cli.output.display(),
         pfm.display()
     );
+    Ok(())
+}
+
+/// `--view` and `--headless`: the Cornell box in the viewer's window, or what the
+/// window would show written to `--output`.
+fn view(cli: &Cli) -> anyhow::Result<()> {
+    anyhow::ensure!(!(cli.glsl || cli.wgsl), "--view and --headless run the Rust programs (drop --glsl/--wgsl)");
+    anyhow::ensure!(cli.devices.is_none(), "--view and --headless render on one device (drop --devices)");
+    let backend = match cli.backend.as_deref() {
+        Some("cpu") => Some(Backend::Cpu),
+        Some("vulkan") => Some(Backend::Vulkan),
+        Some(other) => anyhow::bail!("--view and --headless take --backend vulkan or cpu, not {other}"),
+        None => None,
+    };
+    let ctx = Context::new(ContextOptions { device_name_contains: cli.device.clone(), backend, ..Default::default() })?;
+    let log = ctx.messages();
+    let mut renderer = path_tracer::view::ViewRenderer::new(&ctx, cli.width, cli.height, cli.max_depth)?;
+    if cli.watch {
+        let target = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("..").join("target");
+        let (device, out_dir, target) = match &cli.device_dir {
+            // Another crate of the same name builds apart, so its SPIR-V never stands in for this one's.
+            Some(dir) => (dir.clone(), dir.join("target").join("spirv"), target.join("watched-device")),
+            None => {
+                let spv = raykit::spirv_path("path-tracer-device");
+                let out = spv.parent().context("the SPIR-V path has a directory")?.to_path_buf();
+                (std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("device"), out, target)
+            }
+        };
+        renderer.watch(&device, &out_dir, &target)?;
+    }
+    let args = &cli.viewer;
+    let camera = args.camera_or(path_tracer::CAMERA)?;
+    let frames = args.frame_options(cli.exposure);
+    drop(ctx);
+    let summary = if args.headless {
+        let count = args.frames.context("--headless renders --frames N frames; give N")?;
+        raykit_viewer::headless::run(renderer, camera, cli.width, cli.height, frames, count, &cli.output)?
+    } else {
+        let options = raykit_viewer::WindowOptions {
+            title: "raykit path_tracer".into(),
+            width: cli.width,
+            height: cli.height,
+            camera,
+            frames,
+            script: args.script()?,
+            frame_limit: args.frames,
+        };
+        raykit_viewer::window::run(renderer, options)?
+    };
+    println!("viewer: {}", summary.line());
+    report_validation(&log)
+}
+
+/// Prints the validation messages the viewer's context collected (with
+/// `RAYKIT_VALIDATION=1`) and fails when there are any.
+fn report_validation(log: &raykit::MessageLog) -> anyhow::Result<()> {
+    let messages = log.snapshot();
+    for message in &messages {
+        eprintln!("validation: {message}");
+    }
+    anyhow::ensure!(messages.is_empty(), "{} validation message(s)", messages.len());
     Ok(())
 }
 

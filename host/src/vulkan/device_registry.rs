@@ -31,10 +31,13 @@ const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 /// keeps the loader and drivers loaded for the life of the process (NVIDIA's driver
 /// does not survive being unloaded and loaded again many times in one process).
 pub(crate) struct SharedInstance {
-    _entry: ash::Entry,
+    pub(crate) entry: ash::Entry,
     pub(crate) instance: ash::Instance,
     /// Whether `VK_EXT_debug_utils` is on (debug names and the messenger).
     pub(crate) debug_utils: bool,
+    /// Whether `VK_KHR_surface` and the window systems' surface extensions the
+    /// loader has are on (windows can present raykit's results).
+    pub(crate) surface: bool,
     /// Where the messenger delivers messages: the contexts made on this instance.
     pub(crate) routes: &'static Routes,
     _messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
@@ -93,6 +96,9 @@ fn create_instance(validation: bool) -> Result<SharedInstance> {
     if debug_utils {
         extensions.push(ash::ext::debug_utils::NAME.as_ptr());
     }
+    let surface_extensions = surface_extensions(&entry);
+    let surface = !surface_extensions.is_empty();
+    extensions.extend(surface_extensions.iter().map(|e| e.as_ptr()));
     let app_info = vk::ApplicationInfo::default()
         .application_name(c"raykit")
         .engine_name(c"raykit")
@@ -136,7 +142,31 @@ fn create_instance(validation: bool) -> Result<SharedInstance> {
     } else {
         None
     };
-    Ok(SharedInstance { _entry: entry, instance, debug_utils, routes, _messenger: messenger })
+    Ok(SharedInstance { entry, instance, debug_utils, surface, routes, _messenger: messenger })
+}
+
+/// The window systems' surface extensions raykit enables where the loader has them.
+const PLATFORM_SURFACE_EXTENSIONS: [&CStr; 5] = [
+    ash::khr::xlib_surface::NAME,
+    ash::khr::xcb_surface::NAME,
+    ash::khr::wayland_surface::NAME,
+    ash::khr::win32_surface::NAME,
+    ash::ext::metal_surface::NAME,
+];
+
+/// `VK_KHR_surface` and the platform surface extensions the loader has (none
+/// when it lacks `VK_KHR_surface` or every platform one): enabled on every
+/// instance, so a window can get a swapchain on raykit's own device (an unused
+/// surface extension costs nothing).
+fn surface_extensions(entry: &ash::Entry) -> Vec<&'static CStr> {
+    // SAFETY: plain enumeration call.
+    let Ok(available) = (unsafe { entry.enumerate_instance_extension_properties(None) }) else { return Vec::new() };
+    let has = |name: &CStr| available.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name));
+    let platform: Vec<&'static CStr> = PLATFORM_SURFACE_EXTENSIONS.into_iter().filter(|e| has(e)).collect();
+    if !has(ash::khr::surface::NAME) || platform.is_empty() {
+        return Vec::new();
+    }
+    std::iter::once(ash::khr::surface::NAME).chain(platform).collect()
 }
 
 /// A logical device shared by every context made for one physical device.
@@ -161,6 +191,8 @@ pub(crate) struct SharedDevice {
     /// Whether `rayTraversalPrimitiveCulling` is enabled: pipelines without
     /// intersection programs are then created with `SKIP_AABBS`.
     pub(crate) primitive_culling: bool,
+    /// Whether `VK_KHR_swapchain` is enabled (see [`crate::Context::vulkan_handles`]).
+    pub(crate) swapchain: bool,
     pub(crate) lavapipe: bool,
     /// Set once any call on the device returned `VK_ERROR_DEVICE_LOST`.
     lost: AtomicBool,
@@ -359,6 +391,11 @@ fn create_device(
     if pipeline_library {
         extension_ptrs.push(ash::khr::pipeline_library::NAME.as_ptr());
     }
+    // Optional: swapchains for windows, where the instance has surfaces.
+    let swapchain = instance.surface && has_extension(ash::khr::swapchain::NAME);
+    if swapchain {
+        extension_ptrs.push(ash::khr::swapchain::NAME.as_ptr());
+    }
     let device_info = vk::DeviceCreateInfo::default()
         .queue_create_infos(&queue_infos)
         .enabled_extension_names(&extension_ptrs)
@@ -396,6 +433,7 @@ fn create_device(
         non_semantic_info,
         pipeline_library,
         primitive_culling,
+        swapchain,
         lavapipe: driver_id == vk::DriverId::MESA_LLVMPIPE,
         lost: AtomicBool::new(false),
         inject_loss: AtomicBool::new(false),

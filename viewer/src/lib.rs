@@ -1,0 +1,41 @@
+//! # raykit-viewer
+//!
+//! An interactive viewer for raykit renderers, as every OptiX SDK sample has one:
+//! a window (winit, X11) that refines the picture while the camera moves, on
+//! Vulkan and on the CPU backend alike.
+//!
+//! A renderer implements [`Render`]: a progressive accumulation buffer it launches
+//! into a few samples at a time ([`raykit::Pipeline::launch_async`]), aimed with a
+//! [`raykit_scene::Camera`]. The [`Viewer`] keeps one launch in flight, so input is
+//! never blocked behind a long one, and adapts the samples per frame to a target
+//! frame time. Each finished launch goes through the display pass
+//! ([`display::DisplayPass`], a raykit raygen program: mean, exposure, Reinhard,
+//! sRGB, packed in the window's byte order) into a device-local pixel buffer, which
+//! the [`present`]er copies into a swapchain image on raykit's own device, or
+//! hands to softbuffer on the CPU backend.
+//!
+//! [`window::run`] opens the window; [`headless::run`] renders the same frames
+//! without one. [`ViewerArgs`] are the command-line options of both, and
+//! [`script`]s replay inputs through [`ViewerInput`] for tests and demos.
+#![deny(missing_docs)]
+
+pub mod camera;
+pub mod display;
+pub mod error;
+pub mod headless;
+pub mod input;
+pub mod options;
+pub mod present;
+pub mod render;
+pub mod script;
+pub mod viewer;
+pub mod window;
+
+pub use camera::{format_camera, parse_camera, CameraMode, CameraRig};
+pub use error::{RenderError, Result, ViewerError};
+pub use input::ViewerInput;
+pub use options::ViewerArgs;
+pub use render::Render;
+pub use script::Script;
+pub use viewer::{FrameOptions, Stats, Tick, Viewer};
+pub use window::{Summary, WindowOptions};

@@ -1,0 +1,486 @@
+//! The viewer without its window: a renderer, its camera, the display pass, the
+//! launch in flight, the samples per frame and the stats. The window
+//! ([`crate::window`]) and the headless mode ([`crate::headless`]) drive the same
+//! [`Viewer`], so a headless render is what the window shows.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use raykit::glam::Vec3;
+use raykit::Launch;
+use raykit_scene::Camera;
+
+use crate::camera::{format_camera, CameraRig};
+use crate::display::{DisplayPass, PixelFormat, Samples};
+use crate::error::{Result, ViewerError};
+use crate::input::ViewerInput;
+use crate::render::Render;
+
+/// Most samples per pixel one frame launches when the frame time adapts.
+pub const MAX_SAMPLES_PER_FRAME: u32 = 256;
+
+/// How the viewer renders frames.
+#[derive(Clone, Debug)]
+pub struct FrameOptions {
+    /// Samples per pixel of every frame; `None` adapts them to `target_frame_time`.
+    pub samples_per_frame: Option<u32>,
+    /// The frame time the samples per frame adapt to.
+    pub target_frame_time: Duration,
+    /// Stop launching once this many samples per pixel are accumulated.
+    pub max_samples: Option<u32>,
+    /// Scale of the radiance before the tonemap.
+    pub exposure: f32,
+}
+
+impl Default for FrameOptions {
+    fn default() -> Self {
+        FrameOptions {
+            samples_per_frame: None,
+            target_frame_time: Duration::from_millis(33),
+            max_samples: None,
+            exposure: 1.0,
+        }
+    }
+}
+
+/// What [`Viewer::tick`] did.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Tick {
+    /// A launch finished and its picture is in [`Viewer::display`]: present it.
+    Displayed,
+    /// A launch is running (or was just submitted).
+    Working,
+    /// Nothing to do: paused, or every sample asked for is accumulated.
+    Idle,
+}
+
+/// A submitted launch.
+struct InFlight {
+    launch: Launch,
+    samples: u32,
+    /// Rows it renders.
+    rows: u32,
+    /// Samples per pixel in the accumulation once it has finished.
+    shown: Samples,
+    submitted: Instant,
+}
+
+/// Frame times and throughput.
+#[derive(Clone, Debug, Default)]
+pub struct Stats {
+    /// Seconds between consecutive displayed frames.
+    pub frame_times: Vec<f64>,
+    /// Samples per pixel of each displayed frame.
+    pub frame_samples: Vec<u32>,
+    /// Rays traced since the accumulation last started over, as of the last frame.
+    pub rays: u64,
+    /// Seconds the launches since the last start-over took.
+    pub render_seconds: f64,
+    last_display: Option<Instant>,
+}
+
+impl Stats {
+    /// Millions of rays per second since the accumulation last started over.
+    pub fn mrays_per_second(&self) -> f64 {
+        if self.render_seconds > 0.0 {
+            self.rays as f64 / self.render_seconds / 1e6
+        } else {
+            0.0
+        }
+    }
+
+    /// The median frame time in seconds over the last `n` frames.
+    pub fn median_frame_time(&self, n: usize) -> Option<f64> {
+        let mut last: Vec<f64> = self.frame_times.iter().rev().take(n).copied().collect();
+        last.sort_by(f64::total_cmp);
+        last.get(last.len() / 2).copied()
+    }
+}
+
+/// The viewer's state apart from its window.
+pub struct Viewer<R: Render> {
+    renderer: R,
+    rig: CameraRig,
+    display: DisplayPass,
+    options: FrameOptions,
+    in_flight: Option<InFlight>,
+    /// Samples per pixel of the next frame.
+    next_samples: u32,
+    /// Rows of the next frame when one sample of the whole image takes longer
+    /// than the target frame time (and the renderer launches rows); `None`: the
+    /// whole image.
+    band_rows: Option<u32>,
+    /// The first row of the next band of a pass under way (0: none is).
+    band_next_row: u32,
+    /// Samples per pixel shown by the last displayed frame.
+    displayed: Samples,
+    frames: u64,
+    paused: bool,
+    screenshots: Vec<PathBuf>,
+    stats: Stats,
+    /// Refreshes of the stats' ray count.
+    rays_counted_at: Option<Instant>,
+    /// Hot reloads that swapped in new programs.
+    reloads: u64,
+}
+
+impl<R: Render> Viewer<R> {
+    /// A viewer of `renderer` at `width × height` pixels (at least 1 each) from
+    /// `camera`, displaying in `format`.
+    pub fn new(
+        mut renderer: R,
+        camera: Camera,
+        width: u32,
+        height: u32,
+        format: PixelFormat,
+        options: FrameOptions,
+    ) -> Result<Viewer<R>> {
+        let (width, height) = (width.max(1), height.max(1));
+        renderer.resize(width, height).map_err(ViewerError::Render)?;
+        renderer.set_camera(&camera);
+        let display = DisplayPass::new(renderer.context(), width, height, format)?;
+        let next_samples = options.samples_per_frame.unwrap_or(1).max(1);
+        Ok(Viewer {
+            renderer,
+            rig: CameraRig::new(camera),
+            display,
+            options,
+            in_flight: None,
+            next_samples,
+            band_rows: None,
+            band_next_row: 0,
+            displayed: Samples::default(),
+            frames: 0,
+            paused: false,
+            screenshots: Vec::new(),
+            stats: Stats::default(),
+            rays_counted_at: None,
+            reloads: 0,
+        })
+    }
+
+    /// The renderer.
+    pub fn renderer(&self) -> &R {
+        &self.renderer
+    }
+
+    /// The camera now.
+    pub fn camera(&self) -> Camera {
+        self.rig.camera()
+    }
+
+    /// The camera rig (its mode, its speed).
+    pub fn rig(&self) -> &CameraRig {
+        &self.rig
+    }
+
+    /// The display pass, whose pixels hold the last displayed frame.
+    pub fn display(&self) -> &DisplayPass {
+        &self.display
+    }
+
+    /// Frames displayed so far.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// Samples per pixel in every row of the displayed picture (a pass of row
+    /// bands under way has one more above [`Viewer::displayed`]'s split row).
+    pub fn displayed_samples(&self) -> u32 {
+        self.displayed.below
+    }
+
+    /// Samples per pixel of the displayed picture, by rows.
+    pub fn displayed(&self) -> Samples {
+        self.displayed
+    }
+
+    /// Rows per frame while frames launch bands of rows (`None`: whole images).
+    pub fn band_rows(&self) -> Option<u32> {
+        self.band_rows
+    }
+
+    /// Samples per pixel the next frame launches.
+    pub fn next_samples(&self) -> u32 {
+        self.next_samples
+    }
+
+    /// The stats.
+    pub fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    /// Hot reloads that swapped in new device programs so far.
+    pub fn reloads(&self) -> u64 {
+        self.reloads
+    }
+
+    /// Whether a launch is running.
+    pub fn is_launching(&self) -> bool {
+        self.in_flight.is_some()
+    }
+
+    /// Stops (`true`) or resumes launching, as a minimised window does.
+    pub fn set_paused(&mut self, paused: bool) {
+        self.paused = paused;
+    }
+
+    /// Sends one input. Camera inputs start the accumulation over (a launch in
+    /// flight still finishes and is displayed with its own camera); a screenshot is
+    /// written at once when no launch runs, else after the next displayed frame.
+    /// Window inputs ([`ViewerInput::Resize`], [`ViewerInput::Minimize`],
+    /// [`ViewerInput::Close`]) are the window's to handle and do nothing here.
+    pub fn input(&mut self, input: ViewerInput) -> Result<()> {
+        match input {
+            ViewerInput::Drag { dx, dy } => self.rig.drag(dx, dy),
+            ViewerInput::Zoom(steps) => self.rig.zoom(steps),
+            ViewerInput::Translate { forward, right, up } => self.rig.translate(forward, right, up),
+            ViewerInput::Camera(camera) => self.rig.set_camera(camera),
+            ViewerInput::Mode(mode) => {
+                self.rig.mode = mode;
+                return Ok(());
+            }
+            ViewerInput::Reset => {}
+            ViewerInput::Screenshot(path) => {
+                self.screenshots.push(path);
+                if self.in_flight.is_none() {
+                    self.write_screenshots()?;
+                }
+                return Ok(());
+            }
+            ViewerInput::PrintCamera => {
+                println!("camera: --camera {}", format_camera(&self.rig.camera()));
+                return Ok(());
+            }
+            ViewerInput::Resize { .. } | ViewerInput::Minimize(_) | ViewerInput::Close => return Ok(()),
+        }
+        self.renderer.set_camera(&self.rig.camera());
+        self.restart();
+        Ok(())
+    }
+
+    /// Starts the accumulation over.
+    fn restart(&mut self) {
+        self.renderer.reset();
+        self.band_next_row = 0;
+        self.stats.rays = 0;
+        self.stats.render_seconds = 0.0;
+        if self.options.samples_per_frame.is_none() {
+            // The first frames after a change come quickly.
+            self.next_samples = 1;
+        }
+    }
+
+    /// Resizes the picture to `width × height` (at least 1 each); waits for a
+    /// launch in flight first and starts the accumulation over.
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
+        let (width, height) = (width.max(1), height.max(1));
+        if (width, height) == self.display.size() {
+            return Ok(());
+        }
+        self.finish_launch()?;
+        self.renderer.resize(width, height).map_err(ViewerError::Render)?;
+        self.renderer.set_camera(&self.rig.camera());
+        let ctx = self.renderer.context().clone();
+        self.display.resize(&ctx, width, height)?;
+        self.displayed = Samples::default();
+        self.band_rows = self.band_rows.map(|rows| rows.min(height));
+        self.restart();
+        Ok(())
+    }
+
+    /// Waits for the launch in flight and drops its result.
+    fn finish_launch(&mut self) -> Result<()> {
+        if let Some(in_flight) = self.in_flight.take() {
+            in_flight.launch.wait()?;
+        }
+        Ok(())
+    }
+
+    /// Does the next piece of work without blocking on a launch: displays a
+    /// finished launch ([`Tick::Displayed`]; call again after presenting), or
+    /// submits the next launch, or reports that one is running.
+    pub fn tick(&mut self) -> Result<Tick> {
+        if let Some(in_flight) = &self.in_flight {
+            if !in_flight.launch.is_done()? {
+                return Ok(Tick::Working);
+            }
+            if let Some(InFlight { launch, samples, rows, shown, submitted }) = self.in_flight.take() {
+                launch.wait()?;
+                self.frame_finished(samples, rows, shown, submitted.elapsed())?;
+                return Ok(Tick::Displayed);
+            }
+        }
+        if self.paused || self.options.max_samples.is_some_and(|max| self.renderer.samples_done() >= max) {
+            return Ok(Tick::Idle);
+        }
+        if let Some(reload) = self.renderer.poll_reload() {
+            match reload {
+                Ok(message) => {
+                    println!("{message}");
+                    self.reloads += 1;
+                    self.restart();
+                }
+                Err(e) => eprintln!("keeping the previous pipeline: {e}"),
+            }
+        }
+        let done = self.renderer.samples_done();
+        let height = self.display.size().1;
+        let band = if self.band_next_row > 0 {
+            // A pass under way goes on (in one launch when whole images resume).
+            let start = self.band_next_row;
+            Some(start..(start + self.band_rows.unwrap_or(height).max(1)).min(height))
+        } else {
+            self.band_rows.map(|rows| 0..rows.clamp(1, height))
+        };
+        let in_flight = if let Some(rows) = band {
+            let launch = self.renderer.launch_rows(1, rows.clone()).map_err(ViewerError::Render)?;
+            let shown = if rows.end == height {
+                self.band_next_row = 0;
+                Samples::whole(done + 1)
+            } else {
+                self.band_next_row = rows.end;
+                Samples { above: done + 1, split_row: rows.end, below: done }
+            };
+            InFlight { launch, samples: 1, rows: rows.len() as u32, shown, submitted: Instant::now() }
+        } else {
+            let mut samples = self.next_samples;
+            if let Some(max) = self.options.max_samples {
+                samples = samples.min(max - done);
+            }
+            let launch = self.renderer.launch(samples).map_err(ViewerError::Render)?;
+            let shown = Samples::whole(self.renderer.samples_done());
+            InFlight { launch, samples, rows: height, shown, submitted: Instant::now() }
+        };
+        self.in_flight = Some(in_flight);
+        Ok(Tick::Working)
+    }
+
+    /// Renders one frame, blocking until it is displayed (the headless mode's step);
+    /// returns `false` when there is nothing more to render.
+    pub fn render_frame(&mut self) -> Result<bool> {
+        loop {
+            match self.tick()? {
+                Tick::Displayed => return Ok(true),
+                Tick::Idle => return Ok(false),
+                Tick::Working => {
+                    if let Some(in_flight) = self.in_flight.take() {
+                        // Blocks; the next tick finds nothing in flight, so hand it back.
+                        let InFlight { launch, samples, rows, shown, submitted } = in_flight;
+                        launch.wait()?;
+                        self.frame_finished(samples, rows, shown, submitted.elapsed())?;
+                        return Ok(true);
+                    }
+                }
+            }
+        }
+    }
+
+    /// A launch of `samples` over `rows` rows finished in `took`: runs the display
+    /// pass, counts the frame, adapts the work per frame, writes waiting screenshots.
+    fn frame_finished(&mut self, samples: u32, rows: u32, shown: Samples, took: Duration) -> Result<()> {
+        self.display.run(self.renderer.accumulation(), shown, self.options.exposure)?;
+        self.displayed = shown;
+        self.frames += 1;
+        let now = Instant::now();
+        if let Some(last) = self.stats.last_display.replace(now) {
+            self.stats.frame_times.push((now - last).as_secs_f64());
+        }
+        self.stats.frame_samples.push(samples);
+        self.stats.render_seconds += took.as_secs_f64();
+        if self.options.samples_per_frame.is_none() {
+            self.adapt(samples, rows, took);
+        }
+        if self.rays_counted_at.is_none_or(|at| at.elapsed() > Duration::from_millis(500)) {
+            // The accumulation's w counts rays; no launch runs now, so this does not wait.
+            let accumulation = self.renderer.accumulation().read()?;
+            self.stats.rays = accumulation.iter().map(|a| a.w as f64).sum::<f64>() as u64;
+            self.rays_counted_at = Some(now);
+        }
+        self.write_screenshots()
+    }
+
+    /// Sizes the next frame's work to the target frame time from the time a
+    /// frame of `samples` samples over `rows` rows took: whole images of at most
+    /// twice as many samples, or, when one sample of the whole image would take
+    /// longer than the target and the renderer launches rows, bands of at most
+    /// twice as many rows of one sample.
+    fn adapt(&mut self, samples: u32, rows: u32, took: Duration) {
+        let height = self.display.size().1;
+        let target = self.options.target_frame_time.as_secs_f64();
+        // Sample-rows the target frame time affords.
+        let budget = (samples as f64 * rows as f64) * target / took.as_secs_f64().max(1e-6);
+        if budget >= height as f64 || !self.renderer.launches_rows() {
+            let limit = if self.band_rows.is_some() { 1.0 } else { (2 * samples).max(1) as f64 };
+            self.band_rows = None;
+            let next = (budget / height as f64).floor().clamp(1.0, limit);
+            self.next_samples = (next as u32).min(MAX_SAMPLES_PER_FRAME);
+        } else {
+            let limit = (2 * rows).max(1) as f64;
+            self.band_rows = Some((budget.floor().clamp(1.0, limit) as u32).min(height));
+            self.next_samples = 1;
+        }
+    }
+
+    /// Writes the screenshots asked for.
+    fn write_screenshots(&mut self) -> Result<()> {
+        for path in std::mem::take(&mut self.screenshots) {
+            self.write_screenshot(&path)?;
+        }
+        Ok(())
+    }
+
+    /// Writes the displayed picture to `path` (PNG) and the mean linear radiance
+    /// to `path` with `.exr`; waits for a launch in flight first.
+    pub fn write_screenshot(&mut self, path: &Path) -> Result<()> {
+        self.finish_launch()?;
+        let (width, height) = self.display.size();
+        let format = self.display.format();
+        let pixels: Vec<u32> = self.display.pixels().read()?.into_iter().map(|p| format.to_rgba8(p)).collect();
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .map_err(|source| ViewerError::Directory { path: dir.to_path_buf(), source })?;
+        }
+        let screenshot_error = |source| ViewerError::Screenshot { path: path.to_path_buf(), source };
+        raykit_scene::write_png_rgba8(path, width, height, &pixels).map_err(screenshot_error)?;
+        let samples = self.displayed;
+        let mean = |(i, a): (usize, &raykit::glam::Vec4)| {
+            let n = if (i as u32 / width) < samples.split_row { samples.above } else { samples.below };
+            if n == 0 {
+                Vec3::ZERO
+            } else {
+                a.truncate() / n as f32
+            }
+        };
+        let radiance: Vec<Vec3> = self.renderer.accumulation().read()?.iter().enumerate().map(mean).collect();
+        let exr = path.with_extension("exr");
+        raykit_scene::write_exr(&exr, width, height, &radiance)
+            .map_err(|source| ViewerError::Screenshot { path: exr.clone(), source })?;
+        println!(
+            "screenshot: {} and {} ({width}x{height}, {} spp, camera {})",
+            path.display(),
+            exr.display(),
+            self.displayed.below,
+            format_camera(&self.rig.camera())
+        );
+        Ok(())
+    }
+
+    /// The stats line of the title: samples per pixel, samples per frame, frame
+    /// time, Mrays/s, backend and device.
+    pub fn stats_line(&self) -> String {
+        let ctx = self.renderer.context();
+        let frame_ms = self.stats.median_frame_time(15).map_or(String::from("-"), |t| format!("{:.1}", t * 1e3));
+        let per_frame = match self.band_rows {
+            Some(rows) => format!("{rows} rows/frame"),
+            None => format!("{} spp/frame", self.stats.frame_samples.last().copied().unwrap_or(0)),
+        };
+        format!(
+            "{} spp · {per_frame} · {frame_ms} ms/frame · {:.2} Mrays/s · {:?}: {}",
+            self.displayed.below,
+            self.stats.mrays_per_second(),
+            ctx.backend(),
+            ctx.device_name()
+        )
+    }
+}
