@@ -5,18 +5,23 @@ use raykit_abi::{ParamsLayout, PARAMS_BINDING, PARAMS_SET};
 
 use super::{bad, check, parse, reflect_params, ParamsDelivery, Result};
 
-/// Checks entry point `entry` of the SPIR-V file `path` against `host`: what
-/// the tests generated for `#[params]` programs run after
-/// `cargo xtask build-shaders`.
-pub fn check_file(path: &std::path::Path, entry: &str, host: &ParamsLayout, push_constants: bool) -> Result<()> {
+/// The 32-bit words of the SPIR-V file `path` that `cargo xtask build-shaders`
+/// wrote, or an error saying how to build it.
+pub(crate) fn read_built_words(path: &std::path::Path) -> Result<Vec<u32>> {
     let bytes = std::fs::read(path).map_err(|e| {
         bad(format!("reading {}: {e}; build the device crates with `cargo xtask build-shaders`", path.display()))
     })?;
     if bytes.len() % 4 != 0 {
         return Err(bad(format!("{} is not a whole number of 32-bit words", path.display())));
     }
-    let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-    let module = parse(&words)?;
+    Ok(bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
+}
+
+/// Checks entry point `entry` of the SPIR-V file `path` against `host`: what
+/// the tests generated for `#[params]` programs run after
+/// `cargo xtask build-shaders`.
+pub fn check_file(path: &std::path::Path, entry: &str, host: &ParamsLayout, push_constants: bool) -> Result<()> {
+    let module = parse(&read_built_words(path)?)?;
     let blocks = reflect_params(&module)?;
     let Some(blocks) = blocks.get(entry) else {
         return Err(bad(format!("{} has no params block for entry point `{entry}`", path.display())));

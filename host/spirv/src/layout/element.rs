@@ -51,12 +51,6 @@ pub fn check_element_blocks(host: &'static ParamsLayout, entry: &str, blocks: &[
 /// file `path` that `cargo xtask build-shaders` wrote for the crate defining it:
 /// what the tests `#[derive(Element)]` generates in device crates run.
 pub fn check_element_file(path: &std::path::Path, shape: &Shape) -> Result<()> {
-    let bytes = std::fs::read(path).map_err(|e| {
-        bad(format!("reading {}: {e}; build the device crates with `cargo xtask build-shaders`", path.display()))
-    })?;
-    if bytes.len() % 4 != 0 {
-        return Err(bad(format!("{} is not a whole number of 32-bit words", path.display())));
-    }
-    let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let words = super::built::read_built_words(path)?;
     check_element(shape, &reflect_params(&parse(&words)?)?)
 }
