@@ -4,7 +4,10 @@
 //!
 //! The cache is `$RAYKIT_CACHE_DIR`, else `$XDG_CACHE_HOME/raykit`, else
 //! `~/.cache/raykit`: every project (and every clone of raykit) shares one build
-//! of the backend (about 15 minutes on 2 cores).
+//! of the backend (about 3 minutes of 2 cores' time).
+//!
+//! The backend runs SPIRV-Tools (`spirv-opt`, `spirv-val`) from `PATH` (Debian's
+//! `spirv-tools` package) rather than compiling their C++ into itself.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -149,6 +152,23 @@ fn patched_codegen(builder_src: &Path, dest: &Path, report: Report) -> Result<()
     Ok(())
 }
 
+/// The SPIRV-Tools programs the codegen backend runs: it is built with
+/// rust-gpu's `use-installed-tools`, which runs them from `PATH` instead of
+/// compiling SPIRV-Tools' C++ into the backend (that build alone takes longer
+/// than all of the backend's Rust).
+pub const SPIRV_TOOLS: [&str; 2] = ["spirv-opt", "spirv-val"];
+
+/// Fails with [`Error::SpirvTools`] unless every one of [`SPIRV_TOOLS`] runs.
+pub fn check_spirv_tools() -> Result<()> {
+    let runs = |tool: &str| Command::new(tool).arg("--version").output().is_ok_and(|o| o.status.success());
+    let missing: Vec<&'static str> = SPIRV_TOOLS.into_iter().filter(|tool| !runs(tool)).collect();
+    if missing.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::SpirvTools { missing })
+    }
+}
+
 /// The shader-builder program, built and ready to run.
 #[derive(Clone, Debug)]
 pub struct ShaderBuilder {
@@ -167,7 +187,7 @@ impl ShaderBuilder {
         let binary = target.join("release").join("raykit-shader-builder");
         if !binary.exists() {
             report.notable(&format!(
-                "building rust-gpu's codegen backend into {} (once per user; about 15 min on 2 cores)",
+                "building rust-gpu's codegen backend into {} (once per user; a few minutes on 2 cores)",
                 target.display()
             ));
         }

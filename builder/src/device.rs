@@ -158,6 +158,7 @@ impl DeviceBuild {
             return Ok(BuiltModule { name, spv, rebuilt: false, seconds: 0.0 });
         }
         let target_dir = self.target_dir.clone().unwrap_or_else(|| self.crate_dir.join("target").join("raykit"));
+        crate::codegen::check_spirv_tools()?;
         let started = Instant::now();
         let mut cmd = builder.command(&self.crate_dir, &spv, &target_dir.join("spirv-builder"));
         compile(&mut cmd, &name, self.report)?;

@@ -27,6 +27,17 @@ pub enum Error {
         /// What it printed on stderr, when captured.
         output: String,
     },
+    /// SPIRV-Tools' `spirv-opt` or `spirv-val`, which rust-gpu's codegen backend runs, is not on `PATH`.
+    #[error(
+        "rust-gpu's codegen backend optimises and validates SPIR-V with SPIRV-Tools, but {} not on PATH. \
+         Install SPIRV-Tools: on Debian or Ubuntu `apt-get install spirv-tools`, elsewhere the Vulkan SDK \
+         (https://vulkan.lunarg.com)",
+        if missing.len() == 1 { format!("{} is", missing[0]) } else { format!("{} are", missing.join(" and ")) }
+    )]
+    SpirvTools {
+        /// The tools not found.
+        missing: Vec<&'static str>,
+    },
     /// rustc (with rust-gpu's backend) rejected the device crate.
     #[error("compiling device crate {krate} to SPIR-V failed:\n{message}")]
     Compile {

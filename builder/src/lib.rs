@@ -7,7 +7,8 @@
 //!   and says so;
 //! * builds rust-gpu's codegen backend once per user into a cache
 //!   ([`cache_dir`]), with raykit's fix to it applied from a reviewed patch file
-//!   ([`CODEGEN_PATCH`]);
+//!   ([`CODEGEN_PATCH`]); the backend runs SPIRV-Tools' `spirv-opt` and
+//!   `spirv-val` from `PATH` ([`SPIRV_TOOLS`]; Debian's `spirv-tools`);
 //! * compiles a device crate to one `.spv`, skipped when neither it nor raykit's
 //!   device crates changed;
 //! * runs the launch-params layout check and reports a mismatch as a build error
@@ -43,7 +44,9 @@ mod toolchain;
 #[cfg(feature = "watch")]
 mod watch;
 
-pub use codegen::{apply_codegen_patch, cache_dir, ShaderBuilder, CODEGEN_CRATE, CODEGEN_PATCH};
+pub use codegen::{
+    apply_codegen_patch, cache_dir, check_spirv_tools, ShaderBuilder, CODEGEN_CRATE, CODEGEN_PATCH, SPIRV_TOOLS,
+};
 pub use device::{env_var_name, BuiltModule, DeviceBuild};
 pub use error::{Error, Result};
 pub use report::Report;

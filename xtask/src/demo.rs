@@ -2,9 +2,10 @@
 //! other where each needs the last, side by side where they need nothing of
 //! each other, each timed.
 //!
-//! * The system packages (a Vulkan driver, through apt) download and install
-//!   while the toolchain installs and rust-gpu's codegen backend builds: apt
-//!   waits on the network and the disk, the backend build on the cores.
+//! * The system packages (a Vulkan driver and SPIRV-Tools, through apt) download
+//!   and install while the toolchain installs and rust-gpu's codegen backend
+//!   builds: apt waits on the network and the disk, the backend build on the
+//!   cores.
 //! * The host program builds (`cargo build --release -p <example>`) while the
 //!   codegen backend builds: both are compilations, but each has long stretches
 //!   on one core (a big crate, a link), which the other fills.
@@ -84,14 +85,13 @@ pub fn run(root: &Path, demo: &Demo) -> anyhow::Result<()> {
         std::fs::create_dir_all(dir)?;
     }
 
-    let (packages, host) = thread::scope(|scope| -> anyhow::Result<_> {
-        // The driver: apt, side by side with the compilations.
-        let packages = (demo.backend == "vulkan").then(|| {
-            scope.spawn(|| {
-                let started = Instant::now();
-                let result = crate::setup::ensure_vulkan(false);
-                (result, started.elapsed())
-            })
+    let host = thread::scope(|scope| -> anyhow::Result<_> {
+        // The driver and SPIRV-Tools: apt, side by side with the compilations.
+        let packages = scope.spawn(|| {
+            let started = Instant::now();
+            let result = if demo.backend == "vulkan" { crate::setup::ensure_vulkan(false) } else { Ok(()) };
+            let result = result.and_then(|()| crate::setup::ensure_spirv_tools());
+            (result, started.elapsed())
         });
         // The host program, side by side with the codegen backend.
         let host = scope.spawn(|| {
@@ -105,19 +105,17 @@ pub fn run(root: &Path, demo: &Demo) -> anyhow::Result<()> {
         let builder = phases.run("codegen backend", "(beside system packages and host build)", || {
             raykit_builder::ShaderBuilder::ensure(raykit_builder::Report::Terminal)
         })?;
-        phases.run("shaders", "", || crate::shaders::build_one(root, device, &builder))?;
-        let packages = packages.map(|p| p.join());
-        let host = host.join();
-        Ok((packages, host))
-    })?;
-    match packages {
-        Some(Ok((result, took))) => {
-            phases.0.push(Phase { name: "system packages", took, note: "(beside the compilations)" });
-            result?;
+        // The backend runs SPIRV-Tools, which apt may still be installing.
+        match packages.join() {
+            Ok((result, took)) => {
+                phases.0.push(Phase { name: "system packages", took, note: "(beside the compilations)" });
+                result?;
+            }
+            Err(_) => bail!("the system-package installer panicked"),
         }
-        Some(Err(_)) => bail!("the system-package installer panicked"),
-        None => phases.0.push(Phase { name: "system packages", took: Duration::ZERO, note: "(none: CPU backend)" }),
-    }
+        phases.run("shaders", "", || crate::shaders::build_one(root, device, &builder))?;
+        Ok(host.join())
+    })?;
     match host {
         Ok((result, took)) => {
             phases.0.push(Phase { name: "host build", took, note: "(beside the codegen backend)" });

@@ -129,6 +129,7 @@ fn main() -> anyhow::Result<()> {
     match cli.command {
         Cmd::BuildShaders { force, spirv_opt } => {
             setup::ensure_toolchain()?;
+            setup::ensure_spirv_tools()?;
             if spirv_opt {
                 shaders::SPIRV_OPT.store(true, std::sync::atomic::Ordering::Relaxed);
             }
@@ -171,6 +172,7 @@ fn main() -> anyhow::Result<()> {
             setup::ensure_vulkan(false)?;
             if shaders {
                 setup::ensure_toolchain()?;
+                setup::ensure_spirv_tools()?;
                 shaders::build_all(&root, false)?;
                 let mut times = Vec::new();
                 for (programs, krate, script) in [
@@ -202,6 +204,7 @@ fn main() -> anyhow::Result<()> {
         }
         Cmd::Setup => {
             setup::ensure_toolchain()?;
+            setup::ensure_spirv_tools()?;
             setup::ensure_vulkan(true)?;
         }
         Cmd::NewProject { path } => {

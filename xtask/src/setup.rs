@@ -171,8 +171,20 @@ const GLSL_PACKAGES: [&str; 2] = ["glslang-tools", "spirv-tools"];
 /// Makes sure glslang and the SPIRV-Tools are installed (installing them as root
 /// with apt), so the tests can rebuild the committed SPIR-V and compare it.
 pub fn ensure_glsl_tools() -> anyhow::Result<()> {
+    ensure_tools(&GLSL_TOOLS, &GLSL_PACKAGES, "the tests rebuild the committed SPIR-V")
+}
+
+/// Makes sure the SPIRV-Tools that rust-gpu's codegen backend runs
+/// ([`raykit_builder::SPIRV_TOOLS`]) are installed, installing them as root with apt.
+pub fn ensure_spirv_tools() -> anyhow::Result<()> {
+    ensure_tools(&raykit_builder::SPIRV_TOOLS, &["spirv-tools"], "rust-gpu's codegen backend runs them")
+}
+
+/// Makes sure every one of `tools` runs, installing `packages` as root with apt
+/// when one does not; `why` says what needs them.
+fn ensure_tools(tools: &[&str], packages: &[&str], why: &str) -> anyhow::Result<()> {
     let missing = || -> Vec<&str> {
-        GLSL_TOOLS.into_iter().filter(|t| output(Command::new(t).arg("--version")).is_none()).collect()
+        tools.iter().copied().filter(|t| output(Command::new(t).arg("--version")).is_none()).collect()
     };
     let absent = missing();
     if absent.is_empty() {
@@ -180,22 +192,21 @@ pub fn ensure_glsl_tools() -> anyhow::Result<()> {
     }
     if !(is_root() && Path::new("/usr/bin/apt-get").exists()) {
         bail!(
-            "the tests rebuild the committed SPIR-V with {}, which are not installed. \
-             On Debian, as root: apt-get install -y {}",
+            "{} not installed ({why}). On Debian, as root: apt-get install -y {}",
             absent.join(", "),
-            GLSL_PACKAGES.join(" ")
+            packages.join(" ")
         );
     }
-    println!("xtask: installing {} for the tests (they rebuild the committed SPIR-V)", GLSL_PACKAGES.join(" "));
+    println!("xtask: installing {} ({why})", packages.join(" "));
     let mut install = vec!["install", "-y"];
-    install.extend(GLSL_PACKAGES);
+    install.extend(packages);
     if apt_get(&install).is_err() {
         apt_get(&["update"])?;
         apt_get(&install)?;
     }
     let absent = missing();
     if !absent.is_empty() {
-        bail!("installed {} but {} still missing", GLSL_PACKAGES.join(" "), absent.join(", "));
+        bail!("installed {} but {} still missing", packages.join(" "), absent.join(", "));
     }
     Ok(())
 }
