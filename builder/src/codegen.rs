@@ -256,6 +256,21 @@ mod tests {
     }
 
     #[test]
+    fn missing_spirv_tools_are_named_with_the_fix() {
+        let one = Error::SpirvTools { missing: vec!["spirv-opt"] }.to_string();
+        assert!(one.contains("but spirv-opt is not on PATH"), "{one}");
+        assert!(one.contains("apt-get install spirv-tools"), "{one}");
+        let both = Error::SpirvTools { missing: SPIRV_TOOLS.to_vec() }.to_string();
+        assert!(both.contains("but spirv-opt and spirv-val are not on PATH"), "{both}");
+    }
+
+    #[test]
+    fn the_spirv_tools_are_found_where_installed() {
+        // `cargo xtask test` installs them before the tests run.
+        check_spirv_tools().expect("spirv-opt and spirv-val run");
+    }
+
+    #[test]
     fn patch_adds_the_shader_record_storage_class() {
         let patched = apply_codegen_patch(&with_context(ORIGINAL)).unwrap();
         assert!(patched.contains(
