@@ -20,8 +20,8 @@ use raykit::Backend;
 const WIDTH: u32 = 64;
 const HEIGHT: u32 = 48;
 /// Samples per pixel of the project's render, and of the reference.
-const DEVICE_SPP: u32 = 64;
-const REFERENCE_SPP: u32 = 128;
+const DEVICE_SPP: u32 = 128;
+const REFERENCE_SPP: u32 = 512;
 /// The project's `MAX_BOUNCES`: traces a path takes at most.
 const MAX_BOUNCES: u32 = 16;
 

@@ -81,8 +81,7 @@ fn rg(ctx: &mut Raygen, #[params] p: &Params, #[payload] bounce: &mut Bounce) {
         sum += bounce::trace_path::<Radiance>(ctx, p.scene, ray, &mut rng, MAX_BOUNCES, bounce);
         s += 1;
     }
-    let old = ctx.load(p.image, index);
-    ctx.store(p.image, index, old + sum.extend(p.samples as f32));
+    ctx.store(p.image, index, ctx.load(p.image, index) + sum.extend(p.samples as f32));
 }
 
 /// The sky: white at the horizon, blue above.
