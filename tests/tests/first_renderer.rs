@@ -287,7 +287,7 @@ fn render_and_compare(binary: &Path, dir: &Path, backend: Backend, want: &[(DVec
     let got = read_pfm(&dir.join(format!("{name}.pfm")));
     check_png(&dir.join(format!("{name}.png")), &got);
 
-    let mut worst = 0.0f64;
+    let (mut worst, mut squares, mut signed) = (0.0f64, 0.0, 0.0);
     for (by, bx) in (0..HEIGHT / 8).flat_map(|by| (0..WIDTH / 8).map(move |bx| (by, bx))) {
         let (mut mean, mut reference, mut variance) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
         for p in (0..64).map(|k| ((by * 8 + k / 8) * WIDTH + bx * 8 + k % 8) as usize) {
@@ -299,7 +299,7 @@ fn render_and_compare(binary: &Path, dir: &Path, backend: Backend, want: &[(DVec
         for c in 0..3 {
             // Blocks of sky alone have almost no noise: f32 rounding is the floor.
             let z = (mean[c] - reference[c]).abs() / variance[c].sqrt().max(1e-5);
-            worst = worst.max(z);
+            (worst, squares, signed) = (worst.max(z), squares + z * z, signed + z.copysign(mean[c] - reference[c]));
             assert!(
                 z < 5.0,
                 "{name}: block ({bx}, {by}) channel {c}: {} against the reference's {} ({z:.1} standard errors)",
@@ -310,7 +310,13 @@ fn render_and_compare(binary: &Path, dir: &Path, backend: Backend, want: &[(DVec
         // The scene is not black: the comparison has something to compare.
         assert!(reference.min_element() > 0.05, "block ({bx}, {by}) of the reference is black");
     }
-    eprintln!("{name}: worst 8x8 block {worst:.2} standard errors from the reference");
+    let n = (WIDTH / 8 * HEIGHT / 8 * 3) as f64;
+    eprintln!(
+        "{name}: worst 8x8 block {worst:.2} standard errors from the reference (over {n} blocks and channels: \
+         root mean square {:.2}, mean {:+.2})",
+        (squares / n).sqrt(),
+        signed / n
+    );
     worst
 }
 
