@@ -166,7 +166,7 @@ impl Rng {
 }
 
 /// The nearest sphere hit past `1e-9`: distance and sphere.
-fn hit<'a>(spheres: &'a [Sphere], o: DVec3, d: DVec3) -> Option<(f64, &'a Sphere)> {
+fn hit(spheres: &[Sphere], o: DVec3, d: DVec3) -> Option<(f64, &Sphere)> {
     let mut best: Option<(f64, &Sphere)> = None;
     for s in spheres {
         let f = o - s.0;
