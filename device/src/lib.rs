@@ -64,8 +64,10 @@
 //! [`sphere`] (built-in spheres: the intersection test and its hit attributes),
 //! [`sampling`] (random numbers, unit vectors, points in the unit sphere and
 //! disk, cosine-weighted directions), [`optics`] (reflect, refract, Fresnel and
-//! Schlick), [`camera`] (a thin-lens camera), [`ray::offset_ray_origin`]
-//! (self-intersection-free ray origins) and [`color`] (sRGB and RGBA8).
+//! Schlick), [`scatter`] (the Lambertian, metal and dielectric materials),
+//! [`bounce`] (a path tracer's payload and its loop in raygen), [`camera`] (a
+//! thin-lens camera), [`ray::offset_ray_origin`] (self-intersection-free ray
+//! origins) and [`color`] (sRGB and RGBA8).
 //!
 //! This crate also compiles for the host target: launch-params structs, record data
 //! types, [`Buffer`] and [`Traversable`] handles and the [`EntryPoint`] constants the
@@ -77,6 +79,7 @@
 // The derives name this crate `::raykit_device`, in it too (`camera::ThinLensCamera`).
 extern crate self as raykit_device;
 
+pub mod bounce;
 pub mod camera;
 pub mod color;
 #[cfg(not(target_arch = "spirv"))]
@@ -92,6 +95,7 @@ pub mod params;
 pub mod ray;
 pub mod record;
 pub mod sampling;
+pub mod scatter;
 pub mod sphere;
 pub mod stage;
 pub mod texture;

@@ -1,19 +1,148 @@
-//! The README's first renderer (`examples/first_renderer`) against an
-//! independent path tracer written here in plain f64 Rust (its own sphere
-//! test, camera, random numbers and material sampling, the same scene and
-//! material model), on each backend: every 8×8 block's mean radiance agrees
-//! within 5 combined standard errors per channel, the errors estimated from the
-//! spread of each pixel's batches (radiance is at most 1: no heavy tails).
+//! The README's first renderer (`examples/first_renderer`), a project of its
+//! own as a user writes it: copied outside the workspace, built with plain
+//! `cargo build`, run on the Vulkan driver (validation on) and on the CPU
+//! backend, and its pictures compared with a path tracer written again here in
+//! plain f64 Rust (its own scene description, camera, sphere test, random
+//! numbers and materials): the mean linear radiance of every 8×8 block agrees
+//! within 5 combined standard errors per channel. The standard errors come
+//! from the reference's per-pixel spread of single samples, which a correct
+//! renderer shares (radiance lies in [0, 1]: no heavy tails). The PNG is the
+//! PFM's radiance, sRGB-encoded. The project is at most 150 lines of code, and
+//! the README's code blocks of it are its code.
 
-use first_renderer::{camera, scene, Group};
-use first_renderer_device::{DIFFUSE, GLASS, MAX_DEPTH, METAL};
-use raykit::glam::{DVec3, UVec2, Vec4};
-use raykit_tests::with_each_backend;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::Instant;
 
-const SIZE: UVec2 = UVec2::new(64, 48);
-/// Batches (launches) and samples per pixel in each.
-const BATCHES: u32 = 4;
-const SAMPLES: u32 = 16;
+use raykit::glam::DVec3;
+use raykit::Backend;
+
+const WIDTH: u32 = 64;
+const HEIGHT: u32 = 48;
+/// Samples per pixel of the project's render, and of the reference.
+const DEVICE_SPP: u32 = 128;
+const REFERENCE_SPP: u32 = 512;
+/// The project's `MAX_BOUNCES`: traces a path takes at most.
+const MAX_BOUNCES: u32 = 16;
+
+fn raykit_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the tests crate is inside the workspace").to_path_buf()
+}
+
+fn project_dir() -> PathBuf {
+    raykit_root().join("examples").join("first_renderer")
+}
+
+/// The project's Rust sources, relative to its directory.
+const SOURCES: [&str; 3] = ["build.rs", "src/main.rs", "device/src/lib.rs"];
+
+/// Lines of code: lines that are neither blank nor comments (`//`, `///`, `//!`).
+fn code_lines(source: &str) -> usize {
+    source.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")).count()
+}
+
+/// Copies the project to a fresh directory under the system's temporary
+/// directory, its `path` dependencies pointed at this raykit checkout.
+fn copy_project() -> PathBuf {
+    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
+    let dir = std::env::temp_dir().join(format!("raykit-first-renderer-{}-{nanos}", std::process::id()));
+    let root = raykit_root().display().to_string();
+    for file in ["Cargo.toml", "device/Cargo.toml"].iter().chain(&SOURCES) {
+        let text = std::fs::read_to_string(project_dir().join(file)).expect("reading the project");
+        let up = if file.starts_with("device/") { "../../../" } else { "../../" };
+        let moved = text.replace(&format!("path = \"{up}"), &format!("path = \"{root}/"));
+        assert!(!file.ends_with(".toml") || moved != text, "{file} names no raykit crate by `{up}`");
+        let to = dir.join(file);
+        std::fs::create_dir_all(to.parent().expect("a file has a directory")).expect("creating the project");
+        std::fs::write(to, moved).expect("writing the project");
+    }
+    dir
+}
+
+/// `cargo build` in `project`, as a user runs it, sharing the template test's
+/// target directory (raykit and its dependencies compile once for both).
+fn cargo_build(project: &Path) -> Output {
+    let mut cmd = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
+    for (key, _) in std::env::vars_os() {
+        if key.to_str().is_some_and(|k| k.starts_with("CARGO") && k != "CARGO_HOME") {
+            cmd.env_remove(key);
+        }
+    }
+    cmd.arg("build")
+        .current_dir(project)
+        .env("CARGO_TARGET_DIR", raykit_root().join("target").join("template-project"));
+    cmd.output().expect("running cargo build")
+}
+
+fn text(output: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr))
+}
+
+/// Reads a PFM of `WIDTH × HEIGHT` (rows bottom to top, little-endian), top row first.
+fn read_pfm(path: &Path) -> Vec<DVec3> {
+    let bytes = std::fs::read(path).expect("the project writes a PFM");
+    let header = format!("PF\n{WIDTH} {HEIGHT}\n-1.0\n");
+    assert!(bytes.starts_with(header.as_bytes()), "unexpected PFM header in {}", path.display());
+    let floats: Vec<f64> =
+        bytes[header.len()..].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64).collect();
+    assert_eq!(floats.len(), (WIDTH * HEIGHT * 3) as usize);
+    let w = WIDTH as usize;
+    (0..(WIDTH * HEIGHT) as usize)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let at = ((HEIGHT as usize - 1 - y) * w + x) * 3;
+            DVec3::new(floats[at], floats[at + 1], floats[at + 2])
+        })
+        .collect()
+}
+
+/// The sRGB encoding of a linear value, quantised to 8 bits.
+fn srgb8(c: f64) -> i32 {
+    let c = c.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0 + 0.5) as i32
+}
+
+/// The PNG holds the PFM's radiance sRGB-encoded (within one step of rounding).
+fn check_png(path: &Path, radiance: &[DVec3]) {
+    let png = image::open(path).expect("the project writes a PNG").to_rgba8();
+    assert_eq!(png.dimensions(), (WIDTH, HEIGHT));
+    for (i, (pixel, c)) in png.pixels().zip(radiance).enumerate() {
+        for (channel, want) in [c.x, c.y, c.z].into_iter().enumerate() {
+            let got = pixel.0[channel] as i32;
+            assert!((got - srgb8(want)).abs() <= 1, "PNG pixel {i} channel {channel}: {got} for radiance {want}");
+        }
+        assert_eq!(pixel.0[3], 255);
+    }
+}
+
+// --- The reference: the scene and the renderer written again in f64. ---
+
+#[derive(Copy, Clone, PartialEq)]
+enum Material {
+    Lambertian,
+    Metal { fuzz: f64 },
+    Dielectric { ior: f64 },
+}
+
+/// A sphere: centre, radius, material, colour.
+struct Sphere(DVec3, f64, Material, DVec3);
+
+fn scene() -> Vec<Sphere> {
+    let v = DVec3::new;
+    let small = |x: f64, z: f64, m: Material, colour: DVec3| Sphere(v(x, 0.2, z), 0.2, m, colour);
+    let (metal, glass) = (Material::Metal { fuzz: 0.05 }, Material::Dielectric { ior: 1.5 });
+    vec![
+        Sphere(v(0.0, -1000.0, 0.0), 1000.0, Material::Lambertian, DVec3::splat(0.5)),
+        Sphere(v(-4.0, 1.0, 0.0), 1.0, Material::Lambertian, v(0.4, 0.2, 0.1)),
+        small(-2.5, 1.8, Material::Lambertian, v(0.1, 0.6, 0.2)),
+        small(1.5, 2.2, Material::Lambertian, v(0.8, 0.2, 0.3)),
+        Sphere(v(4.0, 1.0, 0.0), 1.0, metal, v(0.7, 0.6, 0.5)),
+        small(2.8, -1.6, metal, DVec3::splat(0.9)),
+        Sphere(v(0.0, 1.0, 0.0), 1.0, glass, DVec3::ONE),
+        small(-1.0, 2.4, glass, DVec3::ONE),
+    ]
+}
 
 /// SplitMix64: the reference's own random numbers.
 struct Rng(u64);
@@ -36,184 +165,215 @@ impl Rng {
     }
 }
 
-/// The nearest sphere hit past `1e-9`: distance, sphere centre and radius, group.
-fn hit(groups: &[Group], o: DVec3, d: DVec3) -> Option<(f64, DVec3, f64, usize)> {
-    let mut best: Option<(f64, DVec3, f64, usize)> = None;
-    for (g, group) in groups.iter().enumerate() {
-        for &(c, r) in &group.spheres {
-            let (c, r) = (c.as_dvec3(), r as f64);
-            let f = o - c;
-            let (a, b, cc) = (d.dot(d), f.dot(d), f.dot(f) - r * r);
-            let disc = b * b - a * cc;
-            if disc < 0.0 {
-                continue;
-            }
-            for t in [(-b - disc.sqrt()) / a, (-b + disc.sqrt()) / a] {
-                if t > 1e-9 && best.is_none_or(|(bt, ..)| t < bt) {
-                    best = Some((t, c, r, g));
-                    break;
-                }
+/// The nearest sphere hit past `1e-9`: distance and sphere.
+fn hit(spheres: &[Sphere], o: DVec3, d: DVec3) -> Option<(f64, &Sphere)> {
+    let mut best: Option<(f64, &Sphere)> = None;
+    for s in spheres {
+        let f = o - s.0;
+        let (a, b, c) = (d.dot(d), f.dot(d), f.dot(f) - s.1 * s.1);
+        let disc = b * b - a * c;
+        if disc < 0.0 {
+            continue;
+        }
+        for t in [(-b - disc.sqrt()) / a, (-b + disc.sqrt()) / a] {
+            if t > 1e-9 && best.is_none_or(|(bt, _)| t < bt) {
+                best = Some((t, s));
+                break;
             }
         }
     }
     best
 }
 
-/// One path's radiance (the material model of the device programs, written again).
-fn radiance(groups: &[Group], mut o: DVec3, mut d: DVec3, rng: &mut Rng) -> DVec3 {
+/// One path's radiance.
+fn radiance(spheres: &[Sphere], mut o: DVec3, mut d: DVec3, rng: &mut Rng) -> DVec3 {
     let mut throughput = DVec3::ONE;
-    for _ in 0..MAX_DEPTH {
-        let Some((t, c, r, g)) = hit(groups, o, d) else {
+    for _ in 0..MAX_BOUNCES {
+        let Some((t, sphere)) = hit(spheres, o, d) else {
             let s = 0.5 * (d.normalize().y + 1.0);
             return throughput * ((1.0 - s) * DVec3::ONE + s * DVec3::new(0.5, 0.7, 1.0));
         };
-        let m = &groups[g].material;
         let unit = d.normalize();
         let p = o + t * d;
-        let outward = (p - c) / r;
+        let outward = (p - sphere.0) / sphere.1;
         let front = unit.dot(outward) < 0.0;
         let n = if front { outward } else { -outward };
         let mirror = unit - 2.0 * unit.dot(n) * n;
-        let next = match m.kind {
-            DIFFUSE => {
-                // n + a uniform unit vector is cosine-distributed (the book's form).
-                let v = loop {
-                    let v = rng.in_ball();
-                    if v.length_squared() > 1e-12 {
-                        break v.normalize();
-                    }
-                };
-                let s = n + v;
-                if s.length_squared() < 1e-24 {
-                    n
-                } else {
-                    s.normalize()
-                }
-            }
-            METAL => {
-                let s = (mirror + m.param as f64 * rng.in_ball()).normalize();
+        d = match sphere.2 {
+            // n + a uniform unit vector is cosine-distributed (the book's form).
+            Material::Lambertian => (n + rng.in_ball().normalize()).normalize(),
+            Material::Metal { fuzz } => {
+                let s = (mirror + fuzz * rng.in_ball()).normalize();
                 if s.dot(n) <= 0.0 {
                     return DVec3::ZERO;
                 }
                 s
             }
-            GLASS => {
-                let eta = if front { 1.0 / m.param as f64 } else { m.param as f64 };
+            Material::Dielectric { ior } => {
+                let eta = if front { 1.0 / ior } else { ior };
                 let cos = (-unit.dot(n)).min(1.0);
                 let sin = (1.0 - cos * cos).sqrt();
                 let r0 = ((1.0 - eta) / (1.0 + eta)).powi(2);
-                let schlick = r0 + (1.0 - r0) * (1.0 - cos).powi(5);
-                if eta * sin > 1.0 || rng.next() < schlick {
+                if eta * sin > 1.0 || rng.next() < r0 + (1.0 - r0) * (1.0 - cos).powi(5) {
                     mirror
                 } else {
                     let perpendicular = eta * (unit + cos * n);
                     perpendicular - (1.0 - perpendicular.length_squared()).abs().sqrt() * n
                 }
             }
-            other => panic!("material kind {other}"),
         };
-        if m.kind != GLASS {
-            throughput *= m.albedo.as_dvec3();
-        }
+        throughput *= sphere.3;
         o = p;
-        d = next;
     }
     DVec3::ZERO
 }
 
-/// The reference picture: each pixel's mean per batch.
-fn reference() -> Vec<Vec<DVec3>> {
-    let groups = scene();
-    let cam = camera(SIZE.x, SIZE.y);
-    let (eye, lens) = (cam.eye.as_dvec3(), cam.lens_radius as f64);
-    let (right, up) = (cam.right.as_dvec3(), cam.up.as_dvec3());
-    let (corner, h, v) = (cam.top_left.as_dvec3(), cam.horizontal.as_dvec3(), cam.vertical.as_dvec3());
+/// Per pixel, top row first: the mean radiance of `REFERENCE_SPP` samples and
+/// the variance of one sample, through the book's thin-lens camera from
+/// (13, 2, 3) at the origin, 20° vertically, aperture 0.1, focused at 10.
+fn reference() -> Vec<(DVec3, DVec3)> {
+    let spheres = scene();
+    let (eye, target, aperture, focus) = (DVec3::new(13.0, 2.0, 3.0), DVec3::ZERO, 0.1, 10.0);
+    let half_height = (20f64.to_radians() / 2.0).tan();
+    let half_width = half_height * WIDTH as f64 / HEIGHT as f64;
+    let back = (eye - target).normalize();
+    let right = DVec3::Y.cross(back).normalize();
+    let up = back.cross(right);
     let mut rng = Rng(0x5eed);
-    (0..SIZE.x * SIZE.y)
+    (0..WIDTH * HEIGHT)
         .map(|i| {
-            let (x, y) = ((i % SIZE.x) as f64, (i / SIZE.x) as f64);
-            (0..BATCHES)
-                .map(|_| {
-                    let mut sum = DVec3::ZERO;
-                    for _ in 0..SAMPLES {
-                        let s = (x + rng.next()) / SIZE.x as f64;
-                        let t = (y + rng.next()) / SIZE.y as f64;
-                        let disk = loop {
-                            let (a, b) = (2.0 * rng.next() - 1.0, 2.0 * rng.next() - 1.0);
-                            if a * a + b * b < 1.0 {
-                                break (a, b);
-                            }
-                        };
-                        let origin = eye + lens * (disk.0 * right + disk.1 * up);
-                        let focus = corner + s * h + t * v;
-                        sum += radiance(&groups, origin, focus - origin, &mut rng);
+            let (x, y) = ((i % WIDTH) as f64, (i / WIDTH) as f64);
+            let (mut sum, mut squares) = (DVec3::ZERO, DVec3::ZERO);
+            for _ in 0..REFERENCE_SPP {
+                // (s, t) from the top-left corner of the image.
+                let s = (x + rng.next()) / WIDTH as f64;
+                let t = (y + rng.next()) / HEIGHT as f64;
+                let disk = loop {
+                    let (a, b) = (2.0 * rng.next() - 1.0, 2.0 * rng.next() - 1.0);
+                    if a * a + b * b < 1.0 {
+                        break (a, b);
                     }
-                    sum / SAMPLES as f64
-                })
-                .collect()
-        })
-        .collect()
-}
-
-/// Per 8×8 block and channel: the mean of the pixels' means and its variance
-/// (each pixel's variance of its mean from the spread of its batches).
-fn blocks(pixels: &[Vec<DVec3>]) -> Vec<(DVec3, DVec3)> {
-    let (bw, bh) = (SIZE.x / 8, SIZE.y / 8);
-    (0..bw * bh)
-        .map(|b| {
-            let (bx, by) = (b % bw, b / bw);
-            let (mut mean, mut var) = (DVec3::ZERO, DVec3::ZERO);
-            for y in 0..8 {
-                for x in 0..8 {
-                    let batches = &pixels[((by * 8 + y) * SIZE.x + bx * 8 + x) as usize];
-                    let k = batches.len() as f64;
-                    let m = batches.iter().sum::<DVec3>() / k;
-                    let s2 = batches.iter().map(|v| (*v - m) * (*v - m)).sum::<DVec3>() / (k - 1.0);
-                    mean += m / 64.0;
-                    var += s2 / k / (64.0 * 64.0);
-                }
+                };
+                let origin = eye + aperture / 2.0 * (disk.0 * right + disk.1 * up);
+                let on_focus_plane =
+                    eye + focus * (-back + (2.0 * s - 1.0) * half_width * right + (1.0 - 2.0 * t) * half_height * up);
+                let l = radiance(&spheres, origin, on_focus_plane - origin, &mut rng);
+                (sum, squares) = (sum + l, squares + l * l);
             }
-            (mean, var)
+            let n = REFERENCE_SPP as f64;
+            let mean = sum / n;
+            (mean, ((squares - n * mean * mean) / (n - 1.0)).max(DVec3::ZERO))
         })
         .collect()
 }
 
-/// The device's pixels per batch, from the sums after each launch.
-fn batches(steps: &[Vec<Vec4>]) -> Vec<Vec<DVec3>> {
-    (0..steps[0].len())
-        .map(|p| {
-            (0..steps.len())
-                .map(|k| {
-                    let before = if k == 0 { Vec4::ZERO } else { steps[k - 1][p] };
-                    let d = steps[k][p] - before;
-                    d.truncate().as_dvec3() / d.w as f64
-                })
-                .collect()
-        })
-        .collect()
+/// Runs the project's binary on `backend` and checks its pictures against the
+/// reference (per pixel: the mean and the variance of one sample).
+fn render_and_compare(binary: &Path, dir: &Path, backend: Backend, want: &[(DVec3, DVec3)]) {
+    let name = match backend {
+        Backend::Vulkan => "vulkan",
+        Backend::Cpu => "cpu",
+    };
+    let started = Instant::now();
+    let output = Command::new(binary)
+        .args([&format!("{name}.png"), &WIDTH.to_string(), &HEIGHT.to_string(), &DEVICE_SPP.to_string()])
+        .current_dir(dir)
+        .env("RAYKIT_BACKEND", name)
+        .env("RAYKIT_VALIDATION", "1")
+        .output()
+        .expect("running the first renderer");
+    assert!(output.status.success(), "the first renderer failed on {name}:\n{}", text(&output));
+    eprintln!("{name}: rendered in {:.1} s: {}", started.elapsed().as_secs_f64(), text(&output).trim());
+    let got = read_pfm(&dir.join(format!("{name}.pfm")));
+    check_png(&dir.join(format!("{name}.png")), &got);
+
+    let (mut worst, mut squares, mut signed) = (0.0f64, 0.0, 0.0);
+    for (by, bx) in (0..HEIGHT / 8).flat_map(|by| (0..WIDTH / 8).map(move |bx| (by, bx))) {
+        let (mut mean, mut reference, mut variance) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+        for p in (0..64).map(|k| ((by * 8 + k / 8) * WIDTH + bx * 8 + k % 8) as usize) {
+            mean += got[p] / 64.0;
+            reference += want[p].0 / 64.0;
+            // The variance of a pixel's mean: of the device's, then of the reference's.
+            variance += want[p].1 * (1.0 / DEVICE_SPP as f64 + 1.0 / REFERENCE_SPP as f64) / (64.0 * 64.0);
+        }
+        for c in 0..3 {
+            // Blocks of sky alone have almost no noise: f32 rounding is the floor.
+            let z = (mean[c] - reference[c]).abs() / variance[c].sqrt().max(1e-5);
+            (worst, squares, signed) = (worst.max(z), squares + z * z, signed + z.copysign(mean[c] - reference[c]));
+            assert!(
+                z < 5.0,
+                "{name}: block ({bx}, {by}) channel {c}: {} against the reference's {} ({z:.1} standard errors)",
+                mean[c],
+                reference[c]
+            );
+        }
+        // The scene is not black: the comparison has something to compare.
+        assert!(reference.min_element() > 0.05, "block ({bx}, {by}) of the reference is black");
+    }
+    let n = (WIDTH / 8 * HEIGHT / 8 * 3) as f64;
+    eprintln!(
+        "{name}: worst 8x8 block {worst:.2} standard errors from the reference (over {n} blocks and channels: \
+         root mean square {:.2}, mean {:+.2})",
+        (squares / n).sqrt(),
+        signed / n
+    );
 }
 
 #[test]
-fn the_first_renderer_matches_a_plain_rust_path_tracer() -> anyhow::Result<()> {
-    let want = blocks(&reference());
-    with_each_backend("the_first_renderer_matches_a_plain_rust_path_tracer", |ctx, _| {
-        let steps = first_renderer::render(ctx, SIZE, SAMPLES, BATCHES)?;
-        anyhow::ensure!(steps.len() == BATCHES as usize, "{} launches", steps.len());
-        let last = steps.last().ok_or_else(|| anyhow::anyhow!("no launch"))?;
-        anyhow::ensure!(last.iter().all(|p| p.w == (SAMPLES * BATCHES) as f32), "sample counts");
-        let got = blocks(&batches(&steps));
-        let mut worst = 0.0f64;
-        for (b, ((gm, gv), (wm, wv))) in got.iter().zip(&want).enumerate() {
-            for c in 0..3 {
-                // Blocks of sky alone have no noise: f32 rounding is the floor.
-                let z = (gm[c] - wm[c]).abs() / (gv[c] + wv[c]).sqrt().max(1e-5);
-                worst = worst.max(z);
-                anyhow::ensure!(z < 5.0, "block {b} channel {c}: {} against {} ({z:.1} standard errors)", gm[c], wm[c]);
-            }
-        }
-        // The scene is not black: the comparison has something to compare.
-        anyhow::ensure!(got.iter().all(|(m, _)| m.min_element() > 0.05), "a black block");
-        println!("worst block: {worst:.2} standard errors");
-        Ok(())
-    })
+fn the_first_renderer_is_short() {
+    let mut total = 0;
+    for file in SOURCES {
+        let source = std::fs::read_to_string(project_dir().join(file)).expect("reading the project");
+        eprintln!("{file}: {} lines of code", code_lines(&source));
+        total += code_lines(&source);
+    }
+    eprintln!("the first renderer: {total} lines of code");
+    assert!(total <= 150, "the first renderer has {total} lines of code (neither blank nor comments), over 150");
+}
+
+#[test]
+fn the_readme_shows_the_first_renderers_code() {
+    let readme = std::fs::read_to_string(raykit_root().join("README.md")).expect("reading the README");
+    let section = readme.split("\n## Your first renderer\n").nth(1).expect("the README has the section");
+    let section = section.split("\n## ").next().unwrap_or(section);
+    // Each source as its lines without indentation (README blocks in list items are indented).
+    let sources: Vec<Vec<String>> = SOURCES
+        .iter()
+        .map(|f| std::fs::read_to_string(project_dir().join(f)).expect("reading the project"))
+        .map(|s| s.lines().map(|l| l.trim().to_owned()).collect())
+        .collect();
+    let mut blocks = 0;
+    for block in section.split("```rust").skip(1) {
+        let code = block.split_once('\n').map(|(_, rest)| rest).unwrap_or("");
+        let code: Vec<String> = code[..code.find("```").expect("a closed code block")]
+            .lines()
+            .map(|l| l.trim().to_owned())
+            .filter(|l| !l.is_empty())
+            .collect();
+        let shown = |lines: &Vec<String>| {
+            let lines: Vec<&String> = lines.iter().filter(|l| !l.is_empty()).collect();
+            lines.windows(code.len()).any(|w| w.iter().zip(&code).all(|(a, b)| *a == b))
+        };
+        assert!(sources.iter().any(shown), "a README block is not the project's code:\n{}", code.join("\n"));
+        blocks += 1;
+    }
+    assert!(blocks >= 3, "{blocks} code blocks in the section");
+}
+
+#[test]
+fn the_first_renderer_builds_outside_the_workspace_and_matches_a_plain_rust_path_tracer() {
+    let project = copy_project();
+    let started = Instant::now();
+    let output = cargo_build(&project);
+    assert!(output.status.success(), "cargo build of the first renderer failed:\n{}", text(&output));
+    eprintln!("the first renderer built in {:.1} s", started.elapsed().as_secs_f64());
+    let binary = raykit_root().join("target").join("template-project").join("debug").join("first_renderer");
+
+    let started = Instant::now();
+    let want = reference();
+    eprintln!("reference rendered in {:.1} s", started.elapsed().as_secs_f64());
+    for backend in raykit_tests::test_backends().expect("RAYKIT_TEST_BACKENDS") {
+        render_and_compare(&binary, &project, backend, &want);
+    }
+    let _ = std::fs::remove_dir_all(&project);
 }

@@ -4,7 +4,8 @@
 //! 1. `rustfmt`: `cargo fmt --all -- --check` with the tree's `rustfmt.toml`.
 //! 2. `rustfmt outside the workspace`: the crates the workspace excludes
 //!    (`builder/shader-builder` pins a nightly without rustfmt, `fuzz` is built by
-//!    cargo-fuzz), checked with this stable rustfmt and the same `rustfmt.toml`.
+//!    cargo-fuzz, `examples/first_renderer` is a project of its own), checked with
+//!    this stable rustfmt and the same `rustfmt.toml`.
 //! 3. `committed binaries`: every binary file `git ls-files` lists is a test
 //!    fixture with a `build.sh` and a `SHA256SUMS` beside it naming it
 //!    (`tests/committed_spirv.rs` checks the hashes and rebuilds).
@@ -21,8 +22,14 @@ use anyhow::{bail, Context as _};
 
 /// Files of the crates outside the workspace that rustfmt checks (it follows their
 /// `mod` declarations).
-const EXCLUDED_CRATE_ROOTS: [&str; 3] =
-    ["builder/shader-builder/build.rs", "builder/shader-builder/src/main.rs", "fuzz/fuzz_targets/spirv_intake.rs"];
+const EXCLUDED_CRATE_ROOTS: [&str; 6] = [
+    "builder/shader-builder/build.rs",
+    "builder/shader-builder/src/main.rs",
+    "fuzz/fuzz_targets/spirv_intake.rs",
+    "examples/first_renderer/build.rs",
+    "examples/first_renderer/src/main.rs",
+    "examples/first_renderer/device/src/lib.rs",
+];
 
 /// One gate: its name, the command, and what to run to fix or see the problem.
 struct Gate {
