@@ -46,6 +46,11 @@ pub struct ViewerArgs {
 }
 
 impl ViewerArgs {
+    /// Whether the command line asks for the viewer (`--view` or `--headless`).
+    pub fn wanted(&self) -> bool {
+        self.view || self.headless
+    }
+
     /// The camera `--camera` gives, else `default`.
     pub fn camera_or(&self, default: Camera) -> Result<Camera> {
         self.camera.as_deref().map_or(Ok(default), parse_camera)

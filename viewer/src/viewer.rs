@@ -15,6 +15,8 @@ use crate::display::{DisplayPass, PixelFormat, Samples};
 use crate::error::{Result, ViewerError};
 use crate::input::ViewerInput;
 use crate::render::Render;
+use crate::stats::{Stats, RAY_COUNT_PERIOD};
+use crate::window::Summary;
 
 /// Most samples per pixel one frame launches when the frame time adapts.
 pub const MAX_SAMPLES_PER_FRAME: u32 = 256;
@@ -65,38 +67,6 @@ struct InFlight {
     submitted: Instant,
 }
 
-/// Frame times and throughput.
-#[derive(Clone, Debug, Default)]
-pub struct Stats {
-    /// Seconds between consecutive displayed frames.
-    pub frame_times: Vec<f64>,
-    /// Samples per pixel of each displayed frame.
-    pub frame_samples: Vec<u32>,
-    /// Rays traced since the accumulation last started over, as of the last frame.
-    pub rays: u64,
-    /// Seconds the launches since the last start-over took.
-    pub render_seconds: f64,
-    last_display: Option<Instant>,
-}
-
-impl Stats {
-    /// Millions of rays per second since the accumulation last started over.
-    pub fn mrays_per_second(&self) -> f64 {
-        if self.render_seconds > 0.0 {
-            self.rays as f64 / self.render_seconds / 1e6
-        } else {
-            0.0
-        }
-    }
-
-    /// The median frame time in seconds over the last `n` frames.
-    pub fn median_frame_time(&self, n: usize) -> Option<f64> {
-        let mut last: Vec<f64> = self.frame_times.iter().rev().take(n).copied().collect();
-        last.sort_by(f64::total_cmp);
-        last.get(last.len() / 2).copied()
-    }
-}
-
 /// The viewer's state apart from its window.
 pub struct Viewer<R: Render> {
     renderer: R,
@@ -122,6 +92,8 @@ pub struct Viewer<R: Render> {
     rays_counted_at: Option<Instant>,
     /// Hot reloads that swapped in new programs.
     reloads: u64,
+    /// Hot reloads whose build failed (the previous programs kept rendering).
+    failed_reloads: u64,
 }
 
 impl<R: Render> Viewer<R> {
@@ -136,8 +108,7 @@ impl<R: Render> Viewer<R> {
         options: FrameOptions,
     ) -> Result<Viewer<R>> {
         let (width, height) = (width.max(1), height.max(1));
-        renderer.resize(width, height).map_err(ViewerError::Render)?;
-        renderer.set_camera(&camera);
+        renderer.resize(width, height, &camera).map_err(ViewerError::Render)?;
         let display = DisplayPass::new(renderer.context(), width, height, format)?;
         let next_samples = options.samples_per_frame.unwrap_or(1).max(1);
         Ok(Viewer {
@@ -156,6 +127,7 @@ impl<R: Render> Viewer<R> {
             stats: Stats::default(),
             rays_counted_at: None,
             reloads: 0,
+            failed_reloads: 0,
         })
     }
 
@@ -215,6 +187,11 @@ impl<R: Render> Viewer<R> {
         self.reloads
     }
 
+    /// Hot reloads whose build failed so far (each printed its error once).
+    pub fn failed_reloads(&self) -> u64 {
+        self.failed_reloads
+    }
+
     /// Whether a launch is running.
     pub fn is_launching(&self) -> bool {
         self.in_flight.is_some()
@@ -263,8 +240,7 @@ impl<R: Render> Viewer<R> {
     fn restart(&mut self) {
         self.renderer.reset();
         self.band_next_row = 0;
-        self.stats.rays = 0;
-        self.stats.render_seconds = 0.0;
+        self.stats.restarted();
         if self.options.samples_per_frame.is_none() {
             // The first frames after a change come quickly.
             self.next_samples = 1;
@@ -279,8 +255,7 @@ impl<R: Render> Viewer<R> {
             return Ok(());
         }
         self.finish_launch()?;
-        self.renderer.resize(width, height).map_err(ViewerError::Render)?;
-        self.renderer.set_camera(&self.rig.camera());
+        self.renderer.resize(width, height, &self.rig.camera()).map_err(ViewerError::Render)?;
         let ctx = self.renderer.context().clone();
         self.display.resize(&ctx, width, height)?;
         self.displayed = Samples::default();
@@ -321,7 +296,10 @@ impl<R: Render> Viewer<R> {
                     self.reloads += 1;
                     self.restart();
                 }
-                Err(e) => eprintln!("keeping the previous pipeline: {e}"),
+                Err(e) => {
+                    eprintln!("keeping the previous pipeline: {e}");
+                    self.failed_reloads += 1;
+                }
             }
         }
         let done = self.renderer.samples_done();
@@ -383,21 +361,40 @@ impl<R: Render> Viewer<R> {
         self.displayed = shown;
         self.frames += 1;
         let now = Instant::now();
-        if let Some(last) = self.stats.last_display.replace(now) {
-            self.stats.frame_times.push((now - last).as_secs_f64());
-        }
-        self.stats.frame_samples.push(samples);
-        self.stats.render_seconds += took.as_secs_f64();
+        self.stats.frame(samples, took, now);
         if self.options.samples_per_frame.is_none() {
             self.adapt(samples, rows, took);
         }
-        if self.rays_counted_at.is_none_or(|at| at.elapsed() > Duration::from_millis(500)) {
-            // The accumulation's w counts rays; no launch runs now, so this does not wait.
-            let accumulation = self.renderer.accumulation().read()?;
-            self.stats.rays = accumulation.iter().map(|a| a.w as f64).sum::<f64>() as u64;
-            self.rays_counted_at = Some(now);
+        if self.rays_counted_at.is_none_or(|at| at.elapsed() > RAY_COUNT_PERIOD) {
+            self.count_rays()?;
         }
         self.write_screenshots()
+    }
+
+    /// Counts the rays in the accumulation (its w) for the stats; call it while
+    /// no launch is in flight (its rays would count, its time would not).
+    fn count_rays(&mut self) -> Result<()> {
+        let accumulation = self.renderer.accumulation().read()?;
+        self.stats.rays_counted(accumulation.iter().map(|a| a.w as f64).sum::<f64>() as u64);
+        self.rays_counted_at = Some(Instant::now());
+        Ok(())
+    }
+
+    /// What the session ended with, presented by `presenter`. Unless a launch is
+    /// in flight, counts the rays once more, so the summary's Mrays/s covers every
+    /// frame since the last restart.
+    pub fn summary(&mut self, presenter: &'static str) -> Result<Summary> {
+        if self.in_flight.is_none() {
+            self.count_rays()?;
+        }
+        Ok(Summary {
+            frames: self.frames,
+            stats: self.stats.clone(),
+            camera: self.camera(),
+            samples: self.displayed_samples(),
+            size: self.display.size(),
+            presenter,
+        })
     }
 
     /// Sizes the next frame's work to the target frame time from the time a
