@@ -37,7 +37,7 @@ pub mod window;
 pub use camera::{format_camera, parse_camera, CameraMode, CameraRig};
 pub use error::{RenderError, Result, ViewerError};
 pub use input::ViewerInput;
-pub use options::ViewerArgs;
+pub use options::{ViewerArgs, ViewerCli};
 pub use render::Render;
 pub use script::Script;
 pub use session::{run, Session};

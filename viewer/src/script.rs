@@ -206,9 +206,12 @@ mod tests {
 
     #[test]
     fn a_wait_for_a_failed_reload_ends_on_a_failure_only() {
-        let mut script = Script::parse("wait-reload-error
+        let mut script = Script::parse(
+            "wait-reload-error
 reset
-").unwrap();
+",
+        )
+        .unwrap();
         assert!(script.due().is_empty());
         script.reloaded();
         assert!(script.due().is_empty(), "a reload that worked is not a failure");
