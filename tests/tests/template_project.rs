@@ -24,7 +24,7 @@ const HIT: [u8; 3] = [0xff, 0xc0, 0x30];
 const BACKGROUND: [u8; 3] = [0x10, 0x20, 0x40];
 /// The template's `CAMERA`.
 const CAMERA: Camera =
-    Camera { eye: Vec3::new(0.0, 0.0, 2.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_degrees: 53.130_102 };
+    Camera { eye: Vec3::new(0.0, 0.0, 2.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_degrees: 53.130_104 };
 /// Frames (one sample per pixel each) of the `--headless` render.
 const FRAMES: u32 = 8;
 
