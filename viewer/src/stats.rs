@@ -30,14 +30,15 @@ pub struct Stats {
 }
 
 impl Stats {
-    /// Records a displayed frame of `samples` samples per pixel whose launch took
-    /// `launch`, displayed at `now`.
-    pub fn frame(&mut self, samples: u32, launch: Duration, now: Instant) {
+    /// Records a displayed frame of `samples` samples per pixel, displayed at
+    /// `now`, whose launch took `launch`; `None` for a launch submitted before the
+    /// last restart, whose time belongs to the accumulation that started over.
+    pub fn frame(&mut self, samples: u32, launch: Option<Duration>, now: Instant) {
         if let Some(last) = self.last_display.replace(now) {
             self.frame_times.push((now - last).as_secs_f64());
         }
         self.frame_samples.push(samples);
-        self.launch_seconds += launch.as_secs_f64();
+        self.launch_seconds += launch.map_or(0.0, |t| t.as_secs_f64());
     }
 
     /// Records a count of the rays in the accumulation, taken after the last
@@ -87,10 +88,10 @@ mod tests {
         assert_eq!(stats.mrays_per_second(), 0.0, "nothing counted yet");
         // 120 frames of 3/512 s launches; the rays are counted after the first
         // one only (the viewer counts every RAY_COUNT_PERIOD), 1280×720×4 of them.
-        stats.frame(1, ticks(3), start);
+        stats.frame(1, Some(ticks(3)), start);
         stats.rays_counted(1280 * 720 * 4);
         for i in 1..120 {
-            stats.frame(1, ticks(3), start + ticks(3) * i);
+            stats.frame(1, Some(ticks(3)), start + ticks(3) * i);
         }
         // The count covers the first launch alone: 3_686_400 rays / (3/512 s).
         assert_eq!(stats.counted_seconds, 3.0 / 512.0);
@@ -108,18 +109,21 @@ mod tests {
     fn a_restart_keeps_the_last_count_until_the_next() {
         let mut stats = Stats::default();
         let start = Instant::now();
-        stats.frame(2, ticks(8), start);
-        stats.frame(2, ticks(8), start + ticks(10));
+        stats.frame(2, Some(ticks(8)), start);
+        stats.frame(2, Some(ticks(8)), start + ticks(10));
         stats.rays_counted(1 << 20);
         assert_eq!(stats.mrays_per_second(), (1u64 << 20) as f64 / (16.0 / 512.0) / 1e6);
         stats.restarted();
         assert_eq!(stats.launch_seconds, 0.0);
         assert_eq!(stats.mrays_per_second(), (1u64 << 20) as f64 / (16.0 / 512.0) / 1e6, "kept");
-        stats.frame(1, ticks(2), start + ticks(20));
+        // The launch in flight at the restart finishes: a frame, but no launch time.
+        stats.frame(2, None, start + ticks(20));
+        assert_eq!(stats.launch_seconds, 0.0);
+        stats.frame(1, Some(ticks(2)), start + ticks(30));
         stats.rays_counted(1 << 10);
         assert_eq!(stats.counted_seconds, 2.0 / 512.0);
         assert_eq!(stats.mrays_per_second(), 1024.0 / (2.0 / 512.0) / 1e6);
-        assert_eq!(stats.frame_samples, [2, 2, 1]);
-        assert_eq!(stats.frame_times, [10.0 / 512.0, 10.0 / 512.0]);
+        assert_eq!(stats.frame_samples, [2, 2, 2, 1]);
+        assert_eq!(stats.frame_times, [10.0 / 512.0; 3]);
     }
 }

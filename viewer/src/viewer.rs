@@ -65,6 +65,9 @@ struct InFlight {
     /// Samples per pixel in the accumulation once it has finished.
     shown: Samples,
     submitted: Instant,
+    /// The viewer's restarts when it was submitted: fewer than now, and the
+    /// accumulation it adds to was started over while it ran.
+    restarts: u64,
 }
 
 /// The viewer's state apart from its window.
@@ -94,6 +97,8 @@ pub struct Viewer<R: Render> {
     reloads: u64,
     /// Hot reloads whose build failed (the previous programs kept rendering).
     failed_reloads: u64,
+    /// Times the accumulation started over.
+    restarts: u64,
 }
 
 impl<R: Render> Viewer<R> {
@@ -128,6 +133,7 @@ impl<R: Render> Viewer<R> {
             rays_counted_at: None,
             reloads: 0,
             failed_reloads: 0,
+            restarts: 0,
         })
     }
 
@@ -240,6 +246,7 @@ impl<R: Render> Viewer<R> {
     fn restart(&mut self) {
         self.renderer.reset();
         self.band_next_row = 0;
+        self.restarts += 1;
         self.stats.restarted();
         if self.options.samples_per_frame.is_none() {
             // The first frames after a change come quickly.
@@ -280,9 +287,9 @@ impl<R: Render> Viewer<R> {
             if !in_flight.launch.is_done()? {
                 return Ok(Tick::Working);
             }
-            if let Some(InFlight { launch, samples, rows, shown, submitted }) = self.in_flight.take() {
+            if let Some(InFlight { launch, samples, rows, shown, submitted, restarts }) = self.in_flight.take() {
                 launch.wait()?;
-                self.frame_finished(samples, rows, shown, submitted.elapsed())?;
+                self.frame_finished(samples, rows, shown, submitted.elapsed(), restarts)?;
                 return Ok(Tick::Displayed);
             }
         }
@@ -320,7 +327,8 @@ impl<R: Render> Viewer<R> {
                 self.band_next_row = rows.end;
                 Samples { above: done + 1, split_row: rows.end, below: done }
             };
-            InFlight { launch, samples: 1, rows: rows.len() as u32, shown, submitted: Instant::now() }
+            let rows = rows.len() as u32;
+            InFlight { launch, samples: 1, rows, shown, submitted: Instant::now(), restarts: self.restarts }
         } else {
             let mut samples = self.next_samples;
             if let Some(max) = self.options.max_samples {
@@ -328,7 +336,7 @@ impl<R: Render> Viewer<R> {
             }
             let launch = self.renderer.launch(samples).map_err(ViewerError::Render)?;
             let shown = Samples::whole(self.renderer.samples_done());
-            InFlight { launch, samples, rows: height, shown, submitted: Instant::now() }
+            InFlight { launch, samples, rows: height, shown, submitted: Instant::now(), restarts: self.restarts }
         };
         self.in_flight = Some(in_flight);
         Ok(Tick::Working)
@@ -344,9 +352,9 @@ impl<R: Render> Viewer<R> {
                 Tick::Working => {
                     if let Some(in_flight) = self.in_flight.take() {
                         // Blocks; the next tick finds nothing in flight, so hand it back.
-                        let InFlight { launch, samples, rows, shown, submitted } = in_flight;
+                        let InFlight { launch, samples, rows, shown, submitted, restarts } = in_flight;
                         launch.wait()?;
-                        self.frame_finished(samples, rows, shown, submitted.elapsed())?;
+                        self.frame_finished(samples, rows, shown, submitted.elapsed(), restarts)?;
                         return Ok(true);
                     }
                 }
@@ -356,16 +364,20 @@ impl<R: Render> Viewer<R> {
 
     /// A launch of `samples` over `rows` rows finished in `took`: runs the display
     /// pass, counts the frame, adapts the work per frame, writes waiting screenshots.
-    fn frame_finished(&mut self, samples: u32, rows: u32, shown: Samples, took: Duration) -> Result<()> {
+    /// A launch submitted before a restart (`restarts` behind the viewer's) counts
+    /// as a frame but not towards Mrays/s: its rays and time belong to the
+    /// accumulation that was started over.
+    fn frame_finished(&mut self, samples: u32, rows: u32, shown: Samples, took: Duration, restarts: u64) -> Result<()> {
         self.display.run(self.renderer.accumulation(), shown, self.options.exposure)?;
         self.displayed = shown;
         self.frames += 1;
         let now = Instant::now();
-        self.stats.frame(samples, took, now);
+        let current = restarts == self.restarts;
+        self.stats.frame(samples, current.then_some(took), now);
         if self.options.samples_per_frame.is_none() {
             self.adapt(samples, rows, took);
         }
-        if self.rays_counted_at.is_none_or(|at| at.elapsed() > RAY_COUNT_PERIOD) {
+        if current && self.rays_counted_at.is_none_or(|at| at.elapsed() > RAY_COUNT_PERIOD) {
             self.count_rays()?;
         }
         self.write_screenshots()
@@ -381,10 +393,10 @@ impl<R: Render> Viewer<R> {
     }
 
     /// What the session ended with, presented by `presenter`. Unless a launch is
-    /// in flight, counts the rays once more, so the summary's Mrays/s covers every
-    /// frame since the last restart.
+    /// in flight or none has finished since the last restart, counts the rays once
+    /// more, so the summary's Mrays/s covers every frame since the last restart.
     pub fn summary(&mut self, presenter: &'static str) -> Result<Summary> {
-        if self.in_flight.is_none() {
+        if self.in_flight.is_none() && self.stats.launch_seconds > 0.0 {
             self.count_rays()?;
         }
         Ok(Summary {
