@@ -4,8 +4,8 @@
 //! Vulkan driver with validation on, its picture checked against a CPU reference; then its binary
 //! alone, copied into an empty directory, still runs; built with its `viewer`
 //! feature, `--headless` writes the viewer's antialiased picture, checked against
-//! a CPU reference on Vulkan and on the CPU backend, and without the feature
-//! `--view` says how to get it; a params struct that disagrees with its device
+//! a CPU reference on Vulkan and on the CPU backend, the window (under Xvfb) shows
+//! the same bytes, and without the feature `--view` says how to get it; a params struct that disagrees with its device
 //! crate fails `cargo build` with raykit's layout message; and an error in the
 //! device crate is printed once. The package is named after the project's directory.
 
@@ -182,6 +182,45 @@ fn check_viewer_picture(what: &str, png: &Path, tolerance: u8) -> Vec<usize> {
     edges
 }
 
+/// Whether a display is there for the window; without one, fails when
+/// `RAYKIT_REQUIRE_DISPLAY=1` (as `cargo xtask test` sets, with Xvfb started) and
+/// says it skips otherwise.
+fn display() -> bool {
+    if std::env::var_os("DISPLAY").is_some_and(|d| !d.is_empty()) {
+        return true;
+    }
+    assert_ne!(
+        std::env::var("RAYKIT_REQUIRE_DISPLAY").as_deref(),
+        Ok("1"),
+        "no DISPLAY, and RAYKIT_REQUIRE_DISPLAY=1: run `cargo xtask test` (it starts Xvfb) or set DISPLAY"
+    );
+    eprintln!("the template's window: SKIPPED: no DISPLAY (`cargo xtask test` starts Xvfb)");
+    false
+}
+
+/// Runs the viewer-built app `--view` on `backend` (validation on) for `FRAMES`
+/// frames of one sample, then a screenshot: the window's picture, as PNG bytes.
+fn run_window(binary: &Path, cwd: &Path, backend: &str) -> Vec<u8> {
+    let png = cwd.join(format!("window-{backend}.png"));
+    let script = cwd.join("window.txt");
+    std::fs::write(&script, format!("frames {FRAMES}\nscreenshot {}\nclose\n", png.display()))
+        .expect("writing the script");
+    let output = Command::new(binary)
+        .args(["--view", "--spp-per-frame", "1", "--width", &WIDTH.to_string(), "--height", &HEIGHT.to_string()])
+        .arg("--script")
+        .arg(&script)
+        .current_dir(cwd)
+        .env("RAYKIT_VALIDATION", "1")
+        .env("RAYKIT_BACKEND", backend)
+        .output()
+        .expect("running the app");
+    let log = text(&output);
+    assert!(output.status.success(), "--view on {backend} failed:\n{log}");
+    assert!(log.contains(&format!("({WIDTH}x{HEIGHT}, {FRAMES} spp, camera ")), "{log}");
+    assert!(!log.contains("validation:"), "{log}");
+    image::open(&png).expect("decoding the window's picture").to_rgb8().into_raw()
+}
+
 /// Runs the viewer-built app `--headless` on `backend` (validation on) and checks its picture.
 fn run_headless(binary: &Path, cwd: &Path, backend: &str, tolerance: u8) -> (Vec<u8>, Vec<usize>) {
     let png = cwd.join(format!("headless-{backend}.png"));
@@ -263,6 +302,14 @@ fn template_project_builds_runs_alone_and_rejects_a_params_mismatch() {
     let inner = differing.iter().filter(|i| !edges.contains(i)).count();
     assert!(inner == 0, "{inner} pixels off the edges differ between the backends (of {} differing)", differing.len());
     eprintln!("--headless: {} of {} edge pixels differ between the backends", differing.len(), edges.len());
+    // The window (under Xvfb) shows what `--headless` writes, bit for bit, on both backends.
+    if display() {
+        assert!(
+            run_window(&binary, &project, "cpu") == on_cpu,
+            "the window on the CPU backend differs from --headless"
+        );
+        assert!(run_window(&binary, &project, "vulkan") == on_vulkan, "the window on Vulkan differs from --headless");
+    }
 
     // 5. A params struct the device lays out differently: `cargo build` fails
     //    with raykit's layout message.
