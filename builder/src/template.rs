@@ -8,10 +8,11 @@ use crate::error::{io, Error, Result};
 /// The template's files: their path in the new project and their text, with
 /// `{{raykit}}` standing for the raykit checkout, `{{name}}` for the package name
 /// and `{{crate}}` for it as a Rust identifier.
-const FILES: [(&str, &str); 6] = [
+const FILES: [(&str, &str); 7] = [
     ("Cargo.toml", include_str!("../../templates/new-project/Cargo.toml.tmpl")),
     ("build.rs", include_str!("../../templates/new-project/build.rs.tmpl")),
     ("src/main.rs", include_str!("../../templates/new-project/src/main.rs.tmpl")),
+    ("src/view.rs", include_str!("../../templates/new-project/src/view.rs.tmpl")),
     ("device/Cargo.toml", include_str!("../../templates/new-project/device/Cargo.toml.tmpl")),
     ("device/src/lib.rs", include_str!("../../templates/new-project/device/src/lib.rs.tmpl")),
     (".gitignore", include_str!("../../templates/new-project/gitignore.tmpl")),

@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use raykit::bytemuck::{Pod, Zeroable};
-use raykit::glam::{UVec2, Vec3};
+use raykit::glam::{UVec2, Vec3, Vec4};
 use raykit::{
-    Buffer, Context, DeviceBuffer, Gas, Ias, LaunchParams, LinkOptions, Module, Pipeline, ProgramGroup, Sbt,
+    Buffer, Camera, Context, DeviceBuffer, Gas, Ias, LaunchParams, LinkOptions, Module, Pipeline, ProgramGroup, Sbt,
     Traversable,
 };
 use raykit_builder::{DeviceBuild, DeviceWatcher, Report};
@@ -29,10 +29,20 @@ const REBUILD_BOUND: Duration = Duration::from_secs(180);
 #[bytemuck(crate = "raykit::bytemuck")]
 struct Params {
     image: Buffer<u32>,
+    accum: Buffer<Vec4>,
     size: UVec2,
-    _pad: u32,
+    sample_start: u32,
+    samples: u32,
+    eye: Vec3,
+    cam_u: Vec3,
+    cam_v: Vec3,
+    cam_w: Vec3,
     scene: Traversable,
 }
+
+/// The template's camera: 2 units in front of the triangle.
+const CAMERA: Camera =
+    Camera { eye: Vec3::new(0.0, 0.0, 2.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_degrees: 53.130_104 };
 
 /// What a reload replaces.
 struct Programs {
@@ -50,9 +60,27 @@ fn load(ctx: &Context, spv: &Path) -> raykit::Result<Programs> {
     Ok(Programs { pipeline, sbt })
 }
 
-/// The colour at the image's centre, which sees the triangle.
-fn centre_colour(programs: &Programs, image: &DeviceBuffer<u32>, scene: &Ias) -> raykit::Result<u32> {
-    let params = Params { image: image.handle(), size: UVec2::new(WIDTH, HEIGHT), _pad: 0, scene: scene.handle() };
+/// The colour at the image's centre, which sees the triangle (one sample per
+/// pixel, through its centre).
+fn centre_colour(
+    programs: &Programs,
+    image: &DeviceBuffer<u32>,
+    accum: &DeviceBuffer<Vec4>,
+    scene: &Ias,
+) -> raykit::Result<u32> {
+    let (cam_u, cam_v, cam_w) = CAMERA.uvw(WIDTH as f32 / HEIGHT as f32);
+    let params = Params {
+        image: image.handle(),
+        accum: accum.handle(),
+        size: UVec2::new(WIDTH, HEIGHT),
+        sample_start: 0,
+        samples: 1,
+        eye: CAMERA.eye,
+        cam_u,
+        cam_v,
+        cam_w,
+        scene: scene.handle(),
+    };
     programs.pipeline.launch(&programs.sbt, &params, [WIDTH, HEIGHT, 1])?;
     let pixels = image.read()?;
     Ok(pixels[((HEIGHT / 2) * WIDTH + WIDTH / 2) as usize])
@@ -85,8 +113,9 @@ fn an_edited_colour_reaches_the_next_frame_and_a_syntax_error_keeps_the_old_pipe
         let gas = Gas::triangles(ctx, &vertices, None)?;
         let scene = Ias::single(ctx, &gas)?;
         let image = ctx.buffer::<u32>((WIDTH * HEIGHT) as usize)?;
+        let accum = ctx.buffer::<Vec4>((WIDTH * HEIGHT) as usize)?;
         let mut programs = load(ctx, &spv)?;
-        assert_eq!(centre_colour(&programs, &image, &scene)?, 0xff30_c0ff);
+        assert_eq!(centre_colour(&programs, &image, &accum, &scene)?, 0xff30_c0ff);
 
         let mut latencies = Vec::new();
         for i in 0..5u32 {
@@ -98,7 +127,7 @@ fn an_edited_colour_reaches_the_next_frame_and_a_syntax_error_keeps_the_old_pipe
             let built = rebuild.result?;
             programs = load(ctx, &built.spv)?;
             assert_eq!(
-                centre_colour(&programs, &image, &scene)?,
+                centre_colour(&programs, &image, &accum, &scene)?,
                 colour,
                 "edit {i}: the next frame has the new colour"
             );
@@ -112,13 +141,13 @@ fn an_edited_colour_reaches_the_next_frame_and_a_syntax_error_keeps_the_old_pipe
         match rebuild.result {
             Err(raykit_builder::Error::Compile { message, .. }) => {
                 assert!(
-                    message.contains("error: expected one of") && message.contains("device/src/lib.rs:11"),
+                    message.contains("error: expected one of") && message.contains("device/src/lib.rs:12"),
                     "rustc's message is reported:\n{message}"
                 )
             }
             other => panic!("a syntax error must be a compile error, got {other:?}"),
         }
-        assert_eq!(centre_colour(&programs, &image, &scene)?, last, "the old pipeline keeps rendering");
+        assert_eq!(centre_colour(&programs, &image, &accum, &scene)?, last, "the old pipeline keeps rendering");
 
         latencies.sort_by(f64::total_cmp);
         eprintln!("edit → picture latencies (s): {latencies:.2?}; median {:.2}", latencies[2]);

@@ -8,6 +8,9 @@ use raykit_viewer_device::{display_pixel, layout, DisplayParams, DISPLAY};
 
 use crate::error::Result;
 
+/// The display pass's SPIR-V, built by build.rs and carried in the program.
+static DISPLAY_SPIRV: raykit::EmbeddedSpirv = raykit::include_spirv!("raykit-viewer-device");
+
 /// How the displayed `u32`s are laid out (the device crate's [`layout`]).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct PixelFormat {
@@ -71,7 +74,7 @@ pub struct DisplayPass {
 impl DisplayPass {
     /// Links the pass on `ctx` for `width × height` pixels in `format`.
     pub fn new(ctx: &Context, width: u32, height: u32, format: PixelFormat) -> Result<DisplayPass> {
-        let module = Module::from_device_crate(ctx, "raykit-viewer-device")?;
+        let module = Module::from_embedded(ctx, &DISPLAY_SPIRV)?;
         let raygen = ProgramGroup::raygen(&module, DISPLAY)?;
         let pipeline = Pipeline::<DisplayParams>::new(ctx, &[&raygen], LinkOptions::default())?;
         let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).build()?;

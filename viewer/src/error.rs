@@ -55,6 +55,9 @@ pub enum ViewerError {
         /// What is wrong with it.
         reason: String,
     },
+    /// `--headless` without `--frames`.
+    #[error("--headless renders a number of frames and writes the last: give it `--frames N`")]
+    HeadlessFrames,
     /// A line of an input script that the viewer does not understand.
     #[error("input script line {line}: {reason} (in {text:?}); see `raykit_viewer::script` for the commands")]
     Script {

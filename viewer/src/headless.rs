@@ -31,12 +31,5 @@ pub fn run<R: Render>(
         }
     }
     viewer.write_screenshot(output)?;
-    Ok(Summary {
-        frames: viewer.frames(),
-        stats: viewer.stats().clone(),
-        camera: viewer.camera(),
-        samples: viewer.displayed_samples(),
-        size: viewer.display().size(),
-        presenter: "headless",
-    })
+    viewer.summary("headless")
 }

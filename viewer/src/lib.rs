@@ -15,7 +15,8 @@
 //! hands to softbuffer on the CPU backend.
 //!
 //! [`window::run`] opens the window; [`headless::run`] renders the same frames
-//! without one. [`ViewerArgs`] are the command-line options of both, and
+//! without one; [`run`] does whichever the command line's [`ViewerArgs`] ask for
+//! (`--view` or `--headless`), so a program's viewer is a [`Render`] and one call.
 //! [`script`]s replay inputs through [`ViewerInput`] for tests and demos.
 #![deny(missing_docs)]
 
@@ -28,14 +29,18 @@ pub mod options;
 pub mod present;
 pub mod render;
 pub mod script;
+pub mod session;
+pub mod stats;
 pub mod viewer;
 pub mod window;
 
 pub use camera::{format_camera, parse_camera, CameraMode, CameraRig};
 pub use error::{RenderError, Result, ViewerError};
 pub use input::ViewerInput;
-pub use options::ViewerArgs;
+pub use options::{ViewerArgs, ViewerCli};
 pub use render::Render;
 pub use script::Script;
-pub use viewer::{FrameOptions, Stats, Tick, Viewer};
+pub use session::{run, Session};
+pub use stats::Stats;
+pub use viewer::{FrameOptions, Tick, Viewer};
 pub use window::{Summary, WindowOptions};

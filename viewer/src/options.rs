@@ -9,6 +9,7 @@ use raykit_scene::Camera;
 use crate::camera::parse_camera;
 use crate::error::Result;
 use crate::script::Script;
+use crate::session::Session;
 use crate::viewer::FrameOptions;
 
 /// `--view`, `--headless` and what they take.
@@ -46,6 +47,11 @@ pub struct ViewerArgs {
 }
 
 impl ViewerArgs {
+    /// Whether the command line asks for the viewer (`--view` or `--headless`).
+    pub fn wanted(&self) -> bool {
+        self.view || self.headless
+    }
+
     /// The camera `--camera` gives, else `default`.
     pub fn camera_or(&self, default: Camera) -> Result<Camera> {
         self.camera.as_deref().map_or(Ok(default), parse_camera)
@@ -69,5 +75,46 @@ impl ViewerArgs {
     /// The input script `--script` names.
     pub fn script(&self) -> Result<Option<Script>> {
         self.script.as_deref().map(Script::from_file).transpose()
+    }
+}
+
+/// A whole command line for a program whose only options are the viewer's: the
+/// [`ViewerArgs`], the picture's size and `--headless`'s output file (the
+/// new-project template's `--view`).
+#[derive(clap::Parser, Clone, Debug)]
+#[command(about = "raykit's interactive viewer (--view) or what its window would show (--headless --frames N)")]
+pub struct ViewerCli {
+    /// The viewer's options.
+    #[command(flatten)]
+    pub viewer: ViewerArgs,
+    /// Width of the picture (the window's inner width) in pixels.
+    #[arg(long, default_value_t = 640, value_parser = clap::value_parser!(u32).range(1..))]
+    pub width: u32,
+    /// Height of the picture in pixels.
+    #[arg(long, default_value_t = 480, value_parser = clap::value_parser!(u32).range(1..))]
+    pub height: u32,
+    /// Where `--headless` writes the picture (PNG; the mean radiance goes beside it as `.exr`).
+    #[arg(long, short, default_value = "viewer.png")]
+    pub output: PathBuf,
+}
+
+impl ViewerCli {
+    /// The program's command line; on a bad one, prints what is wrong (or the
+    /// help for `--help`) and exits, as command lines do.
+    pub fn from_env() -> ViewerCli {
+        <ViewerCli as clap::Parser>::parse()
+    }
+
+    /// The session these options describe, titled `title`, starting from `camera`
+    /// unless `--camera` gives one.
+    pub fn session(&self, title: &str, camera: Camera) -> Session {
+        Session {
+            title: title.to_owned(),
+            width: self.width,
+            height: self.height,
+            camera,
+            exposure: 1.0,
+            output: self.output.clone(),
+        }
     }
 }

@@ -19,8 +19,8 @@ pub trait Render {
     /// The context the renderer launches on.
     fn context(&self) -> &Context;
 
-    /// Starts over at `width × height` pixels (both at least 1).
-    fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError>;
+    /// Starts over at `width × height` pixels (both at least 1) seen from `camera`.
+    fn resize(&mut self, width: u32, height: u32, camera: &Camera) -> Result<(), RenderError>;
 
     /// Aims the camera; the next launch starts over.
     fn set_camera(&mut self, camera: &Camera);

@@ -11,6 +11,7 @@
 //! | `reset` | starts the accumulation over |
 //! | `frames N` | waits until N more frames are displayed |
 //! | `wait-reload` | waits until hot reload has swapped in new device programs |
+//! | `wait-reload-error` | waits until a hot-reload build has failed (the old programs keep rendering) |
 //! | `screenshot FILE.png` | writes the picture (and `FILE.exr`) |
 //! | `resize W H` | resizes the window |
 //! | `minimize`, `restore` | minimises or restores the window |
@@ -35,6 +36,8 @@ pub enum Step {
     Frames(u32),
     /// Waits for the next hot reload.
     WaitReload,
+    /// Waits for the next hot-reload build that fails.
+    WaitReloadError,
 }
 
 /// A parsed input script, replayed step by step.
@@ -46,6 +49,8 @@ pub struct Script {
     waiting: u32,
     /// Whether the next step waits for a hot reload.
     waiting_reload: bool,
+    /// Whether the next step waits for a failed hot-reload build.
+    waiting_reload_error: bool,
 }
 
 impl Script {
@@ -106,11 +111,15 @@ impl Script {
                 },
                 "reset" => bare(ViewerInput::Reset)?,
                 "frames" => whole(1).map(|n| Step::Frames(n[0]))?,
-                "wait-reload" => {
+                "wait-reload" | "wait-reload-error" => {
                     if !args.is_empty() {
-                        return Err(error("`wait-reload` takes nothing after it".into()));
+                        return Err(error(format!("`{command}` takes nothing after it")));
                     }
-                    Step::WaitReload
+                    if command == "wait-reload" {
+                        Step::WaitReload
+                    } else {
+                        Step::WaitReloadError
+                    }
                 }
                 "screenshot" => match args[..] {
                     [path] => Step::Input(ViewerInput::Screenshot(PathBuf::from(path))),
@@ -125,7 +134,7 @@ impl Script {
             };
             steps.push(step);
         }
-        Ok(Script { steps, next: 0, waiting: 0, waiting_reload: false })
+        Ok(Script { steps, next: 0, waiting: 0, waiting_reload: false, waiting_reload_error: false })
     }
 
     /// The steps.
@@ -135,7 +144,12 @@ impl Script {
 
     /// Whether every step has run.
     pub fn is_done(&self) -> bool {
-        self.next == self.steps.len() && self.waiting == 0 && !self.waiting_reload
+        self.next == self.steps.len() && !self.is_waiting()
+    }
+
+    /// Whether a wait has not passed yet.
+    fn is_waiting(&self) -> bool {
+        self.waiting > 0 || self.waiting_reload || self.waiting_reload_error
     }
 
     /// Counts one displayed frame.
@@ -148,14 +162,20 @@ impl Script {
         self.waiting_reload = false;
     }
 
+    /// Counts one failed hot-reload build.
+    pub fn reload_failed(&mut self) {
+        self.waiting_reload_error = false;
+    }
+
     /// The inputs to send now: the steps up to the next wait that has not passed.
     pub fn due(&mut self) -> Vec<ViewerInput> {
         let mut due = Vec::new();
-        while self.waiting == 0 && !self.waiting_reload && self.next < self.steps.len() {
+        while !self.is_waiting() && self.next < self.steps.len() {
             match &self.steps[self.next] {
                 Step::Input(input) => due.push(input.clone()),
                 Step::Frames(n) => self.waiting = *n,
                 Step::WaitReload => self.waiting_reload = true,
+                Step::WaitReloadError => self.waiting_reload_error = true,
             }
             self.next += 1;
         }
@@ -182,6 +202,24 @@ mod tests {
         script.reloaded();
         assert_eq!(script.due(), [ViewerInput::Screenshot("a.png".into()), ViewerInput::Close]);
         assert!(script.is_done());
+    }
+
+    #[test]
+    fn a_wait_for_a_failed_reload_ends_on_a_failure_only() {
+        let mut script = Script::parse(
+            "wait-reload-error
+reset
+",
+        )
+        .unwrap();
+        assert!(script.due().is_empty());
+        script.reloaded();
+        assert!(script.due().is_empty(), "a reload that worked is not a failure");
+        script.reload_failed();
+        assert_eq!(script.due(), [ViewerInput::Reset]);
+        assert!(script.is_done());
+        let message = Script::parse("wait-reload-error now").unwrap_err().to_string();
+        assert!(message.contains("`wait-reload-error` takes nothing after it"), "{message}");
     }
 
     #[test]

@@ -15,6 +15,8 @@ use crate::display::{DisplayPass, PixelFormat, Samples};
 use crate::error::{Result, ViewerError};
 use crate::input::ViewerInput;
 use crate::render::Render;
+use crate::stats::{Stats, RAY_COUNT_PERIOD};
+use crate::window::Summary;
 
 /// Most samples per pixel one frame launches when the frame time adapts.
 pub const MAX_SAMPLES_PER_FRAME: u32 = 256;
@@ -63,38 +65,9 @@ struct InFlight {
     /// Samples per pixel in the accumulation once it has finished.
     shown: Samples,
     submitted: Instant,
-}
-
-/// Frame times and throughput.
-#[derive(Clone, Debug, Default)]
-pub struct Stats {
-    /// Seconds between consecutive displayed frames.
-    pub frame_times: Vec<f64>,
-    /// Samples per pixel of each displayed frame.
-    pub frame_samples: Vec<u32>,
-    /// Rays traced since the accumulation last started over, as of the last frame.
-    pub rays: u64,
-    /// Seconds the launches since the last start-over took.
-    pub render_seconds: f64,
-    last_display: Option<Instant>,
-}
-
-impl Stats {
-    /// Millions of rays per second since the accumulation last started over.
-    pub fn mrays_per_second(&self) -> f64 {
-        if self.render_seconds > 0.0 {
-            self.rays as f64 / self.render_seconds / 1e6
-        } else {
-            0.0
-        }
-    }
-
-    /// The median frame time in seconds over the last `n` frames.
-    pub fn median_frame_time(&self, n: usize) -> Option<f64> {
-        let mut last: Vec<f64> = self.frame_times.iter().rev().take(n).copied().collect();
-        last.sort_by(f64::total_cmp);
-        last.get(last.len() / 2).copied()
-    }
+    /// The viewer's restarts when it was submitted: fewer than now, and the
+    /// accumulation it adds to was started over while it ran.
+    restarts: u64,
 }
 
 /// The viewer's state apart from its window.
@@ -122,6 +95,10 @@ pub struct Viewer<R: Render> {
     rays_counted_at: Option<Instant>,
     /// Hot reloads that swapped in new programs.
     reloads: u64,
+    /// Hot reloads whose build failed (the previous programs kept rendering).
+    failed_reloads: u64,
+    /// Times the accumulation started over.
+    restarts: u64,
 }
 
 impl<R: Render> Viewer<R> {
@@ -136,8 +113,7 @@ impl<R: Render> Viewer<R> {
         options: FrameOptions,
     ) -> Result<Viewer<R>> {
         let (width, height) = (width.max(1), height.max(1));
-        renderer.resize(width, height).map_err(ViewerError::Render)?;
-        renderer.set_camera(&camera);
+        renderer.resize(width, height, &camera).map_err(ViewerError::Render)?;
         let display = DisplayPass::new(renderer.context(), width, height, format)?;
         let next_samples = options.samples_per_frame.unwrap_or(1).max(1);
         Ok(Viewer {
@@ -156,6 +132,8 @@ impl<R: Render> Viewer<R> {
             stats: Stats::default(),
             rays_counted_at: None,
             reloads: 0,
+            failed_reloads: 0,
+            restarts: 0,
         })
     }
 
@@ -215,6 +193,11 @@ impl<R: Render> Viewer<R> {
         self.reloads
     }
 
+    /// Hot reloads whose build failed so far (each printed its error once).
+    pub fn failed_reloads(&self) -> u64 {
+        self.failed_reloads
+    }
+
     /// Whether a launch is running.
     pub fn is_launching(&self) -> bool {
         self.in_flight.is_some()
@@ -263,8 +246,8 @@ impl<R: Render> Viewer<R> {
     fn restart(&mut self) {
         self.renderer.reset();
         self.band_next_row = 0;
-        self.stats.rays = 0;
-        self.stats.render_seconds = 0.0;
+        self.restarts += 1;
+        self.stats.restarted();
         if self.options.samples_per_frame.is_none() {
             // The first frames after a change come quickly.
             self.next_samples = 1;
@@ -279,8 +262,7 @@ impl<R: Render> Viewer<R> {
             return Ok(());
         }
         self.finish_launch()?;
-        self.renderer.resize(width, height).map_err(ViewerError::Render)?;
-        self.renderer.set_camera(&self.rig.camera());
+        self.renderer.resize(width, height, &self.rig.camera()).map_err(ViewerError::Render)?;
         let ctx = self.renderer.context().clone();
         self.display.resize(&ctx, width, height)?;
         self.displayed = Samples::default();
@@ -305,9 +287,9 @@ impl<R: Render> Viewer<R> {
             if !in_flight.launch.is_done()? {
                 return Ok(Tick::Working);
             }
-            if let Some(InFlight { launch, samples, rows, shown, submitted }) = self.in_flight.take() {
+            if let Some(InFlight { launch, samples, rows, shown, submitted, restarts }) = self.in_flight.take() {
                 launch.wait()?;
-                self.frame_finished(samples, rows, shown, submitted.elapsed())?;
+                self.frame_finished(samples, rows, shown, submitted.elapsed(), restarts)?;
                 return Ok(Tick::Displayed);
             }
         }
@@ -321,7 +303,10 @@ impl<R: Render> Viewer<R> {
                     self.reloads += 1;
                     self.restart();
                 }
-                Err(e) => eprintln!("keeping the previous pipeline: {e}"),
+                Err(e) => {
+                    eprintln!("keeping the previous pipeline: {e}");
+                    self.failed_reloads += 1;
+                }
             }
         }
         let done = self.renderer.samples_done();
@@ -342,7 +327,8 @@ impl<R: Render> Viewer<R> {
                 self.band_next_row = rows.end;
                 Samples { above: done + 1, split_row: rows.end, below: done }
             };
-            InFlight { launch, samples: 1, rows: rows.len() as u32, shown, submitted: Instant::now() }
+            let rows = rows.len() as u32;
+            InFlight { launch, samples: 1, rows, shown, submitted: Instant::now(), restarts: self.restarts }
         } else {
             let mut samples = self.next_samples;
             if let Some(max) = self.options.max_samples {
@@ -350,7 +336,7 @@ impl<R: Render> Viewer<R> {
             }
             let launch = self.renderer.launch(samples).map_err(ViewerError::Render)?;
             let shown = Samples::whole(self.renderer.samples_done());
-            InFlight { launch, samples, rows: height, shown, submitted: Instant::now() }
+            InFlight { launch, samples, rows: height, shown, submitted: Instant::now(), restarts: self.restarts }
         };
         self.in_flight = Some(in_flight);
         Ok(Tick::Working)
@@ -366,9 +352,9 @@ impl<R: Render> Viewer<R> {
                 Tick::Working => {
                     if let Some(in_flight) = self.in_flight.take() {
                         // Blocks; the next tick finds nothing in flight, so hand it back.
-                        let InFlight { launch, samples, rows, shown, submitted } = in_flight;
+                        let InFlight { launch, samples, rows, shown, submitted, restarts } = in_flight;
                         launch.wait()?;
-                        self.frame_finished(samples, rows, shown, submitted.elapsed())?;
+                        self.frame_finished(samples, rows, shown, submitted.elapsed(), restarts)?;
                         return Ok(true);
                     }
                 }
@@ -378,26 +364,49 @@ impl<R: Render> Viewer<R> {
 
     /// A launch of `samples` over `rows` rows finished in `took`: runs the display
     /// pass, counts the frame, adapts the work per frame, writes waiting screenshots.
-    fn frame_finished(&mut self, samples: u32, rows: u32, shown: Samples, took: Duration) -> Result<()> {
+    /// A launch submitted before a restart (`restarts` behind the viewer's) counts
+    /// as a frame but not towards Mrays/s: its rays and time belong to the
+    /// accumulation that was started over.
+    fn frame_finished(&mut self, samples: u32, rows: u32, shown: Samples, took: Duration, restarts: u64) -> Result<()> {
         self.display.run(self.renderer.accumulation(), shown, self.options.exposure)?;
         self.displayed = shown;
         self.frames += 1;
         let now = Instant::now();
-        if let Some(last) = self.stats.last_display.replace(now) {
-            self.stats.frame_times.push((now - last).as_secs_f64());
-        }
-        self.stats.frame_samples.push(samples);
-        self.stats.render_seconds += took.as_secs_f64();
+        let current = restarts == self.restarts;
+        self.stats.frame(samples, current.then_some(took), now);
         if self.options.samples_per_frame.is_none() {
             self.adapt(samples, rows, took);
         }
-        if self.rays_counted_at.is_none_or(|at| at.elapsed() > Duration::from_millis(500)) {
-            // The accumulation's w counts rays; no launch runs now, so this does not wait.
-            let accumulation = self.renderer.accumulation().read()?;
-            self.stats.rays = accumulation.iter().map(|a| a.w as f64).sum::<f64>() as u64;
-            self.rays_counted_at = Some(now);
+        if current && self.rays_counted_at.is_none_or(|at| at.elapsed() > RAY_COUNT_PERIOD) {
+            self.count_rays()?;
         }
         self.write_screenshots()
+    }
+
+    /// Counts the rays in the accumulation (its w) for the stats; call it while
+    /// no launch is in flight (its rays would count, its time would not).
+    fn count_rays(&mut self) -> Result<()> {
+        let accumulation = self.renderer.accumulation().read()?;
+        self.stats.rays_counted(accumulation.iter().map(|a| a.w as f64).sum::<f64>() as u64);
+        self.rays_counted_at = Some(Instant::now());
+        Ok(())
+    }
+
+    /// What the session ended with, presented by `presenter`. Unless a launch is
+    /// in flight or none has finished since the last restart, counts the rays once
+    /// more, so the summary's Mrays/s covers every frame since the last restart.
+    pub fn summary(&mut self, presenter: &'static str) -> Result<Summary> {
+        if self.in_flight.is_none() && self.stats.launch_seconds > 0.0 {
+            self.count_rays()?;
+        }
+        Ok(Summary {
+            frames: self.frames,
+            stats: self.stats.clone(),
+            camera: self.camera(),
+            samples: self.displayed_samples(),
+            size: self.display.size(),
+            presenter,
+        })
     }
 
     /// Sizes the next frame's work to the target frame time from the time a

@@ -30,7 +30,8 @@ use crate::input::ViewerInput;
 use crate::present::{Presented, Presenter};
 use crate::render::Render;
 use crate::script::Script;
-use crate::viewer::{FrameOptions, Stats, Tick, Viewer};
+use crate::stats::Stats;
+use crate::viewer::{FrameOptions, Tick, Viewer};
 
 /// How often the title's stats line changes.
 const TITLE_PERIOD: Duration = Duration::from_millis(250);
@@ -119,15 +120,16 @@ pub fn run<R: Render>(renderer: R, options: WindowOptions) -> Result<Summary> {
         minimized: false,
         screenshots: 0,
         reloads_seen: 0,
+        failed_reloads_seen: 0,
         close_when_launching: false,
         error: None,
         summary: None,
     };
     event_loop.run_app(&mut app).map_err(|e| ViewerError::Window(e.to_string()))?;
+    app.finish();
     if let Some(e) = app.error {
         return Err(e);
     }
-    app.finish();
     app.summary.ok_or_else(|| ViewerError::Window("the event loop ended before the window opened".into()))
 }
 
@@ -157,6 +159,8 @@ struct App<R: Render> {
     screenshots: u32,
     /// Hot reloads the script has seen.
     reloads_seen: u64,
+    /// Failed hot-reload builds the script has seen.
+    failed_reloads_seen: u64,
     /// The script closes the window once the next launch is submitted.
     close_when_launching: bool,
     error: Option<ViewerError>,
@@ -229,16 +233,13 @@ impl<R: Render> App<R> {
 
     /// Records the summary and drops the window.
     fn finish(&mut self) {
-        if let Some(running) = self.running.take() {
-            let viewer = &running.viewer;
-            self.summary = Some(Summary {
-                frames: viewer.frames(),
-                stats: viewer.stats().clone(),
-                camera: viewer.camera(),
-                samples: viewer.displayed_samples(),
-                size: viewer.display().size(),
-                presenter: running.presenter.name(),
-            });
+        if let Some(mut running) = self.running.take() {
+            match running.viewer.summary(running.presenter.name()) {
+                Ok(summary) => self.summary = Some(summary),
+                Err(e) => {
+                    self.error.get_or_insert(e);
+                }
+            }
         }
     }
 
@@ -275,11 +276,16 @@ impl<R: Render> App<R> {
         loop {
             let Some(running) = &mut self.running else { return Ok(Tick::Idle) };
             let tick = running.viewer.tick()?;
-            let reloads = running.viewer.reloads();
+            let (reloads, failed_reloads) = (running.viewer.reloads(), running.viewer.failed_reloads());
             let launching = running.viewer.is_launching();
             if reloads > self.reloads_seen {
                 self.reloads_seen = reloads;
                 self.script.reloaded();
+                self.run_script(event_loop)?;
+            }
+            if failed_reloads > self.failed_reloads_seen {
+                self.failed_reloads_seen = failed_reloads;
+                self.script.reload_failed();
                 self.run_script(event_loop)?;
             }
             if tick != Tick::Displayed {

@@ -89,7 +89,7 @@ fn main() -> anyhow::Result<()> {
         cli.backend.as_deref().map(|b| if b == "cpu" { raykit::Backend::Cpu } else { raykit::Backend::Vulkan });
     let ctx = raykit::Context::new(raykit::ContextOptions { backend, ..Default::default() })?;
     let camera = framing_camera(&scene);
-    if cli.viewer.view || cli.viewer.headless {
+    if cli.viewer.wanted() {
         return view(&cli, &ctx, &scene, &env, camera);
     }
     let gpu = GpuScene::new(&ctx, &scene)?;
@@ -149,19 +149,15 @@ fn view(
     let mut renderer = gltf_pathtracer::view::ViewRenderer::new(ctx, scene, env, &camera)?;
     renderer.tracer_mut().set_max_depth(cli.max_depth);
     renderer.tracer_mut().set_light_sampling(!cli.no_light_sampling);
-    let args = &cli.viewer;
-    let camera = args.camera_or(camera)?;
-    let frames = args.frame_options(1.0);
-    let summary = if args.headless {
-        let count = args.frames.context("--headless renders --frames N frames; give N")?;
-        raykit_viewer::headless::run(renderer, camera, cli.width, cli.height, frames, count, &cli.output)?
-    } else {
-        let title = format!("raykit gltf_pathtracer: {}", cli.scene.display());
-        let (width, height, script, frame_limit) = (cli.width, cli.height, args.script()?, args.frames);
-        let options = raykit_viewer::WindowOptions { title, width, height, camera, frames, script, frame_limit };
-        raykit_viewer::window::run(renderer, options)?
+    let session = raykit_viewer::Session {
+        title: format!("raykit gltf_pathtracer: {}", cli.scene.display()),
+        width: cli.width,
+        height: cli.height,
+        camera,
+        exposure: 1.0,
+        output: cli.output.clone(),
     };
-    println!("viewer: {}", summary.line());
+    raykit_viewer::run(renderer, &cli.viewer, session)?;
     Ok(())
 }
 

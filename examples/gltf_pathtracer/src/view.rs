@@ -14,7 +14,6 @@ pub struct ViewRenderer {
     // Dropped before the scene its params point into.
     tracer: PathTracer,
     _scene: GpuScene,
-    camera: Camera,
 }
 
 impl ViewRenderer {
@@ -22,7 +21,7 @@ impl ViewRenderer {
     pub fn new(ctx: &Context, scene: &GltfScene, env: &EnvironmentMap, camera: &Camera) -> anyhow::Result<Self> {
         let gpu = GpuScene::new(ctx, scene)?;
         let tracer = PathTracer::new(ctx, &gpu, env, camera, 1, 1)?;
-        Ok(ViewRenderer { ctx: ctx.clone(), tracer, _scene: gpu, camera: *camera })
+        Ok(ViewRenderer { ctx: ctx.clone(), tracer, _scene: gpu })
     }
 
     /// The path tracer (its bounce cap and light sampling).
@@ -36,12 +35,11 @@ impl Render for ViewRenderer {
         &self.ctx
     }
 
-    fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
-        Ok(self.tracer.resize(&self.ctx, width, height, &self.camera)?)
+    fn resize(&mut self, width: u32, height: u32, camera: &Camera) -> Result<(), RenderError> {
+        Ok(self.tracer.resize(&self.ctx, width, height, camera)?)
     }
 
     fn set_camera(&mut self, camera: &Camera) {
-        self.camera = *camera;
         self.tracer.set_camera(camera);
     }
 

@@ -98,7 +98,7 @@ fn main() -> anyhow::Result<()> {
     anyhow::ensure!(cli.width > 0 && cli.height > 0, "--width and --height must be at least 1");
     anyhow::ensure!(cli.spp > 0 && cli.spp_per_launch > 0, "--spp and --spp-per-launch must be at least 1");
     anyhow::ensure!(cli.max_depth > 0, "--max-depth must be at least 1");
-    if cli.viewer.view || cli.viewer.headless {
+    if cli.viewer.wanted() {
         return view(&cli);
     }
     if cli.devices.is_some() || cli.backend.as_deref() == Some("vulkan,cpu") {
@@ -277,26 +277,16 @@ fn view(cli: &Cli) -> anyhow::Result<()> {
         };
         renderer.watch(&device, &out_dir, &target)?;
     }
-    let args = &cli.viewer;
-    let camera = args.camera_or(path_tracer::CAMERA)?;
-    let frames = args.frame_options(cli.exposure);
     drop(ctx);
-    let summary = if args.headless {
-        let count = args.frames.context("--headless renders --frames N frames; give N")?;
-        raykit_viewer::headless::run(renderer, camera, cli.width, cli.height, frames, count, &cli.output)?
-    } else {
-        let options = raykit_viewer::WindowOptions {
-            title: "raykit path_tracer".into(),
-            width: cli.width,
-            height: cli.height,
-            camera,
-            frames,
-            script: args.script()?,
-            frame_limit: args.frames,
-        };
-        raykit_viewer::window::run(renderer, options)?
+    let session = raykit_viewer::Session {
+        title: "raykit path_tracer".into(),
+        width: cli.width,
+        height: cli.height,
+        camera: path_tracer::CAMERA,
+        exposure: cli.exposure,
+        output: cli.output.clone(),
     };
-    println!("viewer: {}", summary.line());
+    raykit_viewer::run(renderer, &cli.viewer, session)?;
     report_validation(&log)
 }
 

@@ -10,7 +10,7 @@ use raykit::{Context, DeviceBuffer, Launch};
 use raykit_builder::{DeviceBuild, DeviceWatcher, Report};
 use raykit_viewer::{Render, RenderError};
 
-use crate::{Camera, Programs, Renderer, Scene, CAMERA};
+use crate::{Camera, Programs, Renderer, Scene};
 
 /// The path tracer as the viewer drives it.
 pub struct ViewRenderer {
@@ -18,7 +18,6 @@ pub struct ViewRenderer {
     renderer: Renderer,
     /// The scene the renderer's params point into.
     _scene: Scene,
-    camera: Camera,
     watcher: Option<DeviceWatcher>,
 }
 
@@ -29,7 +28,7 @@ impl ViewRenderer {
         let scene = Scene::new(ctx)?;
         let mut renderer = Renderer::new(ctx, &programs, &scene, width.max(1), height.max(1))?;
         renderer.set_max_depth(max_depth);
-        Ok(ViewRenderer { ctx: ctx.clone(), renderer, _scene: scene, camera: CAMERA, watcher: None })
+        Ok(ViewRenderer { ctx: ctx.clone(), renderer, _scene: scene, watcher: None })
     }
 
     /// Hot reload: watches the device crate at `device_dir` (its SPIR-V goes to
@@ -53,12 +52,11 @@ impl Render for ViewRenderer {
         &self.ctx
     }
 
-    fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
-        Ok(self.renderer.resize(&self.ctx, width, height, &self.camera)?)
+    fn resize(&mut self, width: u32, height: u32, camera: &Camera) -> Result<(), RenderError> {
+        Ok(self.renderer.resize(&self.ctx, width, height, camera)?)
     }
 
     fn set_camera(&mut self, camera: &Camera) {
-        self.camera = *camera;
         self.renderer.set_camera(camera);
     }
 

@@ -2,8 +2,9 @@
 //! scripted camera move through the input API, frames, a screenshot that equals
 //! the `--headless` render of the same camera and samples bit for bit (on
 //! lavapipe and on the CPU backend); resizing to 1×1 and back, minimising and
-//! closing while a launch runs without a crash or a validation message; and a
-//! hot-reload edit of a copied device crate reaching the window.
+//! closing while a launch runs without a crash or a validation message; and hot
+//! reload of a copied device crate: a broken edit prints rustc's message once
+//! while the window goes on with the old programs, then a good edit reaches it.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -207,8 +208,41 @@ fn mean_red_green(image: &image::RgbaImage) -> (f64, f64) {
     (r / n, g / n)
 }
 
+/// Waits, within `bound` of `started`, until `path` exists, failing if the viewer ends first.
+fn wait_for_file(
+    child: &mut std::process::Child,
+    path: &Path,
+    started: Instant,
+    bound: Duration,
+) -> anyhow::Result<()> {
+    while !path.exists() {
+        anyhow::ensure!(child.try_wait()?.is_none(), "the viewer ended before writing {}", path.display());
+        if started.elapsed() > bound {
+            child.kill()?;
+            anyhow::bail!("no {} within {bound:?}", path.display());
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Ok(())
+}
+
+/// Reads a child's pipe to its end on a thread of its own, line by line.
+fn collect_lines(pipe: impl std::io::Read + Send + 'static) -> std::thread::JoinHandle<Vec<String>> {
+    std::thread::spawn(move || BufReader::new(pipe).lines().map_while(Result::ok).collect())
+}
+
+/// The samples per pixel of the screenshot `png` that the viewer's stdout reports.
+fn screenshot_samples(stdout: &str, png: &Path) -> anyhow::Result<u32> {
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with(&format!("screenshot: {} ", png.display())))
+        .ok_or(anyhow::anyhow!("no screenshot line for {}", png.display()))?;
+    let spp = line.split(" spp").next().and_then(|l| l.rsplit(' ').next()).and_then(|n| n.parse().ok());
+    spp.ok_or(anyhow::anyhow!("no samples in {line:?}"))
+}
+
 #[test]
-fn a_hot_reload_edit_of_the_device_crate_reaches_the_window() -> anyhow::Result<()> {
+fn a_broken_edit_keeps_the_old_pipeline_and_a_good_edit_then_reaches_the_window() -> anyhow::Result<()> {
     let test = "hot_reload_window";
     if !display(test)? {
         return Ok(());
@@ -216,13 +250,15 @@ fn a_hot_reload_edit_of_the_device_crate_reaches_the_window() -> anyhow::Result<
     let dir = scratch(test)?;
     let device = dir.join("device");
     copy_device_crate(&device)?;
-    let (before, after) = (dir.join("before.png"), dir.join("after.png"));
+    let (before, kept, after) = (dir.join("before.png"), dir.join("kept.png"), dir.join("after.png"));
     let script = dir.join("reload.txt");
     std::fs::write(
         &script,
         format!(
-            "frames 2\nscreenshot {}\nwait-reload\nframes 2\nscreenshot {}\nclose\n",
+            "frames 2\nscreenshot {}\nwait-reload-error\nframes 3\nscreenshot {}\nwait-reload\nframes 2\n\
+             screenshot {}\nclose\n",
             before.display(),
+            kept.display(),
             after.display()
         ),
     )?;
@@ -236,20 +272,16 @@ fn a_hot_reload_edit_of_the_device_crate_reaches_the_window() -> anyhow::Result<
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     let mut child = window.spawn()?;
-    let stdout = child.stdout.take().ok_or(anyhow::anyhow!("no stdout"))?;
-    let lines = std::thread::spawn(move || BufReader::new(stdout).lines().map_while(Result::ok).collect::<Vec<_>>());
+    let stdout = collect_lines(child.stdout.take().ok_or(anyhow::anyhow!("no stdout"))?);
+    let stderr = collect_lines(child.stderr.take().ok_or(anyhow::anyhow!("no stderr"))?);
     let started = Instant::now();
-    while !before.exists() {
-        if child.try_wait()?.is_some() {
-            let out = child.wait_with_output()?;
-            anyhow::bail!("the viewer ended before its first screenshot:\n{}", String::from_utf8_lossy(&out.stderr));
-        }
-        anyhow::ensure!(started.elapsed() < RUN_BOUND, "no first screenshot within {RUN_BOUND:?}");
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    // A colour edit: the radiance of every path is tinted red.
+    wait_for_file(&mut child, &before, started, RUN_BOUND)?;
+    // A type error: the build fails, the window keeps the programs it has.
     let lib = device.join("src").join("lib.rs");
     let source = std::fs::read_to_string(&lib)?;
+    std::fs::write(&lib, format!("{source}\nconst WRONG: u32 = 1.5;\n"))?;
+    wait_for_file(&mut child, &kept, started, RELOAD_BOUND)?;
+    // A colour edit: the radiance of every path is tinted red.
     let line = "        sum += state.radiance;\n";
     assert!(source.contains(line), "the raygen program's accumulation line changed");
     std::fs::write(&lib, source.replace(line, "        sum += state.radiance * Vec3::new(1.0, 0.2, 0.2);\n"))?;
@@ -260,9 +292,28 @@ fn a_hot_reload_edit_of_the_device_crate_reaches_the_window() -> anyhow::Result<
         }
         std::thread::sleep(Duration::from_millis(100));
     }
-    let out = child.wait_with_output()?;
-    let stdout = lines.join().unwrap_or_default().join("\n");
-    anyhow::ensure!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    let status = child.wait()?;
+    let stdout = stdout.join().unwrap_or_default().join("\n");
+    let stderr = stderr.join().unwrap_or_default().join("\n");
+    anyhow::ensure!(status.success(), "{stdout}\n{stderr}");
+
+    // rustc's message, once, in the terminal; frames went on with the old picture.
+    assert_eq!(stderr.matches("keeping the previous pipeline").count(), 1, "{stderr}");
+    assert_eq!(stderr.matches("error[E0308]").count(), 1, "rustc's message is not printed once:\n{stderr}");
+    assert!(stderr.contains("const WRONG: u32 = 1.5;"), "{stderr}");
+    let (spp_before, spp_kept) = (screenshot_samples(&stdout, &before)?, screenshot_samples(&stdout, &kept)?);
+    assert!(spp_kept >= spp_before + 12, "frames stopped after the failed build: {spp_before} then {spp_kept} spp");
+    let old = dir.join("old-programs.png");
+    let mut headless = path_tracer();
+    headless.args(["--width", "32", "--height", "32", "--headless", "--spp-per-frame", "4", "--frames"]);
+    headless.arg((spp_kept / 4).to_string()).arg("-o").arg(&old);
+    run(headless, RUN_BOUND)?;
+    assert!(
+        rgba(&kept)?.as_raw() == rgba(&old)?.as_raw(),
+        "after the failed build the window shows something other than the old programs' {spp_kept} spp"
+    );
+
+    // The good edit landed.
     assert!(stdout.contains("reloaded in"), "{stdout}");
     let (r0, g0) = mean_red_green(&rgba(&before)?);
     let (r1, g1) = mean_red_green(&rgba(&after)?);
