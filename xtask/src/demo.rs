@@ -97,7 +97,9 @@ pub fn run(root: &Path, demo: &Demo) -> anyhow::Result<()> {
         let host = scope.spawn(|| {
             let started = Instant::now();
             let mut cmd = crate::cargo();
-            cmd.args(["build", "--release", "--quiet", "-p", &demo.example]);
+            // Without the interactive viewer (the path tracer's default `viewer`
+            // feature): the demo writes a picture.
+            cmd.args(["build", "--release", "--quiet", "--no-default-features", "-p", &demo.example]);
             let result = crate::run(&mut cmd, &format!("building the {} example", demo.example));
             (result, started.elapsed())
         });

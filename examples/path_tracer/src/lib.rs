@@ -33,6 +33,7 @@ pub use raykit_scene::Camera;
 
 pub use path_tracer_device as device;
 
+#[cfg(feature = "viewer")]
 pub mod view;
 
 /// optixPathTracer's camera.

@@ -5,7 +5,7 @@
 //! pipeline and renders the picture again (a compile error is printed and the old
 //! pipeline stays).
 //!
-//! `--view` opens the interactive viewer (`raykit-viewer`) on the box instead: a
+//! `--view` (with the default `viewer` feature) opens the interactive viewer (`raykit-viewer`) on the box instead: a
 //! window that refines the picture while the camera moves, with `--watch` swapping
 //! the pipeline in the running window. `--headless --frames N [--camera ...]
 //! [--spp-per-frame K]` writes what that window would show after N frames to
@@ -89,6 +89,7 @@ struct Cli {
     /// `examples/path_tracer/device`; another crate's SPIR-V goes to its `target/spirv/`).
     #[arg(long, requires = "watch")]
     device_dir: Option<PathBuf>,
+    #[cfg(feature = "viewer")]
     #[command(flatten)]
     viewer: raykit_viewer::ViewerArgs,
 }
@@ -98,6 +99,7 @@ fn main() -> anyhow::Result<()> {
     anyhow::ensure!(cli.width > 0 && cli.height > 0, "--width and --height must be at least 1");
     anyhow::ensure!(cli.spp > 0 && cli.spp_per_launch > 0, "--spp and --spp-per-launch must be at least 1");
     anyhow::ensure!(cli.max_depth > 0, "--max-depth must be at least 1");
+    #[cfg(feature = "viewer")]
     if cli.viewer.wanted() {
         return view(&cli);
     }
@@ -252,6 +254,7 @@ fn render(cli: &Cli, ctx: &Context, renderer: &mut Renderer) -> anyhow::Result<(
 
 /// `--view` and `--headless`: the Cornell box in the viewer's window, or what the
 /// window would show written to `--output`.
+#[cfg(feature = "viewer")]
 fn view(cli: &Cli) -> anyhow::Result<()> {
     anyhow::ensure!(!(cli.glsl || cli.wgsl), "--view and --headless run the Rust programs (drop --glsl/--wgsl)");
     anyhow::ensure!(cli.devices.is_none(), "--view and --headless render on one device (drop --devices)");
@@ -292,6 +295,7 @@ fn view(cli: &Cli) -> anyhow::Result<()> {
 
 /// Prints the validation messages the viewer's context collected (with
 /// `RAYKIT_VALIDATION=1`) and fails when there are any.
+#[cfg(feature = "viewer")]
 fn report_validation(log: &raykit::MessageLog) -> anyhow::Result<()> {
     let messages = log.snapshot();
     for message in &messages {

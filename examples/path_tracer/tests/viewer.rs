@@ -5,6 +5,7 @@
 //! closing while a launch runs without a crash or a validation message; and hot
 //! reload of a copied device crate: a broken edit prints rustc's message once
 //! while the window goes on with the old programs, then a good edit reaches it.
+#![cfg(feature = "viewer")]
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
