@@ -4,7 +4,7 @@
 //!
 //! The cache is `$RAYKIT_CACHE_DIR`, else `$XDG_CACHE_HOME/raykit`, else
 //! `~/.cache/raykit`: every project (and every clone of raykit) shares one build
-//! of the backend (about 3 minutes of 2 cores' time).
+//! of the backend (about 4 minutes on 2 cores beside other builds, 3½ alone).
 //!
 //! The backend runs SPIRV-Tools (`spirv-opt`, `spirv-val`) from `PATH` (Debian's
 //! `spirv-tools` package) rather than compiling their C++ into itself.
