@@ -6,7 +6,8 @@
 //!   and install while the toolchain installs and rust-gpu's codegen backend
 //!   builds: apt waits on the network and the disk, the backend build on the
 //!   cores.
-//! * The host program builds (`cargo build --release -p <example>`) while the
+//! * The host program builds (`cargo build --release --no-default-features -p
+//!   <example>`: the path tracer without its interactive viewer) while the
 //!   codegen backend builds: both are compilations, but each has long stretches
 //!   on one core (a big crate, a link), which the other fills.
 //! * Only the example's device crate is compiled to SPIR-V; its params layout
