@@ -8,9 +8,9 @@
 //! host and the SPIR-V target is an error naming the field, not garbage pixels.
 //!
 //! Every field's type must be a [`DeviceField`]: the scalars `u32`, `i32`, `f32`,
-//! `u64`, `i64`; glam's vectors and matrices; [`crate::Buffer`] and
-//! [`crate::Traversable`] handles; arrays of these; and other structs that derive
-//! `LaunchParams`. `bool`, `usize`, references and pointers are compile errors.
+//! `u64`, `i64`; glam's vectors and matrices; [`crate::Buffer`],
+//! [`crate::Traversable`] and [`crate::Texture2D`] handles; arrays of these; and
+//! other structs that derive `LaunchParams`. `bool`, `usize`, references and pointers are compile errors.
 //!
 //! ## Delivery
 //!
@@ -33,6 +33,7 @@ pub use raykit_abi::{
     note = "add `#[repr(C)]` and `#[derive(Copy, Clone, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]` to `{Self}`, \
             so raykit can check its layout against the SPIR-V"
 )]
+#[doc(alias("pipelineLaunchParamsVariableName"))]
 pub trait LaunchParams: Copy + bytemuck::Pod {
     /// The layout the compiler gave the struct.
     const LAYOUT: ParamsLayout;

@@ -1,5 +1,5 @@
-//! The README's first renderer (`examples/first_renderer`), a project of its
-//! own as a user writes it: copied outside the workspace, built with plain
+//! The book's first renderer (`examples/first_renderer`, shown in
+//! `docs/book/src/first-renderer.md`), a project of its own as a user writes it: copied outside the workspace, built with plain
 //! `cargo build`, run on the Vulkan driver (validation on) and on the CPU
 //! backend, and its pictures compared with a path tracer written again here in
 //! plain f64 Rust (its own scene description, camera, sphere test, random
@@ -8,7 +8,7 @@
 //! from the reference's per-pixel spread of single samples, which a correct
 //! renderer shares (radiance lies in [0, 1]: no heavy tails). The PNG is the
 //! PFM's radiance, sRGB-encoded. The project is at most 150 lines of code, and
-//! the README's code blocks of it are its code.
+//! the chapter's code blocks of it are its code.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -332,11 +332,10 @@ fn the_first_renderer_is_short() {
 }
 
 #[test]
-fn the_readme_shows_the_first_renderers_code() {
-    let readme = std::fs::read_to_string(raykit_root().join("README.md")).expect("reading the README");
-    let section = readme.split("\n## Your first renderer\n").nth(1).expect("the README has the section");
-    let section = section.split("\n## ").next().unwrap_or(section);
-    // Each source as its lines without indentation (README blocks in list items are indented).
+fn the_book_shows_the_first_renderers_code() {
+    let chapter = raykit_root().join("docs/book/src/first-renderer.md");
+    let section = std::fs::read_to_string(chapter).expect("reading the book's first-renderer chapter");
+    // Each source as its lines without indentation (blocks in list items are indented).
     let sources: Vec<Vec<String>> = SOURCES
         .iter()
         .map(|f| std::fs::read_to_string(project_dir().join(f)).expect("reading the project"))
@@ -354,7 +353,11 @@ fn the_readme_shows_the_first_renderers_code() {
             let lines: Vec<&String> = lines.iter().filter(|l| !l.is_empty()).collect();
             lines.windows(code.len()).any(|w| w.iter().zip(&code).all(|(a, b)| *a == b))
         };
-        assert!(sources.iter().any(shown), "a README block is not the project's code:\n{}", code.join("\n"));
+        assert!(
+            sources.iter().any(shown),
+            "a block of the book's chapter is not the project's code:\n{}",
+            code.join("\n")
+        );
         blocks += 1;
     }
     assert!(blocks >= 3, "{blocks} code blocks in the section");
