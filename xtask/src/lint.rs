@@ -12,8 +12,12 @@
 //! 4. `clippy`: `cargo clippy --workspace --all-targets -- -D warnings`.
 //! 5. `rustdoc`: `RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --lib`
 //!    (broken or ambiguous intra-doc links, links to private items, …).
-//! 6. `doctests`: `cargo test --workspace --doc` (the crates' examples and the
-//!    README's, which `examples/triangle` compiles as its own doctests).
+//! 6. `doctests`: `cargo test --workspace --doc` (the crates' examples, the
+//!    README's, which `examples/triangle` compiles as its own doctests, and the
+//!    book's, which `raykit-book` (`docs/book/doctests.rs`) compiles chapter by chapter).
+//! 7. `book`: `mdbook build docs/book` with no warning, and no broken relative link
+//!    or `#anchor` in the book or the READMEs (see `book.rs`; mdbook is installed
+//!    into raykit's cache when missing).
 
 use std::path::Path;
 use std::process::Command;
@@ -95,7 +99,10 @@ pub fn run_all(root: &Path) -> anyhow::Result<()> {
 
     let mut doctests = Gate::cargo("doctests", &["test", "--workspace", "--doc"], "cargo test --workspace --doc");
     doctests.command.env("RAYKIT_SPIRV_DIR", crate::shaders::spirv_dir(root));
-    doctests.run()
+    doctests.run()?;
+
+    println!("xtask lint: book");
+    crate::book::check(root).context("lint gate `book` failed; to see it: mdbook build docs/book")
 }
 
 /// Fails when `git ls-files` lists a binary file (one with a NUL byte in its first

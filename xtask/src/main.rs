@@ -5,12 +5,12 @@
 //! * `demo`: render the path tracer's Cornell box to a PNG (and PFM) with a
 //!   progress bar; `--example triangle` renders optixTriangle instead.
 //! * `lint`: the gates (rustfmt, clippy with `-D warnings`, rustdoc with `-D warnings`,
-//!   doctests, no undocumented binaries in git); see `lint.rs`.
+//!   doctests, the book, no undocumented binaries in git); see `lint.rs`.
 //! * `test`: set up what is missing (nightly, lavapipe, validation layers, glslang),
 //!   run `lint` (stopping at the first gate that fails), build the shaders and run
 //!   every test with validation on.
-//! * `new-project PATH`: write a new project that uses raykit (see the README's
-//!   "Use raykit in your own project").
+//! * `new-project PATH`: write a new project that uses raykit (see the book's
+//!   "Use raykit in your own project", `docs/book/src/own-project.md`).
 //! * `bench`: build `raykit-bench` in release and run it (suites such as `accel`);
 //!   it writes `target/bench/bench.json` and `bench.md`. The binary needs only the
 //!   Vulkan loader and the SPIR-V files, so it can be copied to a GPU machine
@@ -21,6 +21,7 @@
 //! small `shader-builder` program with the pinned nightly into a per-user cache
 //! and runs it.
 
+mod book;
 mod demo;
 mod display;
 mod layers;
@@ -72,7 +73,7 @@ enum Cmd {
         #[arg(long, default_value = "vulkan", value_parser = ["vulkan", "cpu"])]
         backend: String,
     },
-    /// Check formatting, clippy, rustdoc, doctests and committed binaries (each must pass).
+    /// Check formatting, clippy, rustdoc, doctests, the book and committed binaries (each must pass).
     Lint,
     /// Run `lint`, build the shaders and run the whole test suite with validation on.
     Test {
