@@ -18,6 +18,7 @@ use core::marker::PhantomData;
 /// device, as in OptiX.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+#[doc(alias("OptixTraversableHandle", "accelerationStructureEXT"))]
 pub struct Traversable {
     address: u64,
 }
@@ -78,6 +79,7 @@ impl Traversable {
 /// wrote there (`raykit::DeviceBuffer::zeroed` buffers start as zeros) or what a
 /// program stored.
 #[repr(C)]
+#[doc(alias("CUdeviceptr"))]
 pub struct Buffer<T> {
     index: u32,
     _element: PhantomData<T>,

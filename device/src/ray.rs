@@ -15,6 +15,17 @@ pub use spirv_std::ray_tracing::RayFlags;
 /// defaults are those of a scene's only ray type (offset 0, stride 1, miss 0),
 /// so one ray type needs only its payload:
 /// `impl RayType for Radiance { type Payload = Vec3; }`.
+#[doc(alias(
+    "optixGetPayload_0",
+    "optixSetPayload_0",
+    "optixGetPayload_1",
+    "optixSetPayload_1",
+    "optixGetPayload_2",
+    "optixSetPayload_2",
+    "optixGetPayload_3",
+    "optixSetPayload_3",
+    "rayPayloadEXT"
+))]
 pub trait RayType {
     /// The payload carried by rays of this type (`RayPayloadKHR`).
     type Payload;

@@ -36,6 +36,7 @@ use crate::FieldLayout;
 /// `Self` has no padding and no uninitialised bytes (its bytes are copied into
 /// the SBT), and [`SbtRecordData::FIELDS`] gives the true offsets and sizes of
 /// its fields (the host reads handles there).
+#[doc(alias("optixGetSbtDataPointer", "shaderRecordEXT"))]
 pub unsafe trait SbtRecordData: Copy + 'static {
     /// The fields whose layout raykit knows (with their shapes, so the host finds
     /// the `Buffer<T>` and `Traversable` handles, nested ones included); empty for

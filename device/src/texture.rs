@@ -68,6 +68,7 @@ impl<'a> TextureTable<'a> {
 /// 12 bits, a generation the host checks above them.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+#[doc(alias("cudaTextureObject_t"))]
 pub struct Texture2D {
     index: u32,
 }

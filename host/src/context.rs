@@ -53,6 +53,7 @@ use crate::vulkan::context::ContextInner;
 /// A device with ray tracing, and what every raykit object shares: a Vulkan
 /// device, or the CPU backend (see [`Backend`]).
 #[derive(Clone)]
+#[doc(alias("OptixDeviceContext"))]
 pub struct Context {
     repr: ContextRepr,
 }
@@ -68,6 +69,7 @@ impl Context {
     /// Creates a context on the backend `options` choose. On Vulkan, the first
     /// device with ray-tracing pipelines; when another context already uses that
     /// GPU, the new one shares its `VkDevice`.
+    #[doc(alias("optixDeviceContextCreate", "optixInit", "vkCreateDevice"))]
     pub fn new(options: ContextOptions) -> Result<Context> {
         match options.backend.or_else(Backend::from_env).unwrap_or_default() {
             Backend::Vulkan => Self::new_vulkan(options),

@@ -1,6 +1,78 @@
-// The README's code needs the triangle example's crates: `examples/triangle`
-// compiles it as its own doctests, so it is left out of this crate's.
-#![cfg_attr(not(doctest), doc = include_str!("../../README.md"))]
+//! # raykit
+//!
+//! The OptiX 7 programming model on Vulkan ray tracing (and natively on the
+//! CPU): the host runtime. Device programs are Rust functions in a device crate
+//! ([`raykit_device`], re-exported as [`device`]); this crate loads them, links
+//! them and launches them. The book (`docs/book/` in the repository) is the
+//! guide; this page is the map.
+//!
+//! # From a context to a launch
+//!
+//! Each step is one OptiX call, and one raykit type:
+//!
+//! 1. **A [`Context`]** ([`context`], OptiX's `optixDeviceContextCreate`):
+//!    [`Context::new`] picks a Vulkan device with ray tracing, or the CPU
+//!    backend ([`Backend::Cpu`], [`cpu`]). Everything below is made on it.
+//! 2. **A [`Module`]** ([`module`], `optixModuleCreate`): the device crate's
+//!    SPIR-V, by [`Module::from_device_crate`], [`Module::from_embedded`] (with
+//!    [`include_spirv!`]) or [`Module::new`]; on the CPU backend, the crate itself.
+//! 3. **[`ProgramGroup`]s** ([`program_group`], `optixProgramGroupCreate`):
+//!    [`ProgramGroup::raygen`], [`ProgramGroup::miss`], [`ProgramGroup::hit_group`],
+//!    [`ProgramGroup::callable`], named by the constants the device macros make.
+//! 4. **A [`Pipeline`]** ([`pipeline`], `optixPipelineCreate`): [`Pipeline::new`]
+//!    links the groups for launch params `P`, whose layout it checks against the
+//!    SPIR-V; [`PipelineLibrary`] and [`Pipeline::link`] reuse compiled groups,
+//!    and [`stack`] sizes its stack (`optixPipelineSetStackSize`).
+//! 5. **An [`Sbt`]** ([`sbt`], `OptixShaderBindingTable`): [`Sbt::builder`] packs
+//!    each group's handle with its typed record data and checks that every record
+//!    the pipeline's traces select exists.
+//! 6. **A [`Gas`] and an [`Ias`]** ([`accel`], `optixAccelBuild`): geometry
+//!    (triangles, AABBs, spheres) and its [`Instance`]s; [`Ias::handle`] is the
+//!    [`Traversable`] a launch-params field carries, beside [`Buffer`] handles of
+//!    [`DeviceBuffer`]s ([`memory`]) and [`Texture2D`] handles of [`Texture`]s
+//!    ([`texture`]).
+//! 7. **A launch** (`optixLaunch`): [`Pipeline::launch`] (or
+//!    [`Pipeline::launch_async`], a [`Launch`] to wait on) with the SBT, the params
+//!    and the grid; then [`DeviceBuffer::read`] the result.
+//!
+//! ```no_run
+//! # use raykit_device::glam::Vec3;
+//! # #[repr(C)]
+//! # #[derive(Copy, Clone, bytemuck::Pod, bytemuck::Zeroable, raykit::LaunchParams)]
+//! # pub struct Params { pub image: raykit::Buffer<u32>, pub _pad: u32, pub scene: raykit::Traversable }
+//! # const RG: &str = "__raygen__rg";
+//! # const MS: &str = "__miss__ms";
+//! # const CH: &str = "__closesthit__ch";
+//! use raykit::{Context, ContextOptions, Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt};
+//!
+//! let ctx = Context::new(ContextOptions::default())?; // 1
+//! let module = Module::from_device_crate(&ctx, "my-device")?; // 2: target/spirv/my_device.spv
+//! let raygen = ProgramGroup::raygen(&module, RG)?; // 3
+//! let miss = ProgramGroup::miss(&module, MS)?;
+//! let hit = ProgramGroup::hit_group(&module).closest_hit(CH).build()?;
+//! let pipeline = Pipeline::<Params>::new(&ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?; // 4
+//! let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).hit(&hit, ()).build()?; // 5
+//! let gas = Gas::triangles(&ctx, &[Vec3::X, Vec3::Y, Vec3::Z], None)?; // 6
+//! let scene = Ias::single(&ctx, &gas)?;
+//! let image = ctx.buffer::<u32>(64 * 64)?;
+//! pipeline.launch(&sbt, &Params { image: image.handle(), _pad: 0, scene: scene.handle() }, [64, 64, 1])?; // 7
+//! let pixels = image.read()?;
+//! # let _ = pixels;
+//! # Ok::<(), raykit::Error>(())
+//! ```
+//!
+//! # Around the launch
+//!
+//! * [`Error`] ([`error`]): every refusal, nested by domain, naming the fix;
+//!   [`validate`] holds the checks made before the driver sees anything.
+//! * [`log`]: validation and driver messages (OptiX's log callback); [`cache`]:
+//!   the compile cache (OptiX's disk cache); [`timeline`] and [`handles`]: when
+//!   dropped objects are freed, and the handle checks of every launch.
+//! * [`device_group`]: one launch split across several devices.
+//! * [`scene`]: a camera, image writers and environment maps for renderers.
+//!
+//! Search these docs by OptiX's names: `optixTrace`, `optixLaunch`,
+//! `optixSbtRecordPackHeader`, … are aliases of the raykit items that do their work.
 #![deny(missing_docs)]
 #![deny(missing_debug_implementations)]
 

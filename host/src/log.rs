@@ -67,6 +67,7 @@ pub struct LoggedObject {
 /// that guard those: it must not create or drop a [`crate::Context`] or a pipeline
 /// itself (nor an object holding the last reference to one).
 #[derive(Clone)]
+#[doc(alias("OptixLogCallback", "optixDeviceContextSetLogCallback"))]
 pub struct LogCallback(Arc<dyn Fn(&ValidationMessage) + Send + Sync>);
 
 impl LogCallback {

@@ -1,4 +1,4 @@
-//! Device memory: buffers allocated through gpu-allocator.
+//! Device memory, what OptiX programs get from `cudaMalloc`: buffers allocated through gpu-allocator.
 //!
 //! [`DeviceBuffer<T>`] is what users see: a typed array in device memory that the
 //! host can write and read, and that device programs reach through its
@@ -45,6 +45,7 @@ use crate::vulkan::timeline::Retired;
 
 /// A typed array of `T` in device memory, visible to device programs through
 /// [`DeviceBuffer::handle`] and readable and writable from the host.
+#[doc(alias("cudaMalloc", "CUdeviceptr"))]
 pub struct DeviceBuffer<T: Element> {
     repr: BufferRepr,
     slot: u32,

@@ -26,6 +26,7 @@ use crate::vulkan::module::ModuleInner;
 /// the device crate linked into the program, whose programs the
 /// [`EntryPoint`](raykit_device::EntryPoint) constants carry.
 #[derive(Clone)]
+#[doc(alias("OptixModule"))]
 pub struct Module {
     pub(crate) repr: ModuleRepr,
 }
@@ -345,6 +346,7 @@ pub fn reflect_entry_points(bytes: &[u8]) -> Result<Vec<EntryPointInfo>> {
 
 impl Module {
     /// Loads a module from SPIR-V bytes.
+    #[doc(alias("optixModuleCreate", "optixModuleCreateFromPTX", "vkCreateShaderModule"))]
     pub fn new(ctx: &Context, spirv: &[u8]) -> Result<Module> {
         Module::named(ctx, spirv, "from bytes")
     }
@@ -381,6 +383,7 @@ impl Module {
     ///
     /// On the CPU backend no SPIR-V is read: the module is the crate linked into
     /// the program, and its programs are named by their `EntryPoint` constants.
+    #[doc(alias("optixModuleCreate", "optixModuleCreateFromPTX"))]
     pub fn from_device_crate(ctx: &Context, crate_name: &str) -> Result<Module> {
         if let Some(cpu) = ctx.cpu() {
             return Ok(Module::linked(cpu, crate_name));
@@ -401,6 +404,7 @@ impl Module {
     /// and the bytes come from the same build as the crate's entry-point constants.
     /// On the CPU backend, the crate linked into the program (as
     /// [`Module::from_device_crate`]).
+    #[doc(alias("optixModuleCreate", "optixModuleCreateFromPTX"))]
     pub fn from_embedded(ctx: &Context, spirv: &EmbeddedSpirv) -> Result<Module> {
         if let Some(cpu) = ctx.cpu() {
             return Ok(Module::linked(cpu, spirv.crate_name));
@@ -409,6 +413,7 @@ impl Module {
     }
 
     /// Loads a module from a `.spv` file.
+    #[doc(alias("optixModuleCreate", "optixModuleCreateFromPTX"))]
     pub fn from_file(ctx: &Context, path: impl AsRef<Path>) -> Result<Module> {
         let path = path.as_ref();
         let bytes = std::fs::read(path)

@@ -1,4 +1,4 @@
-//! Sampled 2D textures, reached by device programs through [`Texture2D`]
+//! Sampled 2D textures, OptiX's CUDA texture objects, reached by device programs through [`Texture2D`]
 //! handles in launch params and SBT records, as buffers are through
 //! `Buffer<T>` handles (see [`raykit_device::texture`]).
 //!
@@ -55,6 +55,7 @@ pub use crate::types::texture::{
 /// # let _ = handle;
 /// # Ok::<(), raykit::Error>(())
 /// ```
+#[doc(alias("cudaTextureObject_t", "cudaCreateTextureObject"))]
 pub struct Texture {
     repr: TextureRepr,
     /// The table slot.

@@ -67,6 +67,7 @@ use raykit_abi::ProgramPrefix;
 /// assert_eq!(RG.name, "__raygen__rg");
 /// ```
 #[proc_macro_attribute]
+#[doc(alias("__raygen__"))]
 pub fn raygen(attr: TokenStream, item: TokenStream) -> TokenStream {
     root::resolve(program::expand(ProgramPrefix::Raygen, attr.into(), item.into())).into()
 }
@@ -97,6 +98,7 @@ pub fn raygen(attr: TokenStream, item: TokenStream) -> TokenStream {
 /// assert_eq!(SKY.name, "__miss__sky");
 /// ```
 #[proc_macro_attribute]
+#[doc(alias("__miss__", "optixGetPayload_0", "optixSetPayload_0"))]
 pub fn miss(attr: TokenStream, item: TokenStream) -> TokenStream {
     root::resolve(program::expand(ProgramPrefix::Miss, attr.into(), item.into())).into()
 }
@@ -129,6 +131,7 @@ pub fn miss(attr: TokenStream, item: TokenStream) -> TokenStream {
 /// assert_eq!(SHADE.name, "__closesthit__shade");
 /// ```
 #[proc_macro_attribute]
+#[doc(alias("__closesthit__", "optixGetPayload_0", "optixSetPayload_0", "optixGetSbtDataPointer"))]
 pub fn closest_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
     root::resolve(program::expand(ProgramPrefix::ClosestHit, attr.into(), item.into())).into()
 }
@@ -157,6 +160,7 @@ pub fn closest_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
 /// assert_eq!(CUTOUT.name, "__anyhit__cutout");
 /// ```
 #[proc_macro_attribute]
+#[doc(alias("__anyhit__", "optixGetPayload_0", "optixSetPayload_0"))]
 pub fn any_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
     root::resolve(program::expand(ProgramPrefix::AnyHit, attr.into(), item.into())).into()
 }
@@ -205,6 +209,7 @@ pub fn any_hit(attr: TokenStream, item: TokenStream) -> TokenStream {
 /// assert_eq!(SPHERE.name, "__intersection__sphere");
 /// ```
 #[proc_macro_attribute]
+#[doc(alias("__intersection__", "optixGetAttribute_0"))]
 pub fn intersection(attr: TokenStream, item: TokenStream) -> TokenStream {
     root::resolve(program::expand(ProgramPrefix::Intersection, attr.into(), item.into())).into()
 }
@@ -243,6 +248,7 @@ pub fn intersection(attr: TokenStream, item: TokenStream) -> TokenStream {
 /// assert_eq!(NORMALS.name, "__direct_callable__normals");
 /// ```
 #[proc_macro_attribute]
+#[doc(alias("__direct_callable__"))]
 pub fn direct_callable(attr: TokenStream, item: TokenStream) -> TokenStream {
     root::resolve(program::expand(ProgramPrefix::DirectCallable, attr.into(), item.into())).into()
 }
@@ -283,6 +289,7 @@ pub fn direct_callable(attr: TokenStream, item: TokenStream) -> TokenStream {
 /// assert_eq!(SUN.name, "__continuation_callable__sun");
 /// ```
 #[proc_macro_attribute]
+#[doc(alias("__continuation_callable__"))]
 pub fn continuation_callable(attr: TokenStream, item: TokenStream) -> TokenStream {
     root::resolve(program::expand(ProgramPrefix::ContinuationCallable, attr.into(), item.into())).into()
 }
@@ -320,6 +327,7 @@ pub fn continuation_callable(attr: TokenStream, item: TokenStream) -> TokenStrea
 /// assert_eq!(ON_EXCEPTION.name, "__exception__on_exception");
 /// ```
 #[proc_macro_attribute]
+#[doc(alias("__exception__"))]
 pub fn exception(attr: TokenStream, item: TokenStream) -> TokenStream {
     root::resolve(program::expand(ProgramPrefix::Exception, attr.into(), item.into())).into()
 }

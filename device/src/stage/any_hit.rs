@@ -23,12 +23,14 @@ impl<'a> AnyHit<'a> {
     /// returns it to the host with this launch index. Vulkan forbids calls from
     /// this stage, so no `#[exception]` program runs. The program goes on:
     /// follow it with `ignore_intersection`, `terminate_ray` or a return.
+    #[doc(alias("optixThrowException"))]
     pub fn throw_exception(&mut self, code: u32) {
         super::throw_exception(self.device, self.exception_slot, self.hit.launch_index, code);
     }
     hit_kind_accessors!();
 
     /// Rejects this candidate hit; traversal goes on (`optixIgnoreIntersection`).
+    #[doc(alias("optixIgnoreIntersection", "ignoreIntersectionEXT"))]
     pub fn ignore_intersection(&mut self) -> ! {
         #[cfg(target_arch = "spirv")]
         // SAFETY: only any-hit programs have an `AnyHit` context.
@@ -41,6 +43,7 @@ impl<'a> AnyHit<'a> {
 
     /// Accepts this hit and ends the traversal: the closest-hit program of this
     /// hit runs next (`optixTerminateRay`).
+    #[doc(alias("optixTerminateRay", "terminateRayEXT"))]
     pub fn terminate_ray(&mut self) -> ! {
         #[cfg(target_arch = "spirv")]
         // SAFETY: only any-hit programs have an `AnyHit` context.

@@ -52,6 +52,7 @@ callable_common!(ContinuationCallable);
 impl ContinuationCallable<'_> {
     /// Traces `ray` of ray type `R` into `scene` (`optixTrace`); `payload` is a
     /// `#[trace_payload]` parameter.
+    #[doc(alias("optixTrace", "traceRayEXT"))]
     pub fn trace<R: RayType>(&mut self, scene: Traversable, ray: Ray, payload: &mut R::Payload) {
         if R::CHECK_DEPTH {
             // A callable traces at depth 1 (see `crate::exception`).

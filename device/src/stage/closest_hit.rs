@@ -39,6 +39,7 @@ impl<'a> ClosestHit<'a> {
     /// returns it to the host with this launch index, and the pipeline's
     /// `#[exception]` program, if any, runs now. The program goes on: return
     /// after it (see [`crate::exception`](mod@crate::exception)).
+    #[doc(alias("optixThrowException"))]
     pub fn throw_exception(&mut self, code: u32) {
         super::throw_and_handle(self.device, self.exception_slot, self.hit.launch_index, code, self.exception_call)
     }
@@ -47,6 +48,7 @@ impl<'a> ClosestHit<'a> {
     hit_kind_accessors!();
 
     /// Distance along the ray to the hit (`optixGetRayTmax` in closest-hit).
+    #[doc(alias("optixGetRayTmax", "gl_HitTEXT"))]
     pub fn hit_t(&self) -> f32 {
         self.hit.ray_tmax
     }
@@ -54,11 +56,13 @@ impl<'a> ClosestHit<'a> {
     /// The triangle barycentrics `(u, v)` of the hit (`optixGetTriangleBarycentrics`):
     /// the hit point is `(1-u-v)·v0 + u·v1 + v·v2`. Zero in programs that declare
     /// `#[attributes]` (they read their attributes there).
+    #[doc(alias("optixGetTriangleBarycentrics"))]
     pub fn barycentrics(&self) -> Vec2 {
         self.barycentrics
     }
 
     /// Runs the callable at `sbt_index` with `data` (a `#[call_data]` parameter).
+    #[doc(alias("optixDirectCall", "optixContinuationCall", "executeCallableEXT"))]
     pub fn call<T>(&mut self, sbt_index: u32, data: &mut T) {
         super::execute_callable(self.device, sbt_index, data)
     }

@@ -22,16 +22,19 @@ impl<'a> Exception<'a> {
     }
 
     /// The code the program threw (`optixGetExceptionCode`).
+    #[doc(alias("optixGetExceptionCode"))]
     pub fn exception_code(&self) -> u32 {
         self.details.code
     }
 
     /// The launch index of the invocation that threw it (`optixGetLaunchIndex`).
+    #[doc(alias("optixGetLaunchIndex"))]
     pub fn launch_index(&self) -> UVec3 {
         self.details.launch_index
     }
 
     /// The launch grid's size.
+    #[doc(alias("optixGetLaunchDimensions"))]
     pub fn launch_dimensions(&self) -> UVec3 {
         self.launch_dimensions
     }

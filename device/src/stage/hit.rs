@@ -58,77 +58,92 @@ impl HitBuiltins {
 macro_rules! hit_accessors {
     () => {
         /// This invocation's index in the launch grid (`optixGetLaunchIndex`).
+        #[doc(alias("optixGetLaunchIndex", "gl_LaunchIDEXT"))]
         pub fn launch_index(&self) -> spirv_std::glam::UVec3 {
             self.hit.launch_index
         }
 
         /// The launch grid's size (`optixGetLaunchDimensions`).
+        #[doc(alias("optixGetLaunchDimensions", "gl_LaunchSizeEXT"))]
         pub fn launch_dimensions(&self) -> spirv_std::glam::UVec3 {
             self.hit.launch_dimensions
         }
 
         /// The ray's origin in world space (`optixGetWorldRayOrigin`).
+        #[doc(alias("optixGetWorldRayOrigin", "gl_WorldRayOriginEXT"))]
         pub fn world_ray_origin(&self) -> spirv_std::glam::Vec3 {
             self.hit.world_ray_origin
         }
 
         /// The ray's direction in world space (`optixGetWorldRayDirection`).
+        #[doc(alias("optixGetWorldRayDirection", "gl_WorldRayDirectionEXT"))]
         pub fn world_ray_direction(&self) -> spirv_std::glam::Vec3 {
             self.hit.world_ray_direction
         }
 
         /// The ray's origin in the object space of the instance hit (`optixGetObjectRayOrigin`).
+        #[doc(alias("optixGetObjectRayOrigin", "gl_ObjectRayOriginEXT"))]
         pub fn object_ray_origin(&self) -> spirv_std::glam::Vec3 {
             self.hit.object_ray_origin
         }
 
         /// The ray's direction in object space (`optixGetObjectRayDirection`).
+        #[doc(alias("optixGetObjectRayDirection", "gl_ObjectRayDirectionEXT"))]
         pub fn object_ray_direction(&self) -> spirv_std::glam::Vec3 {
             self.hit.object_ray_direction
         }
 
         /// The ray's `t_min` (`optixGetRayTmin`).
+        #[doc(alias("optixGetRayTmin", "gl_RayTminEXT"))]
         pub fn ray_tmin(&self) -> f32 {
             self.hit.ray_tmin
         }
 
         /// The ray's current `t_max`: the distance of the closest hit so far, or of
         /// this hit in closest-hit and any-hit programs (`optixGetRayTmax`).
+        #[doc(alias("optixGetRayTmax", "gl_RayTmaxEXT"))]
         pub fn ray_tmax(&self) -> f32 {
             self.hit.ray_tmax
         }
 
         /// The flags the ray was traced with (`optixGetRayFlags`).
+        #[doc(alias("optixGetRayFlags", "gl_IncomingRayFlagsEXT"))]
         pub fn ray_flags(&self) -> u32 {
             self.hit.ray_flags
         }
 
         /// Index of the primitive in its geometry (`optixGetPrimitiveIndex`).
+        #[doc(alias("optixGetPrimitiveIndex", "gl_PrimitiveID"))]
         pub fn primitive_index(&self) -> u32 {
             self.hit.primitive_index
         }
 
         /// Index of the instance in the IAS (`optixGetInstanceIndex`).
+        #[doc(alias("optixGetInstanceIndex", "gl_InstanceID"))]
         pub fn instance_index(&self) -> u32 {
             self.hit.instance_id
         }
 
         /// The instance's user-given custom index (`optixGetInstanceId`).
+        #[doc(alias("optixGetInstanceId", "gl_InstanceCustomIndexEXT"))]
         pub fn instance_custom_index(&self) -> u32 {
             self.hit.instance_custom_index
         }
 
         /// Index of the geometry in its GAS (`optixGetSbtGASIndex`).
+        #[doc(alias("optixGetSbtGASIndex", "gl_GeometryIndexEXT"))]
         pub fn geometry_index(&self) -> u32 {
             self.hit.geometry_index
         }
 
         /// The instance's object-to-world transform (`optixGetObjectToWorldTransformMatrix`).
+        #[doc(alias("optixGetObjectToWorldTransformMatrix", "optixGetTransformListHandle", "gl_ObjectToWorldEXT"))]
         pub fn object_to_world(&self) -> spirv_std::matrix::Matrix4x3 {
             self.hit.object_to_world
         }
 
         /// The instance's world-to-object transform (`optixGetWorldToObjectTransformMatrix`).
+        #[doc(alias("optixGetWorldToObjectTransformMatrix", "optixGetTransformListHandle", "gl_WorldToObjectEXT"))]
         pub fn world_to_object(&self) -> spirv_std::matrix::Matrix4x3 {
             self.hit.world_to_object
         }
@@ -153,11 +168,13 @@ macro_rules! hit_kind_accessors {
         /// [`HIT_KIND_FRONT_FACING_TRIANGLE`](crate::stage::HIT_KIND_FRONT_FACING_TRIANGLE) /
         /// [`HIT_KIND_BACK_FACING_TRIANGLE`](crate::stage::HIT_KIND_BACK_FACING_TRIANGLE)
         /// (`optixGetHitKind`).
+        #[doc(alias("optixGetHitKind", "gl_HitKindEXT"))]
         pub fn hit_kind(&self) -> u32 {
             self.hit.hit_kind
         }
 
         /// Whether a triangle was hit from its front face (`optixIsFrontFaceHit`).
+        #[doc(alias("optixIsFrontFaceHit"))]
         pub fn is_front_face_hit(&self) -> bool {
             self.hit.hit_kind == crate::stage::HIT_KIND_FRONT_FACING_TRIANGLE
         }

@@ -24,6 +24,7 @@ impl<'a> Intersection<'a> {
     /// returns it to the host with this launch index. Vulkan forbids calls from
     /// this stage, so no `#[exception]` program runs. The program goes on:
     /// follow it with `ignore_intersection`, `terminate_ray` or a return.
+    #[doc(alias("optixThrowException"))]
     pub fn throw_exception(&mut self, code: u32) {
         super::throw_exception(self.device, self.exception_slot, self.hit.launch_index, code);
     }
@@ -32,6 +33,7 @@ impl<'a> Intersection<'a> {
     /// are reserved by Vulkan and are masked to 7 bits). The hit attributes are
     /// the values in the `#[attributes]` parameter at this moment. Returns
     /// whether the hit was accepted (`optixReportIntersection`).
+    #[doc(alias("optixReportIntersection", "reportIntersectionEXT"))]
     pub fn report_intersection(&mut self, t: f32, hit_kind: u32) -> bool {
         #[cfg(target_arch = "spirv")]
         // SAFETY: only intersection programs have an `Intersection` context.

@@ -47,11 +47,13 @@ impl<'a> Miss<'a> {
     super::launch_accessors!();
 
     /// The ray's origin in world space (`optixGetWorldRayOrigin`).
+    #[doc(alias("optixGetWorldRayOrigin", "gl_WorldRayOriginEXT"))]
     pub fn world_ray_origin(&self) -> Vec3 {
         self.world_ray_origin
     }
 
     /// The ray's direction in world space (`optixGetWorldRayDirection`).
+    #[doc(alias("optixGetWorldRayDirection", "gl_WorldRayDirectionEXT"))]
     pub fn world_ray_direction(&self) -> Vec3 {
         self.world_ray_direction
     }

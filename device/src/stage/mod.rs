@@ -1,4 +1,4 @@
-//! Stage contexts: what each program kind may call.
+//! Stage contexts: the OptiX device functions (`optixGetLaunchIndex`, `optixTrace`, …) each program kind may call.
 //!
 //! Vulkan allows each ray-tracing stage a different set of built-ins and
 //! instructions (a miss program has no barycentrics; only raygen, miss and
@@ -47,11 +47,13 @@ pub type DeviceAccess<'a> = &'a dyn crate::cpu::Runtime;
 macro_rules! launch_accessors {
     () => {
         /// This invocation's index in the launch grid (`optixGetLaunchIndex`).
+        #[doc(alias("optixGetLaunchIndex", "gl_LaunchIDEXT"))]
         pub fn launch_index(&self) -> spirv_std::glam::UVec3 {
             self.launch_index
         }
 
         /// The launch grid's size (`optixGetLaunchDimensions`).
+        #[doc(alias("optixGetLaunchDimensions", "gl_LaunchSizeEXT"))]
         pub fn launch_dimensions(&self) -> spirv_std::glam::UVec3 {
             self.launch_dimensions
         }
@@ -60,6 +62,7 @@ macro_rules! launch_accessors {
         /// launch returns it to the host with this launch index, and the
         /// pipeline's `#[exception]` program, if any, runs now. The program goes
         /// on: return after it (see [`crate::exception`](mod@crate::exception)).
+        #[doc(alias("optixThrowException"))]
         pub fn throw_exception(&mut self, code: u32) {
             super::throw_and_handle(self.device, self.exception_slot, self.launch_index, code, self.exception_call)
         }
@@ -67,6 +70,7 @@ macro_rules! launch_accessors {
         /// Runs the callable at `sbt_index` of the SBT's callable region with
         /// `data` (a `#[call_data]` parameter) (`optixDirectCall` /
         /// `optixContinuationCall`).
+        #[doc(alias("optixDirectCall", "optixContinuationCall", "executeCallableEXT"))]
         pub fn call<T>(&mut self, sbt_index: u32, data: &mut T) {
             super::execute_callable(self.device, sbt_index, data)
         }
@@ -108,6 +112,7 @@ macro_rules! recursive_trace {
         /// the pipeline's `max_trace_depth` is not made: it throws
         /// [`TRACE_DEPTH_EXCEEDED`](crate::exception::TRACE_DEPTH_EXCEEDED) and
         /// leaves `payload` as it was (see [`RayType::CHECK_DEPTH`](crate::RayType::CHECK_DEPTH)).
+        #[doc(alias("optixTrace", "traceRayEXT", "OpTraceRayKHR"))]
         pub fn trace<R: $crate::RayType>(
             &mut self,
             scene: $crate::Traversable,

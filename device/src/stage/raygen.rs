@@ -37,6 +37,7 @@ impl<'a> Raygen<'a> {
 
     /// Traces `ray` of ray type `R` into `scene`; the miss or closest-hit program
     /// writes the result into `payload` (`optixTrace`).
+    #[doc(alias("optixTrace", "traceRayEXT", "OpTraceRayKHR"))]
     pub fn trace<R: RayType>(&mut self, scene: Traversable, ray: Ray, payload: &mut R::Payload) {
         if R::CHECK_DEPTH {
             // Raygen traces at depth 1 (see `crate::exception`).
@@ -46,6 +47,7 @@ impl<'a> Raygen<'a> {
     }
 
     /// Shorthand for a ray from `origin` along `direction` over `[0, 1e16]`.
+    #[doc(alias("optixTrace", "traceRayEXT"))]
     pub fn trace_from<R: RayType>(
         &mut self,
         scene: Traversable,

@@ -106,6 +106,7 @@ impl<'a> GasBuilder<'a> {
     /// building (OptiX's `optixAccelComputeMemoryUsage`).
     ///
     /// On the CPU backend the tree is built to measure it; both scratch sizes are 0.
+    #[doc(alias("optixAccelComputeMemoryUsage", "vkGetAccelerationStructureBuildSizesKHR"))]
     pub fn sizes(&self, ctx: &Context) -> Result<AccelSizes> {
         if ctx.cpu().is_some() {
             input::validate(&self.inputs, ctx.limits(), false)?;
@@ -118,11 +119,13 @@ impl<'a> GasBuilder<'a> {
     }
 
     /// Builds and waits.
+    #[doc(alias("optixAccelBuild", "vkCmdBuildAccelerationStructuresKHR"))]
     pub fn build(self, ctx: &Context) -> Result<Gas> {
         self.submit(ctx)?.wait()
     }
 
     /// Submits the build and returns without waiting.
+    #[doc(alias("optixAccelBuild"))]
     pub fn submit(self, ctx: &Context) -> Result<PendingBuild<Gas>> {
         if let Some(cpu) = ctx.cpu() {
             let (gas, shapes, size) = crate::cpu::accel::build_gas(cpu, &self.inputs, self.options)?;
@@ -169,12 +172,14 @@ fn submit_gases(ctx: &Arc<ContextInner>, builds: &[GasBuilder<'_>]) -> Result<(b
 
 impl Gas {
     /// Starts describing a build.
+    #[doc(alias("optixAccelBuild", "BLAS"))]
     pub fn builder<'a>() -> GasBuilder<'a> {
         GasBuilder::default()
     }
 
     /// A GAS over `vertices` and, when given, `indices` (three per triangle), or
     /// every three consecutive vertices. Built for fast trace, and waited for.
+    #[doc(alias("optixAccelBuild", "OPTIX_BUILD_INPUT_TYPE_TRIANGLES"))]
     pub fn triangles(ctx: &Context, vertices: &[Vec3], indices: Option<&[u32]>) -> Result<Gas> {
         let mut triangles = Triangles::new(vertices);
         if let Some(indices) = indices {
@@ -184,6 +189,7 @@ impl Gas {
     }
 
     /// A GAS over boxes for an intersection program, built and waited for.
+    #[doc(alias("optixAccelBuild", "OPTIX_BUILD_INPUT_TYPE_CUSTOM_PRIMITIVES"))]
     pub fn aabbs(ctx: &Context, boxes: &[Aabb]) -> Result<Gas> {
         Gas::builder().aabbs(Aabbs::new(boxes)).build(ctx)
     }
@@ -216,6 +222,7 @@ impl Gas {
     /// # let _ = (spheres, scene);
     /// # Ok::<(), raykit::Error>(())
     /// ```
+    #[doc(alias("optixAccelBuild", "OPTIX_BUILD_INPUT_TYPE_SPHERES", "OPTIX_PRIMITIVE_TYPE_SPHERE"))]
     pub fn spheres(ctx: &Context, centres: &[Vec3], radii: &[f32]) -> Result<Gas> {
         input::spheres(centres, radii)?;
         let boxes: Vec<Aabb> = centres.iter().zip(radii).map(|(&c, &r)| Aabb::around_sphere(c, r)).collect();
@@ -273,6 +280,7 @@ impl Gas {
     /// when the build did not allow updates or the topology changed. Update or
     /// rebuild the [`Ias`](super::Ias)es that instance this GAS afterwards, so
     /// their bounds follow.
+    #[doc(alias("OPTIX_BUILD_OPERATION_UPDATE"))]
     pub fn update(&mut self, inputs: &[BuildInput<'_>]) -> Result<()> {
         if self.spheres.is_some() {
             return Err(Error::Accel(AccelError::UpdateRefused {
@@ -323,6 +331,7 @@ impl Gas {
     /// Copies the GAS into a structure of its compacted size and frees the
     /// original (unless an [`Ias`](super::Ias) still holds it). Needs
     /// [`BuildOptions::allow_compaction`]; the sizes are in [`Gas::compaction`].
+    #[doc(alias("optixAccelCompact", "vkCmdCopyAccelerationStructureKHR"))]
     pub fn compact(self) -> Result<Gas> {
         if !self.options.allow_compaction {
             return Err(Error::Accel(AccelError::CompactionNotAllowed));

@@ -37,6 +37,7 @@ pub struct Instance {
 
 impl Instance {
     /// `gas` at the identity transform, custom index 0, mask 0xff, SBT offset 0.
+    #[doc(alias("OptixInstance", "VkAccelerationStructureInstanceKHR"))]
     pub fn new(gas: &Gas) -> Instance {
         Instance {
             accel: gas.repr.clone(),
@@ -177,6 +178,7 @@ impl IasBuilder<'_> {
     }
 
     /// Builds and waits.
+    #[doc(alias("optixAccelBuild", "OPTIX_BUILD_INPUT_TYPE_INSTANCES"))]
     pub fn build(self, ctx: &Context) -> Result<Ias> {
         self.submit(ctx)?.wait()
     }
@@ -260,6 +262,7 @@ impl Ias {
     }
 
     /// An IAS over `instances`, built for fast trace, and waited for.
+    #[doc(alias("TLAS", "optixAccelBuild"))]
     pub fn new(ctx: &Context, instances: &[Instance]) -> Result<Ias> {
         Ias::builder(instances).build(ctx)
     }
@@ -268,6 +271,7 @@ impl Ias {
     /// and the GASes referenced may change, the instance count may not. Refused
     /// with [`AccelError::UpdateRefused`](crate::AccelError::UpdateRefused), saying why, when the build did not allow
     /// updates or the count changed. Also the way to follow a refitted GAS.
+    #[doc(alias("OPTIX_BUILD_OPERATION_UPDATE"))]
     pub fn update(&mut self, instances: &[Instance]) -> Result<()> {
         if !self.options.allow_update {
             return Err(Error::Accel(AccelError::UpdateRefused {
@@ -349,6 +353,7 @@ impl Ias {
     }
 
     /// The handle device programs trace against (put it in the launch params).
+    #[doc(alias("OptixTraversableHandle"))]
     pub fn handle(&self) -> Traversable {
         // SAFETY: the address of this live, built IAS; launches check it is still
         // alive and up to date when they are submitted (see `crate::validate::handles`).

@@ -1,4 +1,4 @@
-//! The CPU backend: the same device programs, run natively on the host.
+//! The CPU backend (no OptiX counterpart): the same device programs, run natively on the host.
 //!
 //! A device crate compiles for the host as well as for SPIR-V (that is how host
 //! and device share types); compiled for the host, every `#[raygen]`,

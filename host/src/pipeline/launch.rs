@@ -92,12 +92,14 @@ impl Launch {
 impl<P: raykit_device::LaunchParams> Pipeline<P> {
     /// Traces a `dims = [width, height, depth]` grid with `params`, using `sbt`,
     /// and waits until it is done: [`Pipeline::launch_async`] then [`Launch::wait`].
+    #[doc(alias("optixLaunch", "vkCmdTraceRaysKHR"))]
     pub fn launch(&self, sbt: &Sbt, params: &P, dims: [u32; 3]) -> Result<()> {
         self.launch_async(sbt, params, dims)?.wait()
     }
 
     /// Submits a launch like [`Pipeline::launch`] and returns without waiting. See
     /// the [module docs](self) for what may be in flight at once.
+    #[doc(alias("optixLaunch", "vkCmdTraceRaysKHR"))]
     pub fn launch_async(&self, sbt: &Sbt, params: &P, dims: [u32; 3]) -> Result<Launch> {
         self.submit_launch(sbt, params, dims, None)
     }

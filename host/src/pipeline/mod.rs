@@ -51,6 +51,7 @@ use library::{LibraryInner, PipelineLibrary};
 
 /// Link options (OptiX's `OptixPipelineLinkOptions`).
 #[derive(Copy, Clone, Debug)]
+#[doc(alias("OptixPipelineLinkOptions"))]
 pub struct LinkOptions {
     /// Maximum recursion depth of `trace` calls: 1 when only raygen traces.
     pub max_trace_depth: u32,
@@ -63,6 +64,7 @@ impl Default for LinkOptions {
 }
 
 /// A linked ray-tracing pipeline whose programs take launch params `P`.
+#[doc(alias("OptixPipeline"))]
 pub struct Pipeline<P: LaunchParams> {
     pub(crate) repr: PipelineRepr,
     _params: PhantomData<fn(&P)>,
@@ -83,6 +85,7 @@ fn no_stack_on_cpu() -> Error {
 
 impl<P: LaunchParams> Pipeline<P> {
     /// Links `groups` into a pipeline. There must be a raygen group.
+    #[doc(alias("optixPipelineCreate", "vkCreateRayTracingPipelinesKHR"))]
     pub fn new(ctx: &Context, groups: &[&ProgramGroup], options: LinkOptions) -> Result<Pipeline<P>> {
         Self::with_specialization(ctx, groups, options, &Specialization::new())
     }
@@ -92,6 +95,7 @@ impl<P: LaunchParams> Pipeline<P> {
     /// `#[spec_constant(id = N)]` parameter takes the value set for `N`, or its
     /// default. One module can so give several pipelines that behave differently,
     /// with the branches on those constants compiled away by the driver.
+    #[doc(alias("optixPipelineCreate", "OptixModuleCompileBoundValueEntry"))]
     pub fn with_specialization(
         ctx: &Context,
         groups: &[&ProgramGroup],
@@ -119,6 +123,7 @@ impl<P: LaunchParams> Pipeline<P> {
     /// exception group, and no group twice; every library must have been made with
     /// `options.max_trace_depth` and the same [`InterfaceSizes`]. The SBT, stack
     /// sizing and launches work as for [`Pipeline::new`].
+    #[doc(alias("optixPipelineCreate"))]
     pub fn link(ctx: &Context, libraries: &[&PipelineLibrary<P>], options: LinkOptions) -> Result<Pipeline<P>> {
         let inner = ctx.vulkan("a pipeline linked from libraries")?;
         if !inner.pipeline_library {
@@ -172,6 +177,7 @@ impl<P: LaunchParams> Pipeline<P> {
     /// (`vkGetRayTracingShaderGroupStackSizeKHR`; OptiX's
     /// `optixProgramGroupGetStackSize`). Vulkan knows them only once the group is
     /// linked, hence a pipeline method.
+    #[doc(alias("optixProgramGroupGetStackSize", "vkGetRayTracingShaderGroupStackSizeKHR"))]
     pub fn group_stack_sizes(&self, group: &ProgramGroup) -> Result<GroupStackSizes> {
         let index = self.group_index(group).ok_or(Error::Link(LinkError::GroupNotInPipeline { kind: group.kind() }))?;
         let inner = self.vulkan_inner().ok_or_else(no_stack_on_cpu)?;
@@ -188,6 +194,7 @@ impl<P: LaunchParams> Pipeline<P> {
     /// The maxima of the groups' stack sizes by program kind: the input of
     /// [`stack::conservative`], [`stack::refined`] and [`stack::vulkan_default`]
     /// (zeros on the CPU backend).
+    #[doc(alias("optixUtilAccumulateStackSizes"))]
     pub fn stack_sizes(&self) -> StackSizes {
         self.vulkan_inner().map_or_else(StackSizes::default, |inner| {
             crate::vulkan::pipeline::shader_groups::stack_sizes(&inner.groups)
@@ -215,6 +222,7 @@ impl<P: LaunchParams> Pipeline<P> {
     }
 
     /// The size `choice` gives for this pipeline, in bytes, without setting it.
+    #[doc(alias("optixUtilComputeStackSizes"))]
     pub fn compute_stack_size(&self, choice: &StackSize<'_>) -> Result<u32> {
         if self.vulkan_inner().is_none() {
             return Err(no_stack_on_cpu());
@@ -254,6 +262,7 @@ impl<P: LaunchParams> Pipeline<P> {
     /// (`vkCmdSetRayTracingPipelineStackSizeKHR`; OptiX's
     /// `optixPipelineSetStackSize`) and returns it in bytes. Until called, launches
     /// use [`StackSize::DriverDefault`].
+    #[doc(alias("optixPipelineSetStackSize", "vkCmdSetRayTracingPipelineStackSizeKHR"))]
     pub fn set_stack_size(&self, choice: &StackSize<'_>) -> Result<u32> {
         let bytes = self.compute_stack_size(choice)?;
         if let Some(inner) = self.vulkan_inner() {

@@ -160,6 +160,7 @@ impl Program {
 /// A program group: a raygen, a miss, or a hit group (closest-hit, any-hit,
 /// intersection), ready to be linked into a [`crate::Pipeline`].
 #[derive(Clone)]
+#[doc(alias("OptixProgramGroup", "OptixProgramGroupDesc", "optixProgramGroupCreate"))]
 pub struct ProgramGroup {
     pub(crate) ctx: crate::Context,
     /// Its programs, as the backends read them.
@@ -175,12 +176,14 @@ impl ProgramGroup {
     }
 
     /// A raygen group from `entry` of `module`.
+    #[doc(alias("optixProgramGroupCreate", "OPTIX_PROGRAM_GROUP_KIND_RAYGEN"))]
     pub fn raygen(module: &Module, entry: impl EntryName) -> Result<ProgramGroup> {
         let program = Program::resolve(module, &entry, ProgramKind::Raygen, "ProgramGroup::raygen")?;
         Ok(Self::from_programs(module, GroupPrograms::Raygen(program)))
     }
 
     /// A miss group from `entry` of `module`.
+    #[doc(alias("optixProgramGroupCreate", "OPTIX_PROGRAM_GROUP_KIND_MISS"))]
     pub fn miss(module: &Module, entry: impl EntryName) -> Result<ProgramGroup> {
         let program = Program::resolve(module, &entry, ProgramKind::Miss, "ProgramGroup::miss")?;
         Ok(Self::from_programs(module, GroupPrograms::Miss(program)))
@@ -188,6 +191,7 @@ impl ProgramGroup {
 
     /// A callable group from `entry` of `module` (a `__direct_callable__` or
     /// `__continuation_callable__` program, or a GLSL `callableEXT` shader).
+    #[doc(alias("optixProgramGroupCreate", "OPTIX_PROGRAM_GROUP_KIND_CALLABLES"))]
     pub fn callable(module: &Module, entry: impl EntryName) -> Result<ProgramGroup> {
         let program = Program::resolve(module, &entry, ProgramKind::Callable, "ProgramGroup::callable")?;
         Ok(Self::from_programs(module, GroupPrograms::Callable(program)))
@@ -196,6 +200,7 @@ impl ProgramGroup {
     /// The pipeline's exception program (`__exception__`, OptiX's exception
     /// program group): run after a device program throws a user exception. raykit
     /// places its record at the end of the SBT's callable region.
+    #[doc(alias("optixProgramGroupCreate", "OPTIX_PROGRAM_GROUP_KIND_EXCEPTION"))]
     pub fn exception(module: &Module, entry: impl EntryName) -> Result<ProgramGroup> {
         let program = Program::resolve(module, &entry, ProgramKind::Exception, "ProgramGroup::exception")?;
         Ok(Self::from_programs(module, GroupPrograms::Exception(program)))
@@ -205,6 +210,7 @@ impl ProgramGroup {
     /// no program at all (as in Vulkan and OptiX): a ray type that only asks
     /// whether something was hit (a shadow ray that misses to report "visible")
     /// needs no closest-hit program, and its hits then run nothing.
+    #[doc(alias("optixProgramGroupCreate", "OPTIX_PROGRAM_GROUP_KIND_HITGROUP"))]
     pub fn hit_group(module: &Module) -> HitGroupBuilder<'_> {
         HitGroupBuilder { module, closest_hit: None, any_hit: None, intersection: None, error: None }
     }

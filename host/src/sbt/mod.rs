@@ -44,6 +44,7 @@ use raykit_device::{RayType, SbtRecordData};
 
 /// One SBT record before packing: a group and its data.
 #[derive(Debug)]
+#[doc(alias("optixSbtRecordPackHeader"))]
 pub struct SbtRecord<'g, T: SbtRecordData> {
     /// The program group whose handle heads the record.
     pub group: &'g ProgramGroup,
@@ -100,6 +101,7 @@ pub fn hit_record_index<R: RayType>(instance_offset: u32, geometry: u32) -> u64 
 
 /// Builds an [`Sbt`] for one pipeline.
 #[must_use]
+#[doc(alias("optixSbtRecordPackHeader"))]
 pub struct SbtBuilder<'p, P: raykit_device::LaunchParams> {
     pipeline: &'p Pipeline<P>,
     raygen: Option<PackedRecord>,
@@ -291,6 +293,7 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     }
 
     /// Packs the records into a buffer on the device.
+    #[doc(alias("optixSbtRecordPackHeader", "vkGetRayTracingShaderGroupHandlesKHR"))]
     pub fn build(self) -> Result<Sbt> {
         if let Some(e) = self.error {
             return Err(e);
@@ -441,6 +444,7 @@ pub(crate) enum SbtRepr {
 }
 
 /// A shader binding table on the device, made for one pipeline.
+#[doc(alias("OptixShaderBindingTable", "VkStridedDeviceAddressRegionKHR"))]
 pub struct Sbt {
     pub(crate) repr: SbtRepr,
     layouts: [RegionLayout; 4],
@@ -458,6 +462,7 @@ pub struct Sbt {
 
 impl Sbt {
     /// Starts an SBT for `pipeline`.
+    #[doc(alias("optixSbtRecordPackHeader", "OptixShaderBindingTable"))]
     pub fn builder<P: raykit_device::LaunchParams>(pipeline: &Pipeline<P>) -> SbtBuilder<'_, P> {
         SbtBuilder {
             pipeline,

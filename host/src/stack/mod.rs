@@ -89,6 +89,7 @@ pub enum GroupRole {
 /// The maxima over a pipeline's groups, by program kind: OptiX's `OptixStackSizes`
 /// (`css_*` continuation stacks, `dss_dc` the direct stack of direct callables).
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
+#[doc(alias("OptixStackSizes"))]
 pub struct StackSizes {
     /// Largest raygen stack.
     pub css_rg: u64,
@@ -229,6 +230,7 @@ fn level_terms(s: &StackSizes, d: &CallDepths) -> (u64, u64) {
 /// deepest continuation-callable tree on top; intersection and any-hit are added
 /// once more on top of all that; direct callables are not told apart by call site,
 /// so `max_dc_depth` is the larger of the two depths in `d`.
+#[doc(alias("optixUtilComputeStackSizes"))]
 pub fn conservative(s: &StackSizes, d: &CallDepths) -> StackEstimate {
     let max_dc_depth = d.max_dc_depth_from_traversal.max(d.max_dc_depth_from_state);
     let dc = u64::from(max_dc_depth).saturating_mul(s.dss_dc);

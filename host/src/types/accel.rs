@@ -25,10 +25,13 @@ pub struct GeometryFlags(pub(crate) u32);
 
 impl GeometryFlags {
     /// No flags: any-hit programs run (OptiX's `OPTIX_GEOMETRY_FLAG_NONE`).
+    #[doc(alias("OptixGeometryFlags", "OPTIX_GEOMETRY_FLAG_NONE"))]
     pub const NONE: GeometryFlags = GeometryFlags(0);
     /// The geometry is opaque: any-hit programs are skipped.
+    #[doc(alias("OPTIX_GEOMETRY_FLAG_DISABLE_ANYHIT"))]
     pub const OPAQUE: GeometryFlags = GeometryFlags(1 << 0);
     /// Any-hit runs at most once per primitive along a ray.
+    #[doc(alias("OPTIX_GEOMETRY_FLAG_REQUIRE_SINGLE_ANYHIT_CALL"))]
     pub const NO_DUPLICATE_ANY_HIT: GeometryFlags = GeometryFlags(1 << 1);
 
     /// Whether every flag of `other` is set.
@@ -111,6 +114,7 @@ pub struct Triangles<'a> {
 
 impl<'a> Triangles<'a> {
     /// Triangles over tightly packed `vertices` (stride 12 bytes), not indexed.
+    #[doc(alias("OptixBuildInputTriangleArray"))]
     pub fn new(vertices: &'a [Vec3]) -> Self {
         Triangles::strided(bytemuck::cast_slice(vertices), VERTEX_SIZE, vertices.len())
     }
@@ -222,6 +226,7 @@ pub struct Aabbs<'a> {
 
 impl<'a> Aabbs<'a> {
     /// Tightly packed boxes (stride 24 bytes).
+    #[doc(alias("OptixBuildInputCustomPrimitiveArray"))]
     pub fn new(boxes: &'a [Aabb]) -> Self {
         Aabbs::strided(bytemuck::cast_slice(boxes), AABB_SIZE, boxes.len())
     }
@@ -249,8 +254,10 @@ impl<'a> Aabbs<'a> {
 #[derive(Copy, Clone, Debug)]
 pub enum BuildInput<'a> {
     /// Triangles.
+    #[doc(alias("OptixBuildInput", "OPTIX_BUILD_INPUT_TYPE_TRIANGLES"))]
     Triangles(Triangles<'a>),
     /// Boxes for an intersection program.
+    #[doc(alias("OptixBuildInput", "OPTIX_BUILD_INPUT_TYPE_CUSTOM_PRIMITIVES"))]
     Aabbs(Aabbs<'a>),
 }
 
@@ -317,10 +324,13 @@ pub enum BuildPreference {
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct BuildOptions {
     /// Build-time versus trace-time preference.
+    #[doc(alias("OptixAccelBuildOptions", "OPTIX_BUILD_FLAG_PREFER_FAST_TRACE"))]
     pub preference: BuildPreference,
     /// Allow [`Gas::update`](crate::Gas::update) / [`Ias::update`](crate::Ias::update) (refit) later.
+    #[doc(alias("OPTIX_BUILD_FLAG_ALLOW_UPDATE"))]
     pub allow_update: bool,
     /// Allow [`Gas::compact`](crate::Gas::compact) later.
+    #[doc(alias("OPTIX_BUILD_FLAG_ALLOW_COMPACTION"))]
     pub allow_compaction: bool,
 }
 
@@ -372,10 +382,13 @@ pub struct InstanceFlags(pub(crate) u8);
 
 impl InstanceFlags {
     /// No flags.
+    #[doc(alias("OptixInstanceFlags", "OPTIX_INSTANCE_FLAG_NONE"))]
     pub const NONE: InstanceFlags = InstanceFlags(0);
     /// Disable face culling for this instance's triangles.
+    #[doc(alias("OPTIX_INSTANCE_FLAG_DISABLE_TRIANGLE_FACE_CULLING"))]
     pub const DISABLE_TRIANGLE_CULLING: InstanceFlags = InstanceFlags(1 << 0);
     /// Swap front and back faces.
+    #[doc(alias("OPTIX_INSTANCE_FLAG_FLIP_TRIANGLE_FACING"))]
     pub const FLIP_TRIANGLE_FACING: InstanceFlags = InstanceFlags(1 << 1);
     /// Treat every geometry as opaque (no any-hit).
     pub const FORCE_OPAQUE: InstanceFlags = InstanceFlags(1 << 2);
