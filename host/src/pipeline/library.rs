@@ -55,7 +55,7 @@ impl Default for LibraryOptions {
 
 /// Program groups compiled into a Vulkan pipeline library, ready to be linked
 /// into pipelines whose programs take launch params `P`.
-#[doc(alias("OPTIX_PIPELINE_LINK", "VK_KHR_pipeline_library"))]
+#[doc(alias("VK_KHR_pipeline_library"))]
 pub struct PipelineLibrary<P: LaunchParams> {
     pub(crate) inner: Arc<LibraryInner>,
     _params: PhantomData<fn(&P)>,
