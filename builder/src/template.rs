@@ -100,10 +100,11 @@ const WINDOWS_RESERVED_NAMES: [&str; 22] = [
 /// The package names of raykit's workspace. A new project depends on some of
 /// them and cargo tells packages apart by name (with `-` and `_` the same), so
 /// neither the project nor its device crate may take one.
-const RAYKIT_PACKAGES: [&str; 27] = [
+const RAYKIT_PACKAGES: [&str; 28] = [
     "accel-test-device",
     "gltf-pathtracer-device",
     "gltf_pathtracer",
+    "math-test-device",
     "one-dependency",
     "params-device",
     "path-tracer-device",
