@@ -54,10 +54,32 @@ float_fn!(/// Sine (radians).
     sin => sin);
 float_fn!(/// Cosine (radians).
     cos => cos);
-float_fn!(/// Arcsine, in `[−π/2, π/2]`; NaN outside `[−1, 1]`.
-    asin => asin);
-float_fn!(/// Arccosine, in `[0, π]`; NaN outside `[−1, 1]`.
-    acos => acos);
+
+/// Arcsine, in `[−π/2, π/2]`; NaN outside `[−1, 1]`. On the GPU as
+/// `atan2(x, √((1 − x)(1 + x)))`: drivers' `Asin` may be off by 2⁻¹² (lavapipe's is).
+pub fn asin(x: f32) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    {
+        atan2(x, sqrt((1.0 - x) * (1.0 + x)))
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        x.asin()
+    }
+}
+
+/// Arccosine, in `[0, π]`; NaN outside `[−1, 1]`. On the GPU as
+/// `atan2(√((1 − x)(1 + x)), x)`, for the reason [`asin`] gives.
+pub fn acos(x: f32) -> f32 {
+    #[cfg(target_arch = "spirv")]
+    {
+        atan2(sqrt((1.0 - x) * (1.0 + x)), x)
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        x.acos()
+    }
+}
 float_fn!(/// Arctangent, in `[−π/2, π/2]`.
     atan => atan);
 
