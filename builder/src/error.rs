@@ -88,7 +88,7 @@ pub enum Error {
         path: PathBuf,
     },
     /// A new project's directory name makes no package name.
-    #[error("cannot name a project after {path}: {reason}; choose a directory whose name starts with a letter (e.g. my-renderer)")]
+    #[error("cannot name a project after {path}: {reason}; choose another directory name, one that starts with a letter (e.g. my-renderer)")]
     ProjectName {
         /// The directory.
         path: PathBuf,

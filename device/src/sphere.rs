@@ -50,6 +50,14 @@
 //! root is `q / a`). The ray may start inside the sphere (then the exit is the
 //! hit, from the back face). Directions need not be normalised.
 //!
+//! The test stays finite and accurate for every sphere `Gas::spheres` accepts
+//! (finite centre ± radius) and every finite ray: it runs in a frame centred on
+//! the sphere, with `f` and `r` scaled by one power of two (exactly) to bring
+//! the larger of `|f|∞` and `r` into `[1, 2)` and `d` by another to bring `|d|∞`
+//! there, so that no square overflows (a centre at 1e20) or underflows (a
+//! radius of 1e-20), and the roots are scaled back. Lengths are taken the same
+//! way, and the discriminant's root as `√(a (r − |l|)) · √(r + |l|)`.
+//!
 //! # Hit attributes ([`SphereHit`]) and hit kinds
 //! * `normal`: the object-space outward unit normal;
 //! * `point`: the hit point projected onto the sphere (`centre + radius · normal`,
@@ -149,66 +157,187 @@ impl SphereHit {
     }
 }
 
+/// `2^e` for `e` in `[-126, 127]` (normal `f32`s only: GPUs flush subnormals).
+fn power_of_two(e: i32) -> f32 {
+    f32::from_bits(((e + 127) as u32) << 23)
+}
+
+/// The exponent `e` of the power of two `2^-e` that takes `m > 0` into `[1, 2)`,
+/// clamped so that `2^-e` stays a normal `f32` (`m`'s exponent; subnormal `m`
+/// and those near `f32::MAX` land a little outside `[1, 2)`).
+fn exponent_of(m: f32) -> i32 {
+    let biased = ((m.to_bits() >> 23) & 0xff) as i32;
+    normal_exponent(biased - 127)
+}
+
+/// `e` clamped to `[-126, 126]`, where `2^e` and `2^-e` are normal `f32`s.
+fn normal_exponent(e: i32) -> i32 {
+    e.clamp(-126, 126)
+}
+
+/// `x · 2^e` for `e` in `[-378, 378]`, in steps that never leave the normal
+/// range themselves: exact unless the result overflows or underflows.
+fn scale_by_power_of_two(x: f32, e: i32) -> f32 {
+    let first = normal_exponent(e);
+    let second = normal_exponent(e - first);
+    x * power_of_two(first) * power_of_two(second) * power_of_two(e - first - second)
+}
+
+/// `|v|` without overflow or underflow of `v · v`: computed on `v` scaled by a
+/// power of two to a largest component in `[1, 2)`.
+fn robust_length(v: Vec3) -> f32 {
+    if !v.is_finite() {
+        return f32::NAN;
+    }
+    let largest = v.abs().max_element();
+    if largest == 0.0 {
+        return 0.0;
+    }
+    let e = exponent_of(largest);
+    let w = v * power_of_two(-e);
+    scale_by_power_of_two(sqrt(w.dot(w)), e)
+}
+
+/// The ray relative to the sphere, scaled so that every sum and product of the
+/// test stays in `f32`'s normal range: `f = (o − c) · 2^-ef`, `r · 2^-ef` with
+/// the larger of `|f|∞` and `r` in `[1, 2)`, and `d · 2^-ed` with `|d|∞` in
+/// `[1, 2)`. A distance `t'` along the scaled ray is `t = t' · 2^(ef − ed)`.
+#[derive(Copy, Clone)]
+struct SphereFrame {
+    f: Vec3,
+    d: Vec3,
+    radius: f32,
+    /// `ef − ed`.
+    t_exponent: i32,
+}
+
+impl SphereFrame {
+    /// The frame of the ray and sphere; `None` when the radius is not positive,
+    /// the direction is zero, or an input is not finite.
+    fn new(origin: Vec3, direction: Vec3, sphere: Vec4) -> Option<SphereFrame> {
+        let radius = sphere.w;
+        let centre = sphere.truncate();
+        let d_largest = direction.abs().max_element();
+        // Also false for NaN.
+        let valid = radius > 0.0 && radius.is_finite() && d_largest > 0.0 && direction.is_finite();
+        if !valid {
+            return None;
+        }
+        // `o − c` overflows when the two are more than `f32::MAX` apart: then
+        // both are halved first (exactly), and the radius with them.
+        let mut f = origin - centre;
+        let mut radius = radius;
+        let mut halved = 0;
+        if !f.is_finite() {
+            f = origin * 0.5 - centre * 0.5;
+            radius *= 0.5;
+            halved = 1;
+            if !f.is_finite() {
+                return None;
+            }
+        }
+        let ef = exponent_of(f.abs().max_element().max(radius));
+        let ed = exponent_of(d_largest);
+        let to_frame = power_of_two(-ef);
+        Some(SphereFrame {
+            f: f * to_frame,
+            d: direction * power_of_two(-ed),
+            radius: radius * to_frame,
+            t_exponent: ef + halved - ed,
+        })
+    }
+
+    /// Both roots in the frame's scale, nearest first, in the stable form of
+    /// the [module docs](self).
+    fn roots(&self) -> Option<(f32, f32)> {
+        let (f, d, radius) = (self.f, self.d, self.radius);
+        let a = d.dot(d);
+        let b = f.dot(d);
+        let c = f.dot(f) - radius * radius;
+        // The ray's closest approach to the centre.
+        let l = robust_length(f - (b / a) * d);
+        // Also false for NaN.
+        let meets = l <= radius;
+        if !meets {
+            return None;
+        }
+        // √(a (r − l)(r + l)), in two roots so that a tiny radius does not underflow.
+        let s = sqrt(a * (radius - l)) * sqrt(radius + l);
+        let q = if b < 0.0 { s - b } else { -s - b };
+        if q == 0.0 {
+            // b = 0 and a tangent line: the double root at the closest approach.
+            return Some((0.0, 0.0));
+        }
+        let (t0, t1) = (c / q, q / a);
+        if t0 <= t1 {
+            Some((t0, t1))
+        } else {
+            Some((t1, t0))
+        }
+    }
+
+    /// A distance along the scaled ray as one along the caller's ray.
+    fn to_ray(self, t_frame: f32) -> f32 {
+        scale_by_power_of_two(t_frame, self.t_exponent)
+    }
+
+    /// A distance along the caller's ray as one along the scaled ray.
+    fn to_frame(self, t: f32) -> f32 {
+        scale_by_power_of_two(t, -self.t_exponent)
+    }
+
+    /// The hit attributes at distance `t_frame` along the scaled ray.
+    fn hit(&self, sphere: Vec4, t_frame: f32) -> SphereHit {
+        let centre = sphere.truncate();
+        let radius = sphere.w;
+        let local = self.f + t_frame * self.d;
+        let length = robust_length(local);
+        let normal = if length > 0.0 { local / length } else { Vec3::Z };
+        let point = centre + radius * normal;
+        // The radius times a normal of a few ulps' error, and the rounding of the
+        // sum; Vulkan allows 2.5 ulps for division and square roots: a factor of 2
+        // to spare on both.
+        let error = UNIT_ROUNDOFF * (8.0 * radius + 2.0 * point.abs().max_element());
+        SphereHit { normal, point, error }
+    }
+}
+
 /// Both parametric distances where the line `origin + t · direction` meets the
-/// sphere (`xyz` centre, `w` radius), nearest first; `None` when it misses or
-/// the radius is not positive. Stable form (see the [module docs](self)).
+/// sphere (`xyz` centre, `w` radius), nearest first; `None` when it misses, the
+/// radius is not positive or the direction is zero. Stable form (see the
+/// [module docs](self)), for every sphere `Gas::spheres` accepts and every
+/// finite ray: computed relative to the centre and scaled by powers of two, so
+/// that no square overflows or underflows (a root is infinite only where the
+/// distance itself is past `f32::MAX`).
 pub fn roots(origin: Vec3, direction: Vec3, sphere: Vec4) -> Option<(f32, f32)> {
-    let radius = sphere.w;
-    let a = direction.dot(direction);
-    // Also false for NaN.
-    let valid = radius > 0.0 && a > 0.0;
-    if !valid {
-        return None;
-    }
-    let f = origin - sphere.truncate();
-    let b = f.dot(direction);
-    let c = f.dot(f) - radius * radius;
-    // The ray's closest approach to the centre.
-    let l = f - (b / a) * direction;
-    let l_len = sqrt(l.dot(l));
-    let disc = a * ((radius - l_len) * (radius + l_len));
-    let meets = disc >= 0.0;
-    if !meets {
-        return None;
-    }
-    let s = sqrt(disc);
-    let q = if b < 0.0 { s - b } else { -s - b };
-    if q == 0.0 {
-        // b = 0 and a tangent line: the double root at the closest approach.
-        return Some((0.0, 0.0));
-    }
-    let (t0, t1) = (c / q, q / a);
-    if t0 <= t1 {
-        Some((t0, t1))
-    } else {
-        Some((t1, t0))
-    }
+    let frame = SphereFrame::new(origin, direction, sphere)?;
+    let (t0, t1) = frame.roots()?;
+    Some((frame.to_ray(t0), frame.to_ray(t1)))
 }
 
 /// The attributes of a hit at distance `t` along the ray with the sphere: the
 /// point projected onto the sphere, its outward normal and error bound.
 pub fn hit_at(origin: Vec3, direction: Vec3, sphere: Vec4, t: f32) -> SphereHit {
-    let centre = sphere.truncate();
-    let radius = sphere.w;
-    let local = (origin - centre) + t * direction;
-    let length = sqrt(local.dot(local));
-    let normal = if length > 0.0 { local / length } else { Vec3::Z };
-    let point = centre + radius * normal;
-    // The radius times a normal of a few ulps' error, and the rounding of the
-    // sum; Vulkan allows 2.5 ulps for division and square roots: a factor of 2
-    // to spare on both.
-    let error = UNIT_ROUNDOFF * (8.0 * radius + 2.0 * point.abs().max_element());
-    SphereHit { normal, point, error }
+    match SphereFrame::new(origin, direction, sphere) {
+        Some(frame) => frame.hit(sphere, frame.to_frame(t)),
+        // No direction or radius: the point is the centre's.
+        None => {
+            let centre = sphere.truncate();
+            SphereHit { normal: Vec3::Z, point: centre, error: UNIT_ROUNDOFF * 2.0 * centre.abs().max_element() }
+        }
+    }
 }
 
 /// The nearest hit of the ray with the sphere with `t` in `[t_min, t_max]`:
 /// its distance, hit kind ([`FRONT_FACE`] or [`BACK_FACE`]) and attributes.
 pub fn intersect(origin: Vec3, direction: Vec3, sphere: Vec4, t_min: f32, t_max: f32) -> Option<(f32, u32, SphereHit)> {
-    let (near, far) = roots(origin, direction, sphere)?;
-    if near >= t_min && near <= t_max {
-        Some((near, FRONT_FACE, hit_at(origin, direction, sphere, near)))
-    } else if far >= t_min && far <= t_max {
-        Some((far, BACK_FACE, hit_at(origin, direction, sphere, far)))
+    let frame = SphereFrame::new(origin, direction, sphere)?;
+    let (near, far) = frame.roots()?;
+    let (near_t, far_t) = (frame.to_ray(near), frame.to_ray(far));
+    if near_t >= t_min && near_t <= t_max {
+        Some((near_t, FRONT_FACE, frame.hit(sphere, near)))
+    } else if far_t >= t_min && far_t <= t_max {
+        Some((far_t, BACK_FACE, frame.hit(sphere, far)))
     } else {
         None
     }
@@ -222,19 +351,21 @@ pub fn intersect(origin: Vec3, direction: Vec3, sphere: Vec4, t_min: f32, t_max:
 /// accepted.
 pub fn report(ctx: &mut Intersection, spheres: Buffer<Vec4>, hit: &mut SphereHit) -> bool {
     let sphere = ctx.load(spheres, ctx.primitive_index());
-    let origin = ctx.object_ray_origin();
-    let direction = ctx.object_ray_direction();
-    let Some((near, far)) = roots(origin, direction, sphere) else { return false };
+    let Some(frame) = SphereFrame::new(ctx.object_ray_origin(), ctx.object_ray_direction(), sphere) else {
+        return false;
+    };
+    let Some((near, far)) = frame.roots() else { return false };
+    let (near_t, far_t) = (frame.to_ray(near), frame.to_ray(far));
     let t_min = ctx.ray_tmin();
-    if near >= t_min && near <= ctx.ray_tmax() {
-        *hit = hit_at(origin, direction, sphere, near);
-        if ctx.report_intersection(near, FRONT_FACE) {
+    if near_t >= t_min && near_t <= ctx.ray_tmax() {
+        *hit = frame.hit(sphere, near);
+        if ctx.report_intersection(near_t, FRONT_FACE) {
             return true;
         }
     }
-    if far >= t_min && far <= ctx.ray_tmax() {
-        *hit = hit_at(origin, direction, sphere, far);
-        return ctx.report_intersection(far, BACK_FACE);
+    if far_t >= t_min && far_t <= ctx.ray_tmax() {
+        *hit = frame.hit(sphere, far);
+        return ctx.report_intersection(far_t, BACK_FACE);
     }
     false
 }
@@ -311,6 +442,108 @@ mod tests {
             let up = surface.spawn_origin(surface.normal);
             assert!((up.as_dvec3() - ground.truncate().as_dvec3()).length() > 1000.0);
         }
+    }
+
+    /// Rays from origins `distance` from the centre (random directions) towards
+    /// random points well inside the sphere, their directions scaled by
+    /// `direction_scale`: both roots are finite and within `1e-5 (|f| + r) / |d|`
+    /// of the f64 reference, and the hit point lies within its error bound of
+    /// the sphere.
+    fn check_hits(name: &str, centre: [f64; 3], radius: f64, distance: f64, direction_scale: f64) {
+        check_hits_from(name, centre, radius, None, distance, direction_scale);
+    }
+
+    /// [`check_hits`] from `fixed_origin` if given.
+    fn check_hits_from(
+        name: &str,
+        centre: [f64; 3],
+        radius: f64,
+        fixed_origin: Option<Vec3>,
+        distance: f64,
+        direction_scale: f64,
+    ) {
+        let centre64 = spirv_std::glam::DVec3::from_array(centre);
+        let sphere = Vec4::new(centre[0] as f32, centre[1] as f32, centre[2] as f32, radius as f32);
+        let c = sphere.truncate().as_dvec3();
+        let r = sphere.w as f64;
+        let seed = distance.to_bits() ^ direction_scale.to_bits() ^ radius.to_bits();
+        let mut rng = Pcg::new(7, (seed ^ seed >> 32) as u32);
+        let mut unit = || {
+            let v = spirv_std::glam::DVec3::new(rng.next_f32() as f64, rng.next_f32() as f64, rng.next_f32() as f64);
+            (v * 2.0 - 1.0).clamp_length(0.05, 1.0)
+        };
+        for _ in 0..2_000 {
+            let origin = fixed_origin.unwrap_or_else(|| (centre64 + unit().normalize() * distance).as_vec3());
+            assert!(origin.is_finite(), "{name}: {origin}");
+            let target = c + unit() * 0.8 * r;
+            let d = ((target - origin.as_dvec3()).normalize() * direction_scale).as_vec3();
+            let (w0, w1) = roots_f64(origin, d, sphere).unwrap_or_else(|| panic!("{name}: the reference misses"));
+            let (t0, t1) = roots(origin, d, sphere).unwrap_or_else(|| panic!("{name}: {origin} {d} misses {sphere}"));
+            assert!(t0.is_finite() && t1.is_finite(), "{name}: roots {t0}, {t1}");
+            let f = origin.as_dvec3() - c;
+            let tolerance = 1e-5 * (f.length() + r) / d.as_dvec3().length();
+            assert!((t0 as f64 - w0).abs() <= tolerance, "{name}: near {t0} vs {w0} (tolerance {tolerance})");
+            assert!((t1 as f64 - w1).abs() <= tolerance, "{name}: far {t1} vs {w1} (tolerance {tolerance})");
+            let (t, kind, hit) = intersect(origin, d, sphere, 0.0, f32::MAX).expect("the sphere is ahead");
+            assert_eq!((t, kind), if t0 >= 0.0 { (t0, FRONT_FACE) } else { (t1, BACK_FACE) }, "{name}");
+            assert!(hit.normal.is_finite() && (hit.normal.length() - 1.0).abs() < 1e-5, "{name}: {hit:?}");
+            let off_surface = (hit.point.as_dvec3() - c).length() - r;
+            assert!(off_surface.abs() <= hit.error as f64, "{name}: {off_surface} > {}", hit.error);
+            assert_eq!(hit, hit_at(origin, d, sphere, t), "{name}");
+        }
+    }
+
+    #[test]
+    fn extreme_spheres_give_finite_roots_that_match_f64() {
+        // Directions scaled from 1e-30 to 1e30, where the distances stay in f32.
+        let scales = |distance: f64| [1e-30, 1e-10, 1.0, 1e10, 1e30].into_iter().filter(move |s| distance / s < 1e37);
+        for scale in scales(1e21) {
+            check_hits("centre 1e20, radius 1e19", [1e20, -3e19, 2e19], 1e19, 5e19, scale);
+            check_hits("seen from 1e21 away", [1e20, -3e19, 2e19], 1e19, 1e21, scale);
+            check_hits("from inside", [1e20, -3e19, 2e19], 1e19, 5e18, scale);
+            check_hits("unit sphere", [1.0, 2.0, 3.0], 1.0, 10.0, scale);
+        }
+        for scale in scales(1e-15).filter(|s| 1e-19 / s > 1e-30) {
+            check_hits("radius 1e-20 near the origin", [3e-20, -2e-20, 1e-20], 1e-20, 1e-19, scale);
+            check_hits("radius 1e-20 from 1e-15 away", [3e-20, -2e-20, 1e-20], 1e-20, 1e-15, scale);
+        }
+        for scale in scales(1e30) {
+            check_hits("origin 1e30 away", [1.0, 2.0, 3.0], 1e25, 1e30, scale);
+        }
+        for scale in scales(5e38) {
+            check_hits("near f32::MAX", [2e38, 0.0, 0.0], 1e38, 1.3e38, scale);
+            // Centre and origin more than f32::MAX apart.
+            check_hits_from("4e38 apart", [2e38, 0.0, 0.0], 1e38, Some(Vec3::new(-2e38, 0.0, 0.0)), 0.0, scale);
+        }
+    }
+
+    /// Within 4 ulps (relative 2⁻²²).
+    fn close(t: f32, want: f32) -> bool {
+        ((t as f64 - want as f64) / want as f64).abs() < 4.0 / 8_388_608.0
+    }
+
+    #[test]
+    fn tiny_and_distant_spheres_on_axis() {
+        // A radius of 1e-20 at the origin, from one unit away: hit and just missed.
+        let tiny = Vec4::new(0.0, 0.0, 0.0, 1e-20);
+        let (t0, t1) = roots(Vec3::new(0.0, 0.0, -1.0), Vec3::Z, tiny).expect("straight at it");
+        assert_eq!((t0, t1), (1.0, 1.0));
+        assert!(roots(Vec3::new(0.0, 2e-20, -1.0), Vec3::Z, tiny).is_none());
+        let (t, kind, hit) = intersect(Vec3::new(0.0, 5e-21, -1e-19), Vec3::Z * 1e-30, tiny, 0.0, f32::MAX).unwrap();
+        assert_eq!(kind, FRONT_FACE);
+        let want = (1e-19f64 - (1e-40f64 - 25e-42).sqrt()) / 1e-30;
+        assert!((t as f64 - want).abs() < 1e-6 * want, "{t} vs {want}");
+        assert!((hit.normal - Vec3::new(0.0, 0.5, -0.866_025_4)).length() < 1e-5, "{hit:?}");
+        // A unit sphere 1e30 down the axis.
+        let (t0, t1) = roots(Vec3::new(-1e30, 0.0, 0.0), Vec3::X, Vec4::new(0.0, 0.0, 0.0, 1.0)).unwrap();
+        assert!(close(t0, 1e30) && close(t1, 1e30), "{t0}, {t1}");
+        // The largest sphere whose box fits in f32, from beyond it.
+        let s = Vec4::new(-1e38, 0.0, 0.0, 2e38);
+        let (t0, t1) = roots(Vec3::new(3e38, 0.0, 0.0), -Vec3::X, s).unwrap();
+        // The exit is 6e38 away, past f32::MAX.
+        assert!(close(t0, 2e38) && t1 == f32::INFINITY, "{t0}, {t1}");
+        let (t0, t1) = roots(Vec3::new(3e38, 0.0, 0.0), -4.0 * Vec3::X, s).unwrap();
+        assert!(close(t0, 0.5e38) && close(t1, 1.5e38), "{t0}, {t1}");
     }
 
     const IDENTITY: Matrix4x3 = Matrix4x3 { x_axis: Vec3::X, y_axis: Vec3::Y, z_axis: Vec3::Z, w_axis: Vec3::ZERO };

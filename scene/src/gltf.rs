@@ -68,6 +68,44 @@ pub enum GltfError {
         /// Where it was looked for.
         resolved: PathBuf,
     },
+    /// An image's file is missing.
+    #[error("glTF {path}: images[{image}].uri refers to `{uri}`, which is not at {resolved}; put the image beside the .gltf or fix the image's uri")]
+    MissingImage {
+        /// The glTF file.
+        path: PathBuf,
+        /// The image's index.
+        image: usize,
+        /// Its uri.
+        uri: String,
+        /// Where it was looked for.
+        resolved: PathBuf,
+    },
+    /// A buffer or image uri reaches a file outside the glTF file's folder (an
+    /// absolute path, a `file:` uri, `..` or a symbolic link leading out), and
+    /// [`LoadOptions::allow_outside_folder`] is off.
+    #[error("glTF {path}: {reference} is `{uri}`, which resolves to {resolved}, outside the scene's folder {folder}; a glTF file reads only files in its own folder: copy the file into it and give a relative uri, or, for a file you trust, load it with `GltfScene::load_with(path, &LoadOptions {{ allow_outside_folder: true, ..Default::default() }})`")]
+    OutsideFolder {
+        /// The glTF file.
+        path: PathBuf,
+        /// The uri's place in the file (`buffers[0].uri`, `images[1].uri`).
+        reference: String,
+        /// The uri.
+        uri: String,
+        /// The file it names, symbolic links resolved.
+        resolved: PathBuf,
+        /// The glTF file's folder, symbolic links resolved.
+        folder: PathBuf,
+    },
+    /// A uri whose percent-encoding does not decode to UTF-8.
+    #[error("glTF {path}: {reference} is `{uri}`, whose %-escapes do not decode to UTF-8; fix the uri (escape file names as UTF-8)")]
+    UriEncoding {
+        /// The glTF file.
+        path: PathBuf,
+        /// The uri's place in the file (`buffers[0].uri`, `images[1].uri`).
+        reference: String,
+        /// The uri.
+        uri: String,
+    },
     /// A primitive is not a triangle list.
     #[error("glTF meshes[{mesh}].primitives[{primitive}].mode is {mode}; only triangles are ray traced: triangulate it in the exporter (strips and fans too)")]
     NotTriangles {
@@ -388,6 +426,16 @@ pub struct Image {
     pub rgba8: Vec<u8>,
 }
 
+/// How [`GltfScene::load_with`] reads the files a glTF file names.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Let buffer and image uris reach files outside the glTF file's folder:
+    /// absolute paths, `file:` uris, `..` and symbolic links that lead out. Off
+    /// by default, so that a scene from elsewhere reads nothing but its own
+    /// folder (and its subfolders); turn it on only for files you trust.
+    pub allow_outside_folder: bool,
+}
+
 /// A loaded glTF scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GltfScene {
@@ -403,37 +451,59 @@ pub struct GltfScene {
 
 impl GltfScene {
     /// Loads `path` (.gltf with its buffers and images beside it, or .glb).
+    /// Buffers and images must lie in `path`'s folder or below it
+    /// ([`GltfError::OutsideFolder`]; see [`GltfScene::load_with`]).
     pub fn load(path: &Path) -> Result<GltfScene, GltfError> {
+        GltfScene::load_with(path, &LoadOptions::default())
+    }
+
+    /// [`GltfScene::load`] with `options`.
+    pub fn load_with(path: &Path, options: &LoadOptions) -> Result<GltfScene, GltfError> {
         let parse = |source| GltfError::Parse { path: path.to_owned(), source };
         let bytes = std::fs::read(path).map_err(|e| parse(gltf::Error::Io(e)))?;
-        GltfScene::from_slice(&bytes, path)
+        GltfScene::from_slice_with(&bytes, path, options)
     }
 
     /// Loads a glTF (JSON) or GLB file already in memory, as [`GltfScene::load`]
     /// would the file at `path`: buffers and images it names by relative URI are
-    /// read beside `path`, and errors name `path`.
+    /// read beside `path` (in its folder only), and errors name `path`.
     pub fn from_slice(bytes: &[u8], path: &Path) -> Result<GltfScene, GltfError> {
+        GltfScene::from_slice_with(bytes, path, &LoadOptions::default())
+    }
+
+    /// [`GltfScene::from_slice`] with `options`.
+    pub fn from_slice_with(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<GltfScene, GltfError> {
         let parse = |source| GltfError::Parse { path: path.to_owned(), source };
         let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(parse)?;
         // The `gltf` crate's validation reads the POSITION accessor before
         // checking its index: that index is checked first.
         validate::position_indices(document.as_json())?;
         let document = gltf::Document::from_json(document.into_json()).map_err(parse)?;
-        let base = path.parent().unwrap_or(Path::new("."));
+        let base = match path.parent() {
+            Some(parent) if !parent.as_os_str().is_empty() => parent,
+            _ => Path::new("."),
+        };
+        let files = ReferencedFiles { path, base, options };
         for buffer in document.buffers() {
             if let gltf::buffer::Source::Uri(uri) = buffer.source() {
-                if uri.starts_with("data:") {
-                    continue;
-                }
-                let resolved = base.join(uri);
-                if !resolved.is_file() {
-                    return Err(GltfError::MissingBuffer {
-                        path: path.to_owned(),
-                        buffer: buffer.index(),
-                        uri: uri.to_owned(),
-                        resolved,
-                    });
-                }
+                let missing = |resolved| GltfError::MissingBuffer {
+                    path: path.to_owned(),
+                    buffer: buffer.index(),
+                    uri: uri.to_owned(),
+                    resolved,
+                };
+                files.check(&format!("buffers[{}].uri", buffer.index()), uri, missing)?;
+            }
+        }
+        for image in document.images() {
+            if let gltf::image::Source::Uri { uri, .. } = image.source() {
+                let missing = |resolved| GltfError::MissingImage {
+                    path: path.to_owned(),
+                    image: image.index(),
+                    uri: uri.to_owned(),
+                    resolved,
+                };
+                files.check(&format!("images[{}].uri", image.index()), uri, missing)?;
             }
         }
         // Image views are sliced while importing: every view is checked first.
@@ -486,6 +556,81 @@ impl GltfScene {
         };
         Ok(GltfScene { meshes, instances, materials, images })
     }
+}
+
+/// The files a glTF file's uris name, checked before the `gltf` crate reads them.
+struct ReferencedFiles<'a> {
+    /// The glTF file.
+    path: &'a Path,
+    /// Its folder, where relative uris start.
+    base: &'a Path,
+    options: &'a LoadOptions,
+}
+
+impl ReferencedFiles<'_> {
+    /// Checks the file `uri` (at `reference` in the glTF file) names, as the
+    /// `gltf` crate resolves it: `data:` uris and other schemes (which it
+    /// refuses) are left to it; a `file:` uri is a path, anything else a
+    /// %-encoded path relative to the folder. The file must exist (else
+    /// `missing(where it was looked for)`) and, unless
+    /// [`LoadOptions::allow_outside_folder`], lie inside the folder once both
+    /// are canonical (symbolic links and `..` resolved).
+    fn check(&self, reference: &str, uri: &str, missing: impl FnOnce(PathBuf) -> GltfError) -> Result<(), GltfError> {
+        let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
+            PathBuf::from(rest)
+        } else if uri.contains(':') {
+            return Ok(());
+        } else {
+            let decoded = percent_decode(uri).ok_or_else(|| GltfError::UriEncoding {
+                path: self.path.to_owned(),
+                reference: reference.to_owned(),
+                uri: uri.to_owned(),
+            })?;
+            self.base.join(decoded)
+        };
+        let resolved = match file.canonicalize() {
+            Ok(resolved) if resolved.is_file() => resolved,
+            _ => return Err(missing(file)),
+        };
+        if self.options.allow_outside_folder {
+            return Ok(());
+        }
+        let folder = self.base.canonicalize().unwrap_or_else(|_| self.base.to_owned());
+        if resolved.starts_with(&folder) {
+            return Ok(());
+        }
+        Err(GltfError::OutsideFolder {
+            path: self.path.to_owned(),
+            reference: reference.to_owned(),
+            uri: uri.to_owned(),
+            resolved,
+            folder,
+        })
+    }
+}
+
+/// `uri` with its `%XX` escapes decoded, as the `gltf` crate decodes relative
+/// uris; `None` where the bytes are not UTF-8 (which the `gltf` crate would
+/// panic on). A `%` without two hex digits stays as it is.
+fn percent_decode(uri: &str) -> Option<String> {
+    let bytes = uri.as_bytes();
+    let mut decoded = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex_digit = |at: usize| bytes.get(at).and_then(|&b| (b as char).to_digit(16));
+        let escape = hex_digit(i + 1).zip(hex_digit(i + 2)).map(|(high, low)| (high * 16 + low) as u8);
+        match (bytes[i], escape) {
+            (b'%', Some(byte)) => {
+                decoded.push(byte);
+                i += 3;
+            }
+            (byte, _) => {
+                decoded.push(byte);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(decoded).ok()
 }
 
 /// One primitive, its accessors checked ([`validate::accessor`]) before they are read.

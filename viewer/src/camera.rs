@@ -169,6 +169,16 @@ pub fn parse_camera(value: &str) -> Result<Camera> {
     if !(fov > 0.0 && fov < 180.0) {
         return Err(error(format!("the field of view {fov} is not between 0 and 180 degrees")));
     }
+    // The frame the rays are made from, in f32: a distance from the eye to the
+    // point looked at whose square overflows or underflows gives none.
+    let (u, v, w) = camera.uvw(1.0);
+    if !(u.is_finite() && v.is_finite() && w.is_finite()) || u == Vec3::ZERO || v == Vec3::ZERO {
+        return Err(error(
+            "the eye is too far from or too close to the point looked at for f32 (no finite camera frame); \
+             bring the coordinates nearer to each other"
+                .into(),
+        ));
+    }
     Ok(camera)
 }
 
@@ -203,6 +213,9 @@ mod tests {
             ("0,0,0,0,0,1,0,1,0,190", "field of view"),
             ("0,0,x,0,0,1,0,1,0,40", "\"x\" is not a number"),
             ("0,0,0,0,0,1,0,1,0,NaN", "finite"),
+            ("0,0,0,0,0,1e30,0,1,0,40", "too far from or too close"),
+            ("-3e38,0,0,3e38,0,0,0,1,0,40", "too far from or too close"),
+            ("0,0,0,0,0,1e-30,0,1,0,40", "too far from or too close"),
         ] {
             let message = parse_camera(value).unwrap_err().to_string();
             assert!(message.contains(expected), "{value}: {message}");

@@ -55,6 +55,19 @@ pub enum ViewerError {
         /// What is wrong with it.
         reason: String,
     },
+    /// A `--frame-ms` value that is not a frame time the viewer can aim at.
+    #[error(
+        "--frame-ms {value}: give the frame time the samples per frame adapt to, in milliseconds: a number from \
+         {min} to {max}"
+    )]
+    FrameTime {
+        /// The value given.
+        value: String,
+        /// The shortest frame time accepted, in milliseconds.
+        min: f64,
+        /// The longest frame time accepted, in milliseconds.
+        max: f64,
+    },
     /// `--headless` without `--frames`.
     #[error("--headless renders a number of frames and writes the last: give it `--frames N`")]
     HeadlessFrames,

@@ -33,7 +33,7 @@ pub struct Session {
 /// (`viewer: N frames at WxH ...`) and returns it.
 pub fn run<R: Render>(renderer: R, args: &ViewerArgs, session: Session) -> Result<Summary> {
     let camera = args.camera_or(session.camera)?;
-    let frames = args.frame_options(session.exposure);
+    let frames = args.frame_options(session.exposure)?;
     let summary = if args.headless {
         let count = args.frames.ok_or(ViewerError::HeadlessFrames)?;
         crate::headless::run(renderer, camera, session.width, session.height, frames, count, &session.output)?

@@ -36,6 +36,31 @@ pub use path_tracer_device as device;
 #[cfg(feature = "viewer")]
 pub mod view;
 
+/// A `--exposure` that is not a finite number above zero (NaN, infinite,
+/// zero or negative exposures would write a picture of nothing after the whole
+/// render).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExposureError {
+    /// The value given.
+    pub value: String,
+}
+
+impl std::fmt::Display for ExposureError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "--exposure {:?}: give a finite number above 0 (1 leaves the radiance as it is)", self.value)
+    }
+}
+
+impl std::error::Error for ExposureError {}
+
+/// `--exposure`'s parser: a finite `f32` above 0, else [`ExposureError`].
+pub fn parse_exposure(value: &str) -> Result<f32, ExposureError> {
+    match value.trim().parse::<f32>() {
+        Ok(exposure) if exposure.is_finite() && exposure > 0.0 => Ok(exposure),
+        _ => Err(ExposureError { value: value.to_owned() }),
+    }
+}
+
 /// optixPathTracer's camera.
 pub const CAMERA: Camera = Camera {
     eye: scene::CAMERA_EYE,
@@ -581,5 +606,20 @@ impl Image {
     /// Writes the linear radiance as an OpenEXR file (32-bit float RGB).
     pub fn write_exr(&self, path: &Path) -> anyhow::Result<()> {
         Ok(raykit_scene::write_exr(path, self.width, self.height, &self.radiance)?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exposures_that_make_no_picture_are_refused() {
+        for value in ["nan", "inf", "-inf", "0", "-1", "1e39", "bright", ""] {
+            let err = parse_exposure(value).expect_err(value).to_string();
+            assert!(err.contains("--exposure") && err.contains("finite number above 0"), "{value}: {err}");
+        }
+        assert_eq!(parse_exposure("1"), Ok(1.0));
+        assert_eq!(parse_exposure("0.25"), Ok(0.25));
     }
 }

@@ -55,8 +55,8 @@ struct Cli {
     /// Also write the linear radiance as OpenEXR, to the output path with `.exr`.
     #[arg(long)]
     exr: bool,
-    /// Exposure applied before the tonemap.
-    #[arg(long, default_value_t = 1.0)]
+    /// Exposure applied before the tonemap (a finite number above 0).
+    #[arg(long, default_value_t = 1.0, value_parser = path_tracer::parse_exposure, allow_hyphen_values = true)]
     exposure: f32,
     /// Use the GLSL twin of the device programs instead of the Rust ones.
     #[arg(long, conflicts_with = "wgsl")]

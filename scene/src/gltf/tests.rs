@@ -574,3 +574,136 @@ fn a_position_accessor_past_the_accessors_is_a_dangling_index_not_a_panic() {
     let doc = Doc::triangle().primitive(r#"{"attributes": {"POSITION": 0, "NORMAL": 9}, "indices": 3}"#);
     assert!(matches!(doc.load("dangling_normal"), Err(GltfError::Parse { .. })));
 }
+
+/// A folder `root` holding `scene/` (where the glTF files go, with
+/// `scene/inside.bin` and an empty `scene/sub/`), `outside.bin` next to it and
+/// `scene/link.bin`, a symbolic link to `../outside.bin`; removed on drop.
+struct Folders {
+    root: PathBuf,
+}
+
+impl Folders {
+    fn new(name: &str) -> Folders {
+        let root = std::env::temp_dir().join(format!("raykit_scene_folders_{}_{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        std::fs::create_dir_all(root.join("scene/sub")).expect("temporary directory");
+        std::fs::write(root.join("outside.bin"), triangle_bin()).expect("write outside.bin");
+        std::fs::write(root.join("scene/inside.bin"), triangle_bin()).expect("write inside.bin");
+        #[cfg(unix)]
+        std::os::unix::fs::symlink("../outside.bin", root.join("scene/link.bin")).expect("symbolic link");
+        Folders { root }
+    }
+
+    /// The triangle with its buffer at `uri`, written as `scene/scene.gltf`.
+    fn scene_with_buffer(&self, uri: &str) -> PathBuf {
+        let data = format!("data:application/octet-stream;base64,{}", base64(&triangle_bin()));
+        let path = self.root.join("scene/scene.gltf");
+        std::fs::write(&path, Doc::triangle().json().replace(&data, uri)).expect("write the test file");
+        path
+    }
+}
+
+impl Drop for Folders {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.root);
+    }
+}
+
+#[test]
+fn buffer_uris_reach_only_the_scene_folder() {
+    let folders = Folders::new("buffers");
+    let outside = folders.root.join("outside.bin");
+    let want = Doc::triangle().load("folder_reference").expect("the triangle loads");
+    let mut refused = vec![
+        outside.to_str().expect("a UTF-8 temporary directory").to_owned(),
+        format!("file://{}", outside.display()),
+        "../outside.bin".to_owned(),
+        "sub/../../outside.bin".to_owned(),
+        "sub/%2E%2E/../outside.bin".to_owned(),
+    ];
+    if cfg!(unix) {
+        refused.push("link.bin".to_owned());
+    }
+    for uri in &refused {
+        let path = folders.scene_with_buffer(uri);
+        match GltfScene::load(&path) {
+            Err(e @ GltfError::OutsideFolder { .. }) => {
+                let message = e.to_string();
+                let GltfError::OutsideFolder { reference, resolved, folder, .. } = &e else { unreachable!() };
+                assert_eq!(reference, "buffers[0].uri");
+                assert_eq!(resolved, &outside.canonicalize().unwrap());
+                assert_eq!(folder, &folders.root.join("scene").canonicalize().unwrap());
+                for says in [uri.as_str(), "buffers[0].uri", "outside the scene's folder", "allow_outside_folder: true"]
+                {
+                    assert!(message.contains(says), "{uri}: `{message}` does not say {says:?}");
+                }
+            }
+            other => panic!("{uri}: {other:?}"),
+        }
+        // The opt-out reads it.
+        let trusted = GltfScene::load_with(&path, &LoadOptions { allow_outside_folder: true });
+        assert_eq!(trusted.expect("the opt-out loads it"), want, "{uri}");
+    }
+    for uri in ["inside.bin", "./inside.bin", "sub/../inside.bin", "%69nside.bin"] {
+        let loaded = GltfScene::load(&folders.scene_with_buffer(uri));
+        assert_eq!(loaded.expect(uri), want, "{uri}");
+    }
+    // A data: uri reads no file at all.
+    let data = format!("data:application/octet-stream;base64,{}", base64(&triangle_bin()));
+    assert_eq!(GltfScene::load(&folders.scene_with_buffer(&data)).expect("data: uri"), want);
+}
+
+#[test]
+fn image_uris_reach_only_the_scene_folder() {
+    let folders = Folders::new("images");
+    image::RgbaImage::from_pixel(1, 1, image::Rgba([10, 20, 30, 255])).save(folders.root.join("outside.png")).unwrap();
+    std::fs::copy(folders.root.join("outside.png"), folders.root.join("scene/inside.png")).unwrap();
+    let with_image = |uri: &str| {
+        let path = folders.root.join("scene/image.gltf");
+        let json = Doc::triangle().json();
+        let json = json.replacen(
+            r#""asset": {"version": "2.0"},"#,
+            &format!(r#""asset": {{"version": "2.0"}}, "images": [{{"uri": "{uri}"}}],"#),
+            1,
+        );
+        std::fs::write(&path, json).unwrap();
+        path
+    };
+    let inside = GltfScene::load(&with_image("inside.png")).expect("an image beside the file loads");
+    assert_eq!(inside.images, vec![Image { width: 1, height: 1, rgba8: vec![10, 20, 30, 255] }]);
+    let path = with_image("../outside.png");
+    match GltfScene::load(&path) {
+        Err(GltfError::OutsideFolder { reference, .. }) => assert_eq!(reference, "images[0].uri"),
+        other => panic!("{other:?}"),
+    }
+    let trusted = GltfScene::load_with(&path, &LoadOptions { allow_outside_folder: true }).expect("the opt-out");
+    assert_eq!(trusted.images, inside.images);
+    match GltfScene::load(&with_image("missing.png")) {
+        Err(e @ GltfError::MissingImage { image: 0, .. }) => assert!(e.to_string().contains("missing.png"), "{e}"),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn uris_whose_escapes_are_not_utf8_are_errors_not_panics() {
+    let folders = Folders::new("escapes");
+    let path = folders.scene_with_buffer("inside%FF.bin");
+    match GltfScene::load(&path) {
+        Err(e @ GltfError::UriEncoding { .. }) => assert!(e.to_string().contains("inside%FF.bin"), "{e}"),
+        other => panic!("{other:?}"),
+    }
+    // An image's uri too (the `gltf` crate's decoder panicked on it).
+    let json = Doc::triangle().json().replacen(
+        r#""asset": {"version": "2.0"},"#,
+        r#""asset": {"version": "2.0"}, "images": [{"uri": "x%C3%28.png"}],"#,
+        1,
+    );
+    std::fs::write(&path, json).unwrap();
+    match GltfScene::load(&path) {
+        Err(GltfError::UriEncoding { reference, .. }) => assert_eq!(reference, "images[0].uri"),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(percent_decode("a%20b%2"), Some("a b%2".to_owned()));
+    assert_eq!(percent_decode("%+F%zz"), Some("%+F%zz".to_owned()));
+    assert_eq!(percent_decode("%C3%A9"), Some("é".to_owned()));
+}
