@@ -207,6 +207,9 @@ fn main() -> anyhow::Result<()> {
                 std::fs::create_dir_all(&out)?;
                 std::fs::write(out.join("shader_build.json"), serde_json::to_string_pretty(&times)?)?;
             }
+            if args.iter().any(|a| a == "denoise") {
+                oidn::ensure_oidn()?;
+            }
             run(cargo().args(["build", "--release", "--quiet", "-p", "raykit-bench"]), "building raykit-bench")?;
             let binary = root.join("target").join("release").join("raykit-bench");
             run(
