@@ -24,8 +24,16 @@ const NOISY_SPP: u32 = 8;
 const REFERENCE_SPP: u32 = 1024;
 const REFERENCE_CHUNK: u32 = 64;
 
+/// A context of `backend` with the validation layer as `RAYKIT_VALIDATION` says
+/// (`cargo xtask test` turns it on) and no disk compile cache.
 fn context(backend: Backend) -> anyhow::Result<Option<Context>> {
-    match Context::new(ContextOptions { backend: Some(backend), ..Default::default() }) {
+    let options = ContextOptions {
+        backend: Some(backend),
+        validation: Some(std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1")),
+        pipeline_cache: raykit::PipelineCacheLocation::Off,
+        ..Default::default()
+    };
+    match Context::new(options) {
         Ok(ctx) => Ok(Some(ctx)),
         Err(e) if backend == Backend::Vulkan && std::env::var("RAYKIT_REQUIRE_DEVICE").as_deref() != Ok("1") => {
             eprintln!("SKIPPED: no Vulkan device with ray tracing ({e})");
@@ -64,6 +72,12 @@ fn display_mse(a: &Image, b: &Image) -> f64 {
             1.055 * r.powf(1.0 / 2.4) - 0.055
         }
     })
+}
+
+/// Fails on any validation message `ctx` logged.
+fn no_validation_messages(ctx: &Context, what: &str) {
+    let messages = ctx.messages().take();
+    assert!(messages.is_empty(), "{what}: {} validation message(s): {messages:?}", messages.len());
 }
 
 fn denoises_the_cornell_box(ctx: &Context, what: &str) -> anyhow::Result<()> {
@@ -134,6 +148,7 @@ fn denoises_the_cornell_box(ctx: &Context, what: &str) -> anyhow::Result<()> {
     );
     // The reference's own noise is small against the margin the test asserts.
     assert!(reference_noise * 10.0 < before / 5.0, "{what}: reference noise {reference_noise:.3e}");
+    no_validation_messages(ctx, what);
     Ok(())
 }
 
@@ -164,6 +179,7 @@ fn guides_leave_the_picture_alone(ctx: &Context, what: &str) -> anyhow::Result<(
         assert!(matches!(err, path_tracer::GuidesError::NoGuidesProgram), "{err}");
         assert!(err.to_string().contains("Programs::rust"), "{err}");
     }
+    no_validation_messages(ctx, what);
     Ok(())
 }
 
