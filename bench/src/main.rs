@@ -29,6 +29,11 @@
 //! beside them, and checks that the pictures agree (see `optix.rs`). Not run
 //! unless named.
 //!
+//! `denoise` — Open Image Denoise's RT filter (`raykit-denoise`) at 512×512 and
+//! 1920×1080, the colour alone and with albedo and normal guides, on the device
+//! OIDN's `Auto` picks (see `denoise.rs`). Not run unless named; `cargo xtask
+//! bench denoise` installs the library.
+//!
 //! Options:
 //! * `--spirv-dir DIR` — where the device crates' `.spv` files are (else
 //!   `$RAYKIT_SPIRV_DIR`); suites that trace need them, `accel` does not.
@@ -51,6 +56,7 @@
 mod accel;
 mod ash_baseline;
 mod cpu;
+mod denoise;
 mod devices;
 mod launch;
 mod materials;
@@ -68,7 +74,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 13] = [
+const SUITES: [&str; 14] = [
     "accel",
     "stack",
     "pipeline",
@@ -82,11 +88,13 @@ const SUITES: [&str; 13] = [
     "materials",
     "devices",
     "optix",
+    "denoise",
 ];
 
 /// Suites run only when named: `devices` splits work across every GPU of the host;
-/// `optix` needs the OptiX twin built beside the binary.
-const ONLY_WHEN_NAMED: [&str; 2] = ["devices", "optix"];
+/// `optix` needs the OptiX twin built beside the binary; `denoise` needs Open
+/// Image Denoise (`cargo xtask bench denoise` installs it).
+const ONLY_WHEN_NAMED: [&str; 3] = ["devices", "optix", "denoise"];
 
 struct Args {
     suites: Vec<String>,
@@ -199,6 +207,13 @@ fn main() -> anyhow::Result<()> {
             markdown.push_str("## devices\n\n");
             markdown.push_str(&table);
             report["suites"]["devices"] = devices::json(&results);
+        } else if suite == "denoise" {
+            let rows = denoise::run(args.reps.unwrap_or(5))?;
+            let table = denoise::markdown(&rows);
+            println!("## denoise\n\n{table}");
+            markdown.push_str("## denoise\n\n");
+            markdown.push_str(&table);
+            report["suites"]["denoise"] = denoise::json(&rows);
         } else if suite == "pipeline" {
             let rows = pipeline::run(args.device.as_deref(), args.reps)?;
             let table = pipeline::markdown(&rows, &device);

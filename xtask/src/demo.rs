@@ -74,6 +74,8 @@ pub struct Demo {
     pub spp: u32,
     /// `vulkan` or `cpu`.
     pub backend: String,
+    /// Denoise the path tracer's picture (`--denoise`).
+    pub denoise: bool,
 }
 
 /// Runs the demo.
@@ -147,10 +149,16 @@ fn render_args(demo: &Demo) -> anyhow::Result<Vec<String>> {
     Ok(match demo.example.as_str() {
         "path_tracer" => {
             let (width, height) = demo.size.split_once('x').context("--size takes WIDTHxHEIGHT, e.g. 512x512")?;
-            ["--width", width, "--height", height, "--spp", &demo.spp.to_string(), "--output", &output]
-                .map(str::to_owned)
-                .to_vec()
+            let mut args: Vec<String> =
+                ["--width", width, "--height", height, "--spp", &demo.spp.to_string(), "--output", &output]
+                    .map(str::to_owned)
+                    .to_vec();
+            if demo.denoise {
+                args.push("--denoise".to_owned());
+            }
+            args
         }
+        _ if demo.denoise => bail!("--denoise is for the path tracer's demo; the triangle has no noise"),
         _ => vec![output],
     })
 }

@@ -6,7 +6,10 @@
 //!   progress bar; `--example triangle` renders optixTriangle instead.
 //! * `lint`: the gates (rustfmt, clippy with `-D warnings`, rustdoc with `-D warnings`,
 //!   doctests, the book, no undocumented binaries in git); see `lint.rs`.
-//! * `test`: set up what is missing (nightly, lavapipe, validation layers, glslang),
+//! * `setup [--denoise]`: install what is missing; `--denoise` also installs Intel
+//!   Open Image Denoise for `raykit-denoise` (see `oidn.rs`).
+//! * `test`: set up what is missing (nightly, lavapipe, validation layers, glslang,
+//!   Open Image Denoise),
 //!   run `lint` (stopping at the first gate that fails), build the shaders and run
 //!   every test with validation on.
 //! * `new-project PATH`: write a new project that uses raykit (see the book's
@@ -26,6 +29,7 @@ mod demo;
 mod display;
 mod layers;
 mod lint;
+mod oidn;
 mod setup;
 mod shaders;
 
@@ -72,6 +76,10 @@ enum Cmd {
         /// (natively on this machine's CPUs, with no Vulkan driver needed).
         #[arg(long, default_value = "vulkan", value_parser = ["vulkan", "cpu"])]
         backend: String,
+        /// Denoise the picture with Open Image Denoise (first-hit albedo and
+        /// normal guides), installing the library first when it is missing.
+        #[arg(long)]
+        denoise: bool,
     },
     /// Check formatting, clippy, rustdoc, doctests, the book and committed binaries (each must pass).
     Lint,
@@ -82,7 +90,12 @@ enum Cmd {
         cargo_args: Vec<String>,
     },
     /// Only install what is missing (toolchain, Vulkan driver, validation layers).
-    Setup,
+    Setup {
+        /// Also install Intel Open Image Denoise 2.5.1 (raykit-denoise's library,
+        /// from PyPI's `pyoidn` wheel) into raykit's cache folder.
+        #[arg(long)]
+        denoise: bool,
+    },
     /// Write a new project that uses raykit (a host binary whose build.rs builds
     /// its device crate through raykit-builder) into PATH, missing or empty.
     NewProject {
@@ -136,10 +149,13 @@ fn main() -> anyhow::Result<()> {
             }
             shaders::build_all(&root, force)?;
         }
-        Cmd::Demo { example, output, size, spp, backend } => {
+        Cmd::Demo { example, output, size, spp, backend, denoise } => {
+            if denoise {
+                oidn::ensure_oidn()?;
+            }
             let output = output.unwrap_or_else(|| PathBuf::from(format!("target/demo/{example}.png")));
             let output = if output.is_absolute() { output } else { root.join(output) };
-            demo::run(&root, &demo::Demo { example, output, size, spp, backend })?;
+            demo::run(&root, &demo::Demo { example, output, size, spp, backend, denoise })?;
         }
         Cmd::Lint => lint::run_all(&root)?,
         Cmd::Test { cargo_args } => {
@@ -147,6 +163,8 @@ fn main() -> anyhow::Result<()> {
             setup::ensure_vulkan(true)?;
             setup::ensure_glsl_tools()?;
             display::ensure_xvfb()?;
+            // raykit-denoise's tests and the path tracer's denoising tests load it.
+            oidn::ensure_oidn()?;
             lint::run_all(&root)?;
             shaders::build_all(&root, false)?;
             let mut cmd = cargo();
@@ -190,6 +208,9 @@ fn main() -> anyhow::Result<()> {
                 std::fs::create_dir_all(&out)?;
                 std::fs::write(out.join("shader_build.json"), serde_json::to_string_pretty(&times)?)?;
             }
+            if args.iter().any(|a| a == "denoise") {
+                oidn::ensure_oidn()?;
+            }
             run(cargo().args(["build", "--release", "--quiet", "-p", "raykit-bench"]), "building raykit-bench")?;
             let binary = root.join("target").join("release").join("raykit-bench");
             run(
@@ -203,10 +224,13 @@ fn main() -> anyhow::Result<()> {
                 "raykit-bench",
             )?;
         }
-        Cmd::Setup => {
+        Cmd::Setup { denoise } => {
             setup::ensure_toolchain()?;
             setup::ensure_spirv_tools()?;
             setup::ensure_vulkan(true)?;
+            if denoise {
+                oidn::ensure_oidn()?;
+            }
         }
         Cmd::NewProject { path } => {
             let files = raykit_builder::write_new_project(&path, &root)?;

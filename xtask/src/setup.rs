@@ -210,3 +210,35 @@ fn ensure_tools(tools: &[&str], packages: &[&str], why: &str) -> anyhow::Result<
     }
     Ok(())
 }
+
+/// Makes sure every one of `commands` is on `PATH`, installing `packages` as
+/// root with apt when one is not; `why` says what needs them.
+pub fn ensure_commands(commands: &[&str], packages: &[&str], why: &str) -> anyhow::Result<()> {
+    let on_path = |c: &str| {
+        std::env::var_os("PATH").is_some_and(|path| std::env::split_paths(&path).any(|dir| dir.join(c).is_file()))
+    };
+    let missing = || -> Vec<&str> { commands.iter().copied().filter(|c| !on_path(c)).collect() };
+    let absent = missing();
+    if absent.is_empty() {
+        return Ok(());
+    }
+    if !(is_root() && Path::new("/usr/bin/apt-get").exists()) {
+        bail!(
+            "{} not installed ({why}). On Debian, as root: apt-get install -y {}",
+            absent.join(", "),
+            packages.join(" ")
+        );
+    }
+    println!("xtask: installing {} ({why})", packages.join(" "));
+    let mut install = vec!["install", "-y"];
+    install.extend(packages);
+    if apt_get(&install).is_err() {
+        apt_get(&["update"])?;
+        apt_get(&install)?;
+    }
+    let absent = missing();
+    if !absent.is_empty() {
+        bail!("installed {} but {} still missing", packages.join(" "), absent.join(", "));
+    }
+    Ok(())
+}

@@ -23,7 +23,7 @@ use std::path::Path;
 
 use path_tracer_device::math::{tonemap, CameraFrame};
 use path_tracer_device::scene::{self, MATERIALS, VERTICES};
-use path_tracer_device::{HitRecord, Params, Radiance, RaygenRecord, Shadow};
+use path_tracer_device::{GuidesRaygenRecord, HitRecord, Params, Radiance, RaygenRecord, Shadow};
 use raykit::glam::{UVec2, Vec3, Vec4};
 use raykit::{
     Band, BandRows, Context, DeviceBuffer, DeviceGroup, Gas, GeometryFlags, Ias, LinkOptions, Module, Pipeline,
@@ -81,7 +81,8 @@ pub fn triangle_normals() -> Vec<Vec3> {
     VERTICES.chunks_exact(3).map(|t| (t[1] - t[0]).cross(t[2] - t[0]).normalize()).collect()
 }
 
-/// The path tracer's five program groups.
+/// The path tracer's program groups.
+#[derive(Clone)]
 pub struct Programs {
     /// `__raygen__rg`: the path loop.
     pub raygen: ProgramGroup,
@@ -93,6 +94,10 @@ pub struct Programs {
     pub hit: ProgramGroup,
     /// Hit group of shadow rays (its closest-hit never runs).
     pub shadow_hit: ProgramGroup,
+    /// `__raygen__rg_guides`: the path loop that also writes the first-hit
+    /// albedo and normals for a denoiser ([`Renderer::enable_guides`]); the
+    /// Rust programs only (the GLSL and WGSL twins have none).
+    pub raygen_guides: Option<ProgramGroup>,
 }
 
 impl Programs {
@@ -103,9 +108,10 @@ impl Programs {
 
     /// The Rust programs from an already loaded module.
     pub fn rust_from(module: &Module) -> raykit::Result<Programs> {
-        use path_tracer_device::{CH, CH_SHADOW, MS, MS_SHADOW, RG};
+        use path_tracer_device::{CH, CH_SHADOW, MS, MS_SHADOW, RG, RG_GUIDES};
         Ok(Programs {
             raygen: ProgramGroup::raygen(module, RG)?,
+            raygen_guides: Some(ProgramGroup::raygen(module, RG_GUIDES)?),
             miss: ProgramGroup::miss(module, MS)?,
             shadow_miss: ProgramGroup::miss(module, MS_SHADOW)?,
             hit: ProgramGroup::hit_group(module).closest_hit(CH).build()?,
@@ -128,6 +134,7 @@ impl Programs {
             shadow_miss: ProgramGroup::miss(&shadow_miss, "main")?,
             hit: ProgramGroup::hit_group(&hit).closest_hit("main").build()?,
             shadow_hit: ProgramGroup::hit_group(&shadow_hit).closest_hit("main").build()?,
+            raygen_guides: None,
         })
     }
 }
@@ -143,6 +150,7 @@ impl Programs {
             shadow_miss: ProgramGroup::miss(&module, "ms_shadow")?,
             hit: ProgramGroup::hit_group(&module).closest_hit("ch").build()?,
             shadow_hit: ProgramGroup::hit_group(&module).closest_hit("ch_shadow").build()?,
+            raygen_guides: None,
         })
     }
 }
@@ -186,23 +194,107 @@ impl Scene {
 
 /// The pipeline and SBT of `programs`: one radiance and one shadow hit group per material.
 fn link(ctx: &Context, programs: &Programs) -> raykit::Result<(Pipeline<Params>, Sbt)> {
-    let Programs { raygen, miss, shadow_miss, hit, shadow_hit } = programs;
+    let Programs { raygen, miss, shadow_miss, hit, shadow_hit, .. } = programs;
     let pipeline = Pipeline::<Params>::new(
         ctx,
         &[raygen, miss, shadow_miss, hit, shadow_hit],
         LinkOptions { max_trace_depth: 1 },
     )?;
-    let mut sbt = Sbt::builder(&pipeline)
-        .raygen(raygen, RaygenRecord::new(&scene::LIGHT))
-        .miss_for::<Radiance, _>(miss, ())
-        .miss_for::<Shadow, _>(shadow_miss, ());
+    let sbt = finish_sbt(Sbt::builder(&pipeline).raygen(raygen, RaygenRecord::new(&scene::LIGHT)), programs)?;
+    Ok((pipeline, sbt))
+}
+
+/// The pipeline of [`Programs::raygen_guides`] (with the same miss and hit
+/// groups as [`link`]'s), and its SBT, whose raygen record points at `guides`.
+fn link_guides(
+    ctx: &Context,
+    programs: &Programs,
+    raygen: &ProgramGroup,
+    albedo: &DeviceBuffer<Vec4>,
+    normal: &DeviceBuffer<Vec4>,
+) -> raykit::Result<(Pipeline<Params>, Sbt)> {
+    let Programs { miss, shadow_miss, hit, shadow_hit, .. } = programs;
+    let pipeline = Pipeline::<Params>::new(
+        ctx,
+        &[raygen, miss, shadow_miss, hit, shadow_hit],
+        LinkOptions { max_trace_depth: 1 },
+    )?;
+    let light = &scene::LIGHT;
+    let record = GuidesRaygenRecord {
+        corner: light.corner,
+        v1: light.v1,
+        v2: light.v2,
+        emission: light.emission,
+        albedo: albedo.handle(),
+        normal: normal.handle(),
+    };
+    let sbt = finish_sbt(Sbt::builder(&pipeline).raygen(raygen, record), programs)?;
+    Ok((pipeline, sbt))
+}
+
+/// The miss and hit records of both pipelines.
+fn finish_sbt(sbt: raykit::SbtBuilder<'_, Params>, programs: &Programs) -> raykit::Result<Sbt> {
+    let Programs { miss, shadow_miss, hit, shadow_hit, .. } = programs;
+    let mut sbt = sbt.miss_for::<Radiance, _>(miss, ()).miss_for::<Shadow, _>(shadow_miss, ());
     for (geometry, group) in MATERIALS.iter().enumerate() {
         let record =
             HitRecord { emission: group.emission, first_triangle: group.first_triangle, albedo: group.albedo, _pad: 0 };
         sbt = sbt.hit_for::<Radiance, _>(geometry, hit, record).hit_for::<Shadow, _>(geometry, shadow_hit, ());
     }
-    let sbt = sbt.build()?;
-    Ok((pipeline, sbt))
+    sbt.build()
+}
+
+/// Why [`Renderer::enable_guides`] failed.
+#[derive(Debug, thiserror::Error)]
+pub enum GuidesError {
+    /// The programs have no guide-writing raygen.
+    #[error(
+        "these programs have no guide-writing raygen (`__raygen__rg_guides`): only the Rust programs          (`Programs::rust`) write the denoiser's albedo and normals; render with them, or denoise without guides"
+    )]
+    NoGuidesProgram,
+    /// Linking or allocating failed.
+    #[error(transparent)]
+    Raykit(#[from] raykit::Error),
+}
+
+/// The guide buffers and the pipeline that writes them.
+struct Guides {
+    albedo: DeviceBuffer<Vec4>,
+    normal: DeviceBuffer<Vec4>,
+    pipeline: Pipeline<Params>,
+    sbt: Sbt,
+    /// The programs linked (for a resize's new SBT).
+    programs: Programs,
+    /// Their guide-writing raygen.
+    raygen: ProgramGroup,
+}
+
+impl Guides {
+    fn new(ctx: &Context, programs: &Programs, raygen: &ProgramGroup, pixels: usize) -> raykit::Result<Guides> {
+        let albedo = ctx.buffer::<Vec4>(pixels)?;
+        let normal = ctx.buffer::<Vec4>(pixels)?;
+        let (pipeline, sbt) = link_guides(ctx, programs, raygen, &albedo, &normal)?;
+        Ok(Guides { albedo, normal, pipeline, sbt, programs: programs.clone(), raygen: raygen.clone() })
+    }
+}
+
+/// The denoiser's guides of a render: per pixel, the mean over its paths of
+/// the first hit's albedo and of its world normal (facing the camera), row 0 at the top.
+#[derive(Clone, Debug)]
+pub struct GuideImages {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// First-hit albedo (an emitter's colour normalised to 1; 0 for a miss).
+    pub albedo: Vec<Vec3>,
+    /// First-hit world normal (averaged over the pixel, so shorter than 1 at edges; 0 for a miss).
+    pub normal: Vec<Vec3>,
+}
+
+/// Mean of an accumulated guide (sum in xyz, paths in w).
+fn guide_mean(sums: &[Vec4]) -> Vec<Vec3> {
+    sums.iter().map(|s| if s.w > 0.0 { s.truncate() / s.w } else { Vec3::ZERO }).collect()
 }
 
 /// A linked path tracer for one image size: pipeline, SBT, accumulation buffer.
@@ -215,6 +307,8 @@ pub struct Renderer {
     samples_done: u32,
     /// Launches so far (the next launch's seed).
     subframe: u32,
+    /// The guide-writing pipeline, once [`Renderer::enable_guides`] ran.
+    guides: Option<Guides>,
 }
 
 impl Renderer {
@@ -237,15 +331,67 @@ impl Renderer {
             cam_w: camera.w,
             handle: scene.ias.handle(),
         };
-        Ok(Renderer { pipeline, sbt, accum, params, samples_done: 0, subframe: 0 })
+        Ok(Renderer { pipeline, sbt, accum, params, samples_done: 0, subframe: 0, guides: None })
+    }
+
+    /// From now on every launch also writes the denoiser's guides (first-hit
+    /// albedo and normals, [`Renderer::guides`]) in the same launch, with
+    /// `programs`' guide-writing raygen ([`Programs::raygen_guides`]; the Rust
+    /// programs). Links that second pipeline; starts sampling over. Without this
+    /// call the renderer launches, writes and costs what it always did.
+    pub fn enable_guides(&mut self, ctx: &Context, programs: &Programs) -> Result<(), GuidesError> {
+        let pixels = self.params.size.x as usize * self.params.size.y as usize;
+        let raygen = programs.raygen_guides.as_ref().ok_or(GuidesError::NoGuidesProgram)?;
+        self.guides = Some(Guides::new(ctx, programs, raygen, pixels)?);
+        self.reset();
+        Ok(())
+    }
+
+    fn pixels(&self) -> usize {
+        self.params.size.x as usize * self.params.size.y as usize
+    }
+
+    /// Whether launches write the guides.
+    pub fn has_guides(&self) -> bool {
+        self.guides.is_some()
+    }
+
+    /// Reads the guides back (`None` unless [`Renderer::enable_guides`] ran).
+    pub fn guides(&self) -> raykit::Result<Option<GuideImages>> {
+        let Some(guides) = &self.guides else { return Ok(None) };
+        let size = self.params.size;
+        Ok(Some(GuideImages {
+            width: size.x,
+            height: size.y,
+            albedo: guide_mean(&guides.albedo.read()?),
+            normal: guide_mean(&guides.normal.read()?),
+        }))
+    }
+
+    /// The pipeline and SBT launches use: the guide-writing ones when enabled.
+    fn active(&self) -> (&Pipeline<Params>, &Sbt) {
+        match &self.guides {
+            Some(g) => (&g.pipeline, &g.sbt),
+            None => (&self.pipeline, &self.sbt),
+        }
     }
 
     /// Hot reload: links new `programs` (rebuilt from edited device code) and
     /// lays out the SBT again from the same records; keeps the scene and the
     /// accumulation buffer, and starts sampling over. On an error the renderer
-    /// keeps its current pipeline.
+    /// keeps its current pipeline. With guides enabled, their pipeline is
+    /// relinked too (and the guides turn off if `programs` have no
+    /// guide-writing raygen).
     pub fn swap_programs(&mut self, ctx: &Context, programs: &Programs) -> raykit::Result<()> {
         let (pipeline, sbt) = link(ctx, programs)?;
+        if self.guides.is_some() {
+            // New programs without a guide-writing raygen turn the guides off
+            // ([`Renderer::has_guides`] says so).
+            self.guides = match &programs.raygen_guides {
+                Some(raygen) => Some(Guides::new(ctx, programs, raygen, self.pixels())?),
+                None => None,
+            };
+        }
         self.pipeline = pipeline;
         self.sbt = sbt;
         self.reset();
@@ -267,6 +413,10 @@ impl Renderer {
         self.accum = ctx.buffer::<Vec4>(width as usize * height as usize)?;
         self.params.accum = self.accum.handle();
         self.params.size = UVec2::new(width, height);
+        if let Some(guides) = &self.guides {
+            let pixels = self.pixels();
+            self.guides = Some(Guides::new(ctx, &guides.programs, &guides.raygen, pixels)?);
+        }
         self.set_camera(camera);
         Ok(())
     }
@@ -276,7 +426,8 @@ impl Renderer {
     pub fn launch_async(&mut self, samples: u32) -> raykit::Result<raykit::Launch> {
         let params = Params { subframe: self.subframe, samples, ..self.params };
         let size = self.params.size;
-        let launch = self.pipeline.launch_async(&self.sbt, &params, [size.x, size.y, 1])?;
+        let (pipeline, sbt) = self.active();
+        let launch = pipeline.launch_async(sbt, &params, [size.x, size.y, 1])?;
         self.subframe += 1;
         self.samples_done += samples;
         Ok(launch)
@@ -291,7 +442,8 @@ impl Renderer {
         let size = self.params.size;
         let rows = rows.start.min(size.y)..rows.end.min(size.y);
         let params = Params { subframe: self.subframe, samples, row_offset: rows.start, ..self.params };
-        let launch = self.pipeline.launch_async(&self.sbt, &params, [size.x, rows.len().max(1) as u32, 1])?;
+        let (pipeline, sbt) = self.active();
+        let launch = pipeline.launch_async(sbt, &params, [size.x, rows.len().max(1) as u32, 1])?;
         if rows.end == size.y {
             self.subframe += 1;
             self.samples_done += samples;
@@ -333,7 +485,8 @@ impl Renderer {
     pub fn launch(&mut self, samples: u32) -> raykit::Result<()> {
         let params = Params { subframe: self.subframe, samples, ..self.params };
         let size = self.params.size;
-        self.pipeline.launch(&self.sbt, &params, [size.x, size.y, 1])?;
+        let (pipeline, sbt) = self.active();
+        pipeline.launch(sbt, &params, [size.x, size.y, 1])?;
         self.subframe += 1;
         self.samples_done += samples;
         Ok(())
@@ -345,14 +498,16 @@ impl Renderer {
     /// counters alone: for split launches ([`GroupRenderer`]), which keep them.
     pub fn launch_band(&self, subframe: u32, samples: u32, band: &Band) -> raykit::Result<()> {
         let params = Params { subframe, samples, row_offset: band.first_row(), ..self.params };
-        self.pipeline.launch(&self.sbt, &params, band.launch_dims(self.params.size.x, 1))
+        let (pipeline, sbt) = self.active();
+        pipeline.launch(sbt, &params, band.launch_dims(self.params.size.x, 1))
     }
 
     /// [`Renderer::launch`] timed by GPU timestamps around the trace.
     pub fn launch_timed(&mut self, samples: u32, timer: &raykit::LaunchTimer) -> raykit::Result<std::time::Duration> {
         let params = Params { subframe: self.subframe, samples, ..self.params };
         let size = self.params.size;
-        let time = self.pipeline.launch_timed(&self.sbt, &params, [size.x, size.y, 1], timer)?;
+        let (pipeline, sbt) = self.active();
+        let time = pipeline.launch_timed(sbt, &params, [size.x, size.y, 1], timer)?;
         self.subframe += 1;
         self.samples_done += samples;
         Ok(time)
@@ -601,6 +756,26 @@ impl Image {
     /// Writes the linear radiance as a PFM file.
     pub fn write_pfm(&self, path: &Path) -> anyhow::Result<()> {
         Ok(raykit_scene::write_pfm(path, self.width, self.height, &self.radiance)?)
+    }
+
+    /// This image denoised by `denoiser` (OIDN's RT filter), guided by
+    /// `guides` (the same render's first-hit albedo and normals,
+    /// [`Renderer::guides`]) when given. The rays count is kept.
+    pub fn denoised(
+        &self,
+        denoiser: &raykit_denoise::Denoiser,
+        guides: Option<&GuideImages>,
+    ) -> Result<Image, raykit_denoise::Error> {
+        let rgb = |v: &[Vec3]| v.iter().map(|c| c.to_array()).collect::<Vec<_>>();
+        let color = rgb(&self.radiance);
+        let albedo = guides.map(|g| rgb(&g.albedo));
+        let normal = guides.map(|g| rgb(&g.normal));
+        let mut input = raykit_denoise::Input::new(self.width, self.height, &color);
+        if let (Some(albedo), Some(normal)) = (&albedo, &normal) {
+            input = input.with_guides(albedo, normal);
+        }
+        let out = denoiser.denoise(&input)?;
+        Ok(Image { radiance: out.into_iter().map(Vec3::from_array).collect(), ..self.clone() })
     }
 
     /// Writes the linear radiance as an OpenEXR file (32-bit float RGB).

@@ -1,4 +1,4 @@
-//! `cargo run --release -p path_tracer -- [--width W] [--height H] [--spp N] [--max-depth N] [--exr] [--output FILE.png] [--watch] [--devices all|N] [--backend vulkan|cpu|vulkan,cpu]`:
+//! `cargo run --release -p path_tracer -- [--width W] [--height H] [--spp N] [--max-depth N] [--exr] [--output FILE.png] [--watch] [--devices all|N] [--backend vulkan|cpu|vulkan,cpu] [--denoise [--denoise-device auto|cpu|cuda] [--no-guides]]`:
 //! renders optixPathTracer's Cornell box progressively, with a progress bar, to a
 //! tonemapped PNG and the linear radiance as PFM next to it. With `--watch` it then
 //! keeps running: each save of the device crate's sources rebuilds it, swaps the
@@ -17,6 +17,12 @@
 //! contexts over the devices in turn (on a machine with one device, N contexts
 //! share it: a way to see the split work there); `--backend vulkan,cpu` adds the
 //! CPU backend to the group.
+//!
+//! With `--denoise` the picture is denoised by Intel Open Image Denoise
+//! (`raykit-denoise`; install it with `cargo xtask setup --denoise`), guided by
+//! the first-hit albedo and normals the Rust programs write in the same launches
+//! (`--no-guides` leaves them out; the GLSL and WGSL twins denoise without them):
+//! `--output` gets the denoised picture, and `<output>-noisy.png` the input.
 //!
 //! Build the shaders first (`cargo xtask build-shaders`), or run `cargo xtask demo`.
 
@@ -89,6 +95,15 @@ struct Cli {
     /// `examples/path_tracer/device`; another crate's SPIR-V goes to its `target/spirv/`).
     #[arg(long, requires = "watch")]
     device_dir: Option<PathBuf>,
+    /// Denoise the picture with Open Image Denoise (see `--denoise-device`, `--no-guides`).
+    #[arg(long, conflicts_with_all = ["devices", "watch"])]
+    denoise: bool,
+    /// Where OIDN runs: `auto` (CUDA where it works, else the CPU), `cpu` or `cuda`.
+    #[arg(long, default_value = "auto", value_parser = ["auto", "cpu", "cuda"], requires = "denoise")]
+    denoise_device: String,
+    /// Denoise the colour alone, without the first-hit albedo and normal guides.
+    #[arg(long, requires = "denoise")]
+    no_guides: bool,
     #[cfg(feature = "viewer")]
     #[command(flatten)]
     viewer: raykit_viewer::ViewerArgs,
@@ -104,8 +119,20 @@ fn main() -> anyhow::Result<()> {
         return view(&cli);
     }
     if cli.devices.is_some() || cli.backend.as_deref() == Some("vulkan,cpu") {
+        anyhow::ensure!(!cli.denoise, "--denoise renders on one device: drop --devices and --backend vulkan,cpu");
         return render_group(&cli);
     }
+    // Loaded before rendering: a missing library fails at once, naming its install command.
+    let denoiser = if cli.denoise {
+        let device = match cli.denoise_device.as_str() {
+            "cpu" => raykit_denoise::DenoiseDevice::Cpu,
+            "cuda" => raykit_denoise::DenoiseDevice::Cuda,
+            _ => raykit_denoise::DenoiseDevice::Auto,
+        };
+        Some(raykit_denoise::Denoiser::new(device)?)
+    } else {
+        None
+    };
     let backend = cli.backend.as_deref().map(|b| if b == "cpu" { Backend::Cpu } else { Backend::Vulkan });
     let ctx = Context::new(ContextOptions { device_name_contains: cli.device.clone(), backend, ..Default::default() })?;
     let programs = match (cli.glsl, cli.wgsl) {
@@ -116,8 +143,14 @@ fn main() -> anyhow::Result<()> {
     let scene = Scene::new(&ctx)?;
     let mut renderer = Renderer::new(&ctx, &programs, &scene, cli.width, cli.height)?;
     renderer.set_max_depth(cli.max_depth);
+    let guided = denoiser.is_some() && !cli.no_guides && programs.raygen_guides.is_some();
+    if guided {
+        renderer.enable_guides(&ctx, &programs)?;
+    } else if denoiser.is_some() && !cli.no_guides {
+        println!("denoise: the GLSL and WGSL twins write no guides; denoising the colour alone");
+    }
 
-    render(&cli, &ctx, &mut renderer)?;
+    render(&cli, &ctx, &mut renderer, denoiser.as_ref())?;
     if cli.watch {
         watch(&cli, &ctx, &mut renderer)?;
     }
@@ -217,8 +250,14 @@ fn write_pictures(cli: &Cli, image: &path_tracer::Image) -> anyhow::Result<(Path
     Ok((cli.output.clone(), pfm))
 }
 
-/// Renders `cli.spp` paths per pixel with a progress bar and writes the pictures.
-fn render(cli: &Cli, ctx: &Context, renderer: &mut Renderer) -> anyhow::Result<()> {
+/// Renders `cli.spp` paths per pixel with a progress bar and writes the
+/// pictures (denoised by `denoiser` when given).
+fn render(
+    cli: &Cli,
+    ctx: &Context,
+    renderer: &mut Renderer,
+    denoiser: Option<&raykit_denoise::Denoiser>,
+) -> anyhow::Result<()> {
     let bar = progress_bar(cli.spp)?;
     let started = Instant::now();
     while renderer.samples_done() < cli.spp {
@@ -231,7 +270,22 @@ fn render(cli: &Cli, ctx: &Context, renderer: &mut Renderer) -> anyhow::Result<(
     }
     bar.finish();
     let seconds = started.elapsed().as_secs_f64();
-    let image = renderer.image()?;
+    let mut image = renderer.image()?;
+    if let Some(denoiser) = denoiser {
+        let stem = cli.output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let noisy = cli.output.with_file_name(format!("{stem}-noisy.png"));
+        image.write_png(&noisy, cli.exposure)?;
+        let guides = renderer.guides()?;
+        let started = Instant::now();
+        image = image.denoised(denoiser, guides.as_ref())?;
+        println!(
+            "denoised on OIDN's {} device in {:.3} s ({}); the noisy input is {}",
+            denoiser.device(),
+            started.elapsed().as_secs_f64(),
+            if guides.is_some() { "with first-hit albedo and normal guides" } else { "without guides" },
+            noisy.display()
+        );
+    }
     let (_, pfm) = write_pictures(cli, &image)?;
     println!(
         "rendered {}x{} at {} spp on {} in {seconds:.2} s ({} rays, {:.2} Mrays/s, {} programs) to {} and {}",
@@ -329,7 +383,7 @@ fn watch(cli: &Cli, ctx: &Context, renderer: &mut Renderer) -> anyhow::Result<()
         match reloaded {
             Ok(()) => {
                 println!("reloaded in {:.2} s", rebuild.changed_at.elapsed().as_secs_f64());
-                render(cli, ctx, renderer)?;
+                render(cli, ctx, renderer, None)?;
             }
             Err(e) => eprintln!("keeping the previous pipeline: {e:#}"),
         }

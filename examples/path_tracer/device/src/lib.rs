@@ -125,6 +125,119 @@ impl RayType for Shadow {
         RayFlags::TERMINATE_ON_FIRST_HIT.union(RayFlags::SKIP_CLOSEST_HIT_SHADER).union(RayFlags::OPAQUE);
 }
 
+/// The raygen program's SBT record when it also writes the guides of a
+/// denoiser ([`RG_GUIDES`]): the light, and the buffers of the first-hit
+/// albedo and normals.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GuidesRaygenRecord {
+    /// A corner of the parallelogram light.
+    pub corner: Vec3,
+    /// Its first edge.
+    pub v1: Vec3,
+    /// Its second edge.
+    pub v2: Vec3,
+    /// Its emitted radiance.
+    pub emission: Vec3,
+    /// Per pixel: the sum over its paths of the first hit's albedo (xyz; the
+    /// emitter's normalised colour on the light, 0 for a miss) and the paths (w).
+    /// Launch `subframe == 0` overwrites it, as it does `Params::accum`.
+    pub albedo: Buffer<Vec4>,
+    /// Per pixel: the sum over its paths of the first hit's world normal, facing
+    /// the camera (xyz; 0 for a miss), and the paths (w).
+    pub normal: Buffer<Vec4>,
+}
+
+impl GuidesRaygenRecord {
+    /// The light.
+    pub fn light(&self) -> Light {
+        Light { corner: self.corner, v1: self.v1, v2: self.v2, emission: self.emission }
+    }
+}
+
+/// What one pixel's paths of a launch add up to.
+struct PixelSums {
+    radiance: Vec3,
+    rays: u32,
+    albedo: Vec3,
+    normal: Vec3,
+}
+
+/// The albedo guide of a first hit: the surface's reflectance, or on an
+/// emitter its colour normalised to a largest channel of 1 (as OIDN advises for lights).
+fn guide_albedo(hit: &HitInfo) -> Vec3 {
+    if hit.t < 0.0 {
+        return Vec3::ZERO;
+    }
+    let peak = hit.emission.max_element();
+    if peak > 0.0 {
+        hit.emission / peak
+    } else {
+        hit.albedo
+    }
+}
+
+/// The path loop of a pixel: `p.samples` paths from the camera through pixel
+/// `index`, with next-event estimation towards `light`. Also sums the first
+/// hit's albedo and normal (which [`rg`] leaves unused).
+#[inline(always)]
+fn trace_pixel(
+    ctx: &mut Raygen,
+    p: &Params,
+    light: &Light,
+    index: UVec2,
+    hit: &mut HitInfo,
+    visible: &mut u32,
+) -> PixelSums {
+    let dims: UVec2 = p.size;
+    let pixel = index.x + dims.x * index.y;
+    let mut seed = math::pixel_seed(pixel, p.subframe);
+    let mut sums = PixelSums { radiance: Vec3::ZERO, rays: 0, albedo: Vec3::ZERO, normal: Vec3::ZERO };
+    let mut sample = 0;
+    // The camera (params) and the light (SBT record) are read where they are
+    // used, inside the loops, as the GLSL twin does: read once before the loops,
+    // their 24 floats would stay live across every trace call, and NVIDIA's
+    // driver keeps a raygen's state across `OpTraceRayKHR` in registers (fewer
+    // warps in flight). Re-reading push constants and the record is cheap.
+    while sample < p.samples {
+        let mut state = PathState::camera(&p.camera(), index, dims, &mut seed);
+        let mut first = true;
+        while !state.done {
+            *hit = HitInfo::MISS;
+            let ray = Ray::new(state.origin, state.direction).with_interval(RAY_EPSILON, 1e16);
+            ctx.trace::<Radiance>(p.handle, ray, hit);
+            sums.rays += 1;
+            if first {
+                first = false;
+                sums.albedo += guide_albedo(hit);
+                if hit.t >= 0.0 {
+                    sums.normal += hit.normal;
+                }
+            }
+            let shadow = state.shade(hit, light, &mut seed, p.max_depth);
+            if shadow.contribution != Vec3::ZERO {
+                *visible = 0;
+                let ray = Ray::new(shadow.origin, shadow.direction).with_interval(RAY_EPSILON, shadow.t_max);
+                ctx.trace::<Shadow>(p.handle, ray, visible);
+                sums.rays += 1;
+                if *visible != 0 {
+                    state.radiance += shadow.contribution;
+                }
+            }
+        }
+        sums.radiance += state.radiance;
+        sample += 1;
+    }
+    sums
+}
+
+/// Adds `value` to element `pixel` of `buffer`, or overwrites it on the first launch.
+#[inline(always)]
+fn accumulate(ctx: &mut Raygen, p: &Params, buffer: Buffer<Vec4>, pixel: u32, value: Vec4) {
+    let previous = if p.subframe == 0 { Vec4::ZERO } else { ctx.load(buffer, pixel) };
+    ctx.store(buffer, pixel, previous + value);
+}
+
 #[raygen]
 fn rg(
     ctx: &mut Raygen,
@@ -135,40 +248,28 @@ fn rg(
 ) {
     // The pixel in the whole image: this launch may render a band of its rows.
     let index = ctx.launch_index().truncate() + UVec2::new(0, p.row_offset);
-    let dims: UVec2 = p.size;
-    let pixel = index.x + dims.x * index.y;
-    let mut seed = math::pixel_seed(pixel, p.subframe);
-    let mut sum = Vec3::ZERO;
-    let mut rays = 0u32;
-    let mut sample = 0;
-    // The camera (params) and the light (SBT record) are read where they are
-    // used, inside the loops, as the GLSL twin does: read once before the loops,
-    // their 24 floats would stay live across every trace call, and NVIDIA's
-    // driver keeps a raygen's state across `OpTraceRayKHR` in registers (fewer
-    // warps in flight). Re-reading push constants and the record is cheap.
-    while sample < p.samples {
-        let mut state = PathState::camera(&p.camera(), index, dims, &mut seed);
-        while !state.done {
-            *hit = HitInfo::MISS;
-            let ray = Ray::new(state.origin, state.direction).with_interval(RAY_EPSILON, 1e16);
-            ctx.trace::<Radiance>(p.handle, ray, hit);
-            rays += 1;
-            let shadow = state.shade(hit, &record.light(), &mut seed, p.max_depth);
-            if shadow.contribution != Vec3::ZERO {
-                *visible = 0;
-                let ray = Ray::new(shadow.origin, shadow.direction).with_interval(RAY_EPSILON, shadow.t_max);
-                ctx.trace::<Shadow>(p.handle, ray, visible);
-                rays += 1;
-                if *visible != 0 {
-                    state.radiance += shadow.contribution;
-                }
-            }
-        }
-        sum += state.radiance;
-        sample += 1;
-    }
-    let previous = if p.subframe == 0 { Vec4::ZERO } else { ctx.load(p.accum, pixel) };
-    ctx.store(p.accum, pixel, previous + sum.extend(rays as f32));
+    let pixel = index.x + p.size.x * index.y;
+    let sums = trace_pixel(ctx, p, &record.light(), index, hit, visible);
+    accumulate(ctx, p, p.accum, pixel, sums.radiance.extend(sums.rays as f32));
+}
+
+/// [`rg`] that also writes the denoiser's guides: the first hit's albedo and
+/// normal, summed over the same paths, in the same launch.
+#[raygen]
+fn rg_guides(
+    ctx: &mut Raygen,
+    #[params] p: &Params,
+    #[record] record: &GuidesRaygenRecord,
+    #[payload] hit: &mut HitInfo,
+    #[payload] visible: &mut u32,
+) {
+    let index = ctx.launch_index().truncate() + UVec2::new(0, p.row_offset);
+    let pixel = index.x + p.size.x * index.y;
+    let sums = trace_pixel(ctx, p, &record.light(), index, hit, visible);
+    let paths = p.samples as f32;
+    accumulate(ctx, p, p.accum, pixel, sums.radiance.extend(sums.rays as f32));
+    accumulate(ctx, p, record.albedo, pixel, sums.albedo.extend(paths));
+    accumulate(ctx, p, record.normal, pixel, sums.normal.extend(paths));
 }
 
 #[miss(ray = Radiance)]
@@ -208,6 +309,7 @@ mod tests {
         assert!(raykit_device::uses_push_constants::<Params>());
         assert_eq!(core::mem::size_of::<RaygenRecord>(), 48);
         assert_eq!(core::mem::size_of::<HitRecord>(), 32);
+        assert_eq!(core::mem::size_of::<GuidesRaygenRecord>(), 56);
     }
 
     #[test]
@@ -224,6 +326,7 @@ mod tests {
     #[test]
     fn entry_points_carry_optix_prefixes() {
         assert_eq!(RG.name, "__raygen__rg");
+        assert_eq!(RG_GUIDES.name, "__raygen__rg_guides");
         assert_eq!(CH.name, "__closesthit__ch");
         assert_eq!(MS_SHADOW.name, "__miss__ms_shadow");
     }
