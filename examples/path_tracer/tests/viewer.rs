@@ -283,9 +283,9 @@ fn a_broken_edit_keeps_the_old_pipeline_and_a_good_edit_then_reaches_the_window(
     std::fs::write(&lib, format!("{source}\nconst WRONG: u32 = 1.5;\n"))?;
     wait_for_file(&mut child, &kept, started, RELOAD_BOUND)?;
     // A colour edit: the radiance of every path is tinted red.
-    let line = "        sum += state.radiance;\n";
+    let line = "        sums.radiance += state.radiance;\n";
     assert!(source.contains(line), "the raygen program's accumulation line changed");
-    std::fs::write(&lib, source.replace(line, "        sum += state.radiance * Vec3::new(1.0, 0.2, 0.2);\n"))?;
+    std::fs::write(&lib, source.replace(line, "        sums.radiance += state.radiance * Vec3::new(1.0, 0.2, 0.2);\n"))?;
     while child.try_wait()?.is_none() {
         if started.elapsed() > RELOAD_BOUND {
             child.kill()?;
