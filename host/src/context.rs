@@ -120,6 +120,12 @@ impl Context {
         Context { repr: ContextRepr::Cpu(cpu) }
     }
 
+    /// Which backend the context is, with its half: what each public operation
+    /// matches once.
+    pub(crate) fn repr(&self) -> &ContextRepr {
+        &self.repr
+    }
+
     /// The Vulkan context, or `NotOnCpuBackend` naming `what`.
     pub(crate) fn vulkan(&self, what: &'static str) -> Result<&Arc<ContextInner>> {
         match &self.repr {

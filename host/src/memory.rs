@@ -251,6 +251,10 @@ impl<T: Element> DeviceBuffer<T> {
     /// [`DeviceBuffer::read`], which waits for pending work the same way.
     pub fn read_into(&self, first: usize, out: &mut [T]) -> Result<()> {
         self.check_range(first, out.len())?;
+        if out.is_empty() {
+            // Nothing to copy (and Vulkan refuses a copy of 0 bytes).
+            return Ok(());
+        }
         let size = std::mem::size_of::<T>();
         match &self.repr {
             BufferRepr::Vulkan(vulkan) => vulkan.read((first * size) as u64, bytemuck::cast_slice_mut(out)),
@@ -268,6 +272,10 @@ impl<T: Element> DeviceBuffer<T> {
     /// may use the buffer has finished, as [`DeviceBuffer::write`] does).
     pub fn write_at(&mut self, first: usize, data: &[T]) -> Result<()> {
         self.check_range(first, data.len())?;
+        if data.is_empty() {
+            // Nothing to copy (and Vulkan refuses a copy of 0 bytes).
+            return Ok(());
+        }
         let size = std::mem::size_of::<T>();
         match &mut self.repr {
             BufferRepr::Vulkan(vulkan) => {

@@ -15,7 +15,7 @@ use raykit_abi::ProgramPrefix;
 use raykit_device::ProgramKind;
 use rspirv::spirv::{Op, MAGIC_NUMBER as SPIRV_MAGIC};
 
-use crate::context::Context;
+use crate::context::{Context, ContextRepr};
 use crate::error::ModuleError;
 use crate::error::{Error, Result};
 use crate::types::program::kind_of;
@@ -46,6 +46,17 @@ pub(crate) struct LinkedCrate {
     pub(crate) ctx: Arc<crate::cpu::CpuContext>,
     /// Its package name (`CARGO_PKG_NAME`), which its programs carry.
     pub(crate) crate_name: String,
+    /// The entry points of the crate's SPIR-V, when it was at hand (embedded,
+    /// or where [`spirv_path`] finds it): what the checks read of each program's
+    /// traces and calls, as on Vulkan. Empty when there was none.
+    pub(crate) reflected: Vec<Arc<EntryPointInfo>>,
+}
+
+impl LinkedCrate {
+    /// What reflection found of entry point `name` in the crate's SPIR-V.
+    pub(crate) fn reflected(&self, name: &str) -> Option<Arc<EntryPointInfo>> {
+        self.reflected.iter().find(|e| e.name == name).cloned()
+    }
 }
 
 impl Module {
@@ -65,9 +76,15 @@ impl Module {
         }
     }
 
-    /// A module of the device crate `crate_name` linked into the program.
-    fn linked(ctx: &Arc<crate::cpu::CpuContext>, crate_name: &str) -> Module {
-        Module { repr: ModuleRepr::Cpu(LinkedCrate { ctx: ctx.clone(), crate_name: crate_name.to_owned() }) }
+    /// A module of the device crate `crate_name` linked into the program, with
+    /// the entry points of its SPIR-V `spirv` when there is some.
+    fn linked(ctx: &Arc<crate::cpu::CpuContext>, crate_name: &str, spirv: Option<&[u8]>) -> Result<Module> {
+        let reflected = match spirv {
+            Some(bytes) => reflect_entry_points(bytes)?.into_iter().map(Arc::new).collect(),
+            None => Vec::new(),
+        };
+        let linked = LinkedCrate { ctx: ctx.clone(), crate_name: crate_name.to_owned(), reflected };
+        Ok(Module { repr: ModuleRepr::Cpu(linked) })
     }
 }
 
@@ -352,10 +369,10 @@ impl Module {
     }
 
     pub(crate) fn named(ctx: &Context, spirv: &[u8], name: &str) -> Result<Module> {
-        if ctx.cpu().is_some() {
-            return Err(spirv_on_cpu());
-        }
-        let vulkan = ctx.vulkan("a SPIR-V module")?;
+        let vulkan = match ctx.repr() {
+            ContextRepr::Vulkan(vulkan) => vulkan,
+            ContextRepr::Cpu(_) => return Err(spirv_on_cpu()),
+        };
         vulkan.check_device("a module creation")?;
         let entry_points = reflect_entry_points(spirv)?;
         if !entry_points.iter().any(|e| e.kind.is_some()) {
@@ -381,17 +398,24 @@ impl Module {
     /// `crate_name` (e.g. `"triangle-device"`), found by [`spirv_path`].
     /// When there is none, the error lists every path looked at.
     ///
-    /// On the CPU backend no SPIR-V is read: the module is the crate linked into
-    /// the program, and its programs are named by their `EntryPoint` constants.
+    /// On the CPU backend the module is the crate linked into the program, and
+    /// its programs are named by their `EntryPoint` constants; its SPIR-V, where
+    /// [`spirv_path`] finds it, is read only for what the checks learn of each
+    /// program's traces and calls (without it, a program is taken to trace the
+    /// ray types it was declared for, and its callable calls go unchecked).
     #[doc(alias("optixModuleCreate", "optixModuleCreateFromPTX"))]
     pub fn from_device_crate(ctx: &Context, crate_name: &str) -> Result<Module> {
-        if let Some(cpu) = ctx.cpu() {
-            return Ok(Module::linked(cpu, crate_name));
-        }
         let tried = spirv_candidates(crate_name);
-        match tried.iter().find(|p| p.is_file()) {
-            Some(path) => Module::from_file(ctx, path),
-            None => Err(Error::Module(ModuleError::SpirvNotFound {
+        let found = tried.iter().find(|p| p.is_file());
+        match (ctx.repr(), found) {
+            (ContextRepr::Cpu(cpu), None) => Module::linked(cpu, crate_name, None),
+            (ContextRepr::Cpu(cpu), Some(path)) => {
+                let bytes = std::fs::read(path)
+                    .map_err(|source| Error::Module(ModuleError::SpirvFile { path: path.clone(), source }))?;
+                Module::linked(cpu, crate_name, Some(&bytes))
+            }
+            (ContextRepr::Vulkan(_), Some(path)) => Module::from_file(ctx, path),
+            (ContextRepr::Vulkan(_), None) => Err(Error::Module(ModuleError::SpirvNotFound {
                 crate_name: crate_name.to_owned(),
                 tried,
                 spirv_dir: std::env::var_os("RAYKIT_SPIRV_DIR").map(PathBuf::from),
@@ -406,10 +430,10 @@ impl Module {
     /// [`Module::from_device_crate`]).
     #[doc(alias("optixModuleCreate", "optixModuleCreateFromPTX"))]
     pub fn from_embedded(ctx: &Context, spirv: &EmbeddedSpirv) -> Result<Module> {
-        if let Some(cpu) = ctx.cpu() {
-            return Ok(Module::linked(cpu, spirv.crate_name));
+        match ctx.repr() {
+            ContextRepr::Cpu(cpu) => Module::linked(cpu, spirv.crate_name, Some(spirv.bytes)),
+            ContextRepr::Vulkan(_) => Module::named(ctx, spirv.bytes, spirv.crate_name),
         }
-        Module::named(ctx, spirv.bytes, spirv.crate_name)
     }
 
     /// Loads a module from a `.spv` file.

@@ -1434,7 +1434,7 @@ fn triangle_sbt(
 #[test]
 fn sbt_without_a_miss_record_for_a_pipeline_that_traces() -> anyhow::Result<()> {
     in_child("sbt_without_a_miss_record_for_a_pipeline_that_traces", || {
-        case(
+        case_on_each_backend(
             "sbt_without_a_miss_record_for_a_pipeline_that_traces",
             &["0 miss record(s)", "`__raygen__rg`", "miss_at(0, ..)"],
             |ctx| triangle_sbt(ctx, |b, l| b.hit(&l.hit, ())),
@@ -1456,7 +1456,7 @@ fn sbt_without_a_miss_record_for_a_pipeline_that_traces() -> anyhow::Result<()> 
 #[test]
 fn sbt_without_a_hit_record_for_a_pipeline_with_hit_groups() -> anyhow::Result<()> {
     in_child("sbt_without_a_hit_record_for_a_pipeline_with_hit_groups", || {
-        case(
+        case_on_each_backend(
             "sbt_without_a_hit_record_for_a_pipeline_with_hit_groups",
             &["0 hit record(s)", "hit_at(0, ..)"],
             |ctx| triangle_sbt(ctx, |b, l| b.miss(&l.miss, MissData { bg_color: BG_COLOR })),
@@ -1827,7 +1827,7 @@ fn shadows(ctx: &Context) -> anyhow::Result<Shadows> {
 #[test]
 fn sbt_without_the_miss_record_of_a_traced_ray_type() -> anyhow::Result<()> {
     in_child("sbt_without_the_miss_record_of_a_traced_ray_type", || {
-        case(
+        case_on_each_backend(
             "sbt_without_the_miss_record_of_a_traced_ray_type",
             &["1 miss record(s)", "`__closesthit__shade_shadowed`", "miss_at(1, ..)"],
             |ctx| {
@@ -1857,7 +1857,7 @@ fn sbt_without_the_miss_record_of_a_traced_ray_type() -> anyhow::Result<()> {
 #[test]
 fn sbt_without_the_hit_record_of_a_traced_ray_type() -> anyhow::Result<()> {
     in_child("sbt_without_the_hit_record_of_a_traced_ray_type", || {
-        case(
+        case_on_each_backend(
             "sbt_without_the_hit_record_of_a_traced_ray_type",
             &["1 hit record(s)", "`__closesthit__shade_shadowed`", "hit_at(1, ..)"],
             |ctx| {

@@ -174,7 +174,7 @@ fn group<S: Clone>(group: &types::group::Group<S>) -> Group {
     let program = |p: &Option<types::group::Program<S>>| -> Option<Program> {
         let p = p.as_ref()?;
         match p.code {
-            ProgramCode::Cpu(cpu) => Some(Program { cpu, name: cpu.name }),
+            ProgramCode::Cpu { program: cpu, .. } => Some(Program { cpu, name: cpu.name }),
             ProgramCode::Spirv(_) => None,
         }
     };

@@ -161,9 +161,12 @@ impl<'j> Frame<'_, 'j> {
         match traced {
             Traced::Hit => {
                 let instance = &scene.instances[hit.instance as usize];
-                let record = u64::from(instance.sbt_offset)
-                    + u64::from(hit.geometry) * u64::from(call.sbt_stride)
-                    + u64::from(call.sbt_offset);
+                let record = crate::types::sbt::selected_hit_record(
+                    instance.sbt_offset,
+                    hit.geometry,
+                    call.sbt_stride,
+                    call.sbt_offset,
+                );
                 let hit_kind = if hit.front { HIT_KIND_FRONT_FACING_TRIANGLE } else { HIT_KIND_BACK_FACING_TRIANGLE };
                 let committed = Committed {
                     t: hit.t,
@@ -279,7 +282,7 @@ impl Runtime for Frame<'_, '_> {
                 frame.run(program, &mut inv);
             }
             None => {
-                let record = frame.record(1, u64::from(call.miss_index), "miss index");
+                let record = frame.record(1, crate::types::sbt::selected_miss_record(call.miss_index), "miss index");
                 let Some(program) = job.pipeline.groups[record.group].general else { return };
                 frame.check_type(program, "payload", program.cpu.payload, payload.ty);
                 let mut inv = frame.invocation(&HitBuiltins::ZERO);

@@ -262,9 +262,12 @@ impl<'f> Traversal<'f> {
         if (opaque && flags & ray_flags::CULL_OPAQUE != 0) || (!opaque && flags & ray_flags::CULL_NO_OPAQUE != 0) {
             return;
         }
-        let record = u64::from(instance.sbt_offset)
-            + u64::from(geometry) * u64::from(self.call.sbt_stride)
-            + u64::from(self.call.sbt_offset);
+        let record = crate::types::sbt::selected_hit_record(
+            instance.sbt_offset,
+            geometry,
+            self.call.sbt_stride,
+            self.call.sbt_offset,
+        );
         let candidate = Candidate { instance: index, geometry, primitive, record, opaque };
         match geo {
             Geometry::Triangles { .. } => {

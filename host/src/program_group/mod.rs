@@ -106,7 +106,8 @@ impl Program {
         let name = CString::new(name).map_err(|_| {
             Error::Module(ModuleError::EntryPointNotFound { name: name.to_owned(), available: Vec::new() })
         })?;
-        Ok(Program { code: ProgramCode::Cpu(cpu), name, kind: expected, ray: entry.ray() })
+        let reflected = linked.reflected(cpu.name);
+        Ok(Program { code: ProgramCode::Cpu { program: cpu, reflected }, name, kind: expected, ray: entry.ray() })
     }
 
     fn resolve(

@@ -95,8 +95,10 @@ pub fn instance_sbt_offset<R: RayType>(first_slot: u32) -> Option<u32> {
 /// The hit record a trace of ray type `R` selects for geometry `geometry` (its
 /// index in its GAS) of an instance with SBT offset `instance_offset`: Vulkan's
 /// `instance_offset + geometry × R::SBT_STRIDE + R::SBT_OFFSET`.
+/// Vulkan reads the low 24 bits of the instance offset and the low 4 of the
+/// stride and offset, and so does this.
 pub fn hit_record_index<R: RayType>(instance_offset: u32, geometry: u32) -> u64 {
-    u64::from(instance_offset) + u64::from(geometry) * u64::from(R::SBT_STRIDE) + u64::from(R::SBT_OFFSET)
+    crate::types::sbt::selected_hit_record(instance_offset, geometry, R::SBT_STRIDE, R::SBT_OFFSET)
 }
 
 /// Builds an [`Sbt`] for one pipeline.
@@ -196,7 +198,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     /// (`#[miss(ray = Other)]`) is refused.
     pub fn miss_for<R: RayType, T: SbtRecordData>(mut self, group: &ProgramGroup, data: T) -> Self {
         self.check_ray::<R>(group, SbtRegion::Miss);
-        self.miss_at(R::MISS_INDEX as usize, group, data)
+        // A trace reads the low 16 bits of the miss index (as Vulkan does).
+        self.miss_at((R::MISS_INDEX & 0xffff) as usize, group, data)
     }
 
     /// Records an error when a program of `group` was declared for a ray type that
@@ -242,7 +245,8 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     }
 
     /// Places ray type `R`'s hit record for geometry slot `geometry` where
-    /// `trace::<R>` looks for it: `geometry × R::SBT_STRIDE + R::SBT_OFFSET`.
+    /// `trace::<R>` looks for it: `geometry × R::SBT_STRIDE + R::SBT_OFFSET`,
+    /// each of the two taken to its low 4 bits as traces read them.
     /// A geometry slot is a geometry's place among all geometries of the scene
     /// that have records: an instance whose geometries take slots `k, k + 1, …`
     /// has the SBT offset [`instance_sbt_offset::<R>(k)`](instance_sbt_offset)
@@ -252,7 +256,9 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
     /// (`#[closest_hit(ray = Other)]`) is refused.
     pub fn hit_for<R: RayType, T: SbtRecordData>(mut self, geometry: usize, group: &ProgramGroup, data: T) -> Self {
         self.check_ray::<R>(group, SbtRegion::Hit);
-        match geometry.checked_mul(R::SBT_STRIDE as usize).and_then(|i| i.checked_add(R::SBT_OFFSET as usize)) {
+        // A trace reads the low 4 bits of the stride and offset (as Vulkan does).
+        let (stride, offset) = ((R::SBT_STRIDE & 0xf) as usize, (R::SBT_OFFSET & 0xf) as usize);
+        match geometry.checked_mul(stride).and_then(|i| i.checked_add(offset)) {
             Some(index) => self.hit_at(index, group, data),
             None => {
                 if self.error.is_none() {
@@ -320,7 +326,12 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
                 let exception = pipeline.groups.iter().position(|g| g.kind == GroupKind::Exception);
                 (pipeline.ctx.limits, exception, &pipeline.needs[..])
             }
-            PipelineRepr::Cpu(pipeline) => (crate::cpu::LIMITS, pipeline.exception_group, &pipeline.needs[..]),
+            PipelineRepr::Cpu(pipeline) => {
+                let has = |kind: GroupKind| pipeline.groups.iter().any(|g| g.kind == kind);
+                pipeline.reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
+                pipeline.reach.check_callables(has(GroupKind::Callable), self.callable.len())?;
+                (crate::cpu::LIMITS, pipeline.exception_group, &pipeline.needs[..])
+            }
         };
         for (region, records) in
             SbtRegion::ALL.into_iter().zip([std::slice::from_ref(&raygen), &miss[..], &hit[..], &self.callable[..]])

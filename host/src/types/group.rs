@@ -76,8 +76,11 @@ pub(crate) trait SpirvCode: Clone {
 pub(crate) enum ProgramCode<S> {
     /// An entry point of a SPIR-V module.
     Spirv(S),
-    /// A program of a device crate linked into the program (the CPU backend).
-    Cpu(&'static raykit_device::cpu::CpuProgram),
+    /// A program of a device crate linked into the program (the CPU backend),
+    /// with what reflection found of its entry point in the crate's SPIR-V, when
+    /// that was at hand: the checks then know what it traces and calls, as they
+    /// do on Vulkan.
+    Cpu { program: &'static raykit_device::cpu::CpuProgram, reflected: Option<std::sync::Arc<EntryPointInfo>> },
 }
 
 /// One checked entry point inside a group.
@@ -91,17 +94,23 @@ pub(crate) struct Program<S> {
 }
 
 impl<S: SpirvCode> Program<S> {
-    /// What reflection found for this program's entry point.
+    /// What reflection found for this program's entry point: in its module, or
+    /// for a CPU program in its crate's SPIR-V (`None` when there was none).
     pub(crate) fn entry_info(&self) -> Option<&EntryPointInfo> {
-        let name = self.name.to_str().ok()?;
-        self.module()?.entry_points().iter().find(|e| e.name == name)
+        match &self.code {
+            ProgramCode::Spirv(module) => {
+                let name = self.name.to_str().ok()?;
+                module.entry_points().iter().find(|e| e.name == name)
+            }
+            ProgramCode::Cpu { reflected, .. } => reflected.as_deref(),
+        }
     }
 
     /// Its SPIR-V module (`None` for a CPU program).
     pub(crate) fn module(&self) -> Option<&S> {
         match &self.code {
             ProgramCode::Spirv(module) => Some(module),
-            ProgramCode::Cpu(_) => None,
+            ProgramCode::Cpu { .. } => None,
         }
     }
 }

@@ -101,3 +101,31 @@ fn align_up(x: u64, a: u64) -> u64 {
         x.div_ceil(a) * a
     }
 }
+
+/// The hit record a trace selects, as Vulkan computes it: the instance's SBT
+/// offset (its low 24 bits) + `geometry` × the trace's `sbtRecordStride` (its
+/// low 4 bits) + the trace's `sbtRecordOffset` (its low 4 bits). Both backends
+/// select records with it.
+pub(crate) fn selected_hit_record(instance_offset: u32, geometry: u32, stride: u32, offset: u32) -> u64 {
+    u64::from(instance_offset & 0xff_ffff) + u64::from(geometry) * u64::from(stride & 0xf) + u64::from(offset & 0xf)
+}
+
+/// The miss record a trace selects, as Vulkan computes it: the low 16 bits of
+/// its `missIndex`.
+pub(crate) fn selected_miss_record(miss_index: u32) -> u64 {
+    u64::from(miss_index & 0xffff)
+}
+
+#[cfg(test)]
+mod selection_tests {
+    use super::{selected_hit_record, selected_miss_record};
+
+    #[test]
+    fn records_are_selected_from_the_bits_vulkan_reads() {
+        // Offset 16 is offset 0, stride 18 is stride 2; the instance keeps 24 bits.
+        assert_eq!(selected_hit_record(3, 2, 18, 16), 3 + 2 * 2);
+        assert_eq!(selected_hit_record(1 << 24 | 5, 0, 1, 1), 6);
+        assert_eq!(selected_hit_record(0, 1, 15, 15), 30);
+        assert_eq!(selected_miss_record(0x1_0002), 2);
+    }
+}

@@ -38,7 +38,7 @@ impl GroupNeeds {
         for program in group.programs() {
             let bytes = match &program.code {
                 crate::types::group::ProgramCode::Spirv(_) => program.entry_info().map_or(0, |e| e.record as usize),
-                crate::types::group::ProgramCode::Cpu(cpu) => cpu.record.map_or(0, |t| t.size),
+                crate::types::group::ProgramCode::Cpu { program, .. } => program.record.map_or(0, |t| t.size),
             };
             if bytes > 0 && record.as_ref().is_none_or(|(most, _)| bytes > *most) {
                 record = Some((bytes, program.name.to_string_lossy().into_owned()));
