@@ -285,7 +285,10 @@ fn a_broken_edit_keeps_the_old_pipeline_and_a_good_edit_then_reaches_the_window(
     // A colour edit: the radiance of every path is tinted red.
     let line = "        sums.radiance += state.radiance;\n";
     assert!(source.contains(line), "the raygen program's accumulation line changed");
-    std::fs::write(&lib, source.replace(line, "        sums.radiance += state.radiance * Vec3::new(1.0, 0.2, 0.2);\n"))?;
+    std::fs::write(
+        &lib,
+        source.replace(line, "        sums.radiance += state.radiance * Vec3::new(1.0, 0.2, 0.2);\n"),
+    )?;
     while child.try_wait()?.is_none() {
         if started.elapsed() > RELOAD_BOUND {
             child.kill()?;
