@@ -100,7 +100,7 @@ const WINDOWS_RESERVED_NAMES: [&str; 22] = [
 /// The package names of raykit's workspace. A new project depends on some of
 /// them and cargo tells packages apart by name (with `-` and `_` the same), so
 /// neither the project nor its device crate may take one.
-const RAYKIT_PACKAGES: [&str; 28] = [
+const RAYKIT_PACKAGES: [&str; 30] = [
     "accel-test-device",
     "gltf-pathtracer-device",
     "gltf_pathtracer",
@@ -114,7 +114,9 @@ const RAYKIT_PACKAGES: [&str; 28] = [
     "raykit",
     "raykit-abi",
     "raykit-bench",
+    "raykit-book",
     "raykit-builder",
+    "raykit-denoise",
     "raykit-device",
     "raykit-macros",
     "raykit-scene",
