@@ -164,7 +164,8 @@ fn payload_and_hit_attribute_sizes_are_read_from_the_spirv_alike_for_rust_and_gl
     };
     let of = |payload, hit_attributes| InterfaceSizes { payload, hit_attributes };
     let rust = |name: &str| -> anyhow::Result<Vec<u8>> { Ok(std::fs::read(raykit::spirv_path(name))?) };
-    // Path tracer: a 48-byte radiance payload, a 4-byte shadow payload, no attributes read.
+    // Path tracer (both raygens, the second writing the denoiser's guides): a 48-byte
+    // radiance payload, a 4-byte shadow payload, no attributes read.
     assert_eq!(
         sizes(&rust("path-tracer-device")?)?,
         [
@@ -173,6 +174,7 @@ fn payload_and_hit_attribute_sizes_are_read_from_the_spirv_alike_for_rust_and_gl
             ("__miss__ms".to_owned(), of(48, 0)),
             ("__miss__ms_shadow".to_owned(), of(4, 0)),
             ("__raygen__rg".to_owned(), of(48, 0)),
+            ("__raygen__rg_guides".to_owned(), of(48, 0)),
         ]
     );
     let glsl = |bytes: &[u8]| -> anyhow::Result<InterfaceSizes> { Ok(sizes(bytes)?[0].1) };
