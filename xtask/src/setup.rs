@@ -183,32 +183,7 @@ pub fn ensure_spirv_tools() -> anyhow::Result<()> {
 /// Makes sure every one of `tools` runs, installing `packages` as root with apt
 /// when one does not; `why` says what needs them.
 fn ensure_tools(tools: &[&str], packages: &[&str], why: &str) -> anyhow::Result<()> {
-    let missing = || -> Vec<&str> {
-        tools.iter().copied().filter(|t| output(Command::new(t).arg("--version")).is_none()).collect()
-    };
-    let absent = missing();
-    if absent.is_empty() {
-        return Ok(());
-    }
-    if !(is_root() && Path::new("/usr/bin/apt-get").exists()) {
-        bail!(
-            "{} not installed ({why}). On Debian, as root: apt-get install -y {}",
-            absent.join(", "),
-            packages.join(" ")
-        );
-    }
-    println!("xtask: installing {} ({why})", packages.join(" "));
-    let mut install = vec!["install", "-y"];
-    install.extend(packages);
-    if apt_get(&install).is_err() {
-        apt_get(&["update"])?;
-        apt_get(&install)?;
-    }
-    let absent = missing();
-    if !absent.is_empty() {
-        bail!("installed {} but {} still missing", packages.join(" "), absent.join(", "));
-    }
-    Ok(())
+    ensure_present(tools, |t| output(Command::new(t).arg("--version")).is_some(), packages, why)
 }
 
 /// Makes sure every one of `commands` is on `PATH`, installing `packages` as
@@ -217,7 +192,13 @@ pub fn ensure_commands(commands: &[&str], packages: &[&str], why: &str) -> anyho
     let on_path = |c: &str| {
         std::env::var_os("PATH").is_some_and(|path| std::env::split_paths(&path).any(|dir| dir.join(c).is_file()))
     };
-    let missing = || -> Vec<&str> { commands.iter().copied().filter(|c| !on_path(c)).collect() };
+    ensure_present(commands, on_path, packages, why)
+}
+
+/// Makes sure `present` holds for every one of `names`, installing `packages`
+/// as root with apt when it does not; `why` says what needs them.
+fn ensure_present(names: &[&str], present: impl Fn(&str) -> bool, packages: &[&str], why: &str) -> anyhow::Result<()> {
+    let missing = || -> Vec<&str> { names.iter().copied().filter(|n| !present(n)).collect() };
     let absent = missing();
     if absent.is_empty() {
         return Ok(());

@@ -290,6 +290,22 @@ impl<P: LaunchParams> Pipeline<P> {
         }
     }
 
+    /// What the pipeline's programs reach when they trace and call.
+    pub(crate) fn reach(&self) -> &crate::validate::TraceReach {
+        match &self.repr {
+            PipelineRepr::Vulkan(inner) => &inner.reach,
+            PipelineRepr::Cpu(data) => &data.reach,
+        }
+    }
+
+    /// Whether the pipeline has a group of `kind`.
+    pub(crate) fn has_group(&self, kind: crate::program_group::GroupKind) -> bool {
+        match &self.repr {
+            PipelineRepr::Vulkan(inner) => inner.groups.iter().any(|g| g.kind == kind),
+            PipelineRepr::Cpu(data) => data.groups.iter().any(|g| g.kind == kind),
+        }
+    }
+
     /// The Vulkan pipeline, when this is one.
     pub(crate) fn vulkan_inner(&self) -> Option<&Arc<PipelineInner>> {
         match &self.repr {

@@ -318,20 +318,19 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         };
         let miss = filled(self.miss, SbtRegion::Miss)?;
         let hit = filled(self.hit, SbtRegion::Hit)?;
-        let (limits, exception_group, needs) = match &self.pipeline.repr {
+        // The checks of the records against what the programs trace and call, the
+        // same on every backend.
+        let pipeline = self.pipeline;
+        let has = |kind: GroupKind| pipeline.has_group(kind);
+        let reach = pipeline.reach();
+        reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
+        reach.check_callables(has(GroupKind::Callable), self.callable.len())?;
+        let (limits, exception_group, needs) = match &pipeline.repr {
             PipelineRepr::Vulkan(pipeline) => {
-                let has = |kind: GroupKind| pipeline.groups.iter().any(|g| g.kind == kind);
-                pipeline.reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
-                pipeline.reach.check_callables(has(GroupKind::Callable), self.callable.len())?;
                 let exception = pipeline.groups.iter().position(|g| g.kind == GroupKind::Exception);
                 (pipeline.ctx.limits, exception, &pipeline.needs[..])
             }
-            PipelineRepr::Cpu(pipeline) => {
-                let has = |kind: GroupKind| pipeline.groups.iter().any(|g| g.kind == kind);
-                pipeline.reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
-                pipeline.reach.check_callables(has(GroupKind::Callable), self.callable.len())?;
-                (crate::cpu::LIMITS, pipeline.exception_group, &pipeline.needs[..])
-            }
+            PipelineRepr::Cpu(pipeline) => (crate::cpu::LIMITS, pipeline.exception_group, &pipeline.needs[..]),
         };
         for (region, records) in
             SbtRegion::ALL.into_iter().zip([std::slice::from_ref(&raygen), &miss[..], &hit[..], &self.callable[..]])
