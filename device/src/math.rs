@@ -23,6 +23,8 @@ macro_rules! float_fn {
         pub fn $name(x: f32) -> f32 {
             #[cfg(target_arch = "spirv")]
             {
+                // `core` has some of these (`abs`) as inherent methods.
+                #[allow(unused_imports)]
                 use spirv_std::num_traits::Float;
                 x.$method()
             }
