@@ -43,6 +43,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use crate::backend::{refused_on_cpu, CpuRefusal};
 use crate::cache::PipelineCacheInfo;
 use crate::error::Result;
 use crate::log::MessageLog;
@@ -126,14 +127,6 @@ impl Context {
         &self.repr
     }
 
-    /// The Vulkan context, or `NotOnCpuBackend` naming `what`.
-    pub(crate) fn vulkan(&self, what: &'static str) -> Result<&Arc<ContextInner>> {
-        match &self.repr {
-            ContextRepr::Vulkan(inner) => Ok(inner),
-            ContextRepr::Cpu(_) => Err(crate::backend::refused_on_cpu(crate::backend::CpuRefusal::VulkanOnly(what))),
-        }
-    }
-
     /// The Vulkan context, when this is one.
     pub(crate) fn as_vulkan(&self) -> Option<&Arc<ContextInner>> {
         match &self.repr {
@@ -142,11 +135,12 @@ impl Context {
         }
     }
 
-    /// The CPU context, when this is one.
-    pub(crate) fn cpu(&self) -> Option<&Arc<crate::cpu::CpuContext>> {
+    /// The most each launch dimension may be: `maxComputeWorkGroupCount[i] ×
+    /// maxComputeWorkGroupSize[i]` on Vulkan (VUID-vkCmdTraceRaysKHR-width-03638 …).
+    pub(crate) fn launch_dimension_limits(&self) -> [u64; 3] {
         match &self.repr {
-            ContextRepr::Cpu(cpu) => Some(cpu),
-            ContextRepr::Vulkan(_) => None,
+            ContextRepr::Vulkan(inner) => inner.launch_dimension_limits,
+            ContextRepr::Cpu(_) => crate::cpu::LAUNCH_DIMENSION_LIMITS,
         }
     }
 
@@ -338,7 +332,10 @@ impl Context {
     /// The epoch of the last submission on this context's GPU timeline, and the
     /// highest epoch the device has finished.
     pub fn timeline_epochs(&self) -> Result<(u64, u64)> {
-        let inner = self.vulkan("the GPU timeline")?;
+        let inner = match &self.repr {
+            ContextRepr::Vulkan(inner) => inner,
+            ContextRepr::Cpu(_) => return Err(refused_on_cpu(CpuRefusal::VulkanOnly("the GPU timeline"))),
+        };
         Ok((inner.last_submitted_epoch(), inner.completed_epoch()?))
     }
 

@@ -16,7 +16,7 @@
 
 use std::sync::Arc;
 
-use crate::context::Context;
+use crate::context::{Context, ContextRepr};
 use crate::error::Result;
 use crate::vulkan::context::ContextInner;
 /// A closed gate in front of the device for one context's submissions (test hook,
@@ -78,13 +78,16 @@ impl Context {
     /// [`crate::gate`]). Closing a closed gate returns the same gate.
     #[doc(hidden)]
     pub fn close_submission_gate(&self) -> Result<SubmissionGate> {
-        if let Some(cpu) = self.cpu() {
-            cpu.gate.close();
-            return Ok(SubmissionGate { owner: GateOwner::Cpu(cpu.clone()), value: 0 });
+        match self.repr() {
+            ContextRepr::Cpu(cpu) => {
+                cpu.gate.close();
+                Ok(SubmissionGate { owner: GateOwner::Cpu(cpu.clone()), value: 0 })
+            }
+            ContextRepr::Vulkan(inner) => {
+                let value = inner.close_gate()?;
+                Ok(SubmissionGate { owner: GateOwner::Vulkan(inner.clone()), value })
+            }
         }
-        let inner = self.vulkan("a submission gate")?;
-        let value = inner.close_gate()?;
-        Ok(SubmissionGate { owner: GateOwner::Vulkan(inner.clone()), value })
     }
 }
 

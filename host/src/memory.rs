@@ -36,7 +36,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 use raykit_device::{Buffer, Element};
 
-use crate::context::Context;
+use crate::context::{Context, ContextRepr};
 use crate::error::ResourceError;
 use crate::error::{Error, Result};
 use crate::vulkan::context::Submission;
@@ -123,16 +123,20 @@ impl<T: Element> DeviceBuffer<T> {
             reason: "the size overflows 64 bits",
         }))?;
         crate::validate::check_storage_buffer(size, ctx.limits().max_storage_buffer_range)?;
-        if let Some(cpu) = ctx.cpu() {
-            let words = crate::cpu::buffers::zeroed_words(len * T::WORDS as usize);
-            let (slot, handle) = cpu.buffers.insert(words.clone())?;
-            let repr = BufferRepr::Cpu { ctx: cpu.clone(), words };
-            return Ok(DeviceBuffer { repr, slot, handle, len, _element: PhantomData });
-        }
-        let inner = ctx.vulkan("a buffer")?;
-        let (raw, slot, handle) = RawBuffer::storage(inner, size, memory.location())?;
-        let vulkan = VulkanBuffer { raw, memory, readback: StagingSlot::default(), upload: StagingSlot::default() };
-        Ok(DeviceBuffer { repr: BufferRepr::Vulkan(vulkan), slot, handle, len, _element: PhantomData })
+        let (repr, slot, handle) = match ctx.repr() {
+            ContextRepr::Cpu(cpu) => {
+                let words = crate::cpu::buffers::zeroed_words(len * T::WORDS as usize);
+                let (slot, handle) = cpu.buffers.insert(words.clone())?;
+                (BufferRepr::Cpu { ctx: cpu.clone(), words }, slot, handle)
+            }
+            ContextRepr::Vulkan(inner) => {
+                let (raw, slot, handle) = RawBuffer::storage(inner, size, memory.location())?;
+                let staging = (StagingSlot::default(), StagingSlot::default());
+                let vulkan = VulkanBuffer { raw, memory, readback: staging.0, upload: staging.1 };
+                (BufferRepr::Vulkan(vulkan), slot, handle)
+            }
+        };
+        Ok(DeviceBuffer { repr, slot, handle, len, _element: PhantomData })
     }
 
     /// A zero-filled buffer of `len` elements in device-local memory, for

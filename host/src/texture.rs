@@ -25,10 +25,11 @@ use std::sync::Arc;
 use ash::vk;
 use raykit_device::Texture2D;
 
-use crate::context::Context;
+use crate::context::{Context, ContextRepr};
 use crate::error::ResourceError;
 use crate::error::{Error, Result};
-use crate::types::texture::check_level;
+use crate::types::texture::FormatSupport;
+use crate::validate::texture::check_level;
 
 impl TextureFormat {
     /// The Vulkan format.
@@ -37,7 +38,7 @@ impl TextureFormat {
     }
 }
 pub use crate::types::texture::{
-    full_mip_count, generate_mips, mip_size, AddressMode, Filter, MipLevel, Mipmaps, SamplerOptions, TextureFormat,
+    full_mip_count, mip_size, AddressMode, Filter, MipLevel, Mipmaps, SamplerOptions, TextureFormat,
 };
 
 /// A 2D texture in device memory with its sampler, at a slot of the context's
@@ -152,17 +153,20 @@ impl Texture {
             check_level(format, i as u32, w, h, level.data.len())?;
         }
         check_format(ctx, format, sampler)?;
-        match ctx.cpu() {
-            Some(cpu) => create_cpu(cpu, format, (width, height), levels, sampler),
-            None => {
-                let inner = ctx.vulkan("a texture")?;
+        let (repr, slot, handle) = match ctx.repr() {
+            ContextRepr::Cpu(cpu) => {
+                let texture = crate::cpu::textures::CpuTexture::new(format, levels.to_vec(), sampler);
+                let (slot, handle) = cpu.textures.insert(Arc::new(texture))?;
+                (TextureRepr::Cpu(cpu.clone()), slot, handle)
+            }
+            ContextRepr::Vulkan(inner) => {
                 let (image, slot, handle) =
                     crate::vulkan::texture::create(inner, format, (width, height), levels, sampler)?;
-                let levels = levels.len() as u32;
-                let repr = TextureRepr::Vulkan(image);
-                Ok(Texture { repr, slot, handle, format, width, height, levels, options: sampler })
+                (TextureRepr::Vulkan(image), slot, handle)
             }
-        }
+        };
+        let levels = levels.len() as u32;
+        Ok(Texture { repr, slot, handle, format, width, height, levels, options: sampler })
     }
 
     /// A texture from an image of the `image` crate: 8-bit images (grey, grey +
@@ -223,19 +227,58 @@ impl Texture {
     }
 }
 
+/// The full mip chain of a `width × height` texture of `format` whose level 0
+/// is `base`, level 0 included. Each texel of level `l + 1` is the mean of the
+/// 2×2 texels of level `l` it covers (clamped at an odd edge), in linear values
+/// ([`TextureFormat::decode`]), encoded back with [`TextureFormat::encode`].
+pub fn generate_mips(format: TextureFormat, width: u32, height: u32, base: &[u8]) -> Result<Vec<MipLevel>> {
+    check_level(format, 0, width, height, base.len())?;
+    let bpt = format.bytes_per_texel();
+    let mut levels = vec![MipLevel { width, height, data: base.to_vec() }];
+    for level in 1..full_mip_count(width, height) {
+        let prev = &levels[level as usize - 1];
+        let (w, h) = mip_size(width, height, level);
+        let texel = |x: u32, y: u32| {
+            let (x, y) = (x.min(prev.width - 1), y.min(prev.height - 1));
+            let i = (y * prev.width + x) as usize * bpt;
+            format.decode(&prev.data[i..i + bpt])
+        };
+        let mut data = Vec::with_capacity(w as usize * h as usize * bpt);
+        for y in 0..h {
+            for x in 0..w {
+                let mut sum = [0.0f32; 4];
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let t = texel(2 * x + dx, 2 * y + dy);
+                    for c in 0..4 {
+                        sum[c] += t[c] * 0.25;
+                    }
+                }
+                format.encode(sum, &mut data);
+            }
+        }
+        levels.push(MipLevel { width: w, height: h, data });
+    }
+    Ok(levels)
+}
+
 /// The device's filtering precision: `(subTexelPrecisionBits, mipmapPrecisionBits)`,
 /// the bits of the weights with which it blends texels and mip levels (what a CPU
 /// reference of sampling must allow for). The CPU backend's sampler blends in
 /// `f32` and reports `(8, 8)`.
 pub fn filter_precision_bits(ctx: &Context) -> (u32, u32) {
-    ctx.as_vulkan()
-        .map_or(crate::cpu::textures::PRECISION_BITS, |inner| crate::vulkan::texture::filter_precision_bits(inner))
+    match ctx.repr() {
+        ContextRepr::Vulkan(inner) => crate::vulkan::texture::filter_precision_bits(inner),
+        ContextRepr::Cpu(_) => crate::cpu::textures::PRECISION_BITS,
+    }
 }
 
 /// The largest width and height of a texture on the device (`maxImageDimension2D`);
 /// 16384 on the CPU backend.
 pub fn max_texture_size(ctx: &Context) -> u32 {
-    ctx.as_vulkan().map_or(crate::cpu::textures::MAX_SIZE, |inner| crate::vulkan::texture::max_texture_size(inner))
+    match ctx.repr() {
+        ContextRepr::Vulkan(inner) => crate::vulkan::texture::max_texture_size(inner),
+        ContextRepr::Cpu(_) => crate::cpu::textures::MAX_SIZE,
+    }
 }
 
 fn check_size(ctx: &Context, width: u32, height: u32) -> Result<()> {
@@ -262,32 +305,26 @@ fn check_size(ctx: &Context, width: u32, height: u32) -> Result<()> {
 /// Refuses a format (and filter) the device cannot sample (the CPU backend
 /// samples and filters every format).
 fn check_format(ctx: &Context, format: TextureFormat, sampler: SamplerOptions) -> Result<()> {
-    match ctx.as_vulkan() {
-        Some(inner) => crate::vulkan::texture::check_format(inner, format, sampler),
-        None => Ok(()),
+    let support = match ctx.repr() {
+        ContextRepr::Vulkan(inner) => crate::vulkan::texture::format_support(inner, format),
+        ContextRepr::Cpu(_) => FormatSupport { sampled: true, linear_filter: true, features: String::new() },
+    };
+    if !support.sampled {
+        return Err(Error::Resource(ResourceError::TextureFormat {
+            format: format!("{format:?}"),
+            problem: format!("the device cannot sample it ({})", support.features),
+            fix: "use another TextureFormat (RGBA8 formats are sampled by every Vulkan device)",
+        }));
     }
-}
-
-/// A texture on the CPU backend: `levels` (checked) copied into its texture table.
-fn create_cpu(
-    cpu: &Arc<crate::cpu::CpuContext>,
-    format: TextureFormat,
-    (width, height): (u32, u32),
-    levels: &[MipLevel],
-    options: SamplerOptions,
-) -> Result<Texture> {
-    let texture = crate::cpu::textures::CpuTexture::new(format, levels.to_vec(), options);
-    let (slot, handle) = cpu.textures.insert(Arc::new(texture))?;
-    Ok(Texture {
-        repr: TextureRepr::Cpu(cpu.clone()),
-        slot,
-        handle,
-        format,
-        width,
-        height,
-        levels: levels.len() as u32,
-        options,
-    })
+    let linear = sampler.filter == Filter::Linear || sampler.mip_filter == Filter::Linear;
+    if linear && !support.linear_filter {
+        return Err(Error::Resource(ResourceError::TextureFormat {
+            format: format!("{format:?}"),
+            problem: "the device cannot filter it linearly".to_owned(),
+            fix: "use Filter::Nearest for this format, or Rgba16Float, which every Vulkan device filters",
+        }));
+    }
+    Ok(())
 }
 
 impl Drop for Texture {

@@ -10,7 +10,7 @@ use glam::{Vec3, Vec4};
 
 use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
-use crate::context::Context;
+use crate::context::{Context, ContextRepr};
 use crate::error::AccelError;
 use crate::error::{Error, Result};
 use crate::memory::DeviceBuffer;
@@ -108,14 +108,20 @@ impl<'a> GasBuilder<'a> {
     /// On the CPU backend the tree is built to measure it; both scratch sizes are 0.
     #[doc(alias("optixAccelComputeMemoryUsage", "vkGetAccelerationStructureBuildSizesKHR"))]
     pub fn sizes(&self, ctx: &Context) -> Result<AccelSizes> {
-        if ctx.cpu().is_some() {
-            input::validate(&self.inputs, ctx.limits(), false)?;
-            let size = crate::cpu::accel::GasData::build(&self.inputs).size();
-            return Ok(AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 });
-        }
-        let inner = ctx.vulkan("a GAS size query")?;
-        let shapes = input::validate(&self.inputs, &inner.limits, false)?;
-        Ok(crate::vulkan::accel::gas::sizes(inner, &self.inputs, &shapes, self.options))
+        let shapes = input::validate(&self.inputs, ctx.limits(), false)?;
+        Ok(match ctx.repr() {
+            ContextRepr::Vulkan(inner) => crate::vulkan::accel::gas::sizes(inner, &self.inputs, &shapes, self.options),
+            ContextRepr::Cpu(_) => {
+                let size = crate::cpu::accel::GasData::build(&self.inputs).size();
+                AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 }
+            }
+        })
+    }
+
+    /// Validates the inputs for a build with this builder's options: their
+    /// shapes, what a later refit must keep.
+    fn validate(&self, ctx: &Context) -> Result<Vec<Shape>> {
+        input::validate(&self.inputs, ctx.limits(), self.options.allow_update)
     }
 
     /// Builds and waits.
@@ -127,32 +133,33 @@ impl<'a> GasBuilder<'a> {
     /// Submits the build and returns without waiting.
     #[doc(alias("optixAccelBuild"))]
     pub fn submit(self, ctx: &Context) -> Result<PendingBuild<Gas>> {
-        if let Some(cpu) = ctx.cpu() {
-            let (gas, shapes, size) = crate::cpu::accel::build_gas(cpu, &self.inputs, self.options)?;
-            return Ok(PendingBuild::ready(Gas::from_cpu(gas, shapes, self.options, size)));
-        }
-        let (in_flight, mut gases) = submit_gases(ctx.vulkan("a GAS build")?, std::slice::from_ref(&self))?;
-        let gas =
-            gases.pop().ok_or(Error::Accel(AccelError::Empty { what: "the batch has no GAS builds".to_owned() }))?;
-        Ok(PendingBuild::new(in_flight, gas, |gas, sizes| {
-            if gas.options.allow_compaction {
-                gas.compacted_size = sizes.first().copied();
+        let shapes = self.validate(ctx)?;
+        match ctx.repr() {
+            ContextRepr::Vulkan(inner) => {
+                let (in_flight, mut gases) = submit_gases(inner, std::slice::from_ref(&self), vec![shapes])?;
+                let empty = || Error::Accel(AccelError::Empty { what: "the batch has no GAS builds".to_owned() });
+                let gas = gases.pop().ok_or_else(empty)?;
+                Ok(PendingBuild::new(in_flight, gas, |gas, sizes| {
+                    if gas.options.allow_compaction {
+                        gas.compacted_size = sizes.first().copied();
+                    }
+                }))
             }
-        }))
+            ContextRepr::Cpu(cpu) => {
+                let (gas, size) = crate::cpu::accel::build_gas(cpu, &self.inputs);
+                Ok(PendingBuild::ready(Gas::from_cpu(gas, shapes, self.options, size)))
+            }
+        }
     }
 }
 
-/// Validates, uploads and submits `builds` in one command buffer.
-fn submit_gases(ctx: &Arc<ContextInner>, builds: &[GasBuilder<'_>]) -> Result<(build::InFlight, Vec<Gas>)> {
-    if builds.is_empty() {
-        return Err(Error::Accel(AccelError::Empty { what: "the batch has no GAS builds".to_owned() }));
-    }
-    // Validate everything before allocating anything.
-    let validated = builds
-        .iter()
-        .map(|b| input::validate(&b.inputs, &ctx.limits, b.options.allow_update))
-        .collect::<Result<Vec<_>>>()?;
-    let batch = builds.iter().zip(validated).map(|(b, shapes)| (&b.inputs[..], shapes, b.options));
+/// Uploads and submits the checked `builds` (with their `shapes`) in one command buffer.
+fn submit_gases(
+    ctx: &Arc<ContextInner>,
+    builds: &[GasBuilder<'_>],
+    shapes: Vec<Vec<Shape>>,
+) -> Result<(build::InFlight, Vec<Gas>)> {
+    let batch = builds.iter().zip(shapes).map(|(b, shapes)| (&b.inputs[..], shapes, b.options));
     let (in_flight, built) = crate::vulkan::accel::gas::submit(ctx, batch)?;
     let gases = built
         .into_iter()
@@ -249,29 +256,33 @@ impl Gas {
     /// scratch buffer) without waiting. Every input is validated before anything
     /// is submitted.
     pub fn submit_many(ctx: &Context, builds: Vec<GasBuilder<'_>>) -> Result<PendingBuild<Vec<Gas>>> {
-        if let Some(cpu) = ctx.cpu() {
-            if builds.is_empty() {
-                return Err(Error::Accel(AccelError::Empty { what: "the batch has no GAS builds".to_owned() }));
-            }
-            for b in &builds {
-                input::validate(&b.inputs, ctx.limits(), b.options.allow_update)?;
-            }
-            let gases = builds
-                .iter()
-                .map(|b| {
-                    let (gas, shapes, size) = crate::cpu::accel::build_gas(cpu, &b.inputs, b.options)?;
-                    Ok(Gas::from_cpu(gas, shapes, b.options, size))
-                })
-                .collect::<Result<Vec<_>>>()?;
-            return Ok(PendingBuild::ready(gases));
+        if builds.is_empty() {
+            return Err(Error::Accel(AccelError::Empty { what: "the batch has no GAS builds".to_owned() }));
         }
-        let (in_flight, gases) = submit_gases(ctx.vulkan("a GAS build")?, &builds)?;
-        Ok(PendingBuild::new(in_flight, gases, |gases, sizes| {
-            let mut sizes = sizes.iter();
-            for gas in gases.iter_mut().filter(|g| g.options.allow_compaction) {
-                gas.compacted_size = sizes.next().copied();
+        // Validate everything before allocating anything.
+        let shapes = builds.iter().map(|b| b.validate(ctx)).collect::<Result<Vec<_>>>()?;
+        match ctx.repr() {
+            ContextRepr::Vulkan(inner) => {
+                let (in_flight, gases) = submit_gases(inner, &builds, shapes)?;
+                Ok(PendingBuild::new(in_flight, gases, |gases, sizes| {
+                    let mut sizes = sizes.iter();
+                    for gas in gases.iter_mut().filter(|g| g.options.allow_compaction) {
+                        gas.compacted_size = sizes.next().copied();
+                    }
+                }))
             }
-        }))
+            ContextRepr::Cpu(cpu) => {
+                let gases = builds
+                    .iter()
+                    .zip(shapes)
+                    .map(|(b, shapes)| {
+                        let (gas, size) = crate::cpu::accel::build_gas(cpu, &b.inputs);
+                        Gas::from_cpu(gas, shapes, b.options, size)
+                    })
+                    .collect();
+                Ok(PendingBuild::ready(gases))
+            }
+        }
     }
 
     /// Refits the GAS in place to `inputs` (OptiX's `OPTIX_BUILD_OPERATION_UPDATE`):
@@ -296,24 +307,14 @@ impl Gas {
                 reason: "it was built without BuildOptions::allow_update".to_owned(),
             }));
         }
-        let accel = match &self.repr {
-            GasRepr::Vulkan(accel) => accel.clone(),
-            GasRepr::Cpu(cpu) => {
-                let shapes = input::validate(inputs, &crate::cpu::LIMITS, true)?;
-                if let Some(reason) = input::update_refusal(&self.shapes, &shapes) {
-                    return Err(Error::Accel(AccelError::UpdateRefused { what: "GAS", reason }));
-                }
-                cpu.refit(inputs);
-                self.compacted_size = None;
-                return Ok(());
-            }
-        };
-        let ctx = accel.ctx.clone();
-        let shapes = input::validate(inputs, &ctx.limits, true)?;
+        let shapes = input::validate(inputs, self.repr.context().limits(), true)?;
         if let Some(reason) = input::update_refusal(&self.shapes, &shapes) {
             return Err(Error::Accel(AccelError::UpdateRefused { what: "GAS", reason }));
         }
-        crate::vulkan::accel::gas::refit(&accel, inputs, shapes, self.options)?;
+        match &self.repr {
+            GasRepr::Vulkan(accel) => crate::vulkan::accel::gas::refit(accel, inputs, shapes, self.options)?,
+            GasRepr::Cpu(cpu) => cpu.refit(inputs),
+        }
         self.compacted_size = None;
         Ok(())
     }

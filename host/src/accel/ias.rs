@@ -12,14 +12,13 @@ use raykit_device::Traversable;
 use super::gas::{Gas, GasRepr};
 use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
-use crate::context::Context;
+use crate::context::{Context, ContextRepr};
 use crate::error::{AccelError, DeviceError};
 use crate::error::{Error, Result};
 use crate::memory::DeviceBuffer;
 use crate::types::accel::{transform_rows, InstanceFlags, InstancePlacement};
 use crate::validate::hit_reach::HitReach;
 use crate::vulkan::accel::structure::AccelStructure;
-use crate::vulkan::context::ContextInner;
 
 /// One instance of a [`Gas`] in an [`Ias`] (OptiX's `OptixInstance`).
 #[derive(Clone)]
@@ -122,10 +121,11 @@ fn placements(instances: &[Instance]) -> Vec<(InstancePlacement, u64)> {
     instances.iter().map(|i| (i.placement, address(&i.accel))).collect()
 }
 
-/// Checks instances for a Vulkan IAS of `ctx`.
-fn validate(ctx: &Arc<ContextInner>, instances: &[Instance]) -> Result<()> {
-    check_fields(instances, ctx.limits.max_instance_count)?;
-    if instances.iter().any(|i| !matches!(&i.accel, GasRepr::Vulkan(accel) if Arc::ptr_eq(&accel.ctx, ctx))) {
+/// Checks instances for an IAS of `ctx`, on either backend: their fields, and
+/// that each GAS is of `ctx`.
+fn validate(ctx: &Context, instances: &[Instance]) -> Result<()> {
+    check_fields(instances, ctx.limits().max_instance_count)?;
+    if instances.iter().any(|i| !i.accel.context().is_same(ctx)) {
         return Err(Error::Device(DeviceError::ContextMismatch));
     }
     Ok(())
@@ -185,33 +185,35 @@ impl IasBuilder<'_> {
 
     /// Submits the build and returns without waiting.
     pub fn submit(self, ctx: &Context) -> Result<PendingBuild<Ias>> {
-        if let Some(cpu) = ctx.cpu() {
-            let ias = Ias {
-                repr: IasRepr::Cpu { ctx: cpu.clone(), address: crate::cpu::next_scene_address() },
-                gases: Vec::new(),
-                spheres: Vec::new(),
-                options: self.options,
-                sizes: AccelSizes::default(),
-                reach: Arc::new(HitReach::default()),
-            };
-            let mut ias = ias;
-            ias.build_cpu(self.instances)?;
-            return Ok(PendingBuild::ready(ias));
+        validate(ctx, self.instances)?;
+        match ctx.repr() {
+            ContextRepr::Vulkan(inner) => {
+                let (accel, sizes, in_flight) =
+                    crate::vulkan::accel::ias::submit(inner, &placements(self.instances), self.options)?;
+                let ias = Ias {
+                    repr: IasRepr::Vulkan(accel),
+                    gases: self.instances.iter().map(|i| i.accel.clone()).collect(),
+                    spheres: sphere_buffers(self.instances),
+                    options: self.options,
+                    sizes,
+                    reach: Arc::new(hit_reach(self.instances)),
+                };
+                ias.register();
+                Ok(PendingBuild::new(in_flight, ias, |_, _| {}))
+            }
+            ContextRepr::Cpu(cpu) => {
+                let mut ias = Ias {
+                    repr: IasRepr::Cpu { ctx: cpu.clone(), address: crate::cpu::next_scene_address() },
+                    gases: Vec::new(),
+                    spheres: Vec::new(),
+                    options: self.options,
+                    sizes: AccelSizes::default(),
+                    reach: Arc::new(HitReach::default()),
+                };
+                ias.build_cpu(self.instances)?;
+                Ok(PendingBuild::ready(ias))
+            }
         }
-        let inner = ctx.vulkan("an IAS build")?;
-        validate(inner, self.instances)?;
-        let (accel, sizes, in_flight) =
-            crate::vulkan::accel::ias::submit(inner, &placements(self.instances), self.options)?;
-        let ias = Ias {
-            repr: IasRepr::Vulkan(accel),
-            gases: self.instances.iter().map(|i| i.accel.clone()).collect(),
-            spheres: sphere_buffers(self.instances),
-            options: self.options,
-            sizes,
-            reach: Arc::new(hit_reach(self.instances)),
-        };
-        ias.register();
-        Ok(PendingBuild::new(in_flight, ias, |_, _| {}))
     }
 }
 
@@ -229,6 +231,14 @@ enum IasRepr {
 }
 
 impl IasRepr {
+    /// The context it was built on.
+    fn context(&self) -> Context {
+        match self {
+            IasRepr::Vulkan(accel) => Context::from_vulkan(accel.ctx.clone()),
+            IasRepr::Cpu { ctx, .. } => Context::from_cpu(ctx.clone()),
+        }
+    }
+
     fn address(&self) -> u64 {
         match self {
             IasRepr::Vulkan(accel) => accel.address,
@@ -285,11 +295,11 @@ impl Ias {
                 reason: format!("the instance count changed from {} to {}", self.gases.len(), instances.len()),
             }));
         }
+        validate(&self.repr.context(), instances)?;
         let accel = match &self.repr {
             IasRepr::Vulkan(accel) => accel,
             IasRepr::Cpu { .. } => return self.build_cpu(instances),
         };
-        validate(&accel.ctx, instances)?;
         crate::vulkan::accel::ias::refit(accel, &placements(instances), self.options)?;
         self.gases = instances.iter().map(|i| i.accel.clone()).collect();
         self.spheres = sphere_buffers(instances);
@@ -309,10 +319,9 @@ impl Ias {
     }
 
     /// Builds (or rebuilds in place, for an update) the CPU backend's tree over
-    /// `instances` and registers it under the IAS's address.
+    /// the checked `instances` and registers it under the IAS's address.
     fn build_cpu(&mut self, instances: &[Instance]) -> Result<()> {
         let IasRepr::Cpu { ctx, address } = &self.repr else { return Ok(()) };
-        check_fields(instances, crate::cpu::LIMITS.max_instance_count)?;
         let mut scene = Vec::with_capacity(instances.len());
         for instance in instances {
             let GasRepr::Cpu(gas) = &instance.accel else { return Err(Error::Device(DeviceError::ContextMismatch)) };
@@ -344,11 +353,7 @@ impl Ias {
     /// Rebuilds the IAS over `instances` with its options; the count may change.
     /// The handle changes: put the new [`Ias::handle`] in the launch params.
     pub fn rebuild(&mut self, instances: &[Instance]) -> Result<()> {
-        let ctx = match &self.repr {
-            IasRepr::Vulkan(accel) => Context::from_vulkan(accel.ctx.clone()),
-            IasRepr::Cpu { ctx, .. } => Context::from_cpu(ctx.clone()),
-        };
-        *self = Ias::builder(instances).options(self.options).build(&ctx)?;
+        *self = Ias::builder(instances).options(self.options).build(&self.repr.context())?;
         Ok(())
     }
 

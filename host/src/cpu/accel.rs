@@ -16,53 +16,14 @@ use obvhs::cwbvh::CwBvh;
 use obvhs::BvhBuildParams;
 use raykit_device::Matrix4x3;
 
+use super::geometry::{Geometry, Leaf, Triangle};
 use crate::types::accel::{BuildInput, InstanceFlags};
 use crate::types::accel::{GeometryFlags, IndexKind};
-
-/// One triangle as the intersection test wants it: a vertex and two edges.
-#[derive(Copy, Clone, Debug)]
-pub(crate) struct Triangle {
-    pub(crate) v0: Vec3A,
-    pub(crate) e1: Vec3A,
-    pub(crate) e2: Vec3A,
-}
-
-/// One geometry of a GAS.
-#[derive(Debug)]
-pub(crate) enum Geometry {
-    /// Triangles (kept, with the geometry's transform applied, in the leaves).
-    Triangles { count: usize, flags: GeometryFlags },
-    /// Boxes for an intersection program.
-    Aabbs { boxes: Vec<BvhAabb>, flags: GeometryFlags },
-}
-
-impl Geometry {
-    fn flags(&self) -> GeometryFlags {
-        match self {
-            Geometry::Triangles { flags, .. } | Geometry::Aabbs { flags, .. } => *flags,
-        }
-    }
-
-    /// Whether the geometry is opaque by its own flag.
-    pub(crate) fn opaque(&self) -> bool {
-        self.flags().contains(GeometryFlags::OPAQUE)
-    }
-}
 
 /// The bounds of a triangle.
 fn triangle_bounds(t: &Triangle) -> BvhAabb {
     let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
     BvhAabb::new(a.min(b).min(c), a.max(b).max(c))
-}
-
-/// One primitive in the order the tree's leaves name them: traversal reads
-/// what it tests from one place.
-#[derive(Copy, Clone, Debug)]
-pub(crate) struct Leaf {
-    /// The triangle, for triangle geometries (zeros for AABBs).
-    pub(crate) triangle: Triangle,
-    pub(crate) geometry: u32,
-    pub(crate) primitive: u32,
 }
 
 /// A built GAS: its geometries and the tree over their primitives.
@@ -254,7 +215,7 @@ pub(crate) struct SceneData {
     pub(crate) bvh: CwBvh,
     /// Every primitive is a triangle.
     pub(crate) all_triangles: bool,
-    /// Every primitive is an opaque triangle (see [`super::packet::scene_kind`]).
+    /// Every primitive is an opaque triangle (see [`scene_kind`]).
     pub(crate) all_opaque_triangles: bool,
 }
 
@@ -269,7 +230,7 @@ impl SceneData {
     pub(crate) fn build(instances: Vec<SceneInstance>) -> SceneData {
         let boxes: Vec<BvhAabb> = instances.iter().map(world_bounds).collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(boxes.len()), &mut Duration::default());
-        let (all_triangles, all_opaque_triangles) = super::packet::scene_kind(&instances);
+        let (all_triangles, all_opaque_triangles) = scene_kind(&instances);
         SceneData { instances, bvh, all_triangles, all_opaque_triangles }
     }
 
@@ -322,16 +283,11 @@ impl CpuGas {
 
 /// Builds a GAS of the CPU backend from `inputs`: the tree, each geometry's
 /// shape, and the tree's size in bytes.
-pub(crate) fn build_gas(
-    ctx: &Arc<super::CpuContext>,
-    inputs: &[BuildInput<'_>],
-    options: crate::types::accel::BuildOptions,
-) -> crate::Result<(Arc<CpuGas>, Vec<crate::types::accel::Shape>, u64)> {
-    let shapes = crate::validate::accel::validate(inputs, &super::LIMITS, options.allow_update)?;
+pub(crate) fn build_gas(ctx: &Arc<super::CpuContext>, inputs: &[BuildInput<'_>]) -> (Arc<CpuGas>, u64) {
     let data = GasData::build(inputs);
     let size = data.size();
     let gas = CpuGas { ctx: ctx.clone(), data: std::sync::Mutex::new(Arc::new(data)), version: Default::default() };
-    Ok((Arc::new(gas), shapes, size))
+    (Arc::new(gas), size)
 }
 
 /// An instance's row-major 3×4 transform as an affine map.
@@ -344,4 +300,27 @@ pub(crate) fn affine_from_rows(rows: &[f32; 12]) -> Affine3A {
         Vec3A::new(r0.z, r1.z, r2.z),
         Vec3A::new(rows[3], rows[7], rows[11]),
     )
+}
+
+/// all-opaque one, run no program while they traverse.
+pub(crate) fn scene_kind(instances: &[SceneInstance]) -> (bool, bool) {
+    let mut triangles = true;
+    let mut opaque = true;
+    for instance in instances {
+        for geometry in &instance.gas.geometries {
+            let Geometry::Triangles { flags, .. } = geometry else {
+                triangles = false;
+                continue;
+            };
+            let mut geometry_opaque = flags.contains(GeometryFlags::OPAQUE);
+            if instance.flags.contains(InstanceFlags::FORCE_OPAQUE) {
+                geometry_opaque = true;
+            }
+            if instance.flags.contains(InstanceFlags::FORCE_NON_OPAQUE) {
+                geometry_opaque = false;
+            }
+            opaque &= geometry_opaque;
+        }
+    }
+    (triangles, triangles && opaque)
 }

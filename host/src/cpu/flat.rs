@@ -3,14 +3,14 @@
 //!
 //! For a few dozen triangles (a Cornell box, a quad light, a simple prop) the
 //! tree's node tests cost more than testing every triangle eight lanes wide.
-//! The lanes compute what [`super::launch`]'s one-triangle test computes, with
+//! The lanes compute what the one-triangle test ([`super::intersect::intersect_triangle`]) computes, with
 //! the same operations in the same order, so each triangle's `t`, barycentrics
 //! and determinant are bit for bit those of the tree walk; the candidates then
 //! go through the same opacity, culling and any-hit steps in leaf order.
 
 use glam::Vec3A;
 
-use super::accel::{Geometry, Leaf};
+use super::geometry::{Geometry, Leaf};
 use super::simd::{Intersections, Lanes};
 
 /// GASes of at most this many triangles (and no AABBs) are tested flat.

@@ -55,7 +55,7 @@ unsafe fn intersect_node_avx2(node: &CwBvhNode, ray: &BvhRay, oct_inv4: u32) -> 
 /// Möller–Trumbore: `(t, u, v, determinant)` of a hit inside `[t_min, t_max]`.
 #[inline(always)]
 pub(super) fn intersect_triangle(
-    tri: &super::accel::Triangle,
+    tri: &super::geometry::Triangle,
     origin: Vec3A,
     direction: Vec3A,
     t_min: f32,

@@ -8,86 +8,20 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use glam::{UVec3, Vec3};
+use glam::UVec3;
 use raykit_device::exception::EXCEPTION_CAPACITY;
 use raykit_device::stage::HitBuiltins;
 
-use super::accel::SceneData;
-use super::buffers::Words;
+use super::job::{Fault, InvocationState, LaneSeat, LaunchJob};
 use super::lanes::{self, LaneYielder};
 use super::packet::{self, Packet};
-use super::program::{Aligned, PipelineData, SbtData};
-use super::runtime::{Fault, Frame};
+use super::program::{PipelineData, SbtData};
+use super::traverse::Frame;
 use super::CpuLiveness;
 use super::{CpuContext, TILE};
 use crate::error::LaunchError;
 use crate::error::{Error, Result, UserException};
-use crate::validate::launch::{check_launch, SbtChecks};
-
-/// Everything a launch reads, fixed when it starts.
-pub(crate) struct LaunchJob {
-    pub(crate) ctx: Arc<CpuContext>,
-    pub(crate) pipeline: Arc<PipelineData>,
-    pub(crate) sbt: Arc<SbtData>,
-    pub(crate) params: Aligned,
-    pub(crate) dims: [u32; 3],
-    /// The buffer table when the launch started, by slot.
-    pub(crate) buffers: super::slots::Snapshot<Words>,
-    /// The texture table when the launch started, by slot.
-    pub(crate) textures: super::textures::Snapshot,
-    /// The live IASes when the launch started, with their addresses (a few:
-    /// searched in order, faster than hashing on every trace).
-    pub(crate) scenes: Vec<(u64, Arc<SceneData>)>,
-    /// Whether traversals run [`Traversal::run_avx2`](super::traverse::Traversal::run_avx2)
-    /// (the CPU has its features).
-    pub(super) avx2: bool,
-    /// Whether invocations run in blocks of lanes whose camera rays are traced
-    /// in packets (the context allows it and the CPU has AVX2).
-    packets: bool,
-}
-
-impl LaunchJob {
-    /// A launch of `pipeline` with `sbt` and `params` over `dims`, seeing the
-    /// context's buffers and IASes as they are now.
-    pub(crate) fn new(pipeline: Arc<PipelineData>, sbt: Arc<SbtData>, params: &[u8], dims: [u32; 3]) -> LaunchJob {
-        let ctx = pipeline.ctx.clone();
-        let buffers = ctx.buffers.snapshot();
-        let textures = ctx.textures.snapshot();
-        let scenes = ctx.scenes().iter().map(|(a, s)| (*a, s.data.clone())).collect::<Vec<_>>();
-        let avx2 = has_avx2();
-        let packets = avx2 && ctx.packets;
-        LaunchJob {
-            ctx,
-            pipeline,
-            sbt,
-            params: Aligned::new(params, 0),
-            dims,
-            buffers,
-            textures,
-            scenes,
-            avx2,
-            packets,
-        }
-    }
-}
-
-/// Whether the CPU has every feature
-/// [`Traversal::run_avx2`](super::traverse::Traversal::run_avx2) is compiled for.
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-            && std::arch::is_x86_feature_detected!("popcnt")
-            && std::arch::is_x86_feature_detected!("lzcnt")
-            && std::arch::is_x86_feature_detected!("bmi1")
-            && std::arch::is_x86_feature_detected!("bmi2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
+use crate::validate::launch::LaunchChecks;
 
 /// Why an invocation stopped early.
 enum Failure {
@@ -209,51 +143,6 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
     Err(crate::error::exceptions_error(total, exceptions, job.pipeline.max_trace_depth).into())
 }
 
-/// The state of one invocation, shared by its nested program calls.
-pub(super) struct InvocationState<'j> {
-    pub(super) job: &'j LaunchJob,
-    pub(super) launch_index: UVec3,
-    /// The innermost program a failure is unwinding (or unwound) through:
-    /// what the failure is reported from.
-    pub(super) failed_in: Cell<Option<&'static str>>,
-    pub(super) exceptions: RefCell<Vec<UserException>>,
-    /// Pairs of types (declared, given) found equal by name, by identity: a
-    /// program receiving what it received before is not compared by name again.
-    pub(super) same_types: Cell<[TypePair; 4]>,
-    /// While the invocation runs in a lane of a block: where its packet
-    /// traces go.
-    pub(super) lane: Cell<Option<LaneSeat>>,
-    /// Where the invocation's first trace a packet could take started: its
-    /// traces from there (a camera's rays) go in packets.
-    pub(super) camera: Cell<Option<Vec3>>,
-}
-
-impl<'j> InvocationState<'j> {
-    fn new(job: &'j LaunchJob) -> Self {
-        InvocationState {
-            job,
-            launch_index: UVec3::ZERO,
-            failed_in: Cell::new(None),
-            exceptions: RefCell::new(Vec::new()),
-            // No name function is at address 0: nothing matches these.
-            same_types: Cell::new([(0, 0); 4]),
-            lane: Cell::new(None),
-            camera: Cell::new(None),
-        }
-    }
-}
-
-/// Where an invocation running in a lane of a block sends its packet traces.
-#[derive(Copy, Clone)]
-pub(super) struct LaneSeat {
-    /// What the lane suspends through.
-    pub(super) yielder: *const LaneYielder,
-    /// The block's packet.
-    pub(super) packet: *const UnsafeCell<Packet>,
-    /// The lane's index in the block and its packet.
-    pub(super) index: usize,
-}
-
 /// Runs the tile of `size × size` invocations from `[x0, y0, z]` in
 /// [`packet::WIDTH`] lanes, their camera rays traced in packets. Lane `i` runs
 /// the tile's invocations `i`, `i + WIDTH`, … in rows of blocks of
@@ -331,10 +220,6 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
     }
 }
 
-/// The identities of two types found equal (see
-/// [`TypeInfo::identity`](raykit_device::cpu::TypeInfo::identity)).
-type TypePair = (usize, usize);
-
 /// Runs the raygen program at `state.launch_index`.
 /// The user exceptions it threw go to `exceptions`; a failure is returned.
 fn invoke(state: &InvocationState<'_>, exceptions: &mut Vec<UserException>) -> Option<LaunchFailure> {
@@ -386,23 +271,19 @@ pub(crate) struct CpuLaunch {
 }
 
 impl CpuLaunch {
-    /// Checks the handles of `params` and of the SBT's checked records against
-    /// the context's live objects, and the scenes of `params` against the SBT's
-    /// hit records, as Vulkan launches do (see [`crate::validate::handles`] and
-    /// [`crate::validate::scene`]), then starts the launch.
-    pub(crate) fn submit<P: raykit_device::LaunchParams>(
+    /// Runs the launch's `checks` while the context's scenes are locked (so no
+    /// IAS drop slips in between), then starts the launch over `dims`.
+    pub(crate) fn submit(
         pipeline: &Arc<PipelineData>,
-        checks: SbtChecks<'_>,
+        checks: LaunchChecks<'_>,
         records: &Arc<SbtData>,
-        params: &P,
         dims: [u32; 3],
     ) -> Result<CpuLaunch> {
         let ctx = &pipeline.ctx;
-        let params = bytemuck::bytes_of(params);
         let live = CpuLiveness { ctx, scenes: ctx.scenes() };
-        check_launch(&live, &pipeline.handle_fields, params, checks, &pipeline.reach)?;
+        checks.run(&live)?;
         drop(live);
-        Ok(CpuLaunch::start(LaunchJob::new(pipeline.clone(), records.clone(), params, dims)))
+        Ok(CpuLaunch::start(LaunchJob::new(pipeline.clone(), records.clone(), checks.params, dims)))
     }
 
     /// Starts `job`; the context counts it as running until it ends.

@@ -73,7 +73,9 @@
 pub(crate) mod accel;
 pub(crate) mod buffers;
 pub(crate) mod flat;
+pub(crate) mod geometry;
 mod intersect;
+pub(crate) mod job;
 pub(crate) mod lanes;
 pub(crate) mod launch;
 pub(crate) mod overflow;

@@ -7,7 +7,7 @@
 //! inverse directions that hold every ray of the group, widened a little, so a
 //! child any ray would enter is always entered. Triangles are tested against
 //! every ray at once, eight lanes at a time, with the same operations in the same
-//! order as [`super::launch`]'s one-ray test, so each ray gets the same hit as
+//! order as the one-ray test ([`super::intersect::intersect_triangle`]), so each ray gets the same hit as
 //! alone; only which of two hits at exactly the same distance wins may differ.
 //! Rays far apart in direction or origin would make the interval loose, so such
 //! groups are walked one ray at a time by the same code.
@@ -16,9 +16,10 @@ use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::cwbvh::CwBvh;
 
-use super::accel::{GasData, Geometry, SceneData, SceneInstance};
+use super::accel::{GasData, SceneData};
+use super::geometry::Leaf;
 use super::simd::{child_mask, quantized};
-use crate::types::accel::{GeometryFlags, InstanceFlags};
+use crate::types::accel::InstanceFlags;
 
 /// Rays in a packet: one AVX2 register of `f32` lanes per eight.
 pub(crate) const WIDTH: usize = 16;
@@ -66,29 +67,6 @@ pub(crate) struct PacketHit {
 /// Whether every primitive of a scene of `instances` is a triangle, and whether every one is
 /// opaque (by its geometry's flag and its instance's `FORCE_*` flags): rays
 /// into an all-triangle scene with the ray's `OPAQUE` flag, or into an
-/// all-opaque one, run no program while they traverse.
-pub(crate) fn scene_kind(instances: &[SceneInstance]) -> (bool, bool) {
-    let mut triangles = true;
-    let mut opaque = true;
-    for instance in instances {
-        for geometry in &instance.gas.geometries {
-            let Geometry::Triangles { flags, .. } = geometry else {
-                triangles = false;
-                continue;
-            };
-            let mut geometry_opaque = flags.contains(GeometryFlags::OPAQUE);
-            if instance.flags.contains(InstanceFlags::FORCE_OPAQUE) {
-                geometry_opaque = true;
-            }
-            if instance.flags.contains(InstanceFlags::FORCE_NON_OPAQUE) {
-                geometry_opaque = false;
-            }
-            opaque &= geometry_opaque;
-        }
-    }
-    (triangles, triangles && opaque)
-}
-
 /// Rays lane by lane, coordinate by coordinate: `o[axis][lane]`,
 /// `d[axis][lane]`; rows on 32-byte boundaries, so AVX2 loads of them never
 /// split a cache line.
@@ -433,7 +411,7 @@ impl Packet {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
-    fn triangle(&mut self, instance: u32, leaf: &super::accel::Leaf, flip: bool, rays: &Rays, group: &Group) -> bool {
+    fn triangle(&mut self, instance: u32, leaf: &Leaf, flip: bool, rays: &Rays, group: &Group) -> bool {
         let lanes = group.lanes & self.active;
         let mut accepted = false;
         for half in 0..WIDTH / 8 {
@@ -450,15 +428,7 @@ impl Packet {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
-    fn triangle_half(
-        &mut self,
-        instance: u32,
-        leaf: &super::accel::Leaf,
-        flip: bool,
-        rays: &Rays,
-        first: usize,
-        lanes: u8,
-    ) -> bool {
+    fn triangle_half(&mut self, instance: u32, leaf: &Leaf, flip: bool, rays: &Rays, first: usize, lanes: u8) -> bool {
         use std::arch::x86_64::*;
         let tri = &leaf.triangle;
         let set = |v: Vec3A| [_mm256_set1_ps(v.x), _mm256_set1_ps(v.y), _mm256_set1_ps(v.z)];

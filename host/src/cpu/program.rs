@@ -3,11 +3,9 @@
 
 use std::sync::Arc;
 
-use raykit_device::cpu::{CpuProgram, TypeInfo};
+use raykit_device::cpu::CpuProgram;
 
 use super::CpuContext;
-use crate::error::LinkError;
-use crate::error::{Error, Result};
 use crate::types;
 use crate::types::group::{GroupKind, SpirvCode};
 
@@ -21,7 +19,6 @@ pub(crate) struct Program {
 /// One group of a CPU pipeline.
 #[derive(Clone, Debug)]
 pub(crate) struct Group {
-    pub(crate) id: u64,
     pub(crate) kind: GroupKind,
     /// The raygen, miss, callable or exception program.
     pub(crate) general: Option<Program>,
@@ -42,10 +39,6 @@ impl Group {
     }
 }
 
-/// The most bytes of hit attributes a program may declare: Vulkan's
-/// `maxRayHitAttributeSize` on every device raykit knows.
-pub(crate) const ATTRIBUTE_BYTES: usize = 32;
-
 /// A linked CPU pipeline.
 #[derive(Debug)]
 pub(crate) struct PipelineData {
@@ -56,51 +49,6 @@ pub(crate) struct PipelineData {
     pub(crate) specialization: Vec<(u32, u32)>,
     /// The index of the exception group, if there is one.
     pub(crate) exception_group: Option<usize>,
-    /// Where the params' handles are, checked by every launch.
-    pub(crate) handle_fields: Vec<crate::validate::handles::HandleField>,
-    /// The SBT records its programs' traces may select, checked against the
-    /// scene by every launch (see [`crate::validate::scene`]).
-    pub(crate) reach: crate::validate::TraceReach,
-    /// What each group needs of its records, in pipeline order.
-    pub(crate) needs: Vec<crate::validate::records::GroupNeeds>,
-}
-
-impl PipelineData {
-    /// Checks that every program takes params `params` and records, payloads,
-    /// attributes and callable data the backend can hold.
-    pub(crate) fn check(groups: &[Group], params: TypeInfo) -> Result<()> {
-        for program in groups.iter().flat_map(Group::programs) {
-            if let Some(theirs) = program.cpu.params {
-                if theirs != params {
-                    return Err(Error::Link(LinkError::CpuTypeMismatch {
-                        program: program.name.to_owned(),
-                        what: "launch params",
-                        declared: theirs.name(),
-                        given: params.name().to_owned(),
-                    }));
-                }
-            }
-            for (what, ty) in [("record data", program.cpu.record), ("hit attributes", program.cpu.attributes)] {
-                if let Some(ty) = ty.filter(|t| t.align > 16) {
-                    return Err(Error::Link(LinkError::CpuTypeMismatch {
-                        program: program.name.to_owned(),
-                        what,
-                        declared: ty.name(),
-                        given: format!("an alignment of {} (at most 16 is supported)", ty.align),
-                    }));
-                }
-            }
-            if let Some(ty) = program.cpu.attributes.filter(|t| t.size > ATTRIBUTE_BYTES) {
-                return Err(Error::Link(LinkError::CpuTypeMismatch {
-                    program: program.name.to_owned(),
-                    what: "hit attributes",
-                    declared: ty.name(),
-                    given: format!("{} bytes (maxRayHitAttributeSize is {ATTRIBUTE_BYTES})", ty.size),
-                }));
-            }
-        }
-        Ok(())
-    }
 }
 
 /// Bytes aligned to 16, as records, params and attributes are read.
@@ -142,30 +90,36 @@ pub(crate) struct SbtData {
     pub(crate) regions: [Vec<Record>; 4],
 }
 
-/// Links `groups` of a CPU context into a pipeline for params `P`.
-pub(crate) fn link<P: raykit_device::LaunchParams, S: SpirvCode>(
+impl SbtData {
+    /// The checked records of `regions` (raygen, miss, hit, callable) of
+    /// `pipeline`, each padded to what its group's programs read.
+    pub(crate) fn new(pipeline: &PipelineData, regions: &[Vec<types::sbt::PlainRecord<'_>>; 4]) -> SbtData {
+        let records = |records: &Vec<types::sbt::PlainRecord<'_>>| {
+            let record = |r: &types::sbt::PlainRecord<'_>| {
+                let len = pipeline.groups.get(r.group).map_or(0, Group::record_size);
+                Record { group: r.group, data: Aligned::new(r.data, len) }
+            };
+            records.iter().map(record).collect()
+        };
+        SbtData { regions: std::array::from_fn(|i| records(&regions[i])) }
+    }
+}
+
+/// Links checked `groups` of a CPU context into a pipeline.
+pub(crate) fn link<S: SpirvCode>(
     ctx: &Arc<CpuContext>,
     groups: &[&types::group::Group<S>],
     max_trace_depth: u32,
     constants: &types::specialization::Specialization,
-) -> Result<PipelineData> {
-    let limit = super::LIMITS.max_ray_recursion_depth;
-    if max_trace_depth > limit {
-        return Err(Error::Link(LinkError::TraceDepthTooLarge { requested: max_trace_depth, limit }));
-    }
-    crate::validate::check_linkable(groups.iter().map(|g| g.kind()))?;
+) -> PipelineData {
     let linked: Vec<Group> = groups.iter().map(|g| group(g)).collect();
-    PipelineData::check(&linked, TypeInfo::of::<P>())?;
-    Ok(PipelineData {
+    PipelineData {
         ctx: ctx.clone(),
         exception_group: linked.iter().position(|g| g.kind == GroupKind::Exception),
         groups: linked,
         max_trace_depth,
         specialization: constants.values().to_vec(),
-        handle_fields: crate::validate::handles::handle_fields(&P::LAYOUT),
-        reach: crate::validate::TraceReach::of(groups.iter().copied()),
-        needs: groups.iter().map(|g| crate::validate::records::GroupNeeds::of(g)).collect(),
-    })
+    }
 }
 
 /// The CPU programs of `group` (a group of a CPU context holds only those).
@@ -178,8 +132,7 @@ fn group<S: Clone>(group: &types::group::Group<S>) -> Group {
             ProgramCode::Spirv(_) => None,
         }
     };
-    let mut out =
-        Group { id: group.id, kind: group.kind(), general: None, closest_hit: None, any_hit: None, intersection: None };
+    let mut out = Group { kind: group.kind(), general: None, closest_hit: None, any_hit: None, intersection: None };
     match &group.programs {
         GroupPrograms::Raygen(p)
         | GroupPrograms::Miss(p)

@@ -13,22 +13,12 @@ use raykit_device::stage::HitBuiltins;
 use raykit_device::{Ray, Traversable, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE};
 
 use super::accel::SceneData;
-use super::launch::{InvocationState, LaunchJob};
+use super::job::{fault, AnyHitEnd, LaunchJob};
 use super::packet::Traced;
-use super::program::{Program, ATTRIBUTE_BYTES};
-use super::traverse::{hit_builtins, ray_flags, Attributes, Committed, Traversal};
+use super::program::Program;
+use super::traverse::{hit_builtins, ray_flags, Attributes, Committed, Frame, Traversal};
 use crate::error::UserException;
-
-/// A fault: a program asked for something the device would not define (an
-/// unknown traversable, a record past the SBT, a payload of another type).
-/// Unwinds the invocation; the launch returns it as an error.
-pub(super) struct Fault(pub(super) String);
-
-/// What an any-hit program decided by not returning.
-pub(super) enum AnyHitEnd {
-    Ignore,
-    Terminate,
-}
+use crate::validate::link::ATTRIBUTE_BYTES;
 
 /// Notes the program a failure unwinds through (dropped only while
 /// unwinding: [`Frame::run`] forgets it when the program returns).
@@ -43,20 +33,6 @@ impl Drop for NoteUnwinding<'_> {
             self.failed_in.set(Some(self.program));
         }
     }
-}
-
-/// Ends the invocation with a fault.
-pub(super) fn fault(problem: String) -> ! {
-    resume_unwind(Box::new(Fault(problem)))
-}
-
-/// A program running, as its runtime: the invocation it belongs to, the depth
-/// of the ray it runs for, and, in intersection and any-hit programs, the
-/// traversal it runs inside.
-pub(super) struct Frame<'s, 'j> {
-    pub(super) state: &'s InvocationState<'j>,
-    pub(super) depth: u32,
-    pub(super) traversal: Option<&'s Traversal<'s>>,
 }
 
 impl<'j> Frame<'_, 'j> {

@@ -23,12 +23,12 @@ use raykit_device::cpu::{Erased, TraceCall, TypeInfo};
 use raykit_device::stage::HitBuiltins;
 use raykit_device::{Ray, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TRIANGLE};
 
-use super::accel::{Geometry, Leaf, SceneData, SceneInstance};
+use super::accel::{SceneData, SceneInstance};
+use super::geometry::{Geometry, Leaf};
 use super::intersect::{intersect_node, intersect_triangle};
-use super::launch::LaunchJob;
-use super::program::ATTRIBUTE_BYTES;
-use super::runtime::{fault, AnyHitEnd, Frame};
+use super::job::{fault, AnyHitEnd, InvocationState, LaunchJob};
 use crate::types::accel::InstanceFlags;
+use crate::validate::link::ATTRIBUTE_BYTES;
 
 /// `SpvRayFlags…KHR` bits.
 pub(super) mod ray_flags {
@@ -42,6 +42,15 @@ pub(super) mod ray_flags {
     pub const CULL_NO_OPAQUE: u32 = 0x80;
     pub const SKIP_TRIANGLES: u32 = 0x100;
     pub const SKIP_AABBS: u32 = 0x200;
+}
+
+/// A program running, as its runtime: the invocation it belongs to, the depth
+/// of the ray it runs for, and, in intersection and any-hit programs, the
+/// traversal it runs inside.
+pub(super) struct Frame<'s, 'j> {
+    pub(super) state: &'s InvocationState<'j>,
+    pub(super) depth: u32,
+    pub(super) traversal: Option<&'s Traversal<'s>>,
 }
 
 /// Hit attributes: `ATTRIBUTE_BYTES`, aligned to 16.

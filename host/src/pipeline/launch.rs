@@ -35,6 +35,7 @@ use super::{Pipeline, PipelineRepr};
 use crate::error::{Error, Result};
 use crate::error::{LaunchError, SbtError};
 use crate::sbt::{Sbt, SbtRepr};
+use crate::validate::launch::LaunchChecks;
 use crate::vulkan::pipeline::record::VulkanLaunch;
 use crate::vulkan::pipeline::timing::TimestampPool;
 
@@ -124,29 +125,35 @@ impl<P: raykit_device::LaunchParams> Pipeline<P> {
         dims: [u32; 3],
         timestamps: Option<&TimestampPool>,
     ) -> Result<Launch> {
+        if !Arc::ptr_eq(&sbt.pipeline, &self.info) {
+            return Err(Error::Sbt(SbtError::OfAnotherPipeline));
+        }
+        let info = &*self.info;
+        check_dimensions(dims, &info.limits, info.launch_dimensions)?;
+        let params = bytemuck::bytes_of(params);
+        // What the backend checks under its lock, so no drop slips between the
+        // checks and the submission.
+        let checks = LaunchChecks { fields: &info.handle_fields, params, sbt: sbt.checks(), reach: &info.reach };
         // The one match of the pipeline with its SBT: each backend gets its own halves.
-        match (&self.repr, &sbt.repr) {
-            (PipelineRepr::Vulkan(inner), SbtRepr::Vulkan(device_sbt)) if Arc::ptr_eq(&device_sbt.pipeline, inner) => {
-                let ctx = &inner.ctx;
-                check_dimensions(dims, &ctx.limits, ctx.launch_dimension_limits)?;
+        let repr = match (&self.repr, &sbt.repr) {
+            (PipelineRepr::Vulkan(inner), SbtRepr::Vulkan(device_sbt)) => {
+                let timestamps = timestamps.map(|t| t.pool);
                 let launch = crate::vulkan::pipeline::record::submit(
                     inner,
                     device_sbt,
-                    sbt.checks(),
-                    bytemuck::bytes_of(params),
+                    checks,
                     dims,
                     self.stack_size(),
-                    timestamps.map(|t| t.pool),
+                    timestamps,
                 )?;
-                Ok(Launch { repr: LaunchRepr::Vulkan(launch) })
+                LaunchRepr::Vulkan(launch)
             }
-            (PipelineRepr::Cpu(data), SbtRepr::Cpu { pipeline, data: records }) if Arc::ptr_eq(pipeline, data) => {
-                check_dimensions(dims, &crate::cpu::LIMITS, crate::cpu::LAUNCH_DIMENSION_LIMITS)?;
-                let launch = crate::cpu::launch::CpuLaunch::submit(data, sbt.checks(), records, params, dims)?;
-                Ok(Launch { repr: LaunchRepr::Cpu(launch) })
+            (PipelineRepr::Cpu(data), SbtRepr::Cpu(records)) => {
+                LaunchRepr::Cpu(crate::cpu::launch::CpuLaunch::submit(data, checks, records, dims)?)
             }
-            _ => Err(Error::Sbt(SbtError::OfAnotherPipeline)),
-        }
+            _ => return Err(Error::Sbt(SbtError::OfAnotherPipeline)),
+        };
+        Ok(Launch { repr })
     }
 }
 

@@ -28,13 +28,14 @@ use raykit_device::LaunchParams;
 use raykit_spirv::InterfaceSizes;
 
 use super::Specialization;
-use crate::context::Context;
+use crate::backend::{refused_on_cpu, CpuRefusal};
+use crate::context::{Context, ContextRepr};
 use crate::error::LinkError;
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
+use crate::validate::link::check_groups;
 use crate::vulkan::module::SpirvGroup;
 pub(crate) use crate::vulkan::pipeline::link::LibraryInner;
-use crate::vulkan::pipeline::shader_groups::check_groups;
 
 /// Options of a [`PipelineLibrary`].
 #[derive(Copy, Clone, Debug)]
@@ -77,10 +78,10 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         options: LibraryOptions,
         constants: &Specialization,
     ) -> Result<PipelineLibrary<P>> {
-        if ctx.cpu().is_some() {
-            return Err(crate::backend::refused_on_cpu(crate::backend::CpuRefusal::PipelineLibrary));
-        }
-        let inner = ctx.vulkan("a pipeline library")?;
+        let inner = match ctx.repr() {
+            ContextRepr::Vulkan(inner) => inner,
+            ContextRepr::Cpu(_) => return Err(refused_on_cpu(CpuRefusal::PipelineLibrary)),
+        };
         if !inner.pipeline_library {
             return Err(Error::Link(LinkError::PipelineLibrariesUnsupported));
         }
@@ -90,7 +91,7 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         let needed = Self::interface_for(groups);
         let groups = ProgramGroup::of_context(ctx, groups)?;
         let groups = groups.as_slice();
-        check_groups::<P>(inner, groups, options.max_trace_depth)?;
+        check_groups::<P, _>(&inner.limits, groups, options.max_trace_depth)?;
         let interface = options.interface.unwrap_or(needed);
         check_interface(groups, interface)?;
         if interface.hit_attributes > inner.limits.max_ray_hit_attribute_size {

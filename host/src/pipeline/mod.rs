@@ -37,16 +37,17 @@ use std::sync::Arc;
 use raykit_device::LaunchParams;
 use raykit_spirv::{InterfaceSizes, ParamsDelivery};
 
-use crate::context::Context;
+use crate::backend::{refused_on_cpu, CpuRefusal};
+use crate::context::{Context, ContextRepr};
 use crate::error::{DeviceError, LinkError};
 use crate::error::{Error, Result};
 use crate::program_group::ProgramGroup;
 use crate::stack::{self, GroupRole, GroupStackSizes, StackSize, StackSizes};
 pub use crate::types::program::params_delivery;
 pub use crate::types::specialization::Specialization;
+use crate::validate::link::{check_groups, PipelineInfo};
 use crate::vulkan::module::SpirvGroup;
 use crate::vulkan::pipeline::link::PipelineInner;
-use crate::vulkan::pipeline::shader_groups::check_groups;
 use library::{LibraryInner, PipelineLibrary};
 
 /// Link options (OptiX's `OptixPipelineLinkOptions`).
@@ -66,6 +67,8 @@ impl Default for LinkOptions {
 /// A linked ray-tracing pipeline whose programs take launch params `P`.
 #[doc(alias("OptixPipeline"))]
 pub struct Pipeline<P: LaunchParams> {
+    /// What it was checked with, the same on both backends.
+    pub(crate) info: Arc<PipelineInfo>,
     pub(crate) repr: PipelineRepr,
     _params: PhantomData<fn(&P)>,
 }
@@ -104,15 +107,20 @@ impl<P: LaunchParams> Pipeline<P> {
     ) -> Result<Pipeline<P>> {
         let groups = ProgramGroup::of_context(ctx, groups)?;
         let groups = groups.as_slice();
-        if let Some(cpu) = ctx.cpu() {
-            let data = crate::cpu::program::link::<P, _>(cpu, groups, options.max_trace_depth, constants)?;
-            return Ok(Pipeline { repr: PipelineRepr::Cpu(Arc::new(data)), _params: PhantomData });
-        }
-        let inner = ctx.vulkan("a pipeline")?;
-        check_groups::<P>(inner, groups, options.max_trace_depth)?;
+        let depth = options.max_trace_depth;
+        check_groups::<P, _>(ctx.limits(), groups, depth)?;
         crate::validate::check_linkable(groups.iter().map(|g| g.kind()))?;
-        let inner = crate::vulkan::pipeline::link::link_groups::<P>(inner, groups, options.max_trace_depth, constants)?;
-        Ok(Pipeline::from_inner(inner))
+        let info = PipelineInfo::of::<P, _>(*ctx.limits(), ctx.launch_dimension_limits(), groups, depth);
+        let repr =
+            match ctx.repr() {
+                ContextRepr::Vulkan(inner) => PipelineRepr::Vulkan(Arc::new(
+                    crate::vulkan::pipeline::link::link_groups::<P>(inner, groups, depth, constants)?,
+                )),
+                ContextRepr::Cpu(cpu) => {
+                    PipelineRepr::Cpu(Arc::new(crate::cpu::program::link(cpu, groups, depth, constants)))
+                }
+            };
+        Ok(Pipeline { info: Arc::new(info), repr, _params: PhantomData })
     }
 
     /// Links a pipeline from `libraries` (OptiX's "program groups can be used
@@ -125,7 +133,10 @@ impl<P: LaunchParams> Pipeline<P> {
     /// sizing and launches work as for [`Pipeline::new`].
     #[doc(alias("optixPipelineCreate"))]
     pub fn link(ctx: &Context, libraries: &[&PipelineLibrary<P>], options: LinkOptions) -> Result<Pipeline<P>> {
-        let inner = ctx.vulkan("a pipeline linked from libraries")?;
+        let inner = match ctx.repr() {
+            ContextRepr::Vulkan(inner) => inner,
+            ContextRepr::Cpu(_) => return Err(refused_on_cpu(CpuRefusal::PipelineLibrary)),
+        };
         if !inner.pipeline_library {
             return Err(Error::Link(LinkError::PipelineLibrariesUnsupported));
         }
@@ -167,10 +178,13 @@ impl<P: LaunchParams> Pipeline<P> {
             }
         }
         crate::validate::check_linkable(groups.iter().map(|g| g.kind()))?;
+        // Each library's groups were checked when it was made.
+        let info =
+            PipelineInfo::of::<P, _>(inner.limits, inner.launch_dimension_limits, &groups, options.max_trace_depth);
         let libraries: Vec<&Arc<LibraryInner>> = libraries.iter().map(|l| &l.inner).collect();
         let inner =
             crate::vulkan::pipeline::link::link_libraries::<P>(inner, &libraries, options.max_trace_depth, interface)?;
-        Ok(Pipeline::from_inner(inner))
+        Ok(Pipeline { info: Arc::new(info), repr: PipelineRepr::Vulkan(Arc::new(inner)), _params: PhantomData })
     }
 
     /// The stack sizes the driver reports for `group`'s shaders in this pipeline
@@ -209,10 +223,7 @@ impl<P: LaunchParams> Pipeline<P> {
 
     /// The pipeline's `max_trace_depth` (`maxPipelineRayRecursionDepth`).
     pub fn max_trace_depth(&self) -> u32 {
-        match &self.repr {
-            PipelineRepr::Vulkan(inner) => inner.max_trace_depth,
-            PipelineRepr::Cpu(data) => data.max_trace_depth,
-        }
+        self.info.max_trace_depth
     }
 
     /// The stack size Vulkan defines for this pipeline were it made without the
@@ -284,25 +295,14 @@ impl<P: LaunchParams> Pipeline<P> {
 
     /// The position of `group` in this pipeline, if it was linked into it.
     pub(crate) fn group_index(&self, group: &ProgramGroup) -> Option<usize> {
-        match &self.repr {
-            PipelineRepr::Vulkan(inner) => inner.groups.iter().position(|g| g.id == group.group.id),
-            PipelineRepr::Cpu(data) => data.groups.iter().position(|g| g.id == group.group.id),
-        }
+        self.info.group_index(group.group.id)
     }
 
-    /// What the pipeline's programs reach when they trace and call.
-    pub(crate) fn reach(&self) -> &crate::validate::TraceReach {
+    /// Which backend runs it, for `Debug`.
+    fn backend_name(&self) -> &'static str {
         match &self.repr {
-            PipelineRepr::Vulkan(inner) => &inner.reach,
-            PipelineRepr::Cpu(data) => &data.reach,
-        }
-    }
-
-    /// Whether the pipeline has a group of `kind`.
-    pub(crate) fn has_group(&self, kind: crate::program_group::GroupKind) -> bool {
-        match &self.repr {
-            PipelineRepr::Vulkan(inner) => inner.groups.iter().any(|g| g.kind == kind),
-            PipelineRepr::Cpu(data) => data.groups.iter().any(|g| g.kind == kind),
+            PipelineRepr::Vulkan(_) => "vulkan",
+            PipelineRepr::Cpu(_) => "cpu",
         }
     }
 
@@ -312,10 +312,6 @@ impl<P: LaunchParams> Pipeline<P> {
             PipelineRepr::Vulkan(inner) => Some(inner),
             PipelineRepr::Cpu(_) => None,
         }
-    }
-
-    fn from_inner(inner: PipelineInner) -> Pipeline<P> {
-        Pipeline { repr: PipelineRepr::Vulkan(Arc::new(inner)), _params: PhantomData }
     }
 }
 
@@ -332,26 +328,15 @@ impl ProgramGroup {
 
 impl<P: LaunchParams> fmt::Debug for Pipeline<P> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let inner = match &self.repr {
-            PipelineRepr::Vulkan(inner) => inner,
-            PipelineRepr::Cpu(data) => {
-                let groups: Vec<_> = data.groups.iter().map(|g| g.kind).collect();
-                return f
-                    .debug_struct("Pipeline")
-                    .field("backend", &"cpu")
-                    .field("params", &std::any::type_name::<P>())
-                    .field("groups", &groups)
-                    .field("max_trace_depth", &data.max_trace_depth)
-                    .finish();
-            }
-        };
-        let groups: Vec<_> = inner.groups.iter().map(|g| g.kind).collect();
+        let groups: Vec<_> = self.info.groups.iter().map(|(_, kind)| *kind).collect();
+        let libraries = self.vulkan_inner().map_or(0, |inner| inner.libraries.len());
         f.debug_struct("Pipeline")
+            .field("backend", &self.backend_name())
             .field("params", &std::any::type_name::<P>())
             .field("params_delivery", &params_delivery::<P>())
             .field("groups", &groups)
-            .field("libraries", &inner.libraries.len())
-            .field("max_trace_depth", &inner.max_trace_depth)
+            .field("libraries", &libraries)
+            .field("max_trace_depth", &self.info.max_trace_depth)
             .field("stack_size", &self.stack_size())
             .finish()
     }

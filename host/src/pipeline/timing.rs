@@ -9,7 +9,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use super::Pipeline;
-use crate::context::Context;
+use crate::backend::{refused_on_cpu, CpuRefusal};
+use crate::context::{Context, ContextRepr};
 use crate::error::DeviceError;
 use crate::error::{Error, Result};
 use crate::sbt::Sbt;
@@ -26,7 +27,10 @@ impl LaunchTimer {
     /// A timer for launches on `ctx`; `None` when its queue has no timestamps
     /// (`timestampValidBits == 0` or a zero `timestampPeriod`).
     pub fn new(ctx: &Context) -> Result<Option<LaunchTimer>> {
-        let inner = ctx.vulkan("GPU timestamps")?;
+        let inner = match ctx.repr() {
+            ContextRepr::Vulkan(inner) => inner,
+            ContextRepr::Cpu(_) => return Err(refused_on_cpu(CpuRefusal::VulkanOnly("GPU timestamps"))),
+        };
         let Some((period_ns, valid_bits)) = crate::vulkan::pipeline::timing::timestamp_support(inner) else {
             return Ok(None);
         };

@@ -35,9 +35,11 @@ use crate::error::{Error, Result};
 use crate::error::{LinkError, SbtError};
 use crate::pipeline::{Pipeline, PipelineRepr};
 use crate::program_group::{GroupKind, ProgramGroup};
+use crate::types::sbt::PlainRecord;
 pub use crate::types::sbt::{region_layout, RegionLayout, SbtRegion};
 use crate::validate::handles::HandleField;
 use crate::validate::launch::{CheckedRecord, SbtChecks};
+use crate::validate::link::PipelineInfo;
 use crate::validate::records::{check_record_sizes, HitKinds, RecordData};
 use crate::vulkan::sbt::VulkanSbt;
 use raykit_device::{RayType, SbtRecordData};
@@ -321,17 +323,11 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         // The checks of the records against what the programs trace and call, the
         // same on every backend.
         let pipeline = self.pipeline;
-        let has = |kind: GroupKind| pipeline.has_group(kind);
-        let reach = pipeline.reach();
-        reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
-        reach.check_callables(has(GroupKind::Callable), self.callable.len())?;
-        let (limits, exception_group, needs) = match &pipeline.repr {
-            PipelineRepr::Vulkan(pipeline) => {
-                let exception = pipeline.groups.iter().position(|g| g.kind == GroupKind::Exception);
-                (pipeline.ctx.limits, exception, &pipeline.needs[..])
-            }
-            PipelineRepr::Cpu(pipeline) => (crate::cpu::LIMITS, pipeline.exception_group, &pipeline.needs[..]),
-        };
+        let info = &pipeline.info;
+        let has = |kind: GroupKind| info.has_group(kind);
+        info.reach.check_sbt(has(GroupKind::Miss), miss.len(), has(GroupKind::Hit), hit.len())?;
+        info.reach.check_callables(has(GroupKind::Callable), self.callable.len())?;
+        let (limits, exception_group, needs) = (info.limits, info.exception_group(), &info.needs[..]);
         for (region, records) in
             SbtRegion::ALL.into_iter().zip([std::slice::from_ref(&raygen), &miss[..], &hit[..], &self.callable[..]])
         {
@@ -390,46 +386,20 @@ impl<'p, P: raykit_device::LaunchParams> SbtBuilder<'p, P> {
         let counts = [1, miss.len(), hit.len(), callable.len()];
         let data_types = [raygen_records, &miss[..], &hit[..], &callable[..]]
             .map(|records| records.iter().map(|r| r.data_type).collect());
-        let pipeline = match &self.pipeline.repr {
-            PipelineRepr::Vulkan(pipeline) => pipeline,
-            PipelineRepr::Cpu(pipeline) => {
-                let data = [raygen_records, &miss[..], &hit[..], &callable[..]].map(|records| {
-                    records
-                        .iter()
-                        .map(|r| {
-                            let len = pipeline.groups[r.group_index].record_size();
-                            crate::cpu::program::Record {
-                                group: r.group_index,
-                                data: crate::cpu::program::Aligned::new(&r.data, len),
-                            }
-                        })
-                        .collect()
-                });
-                let device = SbtRepr::Cpu {
-                    pipeline: pipeline.clone(),
-                    data: Arc::new(crate::cpu::program::SbtData { regions: data }),
-                };
-                return Ok(Sbt { repr: device, layouts, counts, data_types, exception_index, checked, hit_kinds });
-            }
-        };
-
-        let mut bytes = Vec::new();
-        usize::try_from(total)
-            .ok()
-            .and_then(|n| bytes.try_reserve_exact(n).ok())
-            .ok_or(Error::Sbt(SbtError::TooLarge { bytes: total }))?;
-        bytes.resize(total as usize, 0u8);
-        let handle_size = limits.shader_group_handle_size as usize;
-        for (layout, records) in [(rg, raygen_records), (ms, &miss[..]), (ht, &hit[..]), (cl, &callable[..])] {
-            for (i, record) in records.iter().enumerate() {
-                let at = (layout.offset + layout.stride * i as u64) as usize;
-                let handle = &pipeline.handles[record.group_index * handle_size..][..handle_size];
-                bytes[at..at + handle_size].copy_from_slice(handle);
-                bytes[at + handle_size..at + handle_size + record.data.len()].copy_from_slice(&record.data);
-            }
+        fn plain(records: &[PackedRecord]) -> Vec<PlainRecord<'_>> {
+            records.iter().map(|r| PlainRecord { group: r.group_index, data: &r.data }).collect()
         }
-        let device = SbtRepr::Vulkan(VulkanSbt::new(pipeline, &bytes, layouts, exception_index)?);
-        Ok(Sbt { repr: device, layouts, counts, data_types, exception_index, checked, hit_kinds })
+        let regions = [plain(raygen_records), plain(&miss), plain(&hit), plain(&callable)];
+        // Checked: each backend packs the records as they are.
+        let repr = match &pipeline.repr {
+            PipelineRepr::Vulkan(inner) => {
+                SbtRepr::Vulkan(VulkanSbt::new(inner, &regions, layouts, total, exception_index)?)
+            }
+            PipelineRepr::Cpu(data) => SbtRepr::Cpu(Arc::new(crate::cpu::program::SbtData::new(data, &regions))),
+        };
+        let handle_size = limits.shader_group_handle_size as u64;
+        let pipeline = pipeline.info.clone();
+        Ok(Sbt { repr, pipeline, handle_size, layouts, counts, data_types, exception_index, checked, hit_kinds })
     }
 }
 
@@ -450,13 +420,17 @@ pub(crate) enum SbtRepr {
     /// In a Vulkan buffer.
     Vulkan(VulkanSbt),
     /// In host memory, for the CPU backend (launches running hold their own `Arc`).
-    Cpu { pipeline: Arc<crate::cpu::program::PipelineData>, data: Arc<crate::cpu::program::SbtData> },
+    Cpu(Arc<crate::cpu::program::SbtData>),
 }
 
 /// A shader binding table on the device, made for one pipeline.
 #[doc(alias("OptixShaderBindingTable", "VkStridedDeviceAddressRegionKHR"))]
 pub struct Sbt {
     pub(crate) repr: SbtRepr,
+    /// The pipeline it was made for.
+    pub(crate) pipeline: Arc<PipelineInfo>,
+    /// Bytes of the group handle at the head of each record.
+    handle_size: u64,
     layouts: [RegionLayout; 4],
     /// Record counts per region (raygen, miss, hit, callable).
     counts: [usize; 4],
@@ -512,11 +486,7 @@ impl Sbt {
             }));
         }
         let layout = self.layouts[r];
-        let limits = match &self.repr {
-            SbtRepr::Vulkan(sbt) => sbt.pipeline.ctx.limits,
-            SbtRepr::Cpu { .. } => crate::cpu::LIMITS,
-        };
-        let handle = limits.shader_group_handle_size as u64;
+        let handle = self.handle_size;
         let room = layout.stride - handle;
         let bytes = data.record_bytes();
         if bytes.len() as u64 > room {
@@ -536,7 +506,7 @@ impl Sbt {
         }
         match &mut self.repr {
             SbtRepr::Vulkan(sbt) => sbt.write(region, at, bytes),
-            SbtRepr::Cpu { data, .. } => {
+            SbtRepr::Cpu(data) => {
                 // Launches running hold the old records; later ones get these.
                 Arc::make_mut(data).regions[r][index].data.write(bytes);
                 Ok(())
@@ -549,7 +519,7 @@ impl Sbt {
     pub fn raw_regions(&self) -> Option<[vk::StridedDeviceAddressRegionKHR; 4]> {
         match &self.repr {
             SbtRepr::Vulkan(sbt) => Some(sbt.regions()),
-            SbtRepr::Cpu { .. } => None,
+            SbtRepr::Cpu(_) => None,
         }
     }
 

@@ -129,3 +129,11 @@ mod selection_tests {
         assert_eq!(selected_miss_record(0x1_0002), 2);
     }
 }
+
+/// A checked SBT record as a backend packs it: the index of its group in the
+/// pipeline, and its data.
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct PlainRecord<'a> {
+    pub(crate) group: usize,
+    pub(crate) data: &'a [u8],
+}

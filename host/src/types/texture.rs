@@ -1,8 +1,5 @@
 //! Texture descriptions: texel formats, samplers, mip levels.
 
-use crate::error::ResourceError;
-use crate::error::{Error, Result};
-
 /// The texel formats of textures. All sample as four `f32` components.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 #[non_exhaustive]
@@ -129,52 +126,12 @@ pub fn full_mip_count(width: u32, height: u32) -> u32 {
     32 - width.max(height).max(1).leading_zeros()
 }
 
-/// The full mip chain of a `width × height` texture of `format` whose level 0
-/// is `base`, level 0 included. Each texel of level `l + 1` is the mean of the
-/// 2×2 texels of level `l` it covers (clamped at an odd edge), in linear values
-/// ([`TextureFormat::decode`]), encoded back with [`TextureFormat::encode`].
-pub fn generate_mips(format: TextureFormat, width: u32, height: u32, base: &[u8]) -> Result<Vec<MipLevel>> {
-    check_level(format, 0, width, height, base.len())?;
-    let bpt = format.bytes_per_texel();
-    let mut levels = vec![MipLevel { width, height, data: base.to_vec() }];
-    for level in 1..full_mip_count(width, height) {
-        let prev = &levels[level as usize - 1];
-        let (w, h) = mip_size(width, height, level);
-        let texel = |x: u32, y: u32| {
-            let (x, y) = (x.min(prev.width - 1), y.min(prev.height - 1));
-            let i = (y * prev.width + x) as usize * bpt;
-            format.decode(&prev.data[i..i + bpt])
-        };
-        let mut data = Vec::with_capacity(w as usize * h as usize * bpt);
-        for y in 0..h {
-            for x in 0..w {
-                let mut sum = [0.0f32; 4];
-                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                    let t = texel(2 * x + dx, 2 * y + dy);
-                    for c in 0..4 {
-                        sum[c] += t[c] * 0.25;
-                    }
-                }
-                format.encode(sum, &mut data);
-            }
-        }
-        levels.push(MipLevel { width: w, height: h, data });
-    }
-    Ok(levels)
-}
-
-pub(crate) fn check_level(format: TextureFormat, level: u32, width: u32, height: u32, got: usize) -> Result<()> {
-    let expected = width as usize * height as usize * format.bytes_per_texel();
-    if got != expected {
-        return Err(Error::Resource(ResourceError::TextureData {
-            level,
-            width,
-            height,
-            format,
-            expected,
-            got,
-            fix: "give width × height × bytes_per_texel() bytes per level, rows packed without padding",
-        }));
-    }
-    Ok(())
+/// What a device can do with a texture format.
+pub(crate) struct FormatSupport {
+    /// Sample it, and upload to it.
+    pub(crate) sampled: bool,
+    /// Filter it linearly.
+    pub(crate) linear_filter: bool,
+    /// What the device reports, for errors.
+    pub(crate) features: String,
 }

@@ -47,10 +47,30 @@ pub(crate) trait Liveness {
     fn hit_reach(&self, address: u64) -> Option<Arc<HitReach>>;
 }
 
+/// What a launch is checked with: made by the public launch from what the
+/// pipeline and SBT were checked with, and run by the backend under its lock.
+#[derive(Copy, Clone)]
+pub(crate) struct LaunchChecks<'a> {
+    /// Where the params' handles are.
+    pub(crate) fields: &'a [HandleField],
+    /// The params' bytes.
+    pub(crate) params: &'a [u8],
+    pub(crate) sbt: SbtChecks<'a>,
+    /// What the pipeline's traces select.
+    pub(crate) reach: &'a TraceReach,
+}
+
+impl LaunchChecks<'_> {
+    /// Runs the checks against what `live` says is live.
+    pub(crate) fn run(&self, live: &impl Liveness) -> Result<()> {
+        check_launch(live, self.fields, self.params, self.sbt, self.reach)
+    }
+}
+
 /// The launch checks, in order: the params' handles (laid out as `fields` says),
 /// each checked record's handles, then the reach of the params' scenes into the
 /// SBT for the traces `reach` describes, and the kinds of the hit groups they select.
-pub(crate) fn check_launch(
+fn check_launch(
     live: &impl Liveness,
     fields: &[HandleField],
     params: &[u8],

@@ -35,9 +35,11 @@ pub(crate) mod accel;
 pub mod handles;
 pub(crate) mod hit_reach;
 pub(crate) mod launch;
+pub(crate) mod link;
 pub(crate) mod records;
 pub(crate) mod scene;
 pub mod spirv;
+pub(crate) mod texture;
 
 use raykit_device::ProgramKind;
 use raykit_spirv::{DescriptorBinding, DescriptorKind, ParamsDelivery};
@@ -244,7 +246,7 @@ impl TraceReach {
 /// the buffer table (storage buffers) at set 0, binding 0, the texture table
 /// (combined image samplers) at set 0, binding 1, and the params uniform
 /// buffer at set 1, binding 0 when `delivery` says the params go there.
-fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDelivery) -> Result<()> {
+pub(crate) fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDelivery) -> Result<()> {
     let (table_set, table_binding) = (raykit_abi::BUFFER_TABLE_SET, raykit_abi::BUFFER_TABLE_BINDING);
     let reason = match (binding.set, binding.binding) {
         (s, b) if (s, b) == (table_set, table_binding) => {
@@ -282,33 +284,17 @@ fn check_binding(program: &str, binding: &DescriptorBinding, delivery: ParamsDel
     }))
 }
 
-/// What linking checks of the programs of `groups` before the driver sees them:
-/// their trace depth against `max_trace_depth`, each module's SPIR-V with the
-/// specialization constants `spec_values` frozen in, validated, and every
-/// descriptor binding a program declares against raykit's pipeline layout for
-/// params delivered as `delivery`.
-pub(crate) fn check_programs<S: SpirvCode>(
-    groups: &[&Group<S>],
-    max_trace_depth: u32,
-    spec_values: &[(u32, u32)],
-    delivery: ParamsDelivery,
-) -> Result<()> {
-    TraceReach::of(groups.iter().copied()).check_depth(max_trace_depth)?;
+/// Validates each SPIR-V module of `groups` once, with the specialization
+/// constants `spec_values` frozen in, before `vkCreateShaderModule` sees it
+/// (see [`spirv`]). Only Vulkan consumes SPIR-V, so only its linking calls this;
+/// every other link check is [`link::check_groups`].
+pub(crate) fn check_spirv_modules<S: SpirvCode>(groups: &[&Group<S>], spec_values: &[(u32, u32)]) -> Result<()> {
     let mut seen = std::collections::HashSet::new();
     for group in groups {
         for program in group.programs() {
             let Some(module) = program.module() else { continue };
             if seen.insert(module.identity()) {
                 spirv::validate(&spirv::freeze_spec_constants(module.words(), spec_values)?)?;
-            }
-        }
-    }
-    for group in groups {
-        for program in group.programs() {
-            if let Some(info) = program.entry_info() {
-                for binding in &info.bindings {
-                    check_binding(&info.name, binding, delivery)?;
-                }
             }
         }
     }

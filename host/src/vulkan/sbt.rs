@@ -9,7 +9,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::error::SbtError;
 use crate::error::{Error, Result};
-use crate::types::sbt::{RegionLayout, SbtRegion};
+use crate::types::sbt::{PlainRecord, RegionLayout, SbtRegion};
 use crate::vulkan::memory::RawBuffer;
 use crate::vulkan::pipeline::link::PipelineInner;
 
@@ -27,15 +27,33 @@ pub(crate) struct VulkanSbt {
 }
 
 impl VulkanSbt {
-    /// Uploads the packed records `bytes` of `pipeline`, laid out as `layouts`
-    /// (raygen, miss, hit, callable) say, whose exception program (if any) is at
-    /// `exception_index` in the callable region.
+    /// Packs the checked records of `regions` (raygen, miss, hit, callable) of
+    /// `pipeline`, each its group's handle then its data, laid out as `layouts`
+    /// say in `total` bytes, and uploads them; the exception program (if any)
+    /// is at `exception_index` in the callable region.
     pub(crate) fn new(
         pipeline: &Arc<PipelineInner>,
-        bytes: &[u8],
+        regions: &[Vec<PlainRecord<'_>>; 4],
         layouts: [RegionLayout; 4],
+        total: u64,
         exception_index: Option<u32>,
     ) -> Result<VulkanSbt> {
+        let mut bytes = Vec::new();
+        usize::try_from(total)
+            .ok()
+            .and_then(|n| bytes.try_reserve_exact(n).ok())
+            .ok_or(Error::Sbt(SbtError::TooLarge { bytes: total }))?;
+        bytes.resize(total as usize, 0u8);
+        let handle_size = pipeline.ctx.limits.shader_group_handle_size as usize;
+        for (layout, records) in layouts.iter().zip(regions) {
+            for (i, record) in records.iter().enumerate() {
+                let at = (layout.offset + layout.stride * i as u64) as usize;
+                let handle = &pipeline.handles[record.group * handle_size..][..handle_size];
+                bytes[at..at + handle_size].copy_from_slice(handle);
+                bytes[at + handle_size..at + handle_size + record.data.len()].copy_from_slice(record.data);
+            }
+        }
+        let bytes = &bytes[..];
         let [rg, ms, ht, cl] = layouts;
         let mut buffer = RawBuffer::new(
             &pipeline.ctx,

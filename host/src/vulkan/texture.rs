@@ -8,9 +8,9 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
-use crate::error::{DeviceError, ResourceError};
+use crate::error::DeviceError;
 use crate::error::{Error, Result};
-use crate::types::texture::{Filter, MipLevel, SamplerOptions, TextureFormat};
+use crate::types::texture::{Filter, FormatSupport, MipLevel, SamplerOptions, TextureFormat};
 use crate::vulkan::context::ContextInner;
 use crate::vulkan::conv;
 use crate::vulkan::memory::RawBuffer;
@@ -53,29 +53,18 @@ pub(crate) fn max_texture_size(inner: &ContextInner) -> u32 {
     inner.shared.properties.limits.max_image_dimension2_d
 }
 
-/// Refuses a format (and filter) the device cannot sample.
-pub(crate) fn check_format(inner: &ContextInner, format: TextureFormat, sampler: SamplerOptions) -> Result<()> {
+/// What the device can do with `format` in optimal tiling: sample it (and
+/// upload it), filter it linearly, and its feature flags as text for errors.
+pub(crate) fn format_support(inner: &ContextInner, format: TextureFormat) -> FormatSupport {
     // SAFETY: the physical device belongs to this instance.
     let props =
         unsafe { inner.instance.get_physical_device_format_properties(inner.shared.physical, conv::format(format)) };
     let features = props.optimal_tiling_features;
-    let needed = vk::FormatFeatureFlags::SAMPLED_IMAGE | vk::FormatFeatureFlags::TRANSFER_DST;
-    if !features.contains(needed) {
-        return Err(Error::Resource(ResourceError::TextureFormat {
-            format: format!("{format:?}"),
-            problem: format!("the device cannot sample it (optimal-tiling features {features:?})"),
-            fix: "use another TextureFormat (RGBA8 formats are sampled by every Vulkan device)",
-        }));
+    FormatSupport {
+        sampled: features.contains(vk::FormatFeatureFlags::SAMPLED_IMAGE | vk::FormatFeatureFlags::TRANSFER_DST),
+        linear_filter: features.contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR),
+        features: format!("optimal-tiling features {features:?}"),
     }
-    let linear = sampler.filter == Filter::Linear || sampler.mip_filter == Filter::Linear;
-    if linear && !features.contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR) {
-        return Err(Error::Resource(ResourceError::TextureFormat {
-            format: format!("{format:?}"),
-            problem: "the device cannot filter it linearly".to_owned(),
-            fix: "use Filter::Nearest for this format, or Rgba16Float, which every Vulkan device filters",
-        }));
-    }
-    Ok(())
 }
 
 /// Creates the Vulkan image, uploads `levels` (checked), makes the view and

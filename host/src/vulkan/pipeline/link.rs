@@ -11,7 +11,7 @@ use raykit_spirv::InterfaceSizes;
 
 use crate::error::{Error, Result};
 use crate::stack;
-use crate::types::{program::params_delivery, specialization::Specialization};
+use crate::types::specialization::Specialization;
 use crate::vulkan::context::ContextInner;
 use crate::vulkan::memory::RawBuffer;
 use crate::vulkan::module::SpirvGroup;
@@ -38,10 +38,6 @@ pub(crate) struct PipelineInner {
     pub(crate) handles: Vec<u8>,
     /// `maxPipelineRayRecursionDepth`.
     pub(crate) max_trace_depth: u32,
-    /// The SBT records its programs' traces select.
-    pub(crate) reach: crate::validate::TraceReach,
-    /// What each group needs of its records, in pipeline order.
-    pub(crate) needs: Vec<crate::validate::records::GroupNeeds>,
     /// The stack size every launch sets (`vkCmdSetRayTracingPipelineStackSizeKHR`).
     pub(crate) stack_size: AtomicU32,
     /// Where programs record user exceptions: one buffer per set of programs
@@ -54,8 +50,6 @@ pub(crate) struct PipelineInner {
     /// Finished launches' exception readback buffers, reused by later launches
     /// (an allocation per launch is slow on some drivers).
     pub(crate) readbacks: Mutex<Vec<RawBuffer>>,
-    /// Where `P`'s `Buffer` and `Traversable` fields are, checked by every launch.
-    pub(crate) handle_fields: Vec<crate::validate::handles::HandleField>,
 }
 
 /// What a pipeline is made of besides its stages: its groups, its user-exception
@@ -99,11 +93,7 @@ impl PipelineInner {
         let groups: Vec<LinkedGroup> =
             parts.groups.iter().map(|g| LinkedGroup::read(ctx, pipeline.handle, g)).collect();
         let default = stack::vulkan_default(&super::shader_groups::stack_sizes(&groups), max_trace_depth);
-        let reach = crate::validate::TraceReach::of(parts.groups.iter().map(|g| g.group));
-        let needs = parts.groups.iter().map(|g| crate::validate::records::GroupNeeds::of(g.group)).collect();
         Ok(PipelineInner {
-            reach,
-            needs,
             pipeline,
             params_uniform,
             layout,
@@ -116,7 +106,6 @@ impl PipelineInner {
             throwing: parts.exceptions.iter().filter(|e| e.recorded).cloned().collect(),
             exceptions: parts.exceptions,
             readbacks: Mutex::new(Vec::new()),
-            handle_fields: crate::validate::handles::handle_fields(&P::LAYOUT),
         })
     }
 }
@@ -131,7 +120,7 @@ pub(crate) fn link_groups<P: LaunchParams>(
 ) -> Result<PipelineInner> {
     let exceptions = Arc::new(ExceptionBuffer::new(inner, groups)?);
     let shaders = ShaderGroups::new(groups, exceptions.slot, max_trace_depth, constants);
-    crate::validate::check_programs(groups, max_trace_depth, &shaders.spec_values(), params_delivery::<P>())?;
+    crate::validate::check_spirv_modules(groups, &shaders.spec_values())?;
     let specialization = shaders.specialization();
     let stages = shaders.stages(&specialization);
     let create_info = vk::RayTracingPipelineCreateInfoKHR::default()
@@ -272,7 +261,7 @@ impl LibraryInner {
         let exceptions = Arc::new(ExceptionBuffer::new(inner, groups)?);
         let layout = PipelineLayout::new::<P>(inner)?;
         let shaders = ShaderGroups::new(groups, exceptions.slot, max_trace_depth, constants);
-        crate::validate::check_programs(groups, max_trace_depth, &shaders.spec_values(), params_delivery::<P>())?;
+        crate::validate::check_spirv_modules(groups, &shaders.spec_values())?;
         let specialization = shaders.specialization();
         let stages = shaders.stages(&specialization);
         let interface_create = interface_info(interface);

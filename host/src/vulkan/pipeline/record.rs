@@ -34,7 +34,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::Result;
-use crate::validate::launch::{check_launch, SbtChecks};
+use crate::validate::launch::LaunchChecks;
 use crate::vulkan::barrier::memory_barrier;
 use crate::vulkan::buffer_table::RT_STAGES;
 use crate::vulkan::context::Submission;
@@ -99,20 +99,20 @@ impl VulkanLaunch {
     }
 }
 
-/// Records and submits a launch of `inner` with `sbt` (made for it, checked), with
-/// the params `params_bytes` over `dims` (checked), setting `stack_size`, with
-/// optional timestamps around the trace.
+/// Records and submits a launch of `inner` with `sbt` (made for it) over `dims`
+/// (checked), with the params of `checks`, which run under the timeline's lock,
+/// setting `stack_size`, with optional timestamps around the trace.
 pub(crate) fn submit(
     inner: &Arc<PipelineInner>,
     sbt: &VulkanSbt,
-    checks: SbtChecks<'_>,
-    params_bytes: &[u8],
+    checks: LaunchChecks<'_>,
     dims: [u32; 3],
     stack_size: u32,
     timestamps: Option<vk::QueryPool>,
 ) -> Result<VulkanLaunch> {
     let ctx = &inner.ctx;
     let device = &ctx.device;
+    let params_bytes = checks.params;
     // `vkCmdUpdateBuffer` takes whole words: pad the params to the buffer's size.
     let uniform = inner.params_uniform.as_ref().and_then(|u| {
         let buffer = u.buffer.as_ref()?;
@@ -128,7 +128,7 @@ pub(crate) fn submit(
     let transfers = !throwing.is_empty() || uniform.is_some();
     // The handles of the params, those in SBT records whose type derives
     // `SbtRecordData` (see `crate::validate::handles`), and the scene's reach into the SBT.
-    let check = || check_launch(&**ctx, &inner.handle_fields, params_bytes, checks, &inner.reach);
+    let check = || checks.run(&**ctx);
     let VulkanSbt { raygen, miss, hit, callable, buffer, .. } = sbt;
     let submission = ctx.submit_checked("a launch", check, |cmd| {
         // SAFETY: the pipeline, layout, descriptor sets, uniform, exception and

@@ -4,17 +4,11 @@
 //! the rules a set of groups compiled together must follow, and what the driver
 //! reports for each group once it is linked (handle and stack sizes).
 
-use std::sync::Arc;
-
 use ash::vk;
-use raykit_device::LaunchParams;
-use raykit_spirv::ParamsDelivery;
 
-use crate::error::LinkError;
-use crate::error::{Error, Result};
 use crate::stack::{GroupRole, GroupStackSizes, StackSizes};
 use crate::types::group::GroupKind;
-use crate::types::{program::params_delivery, specialization::Specialization};
+use crate::types::specialization::Specialization;
 use crate::vulkan::context::ContextInner;
 use crate::vulkan::conv;
 use crate::vulkan::module::{SpirvGroup, SpirvGroupPrograms, SpirvProgram};
@@ -136,40 +130,6 @@ impl ShaderGroups {
     }
 }
 
-/// What every set of program groups compiled together (a pipeline or a library)
-/// must satisfy: one context, a trace depth within the device's limit, and
-/// every program's params block laid out as `P` (OptiX's rule that all modules
-/// agree on their `PipelineCompileOptions`).
-pub(crate) fn check_groups<P: LaunchParams>(
-    inner: &Arc<ContextInner>,
-    groups: &[&SpirvGroup],
-    max_trace_depth: u32,
-) -> Result<()> {
-    let limits = inner.limits;
-    if max_trace_depth > limits.max_ray_recursion_depth {
-        return Err(Error::Link(LinkError::TraceDepthTooLarge {
-            requested: max_trace_depth,
-            limit: limits.max_ray_recursion_depth,
-        }));
-    }
-    let params_size = std::mem::size_of::<P>();
-    let delivery = params_delivery::<P>();
-    // Launches write uniform params with `vkCmdUpdateBuffer`, which takes at most 65536 bytes.
-    let uniform_limit = limits.max_uniform_buffer_range.min(65536);
-    if delivery != ParamsDelivery::PushConstants && params_size > uniform_limit as usize {
-        return Err(Error::Link(LinkError::ParamsTooLarge { size: params_size, limit: uniform_limit }));
-    }
-    for group in groups {
-        for program in group.programs() {
-            let Some(info) = program.entry_info() else { continue };
-            if !info.params.is_empty() {
-                raykit_spirv::check(&P::LAYOUT, &info.name, &info.params, delivery)?;
-            }
-        }
-    }
-    Ok(())
-}
-
 /// A group of a pipeline being created, and where it was compiled: its index in
 /// the pipeline (or library) that compiled it.
 pub(crate) struct CompiledGroup<'g> {
@@ -183,8 +143,6 @@ pub(crate) struct CompiledGroup<'g> {
 /// A group of a created pipeline, in pipeline order.
 #[derive(Copy, Clone, Debug)]
 pub(crate) struct LinkedGroup {
-    /// The [`SpirvGroup`]'s identity.
-    pub(crate) id: u64,
     pub(crate) kind: GroupKind,
     /// How it counts in the stack formulas.
     pub(crate) role: GroupRole,
@@ -200,7 +158,6 @@ impl LinkedGroup {
         let group = compiled.group;
         let compiled_in = compiled.library.unwrap_or(pipeline);
         LinkedGroup {
-            id: group.id,
             kind: group.kind(),
             role: group_role(&group.programs),
             stack_sizes: query_group_stack_sizes(ctx, compiled_in, compiled.index, &group.programs),

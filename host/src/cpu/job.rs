@@ -1,0 +1,146 @@
+//! One CPU launch as its invocations see it: what the launch reads, fixed when
+//! it starts, each invocation's state, and how a program's fault ends it.
+
+use std::cell::{Cell, RefCell, UnsafeCell};
+use std::panic::resume_unwind;
+use std::sync::Arc;
+
+use glam::{UVec3, Vec3};
+
+use super::accel::SceneData;
+use super::buffers::Words;
+use super::lanes::LaneYielder;
+use super::packet::Packet;
+use super::program::{Aligned, PipelineData, SbtData};
+use super::CpuContext;
+use crate::error::UserException;
+
+/// Everything a launch reads, fixed when it starts.
+pub(crate) struct LaunchJob {
+    pub(crate) ctx: Arc<CpuContext>,
+    pub(crate) pipeline: Arc<PipelineData>,
+    pub(crate) sbt: Arc<SbtData>,
+    pub(crate) params: Aligned,
+    pub(crate) dims: [u32; 3],
+    /// The buffer table when the launch started, by slot.
+    pub(crate) buffers: super::slots::Snapshot<Words>,
+    /// The texture table when the launch started, by slot.
+    pub(crate) textures: super::textures::Snapshot,
+    /// The live IASes when the launch started, with their addresses (a few:
+    /// searched in order, faster than hashing on every trace).
+    pub(crate) scenes: Vec<(u64, Arc<SceneData>)>,
+    /// Whether traversals run [`Traversal::run_avx2`](super::traverse::Traversal::run_avx2)
+    /// (the CPU has its features).
+    pub(super) avx2: bool,
+    /// Whether invocations run in blocks of lanes whose camera rays are traced
+    /// in packets (the context allows it and the CPU has AVX2).
+    pub(super) packets: bool,
+}
+
+impl LaunchJob {
+    /// A launch of `pipeline` with `sbt` and `params` over `dims`, seeing the
+    /// context's buffers and IASes as they are now.
+    pub(crate) fn new(pipeline: Arc<PipelineData>, sbt: Arc<SbtData>, params: &[u8], dims: [u32; 3]) -> LaunchJob {
+        let ctx = pipeline.ctx.clone();
+        let buffers = ctx.buffers.snapshot();
+        let textures = ctx.textures.snapshot();
+        let scenes = ctx.scenes().iter().map(|(a, s)| (*a, s.data.clone())).collect::<Vec<_>>();
+        let avx2 = has_avx2();
+        let packets = avx2 && ctx.packets;
+        LaunchJob {
+            ctx,
+            pipeline,
+            sbt,
+            params: Aligned::new(params, 0),
+            dims,
+            buffers,
+            textures,
+            scenes,
+            avx2,
+            packets,
+        }
+    }
+}
+
+/// Whether the CPU has every feature
+/// [`Traversal::run_avx2`](super::traverse::Traversal::run_avx2) is compiled for.
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("popcnt")
+            && std::arch::is_x86_feature_detected!("lzcnt")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The state of one invocation, shared by its nested program calls.
+pub(super) struct InvocationState<'j> {
+    pub(super) job: &'j LaunchJob,
+    pub(super) launch_index: UVec3,
+    /// The innermost program a failure is unwinding (or unwound) through:
+    /// what the failure is reported from.
+    pub(super) failed_in: Cell<Option<&'static str>>,
+    pub(super) exceptions: RefCell<Vec<UserException>>,
+    /// Pairs of types (declared, given) found equal by name, by identity: a
+    /// program receiving what it received before is not compared by name again.
+    pub(super) same_types: Cell<[TypePair; 4]>,
+    /// While the invocation runs in a lane of a block: where its packet
+    /// traces go.
+    pub(super) lane: Cell<Option<LaneSeat>>,
+    /// Where the invocation's first trace a packet could take started: its
+    /// traces from there (a camera's rays) go in packets.
+    pub(super) camera: Cell<Option<Vec3>>,
+}
+
+impl<'j> InvocationState<'j> {
+    pub(super) fn new(job: &'j LaunchJob) -> Self {
+        InvocationState {
+            job,
+            launch_index: UVec3::ZERO,
+            failed_in: Cell::new(None),
+            exceptions: RefCell::new(Vec::new()),
+            // No name function is at address 0: nothing matches these.
+            same_types: Cell::new([(0, 0); 4]),
+            lane: Cell::new(None),
+            camera: Cell::new(None),
+        }
+    }
+}
+
+/// Where an invocation running in a lane of a block sends its packet traces.
+#[derive(Copy, Clone)]
+pub(super) struct LaneSeat {
+    /// What the lane suspends through.
+    pub(super) yielder: *const LaneYielder,
+    /// The block's packet.
+    pub(super) packet: *const UnsafeCell<Packet>,
+    /// The lane's index in the block and its packet.
+    pub(super) index: usize,
+}
+
+/// The identities of two types found equal (see
+/// [`TypeInfo::identity`](raykit_device::cpu::TypeInfo::identity)).
+type TypePair = (usize, usize);
+
+/// A fault: a program asked for something the device would not define (an
+/// unknown traversable, a record past the SBT, a payload of another type).
+/// Unwinds the invocation; the launch returns it as an error.
+pub(super) struct Fault(pub(super) String);
+
+/// What an any-hit program decided by not returning.
+pub(super) enum AnyHitEnd {
+    Ignore,
+    Terminate,
+}
+
+/// Ends the invocation with a fault.
+pub(super) fn fault(problem: String) -> ! {
+    resume_unwind(Box::new(Fault(problem)))
+}
