@@ -179,7 +179,7 @@ impl DeviceBuild {
     pub(crate) fn fingerprint(&self, builder: &ShaderBuilder) -> Result<String> {
         let mut hasher = DefaultHasher::new();
         for dir in self.inputs() {
-            hash_tree(&dir, &mut hasher)?;
+            hash_tree(&dir, &mut hasher, Locks::Hashed)?;
         }
         // The lock file and manifest of the workspace the crate belongs to.
         if let Some(root) = self.crate_dir.ancestors().find(|d| d.join("Cargo.lock").is_file()) {
@@ -190,6 +190,19 @@ impl DeviceBuild {
         let meta = std::fs::metadata(&builder.binary).map_err(io("reading", &builder.binary))?;
         meta.len().hash(&mut hasher);
         meta.modified().map_err(io("reading", &builder.binary))?.hash(&mut hasher);
+        Ok(format!("{:016x}", hasher.finish()))
+    }
+
+    /// A hash of the sources and manifests the crate is built from, leaving out
+    /// lock files: the watcher's test for "the user changed something" (cargo
+    /// itself rewrites a crate's `Cargo.lock` during a build, which must not
+    /// start another one).
+    #[cfg(feature = "watch")]
+    pub(crate) fn source_fingerprint(&self) -> Result<String> {
+        let mut hasher = DefaultHasher::new();
+        for dir in self.inputs() {
+            hash_tree(&dir, &mut hasher, Locks::Skipped)?;
+        }
         Ok(format!("{:016x}", hasher.finish()))
     }
 
@@ -267,15 +280,22 @@ fn package_name_of(manifest: &str) -> Option<String> {
 }
 
 /// Hashes every file under `dir` (skipping `target`), in a stable order.
-fn hash_tree(dir: &Path, hasher: &mut DefaultHasher) -> Result<()> {
+/// Whether [`hash_tree`] hashes `Cargo.lock` files.
+#[derive(Clone, Copy, PartialEq)]
+enum Locks {
+    Hashed,
+    Skipped,
+}
+
+fn hash_tree(dir: &Path, hasher: &mut DefaultHasher, locks: Locks) -> Result<()> {
     let mut entries: Vec<_> = std::fs::read_dir(dir).map_err(io("reading", dir))?.flatten().map(|e| e.path()).collect();
     entries.sort();
     for path in entries {
-        if path.file_name().is_some_and(|n| n == "target") {
+        if path.file_name().is_some_and(|n| n == "target" || (locks == Locks::Skipped && n == "Cargo.lock")) {
             continue;
         }
         if path.is_dir() {
-            hash_tree(&path, hasher)?;
+            hash_tree(&path, hasher, locks)?;
         } else {
             path.hash(hasher);
             std::fs::read(&path).map_err(io("reading", &path))?.hash(hasher);

@@ -39,9 +39,10 @@ fn watch_error(e: impl std::fmt::Display) -> Error {
     Error::Watch { reason: e.to_string() }
 }
 
-/// Whether a changed path is a source (not build output under a `target` directory).
+/// Whether a changed path is a source (not build output under a `target`
+/// directory, nor a lock file cargo rewrites).
 fn is_source(path: &Path) -> bool {
-    !path.components().any(|c| c.as_os_str() == "target")
+    !path.components().any(|c| c.as_os_str() == "target") && path.file_name().is_none_or(|n| n != "Cargo.lock")
 }
 
 impl DeviceWatcher {
@@ -56,9 +57,10 @@ impl DeviceWatcher {
             debouncer.watcher().watch(&dir, RecursiveMode::Recursive).map_err(watch_error)?;
         }
         let (rebuilds_tx, rebuilds) = channel();
-        // Events also come from reading the sources (the compiler opens them):
-        // only a change of their content starts a build.
-        let mut last = build.fingerprint(&builder).ok();
+        // Events also come from reading the sources (the compiler opens them)
+        // and from cargo rewriting the lock file: only a change of the sources'
+        // or manifests' content starts a build.
+        let mut last = build.source_fingerprint().ok();
         let build = build.force(true);
         std::thread::Builder::new()
             .name("raykit-device-watcher".to_owned())
@@ -72,7 +74,7 @@ impl DeviceWatcher {
                     if !relevant {
                         continue;
                     }
-                    let now = build.fingerprint(&builder).ok();
+                    let now = build.source_fingerprint().ok();
                     if now.is_some() && now == last {
                         continue;
                     }
@@ -106,5 +108,6 @@ mod tests {
     fn build_output_is_not_a_source() {
         assert!(is_source(Path::new("/p/device/src/lib.rs")));
         assert!(!is_source(Path::new("/p/device/target/spirv/x.spv")));
+        assert!(!is_source(Path::new("/p/device/Cargo.lock")));
     }
 }

@@ -21,6 +21,7 @@ glsl -o "$out/payload_spec_array.rgen.spv" payload_spec_array.rgen
 glsl -o "$out/raygen_main.rgen.spv" raygen_main.rgen
 glsl -o "$out/storage_at_set_2.rgen.spv" storage_at_set_2.rgen
 glsl -o "$out/image_at_set_0_binding_1.rgen.spv" image_at_set_0_binding_1.rgen
+glsl -o "$out/tlas_at_set_0_binding_0.rgen.spv" tlas_at_set_0_binding_0.rgen
 glsl -o "$out/raygen_calls_callable_2.rgen.spv" raygen_calls_callable_2.rgen
 glsl -o "$out/callable_white.rcall.spv" callable_white.rcall
 glsl -gVS -o "$out/raygen_debug_info.rgen.spv" raygen_main.rgen
@@ -28,6 +29,6 @@ glsl -e __miss__named_wrong --source-entrypoint main -o "$out/raygen_named_miss.
 spirv-as --target-env spv1.5 -o "$out/no_entry_points.spv" no_entry_points.spvasm
 if [ "$out" = . ]; then
     sha256sum compute_only.comp miss_other_params.rmiss payload_spec_array.rgen raygen_main.rgen \
-        storage_at_set_2.rgen image_at_set_0_binding_1.rgen raygen_named_miss.rgen no_entry_points.spvasm \
+        storage_at_set_2.rgen image_at_set_0_binding_1.rgen tlas_at_set_0_binding_0.rgen raygen_named_miss.rgen no_entry_points.spvasm \
         raygen_calls_callable_2.rgen callable_white.rcall *.spv > SHA256SUMS
 fi

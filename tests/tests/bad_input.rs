@@ -1737,7 +1737,7 @@ fn tlas_declared_where_the_buffer_table_is() -> anyhow::Result<()> {
         case(
             "tlas_declared_where_the_buffer_table_is",
             &["an acceleration structure `scene` at set 0, binding 0", "buffer table", "`Traversable`"],
-            |ctx| link_raygen(ctx, PAYLOAD_SPEC_ARRAY),
+            |ctx| link_raygen(ctx, include_bytes!("../data/tlas_at_set_0_binding_0.rgen.spv")),
             |e| matches!(e, Error::Link(raykit::LinkError::DescriptorBinding { set: 0, binding: 0, .. })),
         )
     })

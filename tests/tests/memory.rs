@@ -151,3 +151,48 @@ fn a_buffer_dropped_during_its_staging_copy_is_not_freed_early() -> anyhow::Resu
         Ok(())
     })
 }
+
+/// Reads and writes of no elements copy nothing and change nothing, in place
+/// and through staging, at the start, the middle and the end of a buffer (a
+/// Vulkan copy of 0 bytes is invalid: the validation layer would say so); a
+/// buffer of no elements is refused alike on both backends.
+#[test]
+fn reads_and_writes_of_no_elements_copy_nothing_on_both_backends() -> anyhow::Result<()> {
+    with_each_backend("reads_and_writes_of_no_elements_copy_nothing_on_both_backends", |ctx, backend| {
+        let data: Vec<u32> = (10..18).collect();
+        for staging in [false, true] {
+            ctx.force_staging_copies(staging);
+            for memory in [BufferMemory::DeviceLocal, BufferMemory::HostRead, BufferMemory::HostWrite] {
+                let mut buffer = DeviceBuffer::from_slice_in(ctx, &data, memory)?;
+                let what = format!("{backend:?}, {memory:?}, staging {staging}");
+                for first in [0, 3, data.len()] {
+                    buffer.read_into(first, &mut [])?;
+                    buffer.write_at(first, &[])?;
+                }
+                buffer.write(&[])?;
+                assert_eq!(buffer.read()?, data, "{what}: an empty write changed the buffer");
+                // One past the end is still out of range, empty or not.
+                let err = buffer.read_into(data.len() + 1, &mut []).err();
+                assert!(
+                    matches!(err, Some(raykit::Error::Resource(raykit::ResourceError::BufferRange { .. }))),
+                    "{what}: {err:?}"
+                );
+                let err = buffer.write_at(data.len() + 1, &[]).err();
+                assert!(
+                    matches!(err, Some(raykit::Error::Resource(raykit::ResourceError::BufferRange { .. }))),
+                    "{what}: {err:?}"
+                );
+            }
+        }
+        ctx.force_staging_copies(false);
+        for err in [DeviceBuffer::<u32>::zeroed(ctx, 0).err(), DeviceBuffer::<u32>::from_slice(ctx, &[]).err()] {
+            let text = err.as_ref().map(ToString::to_string).unwrap_or_default();
+            assert!(
+                matches!(err, Some(raykit::Error::Resource(raykit::ResourceError::BufferSize { len: 0, .. })))
+                    && text.contains("at least one element"),
+                "{backend:?}: a buffer of no elements: {err:?}"
+            );
+        }
+        Ok(())
+    })
+}

@@ -207,10 +207,11 @@ impl Aabb {
     }
 
     /// The smallest `f32` box that holds the sphere exactly: `centre ∓ radius`
-    /// rounded outwards.
+    /// rounded outwards, and never past `±f32::MAX` (a sphere that reaches
+    /// `f32::MAX` keeps finite bounds: no `f32` lies beyond it).
     pub fn around_sphere(centre: Vec3, radius: f32) -> Self {
-        let min = (centre - Vec3::splat(radius)).to_array().map(f32::next_down);
-        let max = (centre + Vec3::splat(radius)).to_array().map(f32::next_up);
+        let min = (centre - Vec3::splat(radius)).to_array().map(|v| v.next_down().max(f32::MIN));
+        let max = (centre + Vec3::splat(radius)).to_array().map(|v| v.next_up().min(f32::MAX));
         Aabb { min, max }
     }
 }

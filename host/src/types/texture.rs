@@ -100,7 +100,7 @@ pub struct SamplerOptions {
 pub enum Mipmaps {
     /// Only the given level.
     One,
-    /// The full chain down to 1×1, generated on the host (see [`generate_mips`]).
+    /// The full chain down to 1×1, generated on the host (as `texture::generate_mips` makes it).
     #[default]
     Generate,
 }

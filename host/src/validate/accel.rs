@@ -352,6 +352,12 @@ mod tests {
         assert!(err.to_string().contains("overflows"), "{err}");
         let err = spheres(&[Vec3::new(0.0, f32::NAN, 0.0)], &[1.0]).unwrap_err();
         assert!(err.to_string().contains("centre is not finite"), "{err}");
+        // A sphere that reaches f32::MAX is accepted, and its box stays finite.
+        let (centre, radius) = (Vec3::new(f32::MAX / 2.0, 0.0, -f32::MAX / 2.0), f32::MAX / 2.0);
+        assert!(spheres(&[centre], &[radius]).is_ok());
+        let b = crate::types::accel::Aabb::around_sphere(centre, radius);
+        assert!(b.min.iter().chain(&b.max).all(|v| v.is_finite()), "{b:?}");
+        assert!(b.max[0] == f32::MAX && b.min[2] == f32::MIN && b.min[0] <= 0.0, "{b:?}");
         // The box holds the sphere: rounded outwards.
         let b = crate::types::accel::Aabb::around_sphere(Vec3::new(0.1, -1000.0, 3.0), 1000.0);
         assert!(b.min[0] < 0.1 - 1000.0 && b.max[1] > 0.0 && b.min[1] < -2000.0 && b.max[2] > 1003.0);

@@ -437,3 +437,37 @@ fn ch_recursing(ctx: &mut ClosestHit, #[payload] color: &mut Vec3) {
     let depth = recurse(ctx.primitive_index(), u32::MAX);
     *color = Vec3::splat(depth as f32);
 }
+
+/// A ray type placed past the bits a trace reads: Vulkan takes the low 4 bits
+/// of the SBT offset and stride and the low 16 of the miss index, so offset 17,
+/// stride 18 and miss index `0x1_0001` select as offset 1, stride 2 and miss 1.
+pub struct Wide;
+impl RayType for Wide {
+    type Payload = Vec3;
+    const SBT_OFFSET: u32 = 17;
+    const SBT_STRIDE: u32 = 18;
+    const MISS_INDEX: u32 = 0x1_0001;
+}
+
+/// Traces one [`Wide`] ray along -z per pixel.
+#[raygen]
+fn rg_wide(ctx: &mut Raygen, #[params] params: &Params, #[payload] color: &mut Vec3) {
+    let index: UVec3 = ctx.launch_index();
+    let p = pixel_position(index.truncate(), params);
+    *color = Vec3::ZERO;
+    ctx.trace_from::<Wide>(params.scene, Vec3::new(p.x, p.y, CAMERA_Z), Vec3::new(0.0, 0.0, -1.0), color);
+    let pixel = ctx.launch_linear_index();
+    ctx.store(params.image, pixel, pack_unorm(*color));
+}
+
+/// The miss program of [`Wide`]: its record's colour.
+#[miss(ray = Wide)]
+fn ms_wide(_ctx: &mut Miss, #[record] data: &ColorData, #[payload] color: &mut Vec3) {
+    *color = data.color;
+}
+
+/// The closest-hit program of [`Wide`]: its record's colour.
+#[closest_hit(ray = Wide)]
+fn ch_wide(_ctx: &mut ClosestHit, #[record] data: &ColorData, #[payload] color: &mut Vec3) {
+    *color = data.color;
+}
