@@ -8,12 +8,23 @@
 //! type. Plain data both read lives in `types`; the launch checks both run are in
 //! `validate::launch`.
 //!
+//! The rule: **backends never validate user input; they translate and run.**
+//! Every check of what a user gave (SPIR-V bytes, program kinds, params
+//! layouts, trace depth, SBT records, geometry, instances, launch sizes,
+//! texture formats) runs in the public layer or `validate`, before the match
+//! on `repr`, so both backends refuse the same input with the same error. What
+//! stays on a backend's side is what only it can know: the Vulkan driver's own
+//! refusals (out of memory, a lost device, the format support it reports) and
+//! the CPU backend's faults while a program runs (a stack overflow, a panic).
+//! A SPIR-V module is checked alike on both (its bytes, its entry points, the
+//! validator), and only then refused by the CPU backend, which runs Rust.
+//!
 //! What each backend does:
 //!
 //! | operation | Vulkan | CPU backend |
 //! |---|---|---|
 //! | [`Context::new`](crate::Context::new), [`Context::all`](crate::Context::all) | yes | yes (one context) |
-//! | [`Module::from_spirv`](crate::Module) and other SPIR-V modules (GLSL, WGSL) | yes | refused: [`CpuRefusal::SpirvModule`] |
+//! | [`Module::from_spirv`](crate::Module) and other SPIR-V modules (GLSL, WGSL) | yes | checked as on Vulkan, then refused: [`CpuRefusal::SpirvModule`] |
 //! | [`Module::from_device_crate`](crate::Module) (Rust device crates) | yes (its SPIR-V) | yes (its host code) |
 //! | program groups named by an [`EntryPoint`](raykit_device::EntryPoint) constant | yes | yes |
 //! | program groups named by a string | yes | refused: [`CpuRefusal::NamedProgram`] |

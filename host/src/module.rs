@@ -369,11 +369,8 @@ impl Module {
     }
 
     pub(crate) fn named(ctx: &Context, spirv: &[u8], name: &str) -> Result<Module> {
-        let vulkan = match ctx.repr() {
-            ContextRepr::Vulkan(vulkan) => vulkan,
-            ContextRepr::Cpu(_) => return Err(spirv_on_cpu()),
-        };
-        vulkan.check_device("a module creation")?;
+        // The bytes are checked first, on either backend: malformed SPIR-V is
+        // refused alike; only a valid module meets the backend's own refusal.
         let entry_points = reflect_entry_points(spirv)?;
         if !entry_points.iter().any(|e| e.kind.is_some()) {
             return Err(Error::Module(ModuleError::NoRayTracingEntryPoints {
@@ -382,6 +379,11 @@ impl Module {
         }
         let words = words_of(spirv)?;
         crate::validate::spirv::validate(&words)?;
+        let vulkan = match ctx.repr() {
+            ContextRepr::Vulkan(vulkan) => vulkan,
+            ContextRepr::Cpu(_) => return Err(spirv_on_cpu()),
+        };
+        vulkan.check_device("a module creation")?;
         if !vulkan.non_semantic_info && declares_extension(&words, "SPV_KHR_non_semantic_info") {
             return Err(Error::Module(ModuleError::SpirvExtensionUnsupported {
                 spirv_extension: "SPV_KHR_non_semantic_info".to_owned(),

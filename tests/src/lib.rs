@@ -41,6 +41,35 @@ pub fn with_each_backend(name: &str, test: impl Fn(&Context, Backend) -> anyhow:
     Ok(())
 }
 
+/// The error variant of `err` as `Enum::Variant` (`Sbt::Incomplete`), read
+/// from its `Debug` form.
+pub fn variant_name(err: &raykit::Error) -> String {
+    let text = format!("{err:?}");
+    let ident = |s: &str| s.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect::<String>();
+    let outer = ident(&text);
+    match text[outer.len()..].strip_prefix('(') {
+        Some(rest) => format!("{outer}::{}", ident(rest)),
+        None => outer,
+    }
+}
+
+/// Notes that the bad-input case `case` was refused on `backend` with `err`,
+/// and for a case of one backend only, `why`: one line
+/// `variant<TAB>backend<TAB>case<TAB>why` appended to the file
+/// `RAYKIT_REFUSAL_LOG` names, when it is set (`cargo xtask refusals` reads it).
+pub fn note_refusal(case: &str, backend: Backend, err: &raykit::Error, why: &str) {
+    let Ok(path) = std::env::var("RAYKIT_REFUSAL_LOG") else { return };
+    let line = format!("{}\t{backend:?}\t{case}\t{why}\n", variant_name(err));
+    let written = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&path)
+        .and_then(|mut f| std::io::Write::write_all(&mut f, line.as_bytes()));
+    if let Err(e) = written {
+        panic!("RAYKIT_REFUSAL_LOG {path}: {e}");
+    }
+}
+
 /// The backends [`with_each_backend`] runs on: `RAYKIT_TEST_BACKENDS`, else both.
 pub fn test_backends() -> anyhow::Result<Vec<Backend>> {
     let Ok(list) = std::env::var("RAYKIT_TEST_BACKENDS") else { return Ok(vec![Backend::Vulkan, Backend::Cpu]) };

@@ -45,39 +45,48 @@ fn refused<T>(result: raykit::Result<T>, what: &str) -> anyhow::Result<Error> {
     }
 }
 
-/// One catalogue case: `provoke` returns the error raykit gave; `expected` checks
-/// its variant; its message must contain each of `mentions`; then the context
-/// must still render.
+/// One catalogue case, on each backend (`raykit_tests::with_each_backend`):
+/// `provoke` returns the error raykit gave; `expected` checks its variant; its
+/// message must contain each of `mentions`; then the context must still render.
+/// Both backends must refuse the input alike: the same variant and message.
 fn case(
-    name: &str,
-    mentions: &[&str],
-    provoke: impl FnOnce(&Context) -> anyhow::Result<Error>,
-    expected: impl FnOnce(&Error) -> bool,
-) -> anyhow::Result<()> {
-    with_context(name, |ctx| check_case(ctx, name, mentions, provoke, expected))
-}
-
-/// [`case`] on each backend (`raykit_tests::with_each_backend`): the same input,
-/// the same error and message on Vulkan and on the CPU.
-fn case_on_each_backend(
     name: &str,
     mentions: &[&str],
     provoke: impl Fn(&Context) -> anyhow::Result<Error>,
     expected: impl Fn(&Error) -> bool,
 ) -> anyhow::Result<()> {
-    raykit_tests::with_each_backend(name, |ctx, _| check_case(ctx, name, mentions, &provoke, &expected))
+    raykit_tests::with_each_backend(name, |ctx, backend| {
+        check_case(ctx, (backend, ""), name, mentions, &provoke, &expected)
+    })
 }
 
-/// One case on `ctx`: the error, its variant, its message, then a render.
+/// [`case`] on Vulkan only, for an input the CPU backend cannot be given;
+/// `why` says why in one line (it is the table's reason).
+fn vulkan_case(
+    why: &str,
+    name: &str,
+    mentions: &[&str],
+    provoke: impl FnOnce(&Context) -> anyhow::Result<Error>,
+    expected: impl FnOnce(&Error) -> bool,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(!why.is_empty(), "{name}: a Vulkan-only case says why");
+    with_context(name, |ctx| check_case(ctx, (raykit::Backend::Vulkan, why), name, mentions, provoke, expected))
+}
+
+/// One case on `ctx` of `backend`: the error, its variant, its message, then a
+/// render. The refusal is noted for the refusal table, with why the case runs
+/// on that backend only (empty when it runs on both).
 fn check_case(
     ctx: &Context,
+    (backend, why): (raykit::Backend, &str),
     name: &str,
     mentions: &[&str],
     provoke: impl FnOnce(&Context) -> anyhow::Result<Error>,
     expected: impl FnOnce(&Error) -> bool,
 ) -> anyhow::Result<()> {
     let err = provoke(ctx)?;
-    anyhow::ensure!(expected(&err), "{name}: unexpected error {err:?}");
+    anyhow::ensure!(expected(&err), "{name} [{backend:?}]: unexpected error {err:?}");
+    raykit_tests::note_refusal(name, backend, &err, why);
     let text = err.to_string();
     for m in mentions {
         anyhow::ensure!(text.contains(m), "{name}: the message does not mention {m:?}: {text}");
@@ -170,7 +179,8 @@ fn closest_hit_slot_given_a_raygen() -> anyhow::Result<()> {
 #[test]
 fn optix_prefix_disagrees_with_the_stage() -> anyhow::Result<()> {
     // A GLSL raygen stage whose entry point is called `__miss__named_wrong`.
-    case(
+    vulkan_case(
+        "a SPIR-V module (GLSL): the CPU backend runs Rust programs and refuses it (CpuRefusal::SpirvModule)",
         "optix_prefix_disagrees_with_the_stage",
         &["`__miss__named_wrong`", "by its `__miss__` prefix"],
         |ctx| {
@@ -193,7 +203,8 @@ fn optix_prefix_disagrees_with_the_stage() -> anyhow::Result<()> {
 
 #[test]
 fn glsl_main_used_as_another_stage() -> anyhow::Result<()> {
-    case(
+    vulkan_case(
+        "a SPIR-V module (GLSL): the CPU backend runs Rust programs and refuses it (CpuRefusal::SpirvModule)",
         "glsl_main_used_as_another_stage",
         &["`main` is a raygen program, not a miss program"],
         |ctx| refused(ProgramGroup::miss(&Module::new(ctx, RAYGEN_MAIN)?, "main"), "a GLSL raygen as miss"),
@@ -418,7 +429,8 @@ fn spirv_file_that_does_not_exist() -> anyhow::Result<()> {
 fn device_crate_whose_spirv_is_not_found() -> anyhow::Result<()> {
     // The suite sets RAYKIT_SPIRV_DIR, so that is the one path looked at.
     let dir = std::env::var("RAYKIT_SPIRV_DIR").unwrap_or_default();
-    case(
+    vulkan_case(
+        "the CPU backend needs no SPIR-V file: it runs the crate linked into the program",
         "device_crate_whose_spirv_is_not_found",
         &["no SPIR-V for device crate `no-such-device`", "no_such_device.spv", "RAYKIT_SPIRV_DIR", &dir],
         |ctx| refused(Module::from_device_crate(ctx, "no-such-device"), "a device crate never built"),
@@ -444,7 +456,8 @@ fn buffer_one_element_over_max_storage_buffer_range() -> anyhow::Result<()> {
 
 #[test]
 fn explicit_stack_size_of_zero() -> anyhow::Result<()> {
-    case(
+    vulkan_case(
+        "the ray-tracing stack is the driver's: the CPU backend has none to size (CpuRefusal::StackSize)",
         "explicit_stack_size_of_zero",
         &["StackSize::Explicit(0)", "StackSize::Refined"],
         |ctx| {
@@ -457,7 +470,8 @@ fn explicit_stack_size_of_zero() -> anyhow::Result<()> {
 
 #[test]
 fn explicit_stack_size_below_a_programs_own_need() -> anyhow::Result<()> {
-    case(
+    vulkan_case(
+        "the ray-tracing stack is the driver's: the CPU backend has none to size (CpuRefusal::StackSize)",
         "explicit_stack_size_below_a_programs_own_need",
         &["is below", "the largest stack one of the pipeline's programs needs"],
         |ctx| {
@@ -524,7 +538,8 @@ fn params_layout_differs_from_the_spirv() -> anyhow::Result<()> {
 
 #[test]
 fn params_type_differs_between_modules_of_a_pipeline() -> anyhow::Result<()> {
-    case(
+    vulkan_case(
+        "the other params type is a GLSL module's: the CPU backend refuses SPIR-V modules",
         "params_type_differs_between_modules_of_a_pipeline",
         &["launch params `Params` do not match the SPIR-V of `main`"],
         |ctx| {
@@ -541,7 +556,8 @@ fn params_type_differs_between_modules_of_a_pipeline() -> anyhow::Result<()> {
 #[test]
 fn params_read_another_way_than_delivered() -> anyhow::Result<()> {
     use params_device::Large;
-    case(
+    vulkan_case(
+        "the other params delivery is a GLSL module's: the CPU backend refuses SPIR-V modules",
         "params_read_another_way_than_delivered",
         &["`main` reads its params from push constants", "a uniform buffer (set 1, binding 0)"],
         |ctx| {
@@ -805,7 +821,7 @@ fn render_scene(ctx: &Context, l: &Linked, ias: &Ias, hit_records: usize) -> any
 
 #[test]
 fn instance_sbt_offset_past_the_hit_records() -> anyhow::Result<()> {
-    case_on_each_backend(
+    case(
         "instance_sbt_offset_past_the_hit_records",
         &[
             "instance 0 of the IAS in params field `handle` (SBT offset 1, 1 geometry) reaches hit record 1",
@@ -839,7 +855,7 @@ fn instance_sbt_offset_past_the_hit_records() -> anyhow::Result<()> {
 fn instance_geometries_past_the_hit_records() -> anyhow::Result<()> {
     // Instance 1's first geometry takes record 1, the last one; its second
     // geometry would read record 2.
-    case_on_each_backend(
+    case(
         "instance_geometries_past_the_hit_records",
         &["instance 1", "(SBT offset 1, 2 geometries) reaches hit record 2 = 1 + (2 - 1) × stride 1 + ray offset 0"],
         |ctx| {
@@ -869,7 +885,7 @@ fn instance_geometries_past_the_hit_records() -> anyhow::Result<()> {
 
 #[test]
 fn instance_updated_past_the_hit_records() -> anyhow::Result<()> {
-    case_on_each_backend(
+    case(
         "instance_updated_past_the_hit_records",
         &["reaches hit record 4", "the SBT has 2 hit record(s)"],
         |ctx| {
@@ -1050,7 +1066,8 @@ fn launch_wider_than_the_device_allows() -> anyhow::Result<()> {
     // Within maxRayDispatchInvocationCount in total, but wider than
     // maxComputeWorkGroupCount[0] × maxComputeWorkGroupSize[0]: raykit used to pass
     // this to vkCmdTraceRaysKHR (VUID-vkCmdTraceRaysKHR-width-03638).
-    case(
+    vulkan_case(
+        "the CPU backend's per-dimension launch limits equal its total (2^30): no launch passes one without the other",
         "launch_wider_than_the_device_allows",
         &["maxComputeWorkGroupCount[", "split the launch into tiles"],
         |ctx| {
@@ -1288,7 +1305,8 @@ fn instance_of_a_dropped_gas_handle_still_renders() -> anyhow::Result<()> {
 
 #[test]
 fn no_device_matches_the_requested_name() -> anyhow::Result<()> {
-    case(
+    vulkan_case(
+        "the name picks among Vulkan devices; the CPU backend is one device of its own",
         "no_device_matches_the_requested_name",
         &["no Vulkan device with ray-tracing pipelines", "a name containing \"no such device\"", "mesa-vulkan-drivers"],
         |ctx| {
@@ -1434,7 +1452,7 @@ fn triangle_sbt(
 #[test]
 fn sbt_without_a_miss_record_for_a_pipeline_that_traces() -> anyhow::Result<()> {
     in_child("sbt_without_a_miss_record_for_a_pipeline_that_traces", || {
-        case_on_each_backend(
+        case(
             "sbt_without_a_miss_record_for_a_pipeline_that_traces",
             &["0 miss record(s)", "`__raygen__rg`", "miss_at(0, ..)"],
             |ctx| triangle_sbt(ctx, |b, l| b.hit(&l.hit, ())),
@@ -1456,7 +1474,7 @@ fn sbt_without_a_miss_record_for_a_pipeline_that_traces() -> anyhow::Result<()> 
 #[test]
 fn sbt_without_a_hit_record_for_a_pipeline_with_hit_groups() -> anyhow::Result<()> {
     in_child("sbt_without_a_hit_record_for_a_pipeline_with_hit_groups", || {
-        case_on_each_backend(
+        case(
             "sbt_without_a_hit_record_for_a_pipeline_with_hit_groups",
             &["0 hit record(s)", "hit_at(0, ..)"],
             |ctx| triangle_sbt(ctx, |b, l| b.miss(&l.miss, MissData { bg_color: BG_COLOR })),
@@ -1640,7 +1658,8 @@ fn spec_array_pipeline(ctx: &Context, length: u32) -> anyhow::Result<Error> {
 #[test]
 fn spec_constant_sizing_an_array_to_zero() -> anyhow::Result<()> {
     in_child("spec_constant_sizing_an_array_to_zero", || {
-        case(
+        vulkan_case(
+            "SPIR-V specialized for the driver: the CPU backend runs Rust, where a constant cannot size an array to 0",
             "spec_constant_sizing_an_array_to_zero",
             &["spirv-val", "OpTypeArray"],
             |ctx| spec_array_pipeline(ctx, 0),
@@ -1652,7 +1671,8 @@ fn spec_constant_sizing_an_array_to_zero() -> anyhow::Result<()> {
 #[test]
 fn spec_constant_sizing_an_array_to_two_to_the_thirty_one() -> anyhow::Result<()> {
     in_child("spec_constant_sizing_an_array_to_two_to_the_thirty_one", || {
-        case(
+        vulkan_case(
+            "SPIR-V specialized for the driver: the CPU backend runs Rust, where a constant cannot size a payload array",
             "spec_constant_sizing_an_array_to_two_to_the_thirty_one",
             &["sizes array type", "2147483648 elements", "`Buffer<T>`"],
             |ctx| spec_array_pipeline(ctx, 1 << 31),
@@ -1722,7 +1742,8 @@ fn link_raygen(ctx: &Context, spirv: &[u8]) -> anyhow::Result<Error> {
 #[test]
 fn descriptor_at_a_set_raykit_does_not_bind() -> anyhow::Result<()> {
     in_child("descriptor_at_a_set_raykit_does_not_bind", || {
-        case(
+        vulkan_case(
+            "a descriptor of a GLSL module: Rust programs declare none, and the CPU backend refuses SPIR-V modules",
             "descriptor_at_a_set_raykit_does_not_bind",
             &["`main` declares a storage buffer `image` at set 2, binding 0", "has no set 2", "`Buffer<T>` handles"],
             |ctx| link_raygen(ctx, include_bytes!("../data/storage_at_set_2.rgen.spv")),
@@ -1734,7 +1755,8 @@ fn descriptor_at_a_set_raykit_does_not_bind() -> anyhow::Result<()> {
 #[test]
 fn tlas_declared_where_the_buffer_table_is() -> anyhow::Result<()> {
     in_child("tlas_declared_where_the_buffer_table_is", || {
-        case(
+        vulkan_case(
+            "a descriptor of a GLSL module: Rust programs declare none, and the CPU backend refuses SPIR-V modules",
             "tlas_declared_where_the_buffer_table_is",
             &["an acceleration structure `scene` at set 0, binding 0", "buffer table", "`Traversable`"],
             |ctx| link_raygen(ctx, include_bytes!("../data/tlas_at_set_0_binding_0.rgen.spv")),
@@ -1746,7 +1768,8 @@ fn tlas_declared_where_the_buffer_table_is() -> anyhow::Result<()> {
 #[test]
 fn image_beside_the_buffer_table() -> anyhow::Result<()> {
     in_child("image_beside_the_buffer_table", || {
-        case(
+        vulkan_case(
+            "a descriptor of a GLSL module: Rust programs declare none, and the CPU backend refuses SPIR-V modules",
             "image_beside_the_buffer_table",
             &[
                 "an image or sampler `target` at set 0, binding 1",
@@ -1827,7 +1850,7 @@ fn shadows(ctx: &Context) -> anyhow::Result<Shadows> {
 #[test]
 fn sbt_without_the_miss_record_of_a_traced_ray_type() -> anyhow::Result<()> {
     in_child("sbt_without_the_miss_record_of_a_traced_ray_type", || {
-        case_on_each_backend(
+        case(
             "sbt_without_the_miss_record_of_a_traced_ray_type",
             &["1 miss record(s)", "`__closesthit__shade_shadowed`", "miss_at(1, ..)"],
             |ctx| {
@@ -1857,7 +1880,7 @@ fn sbt_without_the_miss_record_of_a_traced_ray_type() -> anyhow::Result<()> {
 #[test]
 fn sbt_without_the_hit_record_of_a_traced_ray_type() -> anyhow::Result<()> {
     in_child("sbt_without_the_hit_record_of_a_traced_ray_type", || {
-        case_on_each_backend(
+        case(
             "sbt_without_the_hit_record_of_a_traced_ray_type",
             &["1 hit record(s)", "`__closesthit__shade_shadowed`", "hit_at(1, ..)"],
             |ctx| {
@@ -1900,7 +1923,8 @@ fn hit_for_a_geometry_past_twenty_four_bits() -> anyhow::Result<()> {
 #[test]
 fn recursive_closest_hit_in_a_library_with_max_trace_depth_one() -> anyhow::Result<()> {
     in_child("recursive_closest_hit_in_a_library_with_max_trace_depth_one", || {
-        case(
+        vulkan_case(
+            "pipeline libraries are Vulkan's (VK_KHR_pipeline_library); the CPU backend refuses them",
             "recursive_closest_hit_in_a_library_with_max_trace_depth_one",
             &["`__closesthit__layer_hit` needs a trace depth of at least 2", "max_trace_depth 1"],
             |ctx| {
@@ -1998,7 +2022,7 @@ fn record_too_small(e: &Error, region: raykit::SbtRegion, index: usize, reads: u
 fn miss_record_given_no_data_for_a_program_that_reads_12_bytes() -> anyhow::Result<()> {
     // Accepted once, and the miss program read the hit record's handle (or
     // zeros on the CPU) as its colour: the background came out black.
-    case_on_each_backend(
+    case(
         "miss_record_given_no_data_for_a_program_that_reads_12_bytes",
         &["miss record 0 carries 0 bytes", "`__miss__ms` reads 12 bytes", "#[record]"],
         |ctx| triangle_sbt(ctx, |b, l| b.miss(&l.miss, ()).hit(&l.hit, ())),
@@ -2008,7 +2032,7 @@ fn miss_record_given_no_data_for_a_program_that_reads_12_bytes() -> anyhow::Resu
 
 #[test]
 fn miss_record_of_a_smaller_type_than_the_program_reads() -> anyhow::Result<()> {
-    case_on_each_backend(
+    case(
         "miss_record_of_a_smaller_type_than_the_program_reads",
         &["miss record 1 carries 8 bytes", "reads 12 bytes"],
         |ctx| {
@@ -2038,7 +2062,8 @@ fn miss_record_larger_than_the_program_reads_is_accepted_and_read_as_its_prefix(
 
 #[test]
 fn glsl_miss_record_given_no_data() -> anyhow::Result<()> {
-    case(
+    vulkan_case(
+        "a SPIR-V module (GLSL): the CPU backend runs Rust programs and refuses it (CpuRefusal::SpirvModule)",
         "glsl_miss_record_given_no_data",
         &["miss record 0 carries 0 bytes", "`main` reads 12 bytes"],
         |ctx| {
@@ -2052,7 +2077,8 @@ fn glsl_miss_record_given_no_data() -> anyhow::Result<()> {
 
 #[test]
 fn wgsl_miss_reading_4012_bytes_against_a_12_byte_record() -> anyhow::Result<()> {
-    case(
+    vulkan_case(
+        "a WGSL module (SPIR-V through naga): the CPU backend refuses SPIR-V modules",
         "wgsl_miss_reading_4012_bytes_against_a_12_byte_record",
         &["miss record 0 carries 12 bytes", "`ms` reads 4012 bytes"],
         |ctx| {
@@ -2086,7 +2112,8 @@ fn callable_programs(ctx: &Context) -> anyhow::Result<(ProgramGroup, ProgramGrou
 
 #[test]
 fn sbt_without_the_callable_a_program_calls() -> anyhow::Result<()> {
-    case(
+    vulkan_case(
+        "the calling raygen is a GLSL module: the CPU backend refuses SPIR-V modules",
         "sbt_without_the_callable_a_program_calls",
         &["2 callable record(s)", "`main` calls callable 2", ".callable(..)"],
         |ctx| {
@@ -2167,7 +2194,7 @@ fn launch_with_hit_kinds(ctx: &Context, aabbs: bool, sbt_offset: u32, mask: u8) 
 
 #[test]
 fn procedural_hit_group_for_a_triangle_gas() -> anyhow::Result<()> {
-    case_on_each_backend(
+    case(
         "procedural_hit_group_for_a_triangle_gas",
         &["has triangles (geometry 0 of its GAS)", "hit record 0", "procedural hit group", "`__raygen__rg`"],
         |ctx| {
@@ -2197,7 +2224,7 @@ fn procedural_hit_group_for_a_triangle_gas() -> anyhow::Result<()> {
 
 #[test]
 fn triangles_hit_group_for_an_aabb_gas() -> anyhow::Result<()> {
-    case_on_each_backend(
+    case(
         "triangles_hit_group_for_an_aabb_gas",
         &["has AABBs", "hit record 1", "triangles hit group", ".intersection(..)"],
         |ctx| refused(launch_with_hit_kinds(ctx, true, 1, 0xff), "a triangles hit group for AABBs"),
@@ -2316,7 +2343,7 @@ fn texture_sbt<T: raykit::SbtRecordData>(ctx: &Context, ch_data: T, callable: bo
 #[test]
 fn hit_record_given_no_data_for_a_closest_hit_that_reads_one() -> anyhow::Result<()> {
     let reads = std::mem::size_of::<texture_test_device::HitRecord>();
-    case_on_each_backend(
+    case(
         "hit_record_given_no_data_for_a_closest_hit_that_reads_one",
         &["hit record 0 carries 0 bytes", "`__closesthit__ch` reads"],
         |ctx| texture_sbt(ctx, (), true),

@@ -30,6 +30,7 @@ mod display;
 mod layers;
 mod lint;
 mod oidn;
+mod refusals;
 mod setup;
 mod shaders;
 
@@ -102,6 +103,9 @@ enum Cmd {
         /// Where to write it.
         path: PathBuf,
     },
+    /// Run the bad-input catalogue and print which backends each refusal (each
+    /// error variant) is provoked on (target/refusals/refusals.md).
+    Refusals,
     /// Build and run the benchmarks (target/bench/bench.{json,md}).
     Bench {
         /// Build the shaders first (suites that trace need them; `accel` does not),
@@ -186,6 +190,12 @@ fn main() -> anyhow::Result<()> {
             cmd.env("RAYKIT_REQUIRE_DISPLAY", "1");
             run(&mut cmd, "cargo test")?;
             drop(xvfb);
+        }
+        Cmd::Refusals => {
+            setup::ensure_toolchain()?;
+            setup::ensure_vulkan(true)?;
+            shaders::build_all(&root, false)?;
+            refusals::run(&root, &shaders::spirv_dir(&root))?;
         }
         Cmd::Bench { shaders, args } => {
             setup::ensure_vulkan(false)?;

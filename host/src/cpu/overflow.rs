@@ -29,7 +29,18 @@
 //! launch's own per-tile state is touched by those frames; it is dropped
 //! after the launch. The stack that overflowed is unmapped rather than reused,
 //! so nothing can still point into it unnoticed; a program that lends its stack
-//! to other threads (scoped threads) must not overflow while they run. On
+//! to other threads (scoped threads) must not overflow while they run.
+//!
+//! What it cannot undo: a lock the abandoned frames held stays held, because
+//! their guards are never dropped. An overflow in the program's own code (the
+//! usual case: recursion in its functions) holds none. An overflow inside code
+//! that holds a lock of the process, such as `println!` (stdout's lock), an
+//! allocation (the allocator's arena lock, taken in C, which no unwinding could
+//! release) or a `Mutex` of the program's own, leaves that lock taken: the
+//! launch still ends with the error, but the next user of the lock on another
+//! thread waits for ever. Keep deep recursion free of printing, allocation and
+//! locks, or bound its depth (an explicit stack or a depth argument), as a GPU
+//! program must anyway. On
 //! targets other than Linux on x86-64 and AArch64 no handler is installed and an
 //! overflow still aborts the process.
 

@@ -20,6 +20,7 @@ use crate::error::{Error, Result};
 use crate::module::Module;
 use crate::types::group::Group;
 pub use crate::types::group::GroupKind;
+use crate::types::program::EntryPointInfo;
 use crate::vulkan::module::ModuleInner;
 
 /// A checked program of a group (its code a SPIR-V module's entry point or a CPU program).
@@ -84,6 +85,15 @@ impl Program {
         context: &'static str,
     ) -> Result<Program> {
         let name = entry.entry_name();
+        // With the crate's SPIR-V at hand, a name is checked as on Vulkan first:
+        // a missing program or one of another kind is refused alike. (A program
+        // of the host build only, `#[cfg(not(target_arch = "spirv"))]`, is in no
+        // SPIR-V: its constant alone names it.)
+        let host_only = entry.cpu_program().is_some() && linked.reflected(name).is_none();
+        if !linked.reflected.is_empty() && !host_only {
+            let entries: Vec<&EntryPointInfo> = linked.reflected.iter().map(|e| &**e).collect();
+            check_entry(&entries, entry, expected, context)?;
+        }
         let Some(cpu) = entry.cpu_program() else {
             return Err(crate::backend::refused_on_cpu(crate::backend::CpuRefusal::NamedProgram));
         };
@@ -121,41 +131,57 @@ impl Program {
             crate::module::ModuleRepr::Cpu(linked) => return Self::resolve_linked(linked, entry, expected, context),
         };
         let name = entry.entry_name();
-        let available = module.entry_list();
-        let mismatch = |actual: String| {
-            Error::Module(ModuleError::ProgramKindMismatch {
-                name: name.to_owned(),
-                expected,
-                actual,
-                context,
-                available: available.clone(),
-            })
-        };
-        let Some(info) = module.entry_points().iter().find(|e| e.name == name) else {
-            return Err(Error::Module(ModuleError::EntryPointNotFound { name: name.to_owned(), available }));
-        };
-        match info.kind {
-            Some(kind) if kind == expected => {}
-            // Exception programs run as callables.
-            Some(ProgramKind::Callable) if expected == ProgramKind::Exception => {}
-            Some(kind) => return Err(mismatch(kind.to_string())),
-            None => return Err(mismatch(format!("{} (not ray tracing)", info.execution_model))),
-        }
-        if let Some(kind) = ProgramKind::from_prefixed_name(name) {
-            if kind != expected {
-                return Err(mismatch(format!("{kind} (by its `{}` prefix)", kind.prefixes()[0])));
-            }
-        }
-        if let Some(kind) = entry.claimed_kind() {
-            if kind != expected {
-                return Err(mismatch(format!("{kind} (by its EntryPoint constant)")));
-            }
-        }
+        let entries: Vec<&EntryPointInfo> = module.entry_points().iter().collect();
+        check_entry(&entries, entry, expected, context)?;
         let name = CString::new(name).map_err(|_| {
             Error::Module(ModuleError::EntryPointNotFound { name: name.to_owned(), available: module.entry_list() })
         })?;
         Ok(Program { code: ProgramCode::Spirv(spirv.clone()), name, kind: expected, ray: entry.ray() })
     }
+}
+
+/// Checks that `entry` names an entry point of `entries` (a module's, as
+/// reflected from its SPIR-V) of the `expected` kind, by its stage, its OptiX
+/// prefix and the kind its `EntryPoint` constant claims; `context` is the call
+/// that asked, for the message.
+fn check_entry(
+    entries: &[&EntryPointInfo],
+    entry: &dyn EntryName,
+    expected: ProgramKind,
+    context: &'static str,
+) -> Result<()> {
+    let name = entry.entry_name();
+    let available: Vec<(String, Option<ProgramKind>)> = entries.iter().map(|e| (e.name.clone(), e.kind)).collect();
+    let mismatch = |actual: String| {
+        Error::Module(ModuleError::ProgramKindMismatch {
+            name: name.to_owned(),
+            expected,
+            actual,
+            context,
+            available: available.clone(),
+        })
+    };
+    let Some(info) = entries.iter().find(|e| e.name == name) else {
+        return Err(Error::Module(ModuleError::EntryPointNotFound { name: name.to_owned(), available }));
+    };
+    match info.kind {
+        Some(kind) if kind == expected => {}
+        // Exception programs run as callables.
+        Some(ProgramKind::Callable) if expected == ProgramKind::Exception => {}
+        Some(kind) => return Err(mismatch(kind.to_string())),
+        None => return Err(mismatch(format!("{} (not ray tracing)", info.execution_model))),
+    }
+    if let Some(kind) = ProgramKind::from_prefixed_name(name) {
+        if kind != expected {
+            return Err(mismatch(format!("{kind} (by its `{}` prefix)", kind.prefixes()[0])));
+        }
+    }
+    if let Some(kind) = entry.claimed_kind() {
+        if kind != expected {
+            return Err(mismatch(format!("{kind} (by its EntryPoint constant)")));
+        }
+    }
+    Ok(())
 }
 
 /// A program group: a raygen, a miss, or a hit group (closest-hit, any-hit,
