@@ -2376,3 +2376,62 @@ fn hit_group_of_the_other_kind_for_an_instance_no_ray_can_hit_is_accepted() -> a
         still_usable(ctx)
     })
 }
+
+// ------------------------------------------------- geometry: boxes, spheres, compaction
+
+#[test]
+fn aabb_whose_min_is_above_its_max() -> anyhow::Result<()> {
+    case(
+        "aabb_whose_min_is_above_its_max",
+        &["AABB 0", "min is greater than max"],
+        |ctx| refused(Gas::aabbs(ctx, &[raykit::Aabb::new(Vec3::ONE, Vec3::ZERO)]), "an inside-out box"),
+        |e| matches!(e, Error::Accel(raykit::AccelError::InvalidAabb { .. })),
+    )
+}
+
+#[test]
+fn triangles_and_boxes_in_one_gas() -> anyhow::Result<()> {
+    case(
+        "triangles_and_boxes_in_one_gas",
+        &[],
+        |ctx| {
+            let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+            let boxes = [raykit::Aabb::new(Vec3::ZERO, Vec3::ONE)];
+            refused(
+                Gas::builder().triangles(Triangles::new(&tri)).aabbs(raykit::Aabbs::new(&boxes)).build(ctx),
+                "triangles and boxes in one GAS",
+            )
+        },
+        |e| matches!(e, Error::Accel(raykit::AccelError::MixedGeometryTypes { .. })),
+    )
+}
+
+#[test]
+fn compaction_of_a_gas_built_without_it() -> anyhow::Result<()> {
+    case(
+        "compaction_of_a_gas_built_without_it",
+        &[],
+        |ctx| refused(Gas::triangles(ctx, &[Vec3::ZERO, Vec3::X, Vec3::Y], None)?.compact(), "compaction"),
+        |e| matches!(e, Error::Accel(raykit::AccelError::CompactionNotAllowed)),
+    )
+}
+
+#[test]
+fn spheres_with_fewer_radii_than_centres() -> anyhow::Result<()> {
+    case(
+        "spheres_with_fewer_radii_than_centres",
+        &["2", "1"],
+        |ctx| refused(Gas::spheres(ctx, &[Vec3::ZERO, Vec3::X], &[1.0]), "two centres, one radius"),
+        |e| matches!(e, Error::Accel(raykit::AccelError::SphereCount { centres: 2, radii: 1 })),
+    )
+}
+
+#[test]
+fn sphere_with_a_nan_radius() -> anyhow::Result<()> {
+    case(
+        "sphere_with_a_nan_radius",
+        &["NaN", "give a finite radius"],
+        |ctx| refused(Gas::spheres(ctx, &[Vec3::ZERO], &[f32::NAN]), "a NaN radius"),
+        |e| matches!(e, Error::Accel(raykit::AccelError::InvalidSphere { sphere: 0, .. })),
+    )
+}
