@@ -29,8 +29,8 @@
 //! | program groups named by an [`EntryPoint`](raykit_device::EntryPoint) constant | yes | yes |
 //! | program groups named by a string | yes | refused: [`CpuRefusal::NamedProgram`] |
 //! | [`Pipeline::new`](crate::Pipeline::new), SBT, launches, user exceptions | yes | yes |
-//! | [`PipelineLibrary`](crate::PipelineLibrary), [`Pipeline::link`](crate::Pipeline::link) | yes, with `VK_KHR_pipeline_library` | refused: [`CpuRefusal::PipelineLibrary`] |
-//! | stack sizes ([`Pipeline::set_stack_size`](crate::Pipeline::set_stack_size)) | yes | refused: [`CpuRefusal::StackSize`] |
+//! | [`PipelineLibrary`](crate::PipelineLibrary), [`Pipeline::link`](crate::Pipeline::link) | yes, with `VK_KHR_pipeline_library` | yes: the checked groups with their constants, joined at link |
+//! | stack sizes ([`Pipeline::set_stack_size`](crate::Pipeline::set_stack_size)) | yes | checked as on Vulkan; no effect (the threads' own stacks) |
 //! | GAS and IAS builds, refits | yes | yes |
 //! | GAS compaction, size queries | yes | yes (compaction keeps the tree as it is) |
 //! | buffers, textures | yes | yes |
@@ -51,10 +51,6 @@ pub(crate) enum CpuRefusal {
     SpirvModule,
     /// A program named by a string instead of its `EntryPoint` constant.
     NamedProgram,
-    /// A pipeline library.
-    PipelineLibrary,
-    /// A ray-tracing stack size.
-    StackSize,
     /// Something that is part of Vulkan itself, named by what it is.
     VulkanOnly(&'static str),
 }
@@ -71,16 +67,6 @@ pub(crate) fn refused_on_cpu(refusal: CpuRefusal) -> Error {
             "a program named by a string",
             "the CPU backend calls the host-compiled programs that EntryPoint constants carry",
             "name the program by the EntryPoint constant its macro generated (e.g. my_device::RG)",
-        ),
-        CpuRefusal::PipelineLibrary => (
-            "a pipeline library",
-            "the CPU backend compiles nothing at run time: its programs were compiled with the program",
-            "link the groups directly with Pipeline::new on the CPU backend",
-        ),
-        CpuRefusal::StackSize => (
-            "a ray-tracing stack size",
-            "programs run on the CPU threads' own stacks (64 MiB each), which no formula sizes",
-            "leave the stack size to the backend",
         ),
         CpuRefusal::VulkanOnly(what) => (what, "it is part of Vulkan", "use a Context of Backend::Vulkan for it"),
     };

@@ -36,7 +36,7 @@
 //! ([lost device](https://registry.khronos.org/vulkan/specs/latest/html/vkspec.html#devsandqueues-lost-device)),
 //! the device is marked lost: that call and every later launch, build, buffer,
 //! module or pipeline creation on every context of the device returns
-//! [`DeviceError::DeviceLost`](crate::DeviceError::DeviceLost), and the objects still drop cleanly. The next
+//! [`DeviceError::DeviceLost`], and the objects still drop cleanly. The next
 //! [`Context::new`] gets a new device, Vulkan's way back from a lost device.
 
 use std::sync::Arc;
@@ -45,7 +45,7 @@ use ash::vk;
 
 use crate::backend::{refused_on_cpu, CpuRefusal};
 use crate::cache::PipelineCacheInfo;
-use crate::error::Result;
+use crate::error::{DeviceError, Error, Result};
 use crate::log::MessageLog;
 use crate::types::context::next_context_id;
 pub use crate::types::context::{Backend, ContextOptions, DeviceLimits, MemoryUsage};
@@ -76,6 +76,10 @@ impl Context {
             Backend::Vulkan => Self::new_vulkan(options),
             Backend::Cpu => {
                 let cpu = crate::cpu::CpuContext::new(next_context_id(), &options)?;
+                // The CPU backend is one device, index 0 (what `Context::all` gives).
+                if let Some(index) = options.device_index.filter(|&index| index > 0) {
+                    return Err(Error::Device(DeviceError::DeviceIndexOutOfRange { index, usable: vec![cpu.name()] }));
+                }
                 Ok(Context { repr: ContextRepr::Cpu(Arc::new(cpu)) })
             }
         }
@@ -183,10 +187,14 @@ impl Context {
         }
     }
 
-    /// Whether this device links pipelines from libraries
-    /// (`VK_KHR_pipeline_library`; see [`crate::PipelineLibrary`]).
+    /// Whether this device links pipelines from libraries (on Vulkan,
+    /// `VK_KHR_pipeline_library`; the CPU backend always does; see
+    /// [`crate::PipelineLibrary`]).
     pub fn supports_pipeline_libraries(&self) -> bool {
-        matches!(&self.repr, ContextRepr::Vulkan(inner) if inner.pipeline_library)
+        match &self.repr {
+            ContextRepr::Vulkan(inner) => inner.pipeline_library,
+            ContextRepr::Cpu(_) => true,
+        }
     }
 
     /// The device's ray-tracing limits.
@@ -207,7 +215,7 @@ impl Context {
     }
 
     /// Whether the device was lost (`VK_ERROR_DEVICE_LOST`): then every context on it
-    /// refuses new work with [`DeviceError::DeviceLost`](crate::DeviceError::DeviceLost); drop them, and make a new context.
+    /// refuses new work with [`DeviceError::DeviceLost`]; drop them, and make a new context.
     pub fn is_device_lost(&self) -> bool {
         matches!(&self.repr, ContextRepr::Vulkan(inner) if inner.shared.is_lost())
     }

@@ -454,11 +454,19 @@ impl Module {
     /// that does not record `T` (one built from another crate). `cargo xtask
     /// build-shaders` runs the same check when it builds the crate; this one
     /// checks the SPIR-V a program actually loads. On the CPU backend the
-    /// programs are the host's own code: nothing to compare, always `Ok`.
+    /// programs are the host's own code, but the check reads the crate's SPIR-V
+    /// where it was at hand, so an element the GPU would read differently is
+    /// refused there too; without that SPIR-V there is nothing to compare (`Ok`).
     pub fn check_element<T: raykit_device::Element>(&self) -> Result<()> {
-        let Some(inner) = self.spirv() else { return Ok(()) };
-        let blocks: std::collections::HashMap<String, Vec<raykit_spirv::ParamsBlock>> =
-            inner.entry_points.iter().map(|e| (e.name.clone(), e.params.clone())).collect();
+        let blocks: std::collections::HashMap<String, Vec<raykit_spirv::ParamsBlock>> = match &self.repr {
+            ModuleRepr::Vulkan(inner) => {
+                inner.entry_points.iter().map(|e| (e.name.clone(), e.params.clone())).collect()
+            }
+            ModuleRepr::Cpu(linked) if !linked.reflected.is_empty() => {
+                linked.reflected.iter().map(|e| (e.name.clone(), e.params.clone())).collect()
+            }
+            ModuleRepr::Cpu(_) => return Ok(()),
+        };
         raykit_spirv::check_element(&T::SHAPE, &blocks).map_err(|e| match e {
             raykit_spirv::LayoutError::InvalidSpirv(reason) => Error::Module(ModuleError::InvalidSpirv { reason }),
             other => Error::Module(ModuleError::ElementLayout(Box::new(other))),

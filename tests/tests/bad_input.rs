@@ -18,9 +18,11 @@
 //! (inputs that once crashed the driver or raykit) run in a child process.
 
 use raykit::glam::{Affine3A, Vec3};
+use raykit::texture::MipLevel;
 use raykit::{
-    BuildOptions, Context, ContextOptions, Error, Gas, Ias, Instance, LayoutError, LinkOptions, Module, Pipeline,
-    ProgramGroup, ProgramKind, Sbt, Triangles,
+    Balance, BandRows, BuildOptions, Context, ContextOptions, DeviceGroup, DeviceGroupError, Error, Gas, Ias, Instance,
+    InterfaceSizes, LaunchError, LayoutError, LibraryOptions, LinkOptions, Mipmaps, Module, Pipeline, PipelineLibrary,
+    ProgramGroup, ProgramKind, ResourceError, SamplerOptions, Sbt, SbtRegion, Texture, TextureFormat, Triangles,
 };
 use raykit_tests::with_context;
 use triangle::BG_COLOR;
@@ -456,8 +458,7 @@ fn buffer_one_element_over_max_storage_buffer_range() -> anyhow::Result<()> {
 
 #[test]
 fn explicit_stack_size_of_zero() -> anyhow::Result<()> {
-    vulkan_case(
-        "the ray-tracing stack is the driver's: the CPU backend has none to size (CpuRefusal::StackSize)",
+    case(
         "explicit_stack_size_of_zero",
         &["StackSize::Explicit(0)", "StackSize::Refined"],
         |ctx| {
@@ -471,7 +472,7 @@ fn explicit_stack_size_of_zero() -> anyhow::Result<()> {
 #[test]
 fn explicit_stack_size_below_a_programs_own_need() -> anyhow::Result<()> {
     vulkan_case(
-        "the ray-tracing stack is the driver's: the CPU backend has none to size (CpuRefusal::StackSize)",
+        "a program's own stack need is the driver's figure; on the CPU backend it is 0, which no size undercuts",
         "explicit_stack_size_below_a_programs_own_need",
         &["is below", "the largest stack one of the pipeline's programs needs"],
         |ctx| {
@@ -482,6 +483,23 @@ fn explicit_stack_size_below_a_programs_own_need() -> anyhow::Result<()> {
             refused(s.set_stack_size(&raykit::stack::StackSize::Explicit(largest as u32 - 1)), "a too small stack")
         },
         |e| matches!(e, Error::Link(raykit::LinkError::StackSize { .. })),
+    )
+}
+
+#[test]
+fn call_graph_whose_callables_call_each_other() -> anyhow::Result<()> {
+    case(
+        "call_graph_whose_callables_call_each_other",
+        &["cycle"],
+        |ctx| {
+            let l = linked(ctx)?;
+            let mut graph = raykit::stack::CallGraph::new(1);
+            let rg = graph.raygen(16);
+            let (a, b) = (graph.callable(8), graph.callable(8));
+            graph.calls(rg, a).calls(a, b).calls(b, a);
+            refused(l.pipeline.set_stack_size(&raykit::stack::StackSize::CallGraph(&graph)), "a callable cycle")
+        },
+        |e| matches!(e, Error::Link(raykit::LinkError::CallGraph { .. })),
     )
 }
 
@@ -1923,8 +1941,7 @@ fn hit_for_a_geometry_past_twenty_four_bits() -> anyhow::Result<()> {
 #[test]
 fn recursive_closest_hit_in_a_library_with_max_trace_depth_one() -> anyhow::Result<()> {
     in_child("recursive_closest_hit_in_a_library_with_max_trace_depth_one", || {
-        vulkan_case(
-            "pipeline libraries are Vulkan's (VK_KHR_pipeline_library); the CPU backend refuses them",
+        case(
             "recursive_closest_hit_in_a_library_with_max_trace_depth_one",
             &["`__closesthit__layer_hit` needs a trace depth of at least 2", "max_trace_depth 1"],
             |ctx| {
@@ -2433,5 +2450,526 @@ fn sphere_with_a_nan_radius() -> anyhow::Result<()> {
         &["NaN", "give a finite radius"],
         |ctx| refused(Gas::spheres(ctx, &[Vec3::ZERO], &[f32::NAN]), "a NaN radius"),
         |e| matches!(e, Error::Accel(raykit::AccelError::InvalidSphere { sphere: 0, .. })),
+    )
+}
+
+// ---------------------------------------------------------------- textures
+
+/// An sRGB texture of `width × height` from `data`.
+fn srgb_texture(ctx: &Context, width: u32, height: u32, data: &[u8], mips: Mipmaps) -> raykit::Result<Texture> {
+    Texture::new(ctx, TextureFormat::Rgba8Srgb, width, height, data, mips, SamplerOptions::default())
+}
+
+#[test]
+fn texture_of_zero_width() -> anyhow::Result<()> {
+    case(
+        "texture_of_zero_width",
+        &["at least 1"],
+        |ctx| refused(srgb_texture(ctx, 0, 4, &[], Mipmaps::One), "a texture 0 texels wide"),
+        |e| matches!(e, Error::Resource(ResourceError::TextureSize { width: 0, .. })),
+    )
+}
+
+#[test]
+fn texture_wider_than_the_device_allows() -> anyhow::Result<()> {
+    case(
+        "texture_wider_than_the_device_allows",
+        &["maxImageDimension2D"],
+        |ctx| {
+            let max = raykit::texture::max_texture_size(ctx);
+            refused(srgb_texture(ctx, max + 1, 1, &[], Mipmaps::One), "a texture past maxImageDimension2D")
+        },
+        |e| matches!(e, Error::Resource(ResourceError::TextureSize { .. })),
+    )
+}
+
+#[test]
+fn texture_data_shorter_than_its_level() -> anyhow::Result<()> {
+    case(
+        "texture_data_shorter_than_its_level",
+        &["bytes_per_texel"],
+        |ctx| refused(srgb_texture(ctx, 4, 4, &[0; 60], Mipmaps::Generate), "60 bytes for 64"),
+        |e| matches!(e, Error::Resource(ResourceError::TextureData { level: 0, expected: 64, got: 60, .. })),
+    )
+}
+
+#[test]
+fn mip_level_of_the_wrong_size() -> anyhow::Result<()> {
+    case(
+        "mip_level_of_the_wrong_size",
+        &["must be 2×2"],
+        |ctx| {
+            let levels = [
+                MipLevel { width: 4, height: 4, data: vec![0; 64] },
+                MipLevel { width: 1, height: 1, data: vec![0; 4] },
+            ];
+            let texture = Texture::from_levels(ctx, TextureFormat::Rgba8Srgb, &levels, SamplerOptions::default());
+            refused(texture, "a 1×1 level after a 4×4 one")
+        },
+        |e| matches!(e, Error::Resource(ResourceError::TextureSize { .. })),
+    )
+}
+
+#[test]
+fn image_of_16_bit_integer_channels() -> anyhow::Result<()> {
+    case(
+        "image_of_16_bit_integer_channels",
+        &["to_rgba32f"],
+        |ctx| {
+            let deep = image::DynamicImage::ImageRgba16(image::ImageBuffer::new(2, 2));
+            refused(Texture::from_image(ctx, &deep, false, Mipmaps::One, SamplerOptions::default()), "16-bit integers")
+        },
+        |e| matches!(e, Error::Resource(ResourceError::TextureFormat { .. })),
+    )
+}
+
+// ---------------------------------------------------------------- handles, records, buffers
+
+/// The triangle's SBT over `l`.
+fn full_sbt(l: &Linked) -> anyhow::Result<Sbt> {
+    Ok(Sbt::builder(&l.pipeline)
+        .raygen(&l.raygen, ())
+        .miss(&l.miss, MissData { bg_color: BG_COLOR })
+        .hit(&l.hit, ())
+        .build()?)
+}
+
+#[test]
+fn launch_with_the_handle_of_a_dropped_buffer() -> anyhow::Result<()> {
+    case(
+        "launch_with_the_handle_of_a_dropped_buffer",
+        &["`image`"],
+        |ctx| {
+            let l = linked(ctx)?;
+            let sbt = full_sbt(&l)?;
+            let image = ctx.buffer::<u32>(1)?;
+            let stale = image.handle();
+            drop(image);
+            let params = triangle::params(1, 1, stale, raykit::Traversable::NULL);
+            refused(l.pipeline.launch(&sbt, &params, [1, 1, 1]), "a dropped buffer's handle")
+        },
+        |e| matches!(e, Error::Launch(LaunchError::InvalidHandle { record: None, field, .. }) if field == "image"),
+    )
+}
+
+#[test]
+fn sbt_update_past_the_last_record() -> anyhow::Result<()> {
+    case(
+        "sbt_update_past_the_last_record",
+        &[],
+        |ctx| refused(full_sbt(&linked(ctx)?)?.update(SbtRegion::Hit, 1, ()), "an update of hit record 1 of 1"),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::Update { .. })),
+    )
+}
+
+#[test]
+fn sbt_update_larger_than_the_record() -> anyhow::Result<()> {
+    case(
+        "sbt_update_larger_than_the_record",
+        &[],
+        |ctx| refused(full_sbt(&linked(ctx)?)?.update(SbtRegion::Miss, 0, [0u8; 4096]), "4096 bytes of miss data"),
+        |e| matches!(e, Error::Sbt(raykit::SbtError::Update { .. })),
+    )
+}
+
+#[test]
+fn buffer_write_past_its_end() -> anyhow::Result<()> {
+    case(
+        "buffer_write_past_its_end",
+        &[],
+        |ctx| refused(ctx.buffer::<u32>(4)?.write_at(3, &[1, 2]), "a write of elements 3..5 of 4"),
+        |e| matches!(e, Error::Resource(ResourceError::BufferRange { start: 3, end: 5, len: 4 })),
+    )
+}
+
+#[test]
+fn element_laid_out_differently_in_the_spirv() -> anyhow::Result<()> {
+    case(
+        "element_laid_out_differently_in_the_spirv",
+        &["`value`"],
+        |ctx| {
+            let module = Module::from_device_crate(ctx, "params-device")?;
+            refused(module.check_element::<params_device::elements::Shifted>(), "a shifted element")
+        },
+        |e| matches!(e, Error::Module(raykit::ModuleError::ElementLayout(_))),
+    )
+}
+
+#[test]
+fn wgsl_with_a_syntax_error() -> anyhow::Result<()> {
+    case(
+        "wgsl_with_a_syntax_error",
+        &["triangle.wgsl"],
+        |ctx| {
+            let source = triangle::WGSL.replacen("vec3f(miss_data.bg_color);", "vec3f(miss_data.bg_color)", 1);
+            anyhow::ensure!(source != triangle::WGSL, "the triangle's WGSL changed");
+            refused(Module::from_wgsl_named(ctx, &source, "triangle.wgsl"), "WGSL without a `;`")
+        },
+        |e| matches!(e, Error::Module(raykit::ModuleError::Wgsl(_))),
+    )
+}
+
+// ---------------------------------------------------------------- params, exceptions
+
+/// Launch params of 80 KiB: past the 64 KiB a launch can deliver.
+#[repr(C)]
+#[derive(Copy, Clone, raykit::bytemuck::Pod, raykit::bytemuck::Zeroable, raykit::LaunchParams)]
+#[bytemuck(crate = "raykit::bytemuck")]
+struct HugeParams {
+    words: [[u32; 4096]; 5],
+}
+
+#[test]
+fn params_larger_than_a_launch_delivers() -> anyhow::Result<()> {
+    case(
+        "params_larger_than_a_launch_delivers",
+        &["81920"],
+        |ctx| {
+            let p = triangle::Programs::rust(ctx)?;
+            refused(Pipeline::<HugeParams>::new(ctx, &[&p.raygen], LinkOptions::default()), "80 KiB of params")
+        },
+        |e| matches!(e, Error::Link(raykit::LinkError::ParamsTooLarge { size: 81920, .. })),
+    )
+}
+
+fn program_model(ctx: &Context) -> anyhow::Result<Module> {
+    Ok(Module::from_device_crate(ctx, "program-model-device")?)
+}
+
+#[test]
+fn two_exception_programs_in_one_pipeline() -> anyhow::Result<()> {
+    case(
+        "two_exception_programs_in_one_pipeline",
+        &[],
+        |ctx| {
+            let module = program_model(ctx)?;
+            let raygen = ProgramGroup::raygen(&module, program_model_device::RG_THROW)?;
+            let first = ProgramGroup::exception(&module, program_model_device::ON_EXCEPTION)?;
+            let second = ProgramGroup::exception(&module, program_model_device::ON_EXCEPTION)?;
+            let groups = [&raygen, &first, &second];
+            refused(Pipeline::<program_model_device::Params>::new(ctx, &groups, LinkOptions::default()), "two")
+        },
+        |e| matches!(e, Error::Link(raykit::LinkError::SeveralExceptionPrograms)),
+    )
+}
+
+#[test]
+fn programs_that_throw_user_exceptions() -> anyhow::Result<()> {
+    case(
+        "programs_that_throw_user_exceptions",
+        &["2"],
+        |ctx| {
+            let module = program_model(ctx)?;
+            let raygen = ProgramGroup::raygen(&module, program_model_device::RG_THROW)?;
+            let pipeline = Pipeline::<program_model_device::Params>::new(ctx, &[&raygen], LinkOptions::default())?;
+            let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).build()?;
+            let image = ctx.buffer::<u32>(16 * 16)?;
+            let spheres = ctx.buffer_from::<raykit::glam::Vec4>(&[raykit::glam::Vec4::ZERO])?;
+            let gas = Gas::triangles(ctx, &[Vec3::ZERO, Vec3::X, Vec3::Y], None)?;
+            let scene = Ias::single(ctx, &gas)?;
+            let params = program_model_device::Params {
+                image: image.handle(),
+                spheres: spheres.handle(),
+                size: raykit::glam::UVec2::splat(16),
+                scene: scene.handle(),
+            };
+            refused(pipeline.launch(&sbt, &params, [16, 16, 1]), "a launch whose programs throw")
+        },
+        |e| matches!(e, Error::Launch(LaunchError::UserExceptions { total: 2, .. })),
+    )
+}
+
+// ---------------------------------------------------------------- contexts and device groups
+
+#[test]
+fn device_index_past_the_usable_devices() -> anyhow::Result<()> {
+    case(
+        "device_index_past_the_usable_devices",
+        &["device index 99", "use an index below"],
+        |ctx| {
+            let options = ContextOptions { backend: Some(ctx.backend()), device_index: Some(99), ..Default::default() };
+            refused(Context::new(options), "device index 99")
+        },
+        |e| matches!(e, Error::Device(raykit::DeviceError::DeviceIndexOutOfRange { index: 99, .. })),
+    )
+}
+
+/// A band state for device-group cases: `row_len` counters a row.
+struct Rows {
+    buffer: raykit::DeviceBuffer<u32>,
+    row_len: usize,
+}
+
+impl Rows {
+    fn new(ctx: &Context, rows: u32, row_len: usize) -> raykit::Result<Rows> {
+        Ok(Rows { buffer: ctx.buffer(rows as usize * row_len)?, row_len })
+    }
+}
+
+impl BandRows for Rows {
+    type Item = u32;
+    fn row_len(&self) -> usize {
+        self.row_len
+    }
+    fn read_rows(&self, rows: std::ops::Range<u32>, out: &mut [u32]) -> raykit::Result<()> {
+        self.buffer.read_into(rows.start as usize * self.row_len, out)
+    }
+    fn write_rows(&mut self, rows: std::ops::Range<u32>, data: &[u32]) -> raykit::Result<()> {
+        self.buffer.write_at(rows.start as usize * self.row_len, data)
+    }
+}
+
+/// A group of two contexts of `ctx`'s device, split over 8 rows of 4.
+fn split_of_two(ctx: &Context) -> anyhow::Result<raykit::Split<Rows>> {
+    let group = DeviceGroup::new(vec![ctx.clone(), ctx.clone()])?;
+    Ok(group.split(8, |c| Rows::new(c, 8, 4))?)
+}
+
+#[test]
+fn device_group_of_no_devices() -> anyhow::Result<()> {
+    case(
+        "device_group_of_no_devices",
+        &[],
+        |_| refused(DeviceGroup::new(Vec::new()), "a group of no devices"),
+        |e| matches!(e, Error::DeviceGroup(DeviceGroupError::Empty)),
+    )
+}
+
+#[test]
+fn device_group_split_of_no_rows() -> anyhow::Result<()> {
+    case(
+        "device_group_split_of_no_rows",
+        &[],
+        |ctx| refused(DeviceGroup::new(vec![ctx.clone()])?.split(0, |c| Rows::new(c, 1, 1)), "a split of 0 rows"),
+        |e| matches!(e, Error::DeviceGroup(DeviceGroupError::EmptySplit)),
+    )
+}
+
+#[test]
+fn device_group_bands_of_different_row_lengths() -> anyhow::Result<()> {
+    case(
+        "device_group_bands_of_different_row_lengths",
+        &[],
+        |ctx| {
+            let group = DeviceGroup::new(vec![ctx.clone(), ctx.clone()])?;
+            let made = std::sync::atomic::AtomicU32::new(0);
+            let split = group.split(4, |c| {
+                let first = made.fetch_add(1, std::sync::atomic::Ordering::Relaxed) == 0;
+                Rows::new(c, 4, if first { 4 } else { 3 })
+            });
+            refused(split, "rows of 4 and of 3")
+        },
+        // The states are built in parallel: either device may get the rows of 3.
+        |e| {
+            matches!(e, Error::DeviceGroup(DeviceGroupError::BandRowLength { device: 1, found, expected })
+                if found + expected == 7 && found != expected)
+        },
+    )
+}
+
+#[test]
+fn device_group_weights_that_are_negative() -> anyhow::Result<()> {
+    case(
+        "device_group_weights_that_are_negative",
+        &[],
+        |ctx| refused(split_of_two(ctx)?.set_balance(Balance::Weights(vec![1.0, -1.0])), "a weight of -1"),
+        |e| matches!(e, Error::DeviceGroup(DeviceGroupError::BandWeights { .. })),
+    )
+}
+
+#[test]
+fn device_group_gather_before_any_launch() -> anyhow::Result<()> {
+    case(
+        "device_group_gather_before_any_launch",
+        &[],
+        |ctx| refused(split_of_two(ctx)?.gather_vec(), "a gather before a launch"),
+        |e| matches!(e, Error::DeviceGroup(DeviceGroupError::NotLaunched { first: 0, end: 8 })),
+    )
+}
+
+#[test]
+fn device_group_gather_into_too_few_elements() -> anyhow::Result<()> {
+    case(
+        "device_group_gather_into_too_few_elements",
+        &[],
+        |ctx| {
+            let mut split = split_of_two(ctx)?;
+            split.launch(|state, band| {
+                let first = band.first_row() as usize * state.row_len;
+                state.buffer.write_at(first, &vec![1; band.row_count() as usize * state.row_len])
+            })?;
+            refused(split.gather(&mut [0u32; 5]), "a gather of 32 elements into 5")
+        },
+        |e| matches!(e, Error::DeviceGroup(DeviceGroupError::GatherSize { rows: 8, row_len: 4, len: 5 })),
+    )
+}
+
+// ---------------------------------------------------------------- pipeline libraries
+
+/// The triangle's groups, linked, and library options covering all of them.
+fn library_parts(ctx: &Context) -> anyhow::Result<(Linked, LibraryOptions)> {
+    let l = linked(ctx)?;
+    let interface = PipelineLibrary::<Params>::interface_for(&[&l.raygen, &l.miss, &l.hit]);
+    Ok((l, LibraryOptions { max_trace_depth: 1, interface: Some(interface) }))
+}
+
+#[test]
+fn library_of_no_groups() -> anyhow::Result<()> {
+    case(
+        "library_of_no_groups",
+        &[],
+        |ctx| refused(PipelineLibrary::<Params>::new(ctx, &[], LibraryOptions::default()), "an empty library"),
+        |e| matches!(e, Error::Link(raykit::LinkError::EmptyLibrary)),
+    )
+}
+
+#[test]
+fn libraries_made_for_another_trace_depth() -> anyhow::Result<()> {
+    case(
+        "libraries_made_for_another_trace_depth",
+        &["LibraryOptions::max_trace_depth"],
+        |ctx| {
+            let (l, options) = library_parts(ctx)?;
+            let common = PipelineLibrary::<Params>::new(ctx, &[&l.raygen, &l.miss], options)?;
+            let hits = PipelineLibrary::<Params>::new(ctx, &[&l.hit], options)?;
+            refused(Pipeline::link(ctx, &[&common, &hits], LinkOptions { max_trace_depth: 2 }), "depths 1 and 2")
+        },
+        |e| matches!(e, Error::Link(raykit::LinkError::LibraryMismatch { what: "max_trace_depth", index: 0, .. })),
+    )
+}
+
+#[test]
+fn libraries_of_different_interfaces() -> anyhow::Result<()> {
+    case(
+        "libraries_of_different_interfaces",
+        &["interface_for"],
+        |ctx| {
+            let (l, options) = library_parts(ctx)?;
+            let common = PipelineLibrary::<Params>::new(ctx, &[&l.raygen, &l.miss], options)?;
+            let wider =
+                LibraryOptions { interface: Some(InterfaceSizes { payload: 64, hit_attributes: 8 }), ..options };
+            let hits = PipelineLibrary::<Params>::new(ctx, &[&l.hit], wider)?;
+            refused(Pipeline::link(ctx, &[&common, &hits], LinkOptions::default()), "two interfaces")
+        },
+        |e| matches!(e, Error::Link(raykit::LinkError::LibraryMismatch { what: "interface", index: 1, .. })),
+    )
+}
+
+#[test]
+fn library_interface_smaller_than_its_programs_payload() -> anyhow::Result<()> {
+    case(
+        "library_interface_smaller_than_its_programs_payload",
+        &["__raygen__"],
+        |ctx| {
+            let (l, options) = library_parts(ctx)?;
+            let narrow =
+                LibraryOptions { interface: Some(InterfaceSizes { payload: 4, hit_attributes: 0 }), ..options };
+            refused(PipelineLibrary::<Params>::new(ctx, &[&l.raygen], narrow), "a 4-byte payload interface")
+        },
+        |e| {
+            matches!(e, Error::Link(raykit::LinkError::LibraryInterfaceTooSmall { what: "ray payload", given: 4, program, .. })
+                if program.starts_with("__raygen__"))
+        },
+    )
+}
+
+#[test]
+fn library_hit_attributes_past_the_device_limit() -> anyhow::Result<()> {
+    case(
+        "library_hit_attributes_past_the_device_limit",
+        &[],
+        |ctx| {
+            let (l, options) = library_parts(ctx)?;
+            let attributes = ctx.limits().max_ray_hit_attribute_size + 4;
+            let huge = LibraryOptions {
+                interface: Some(InterfaceSizes { payload: 64, hit_attributes: attributes }),
+                ..options
+            };
+            refused(PipelineLibrary::<Params>::new(ctx, &[&l.hit], huge), "hit attributes past the limit")
+        },
+        |e| matches!(e, Error::Link(raykit::LinkError::HitAttributesTooLarge { .. })),
+    )
+}
+
+#[test]
+fn group_in_two_libraries_of_one_pipeline() -> anyhow::Result<()> {
+    case(
+        "group_in_two_libraries_of_one_pipeline",
+        &[],
+        |ctx| {
+            let (l, options) = library_parts(ctx)?;
+            let common = PipelineLibrary::<Params>::new(ctx, &[&l.raygen, &l.miss], options)?;
+            let misses = PipelineLibrary::<Params>::new(ctx, &[&l.miss], options)?;
+            let hits = PipelineLibrary::<Params>::new(ctx, &[&l.hit], options)?;
+            refused(Pipeline::link(ctx, &[&common, &misses, &hits], LinkOptions::default()), "the miss group twice")
+        },
+        |e| {
+            matches!(
+                e,
+                Error::Link(raykit::LinkError::GroupInSeveralLibraries {
+                    kind: raykit::GroupKind::Miss,
+                    first: 0,
+                    second: 1
+                })
+            )
+        },
+    )
+}
+
+#[test]
+fn libraries_without_a_raygen_group() -> anyhow::Result<()> {
+    case(
+        "libraries_without_a_raygen_group",
+        &[],
+        |ctx| {
+            let (l, options) = library_parts(ctx)?;
+            let misses = PipelineLibrary::<Params>::new(ctx, &[&l.miss], options)?;
+            let hits = PipelineLibrary::<Params>::new(ctx, &[&l.hit], options)?;
+            refused(Pipeline::link(ctx, &[&misses, &hits], LinkOptions::default()), "no raygen")
+        },
+        |e| matches!(e, Error::Link(raykit::LinkError::NoRaygen)),
+    )
+}
+
+// ---------------------------------------------------------------- device limits
+
+#[test]
+fn ias_of_more_instances_than_the_device_allows() -> anyhow::Result<()> {
+    case(
+        "ias_of_more_instances_than_the_device_allows",
+        &["maxInstanceCount", "split the input"],
+        |ctx| {
+            let gas = Gas::triangles(ctx, &[Vec3::ZERO, Vec3::X, Vec3::Y], None)?;
+            let limit = usize::try_from(ctx.limits().max_instance_count)?;
+            anyhow::ensure!(limit <= 1 << 24, "maxInstanceCount {limit}: too many instances to make here");
+            let instances = vec![Instance::new(&gas); limit + 1];
+            refused(Ias::new(ctx, &instances), "one instance past maxInstanceCount")
+        },
+        |e| matches!(e, Error::Accel(raykit::AccelError::Limit { limit_name: "maxInstanceCount", .. })),
+    )
+}
+
+#[test]
+fn texture_past_a_full_texture_table() -> anyhow::Result<()> {
+    case(
+        "texture_past_a_full_texture_table",
+        &["4095"],
+        |ctx| {
+            let mut textures = Vec::new();
+            loop {
+                match srgb_texture(ctx, 1, 1, &[255; 4], Mipmaps::One) {
+                    Ok(t) => textures.push(t),
+                    Err(e) => {
+                        anyhow::ensure!(textures.len() == 4095, "refused after {} textures", textures.len());
+                        // A slot freed is a slot to use again.
+                        textures.pop();
+                        textures.push(srgb_texture(ctx, 1, 1, &[255; 4], Mipmaps::One)?);
+                        return Ok(e);
+                    }
+                }
+                anyhow::ensure!(textures.len() <= 4096, "4096 textures were accepted");
+            }
+        },
+        |e| matches!(e, Error::Resource(ResourceError::TextureTableFull { capacity: 4095 })),
     )
 }

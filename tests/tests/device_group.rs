@@ -20,7 +20,8 @@
 //! * a group of one device launches directly, on the calling thread, and equals a
 //!   plain render;
 //! * rows carry their state between devices (and do not when told not to);
-//! * bad input gives typed errors.
+//! * bad input in a group of mixed backends gives typed errors naming the device
+//!   (the cases of one backend are in the bad-input catalogue).
 
 use std::ops::Range;
 use std::time::Duration;
@@ -462,16 +463,8 @@ fn context_all_makes_one_context_per_device() -> anyhow::Result<()> {
 
 #[test]
 fn bad_input_gives_typed_errors() -> anyhow::Result<()> {
-    anyhow::ensure!(
-        matches!(DeviceGroup::new(Vec::new()), Err(Error::DeviceGroup(raykit::DeviceGroupError::Empty))),
-        "an empty group"
-    );
     with_contexts("device_group_bad_input_gives_typed_errors", vec![vulkan(), cpu()], |ctx| {
         let group = DeviceGroup::new(ctx.to_vec())?;
-        match group.split(0, |c| Counters::new(c, 1, 1)) {
-            Err(Error::DeviceGroup(raykit::DeviceGroupError::EmptySplit)) => {}
-            other => anyhow::bail!("a grid of no rows: {other:?}"),
-        }
         // A build that fails on one device names it: the GLSL twin needs Vulkan.
         match GroupRenderer::new(&group, W, H, Programs::glsl) {
             Err(Error::InDevice { device: 1, name, source }) => {
@@ -496,16 +489,7 @@ fn bad_input_gives_typed_errors() -> anyhow::Result<()> {
             }
         }
         anyhow::ensure!(split.balance() == &Balance::Measured, "refused weights change nothing");
-        match split.gather_vec() {
-            Err(Error::DeviceGroup(raykit::DeviceGroupError::NotLaunched { first: 0, end: 8 })) => {}
-            other => anyhow::bail!("a gather before any launch: {other:?}"),
-        }
         split.launch(Counters::bump)?;
-        let mut short = vec![0u32; 5];
-        match split.gather(&mut short) {
-            Err(Error::DeviceGroup(raykit::DeviceGroupError::GatherSize { rows: 8, row_len: 4, len: 5 })) => {}
-            other => anyhow::bail!("a gather into 5 elements: {other:?}"),
-        }
         // A launch failing on one device names it, and its rows are forgotten.
         let held = split.bands()[1].rows.clone();
         let err = split.launch(|state, band| {
@@ -533,10 +517,6 @@ fn bad_input_gives_typed_errors() -> anyhow::Result<()> {
                 anyhow::ensure!(first == held.start && end == held.end, "rows {first}..{end} against {held:?}")
             }
             other => anyhow::bail!("a gather after a failed launch: {other:?}"),
-        }
-        match ctx[0].buffer::<u32>(4)?.write_at(3, &[1, 2]) {
-            Err(Error::Resource(raykit::ResourceError::BufferRange { start: 3, end: 5, len: 4 })) => {}
-            other => anyhow::bail!("a write past the end: {other:?}"),
         }
         match Context::new(ContextOptions { device_index: Some(99), ..vulkan() }) {
             Err(Error::Device(raykit::DeviceError::DeviceIndexOutOfRange { index: 99, usable })) => {

@@ -123,7 +123,7 @@ fn recursive_closest_hit_renders_with_the_call_graph_stack_size() -> anyhow::Res
 
 #[test]
 fn every_stack_choice_renders_the_same_picture() -> anyhow::Result<()> {
-    with_context("every_stack_choice_renders_the_same_picture", |ctx| {
+    with_each_backend("every_stack_choice_renders_the_same_picture", |ctx, _backend| {
         let s = scene(ctx)?;
         let graph = call_graph(&s)?;
         let default = render(ctx, &s)?;
@@ -166,7 +166,7 @@ fn groups_report_their_driver_stack_sizes() -> anyhow::Result<()> {
 
 #[test]
 fn estimates_deeper_than_the_pipeline_are_refused() -> anyhow::Result<()> {
-    with_context("estimates_deeper_than_the_pipeline_are_refused", |ctx| {
+    with_each_backend("estimates_deeper_than_the_pipeline_are_refused", |ctx, _backend| {
         let s = scene(ctx)?;
         let before = s.pipeline.stack_size();
         let err = s.pipeline.set_stack_size(&StackSize::Refined(CallDepths::new(MAX_DEPTH + 1)));

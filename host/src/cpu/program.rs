@@ -14,6 +14,9 @@ use crate::types::group::{GroupKind, SpirvCode};
 pub(crate) struct Program {
     pub(crate) cpu: &'static CpuProgram,
     pub(crate) name: &'static str,
+    /// Which of the pipeline's constant sets it was specialized with
+    /// ([`PipelineData::constant_sets`]): each library's own, or the pipeline's.
+    pub(crate) constants: usize,
 }
 
 /// One group of a CPU pipeline.
@@ -45,8 +48,10 @@ pub(crate) struct PipelineData {
     pub(crate) ctx: Arc<CpuContext>,
     pub(crate) groups: Vec<Group>,
     pub(crate) max_trace_depth: u32,
-    /// The specialization constants set, by id.
-    pub(crate) specialization: Vec<(u32, u32)>,
+    /// The specialization constants, by id, of each part it was linked from:
+    /// one set for a pipeline of groups, one per library for a pipeline of
+    /// libraries.
+    pub(crate) constant_sets: Vec<Vec<(u32, u32)>>,
     /// The index of the exception group, if there is one.
     pub(crate) exception_group: Option<usize>,
 }
@@ -112,23 +117,35 @@ pub(crate) fn link<S: SpirvCode>(
     max_trace_depth: u32,
     constants: &types::specialization::Specialization,
 ) -> PipelineData {
-    let linked: Vec<Group> = groups.iter().map(|g| group(g)).collect();
+    link_parts(ctx, &[(groups.to_vec(), constants)], max_trace_depth)
+}
+
+/// Links checked parts of a CPU context into a pipeline, in order: each part's
+/// groups keep the specialization constants they came with (a pipeline
+/// library's, on Vulkan compiled into it).
+pub(crate) fn link_parts<S: SpirvCode>(
+    ctx: &Arc<CpuContext>,
+    parts: &[(Vec<&types::group::Group<S>>, &types::specialization::Specialization)],
+    max_trace_depth: u32,
+) -> PipelineData {
+    let linked: Vec<Group> =
+        parts.iter().enumerate().flat_map(|(set, (groups, _))| groups.iter().map(move |g| group(g, set))).collect();
     PipelineData {
         ctx: ctx.clone(),
         exception_group: linked.iter().position(|g| g.kind == GroupKind::Exception),
         groups: linked,
         max_trace_depth,
-        specialization: constants.values().to_vec(),
+        constant_sets: parts.iter().map(|(_, constants)| constants.values().to_vec()).collect(),
     }
 }
 
 /// The CPU programs of `group` (a group of a CPU context holds only those).
-fn group<S: Clone>(group: &types::group::Group<S>) -> Group {
+fn group<S: Clone>(group: &types::group::Group<S>, constants: usize) -> Group {
     use types::group::{GroupPrograms, ProgramCode};
     let program = |p: &Option<types::group::Program<S>>| -> Option<Program> {
         let p = p.as_ref()?;
         match p.code {
-            ProgramCode::Cpu { program: cpu, .. } => Some(Program { cpu, name: cpu.name }),
+            ProgramCode::Cpu { program: cpu, .. } => Some(Program { cpu, name: cpu.name, constants }),
             ProgramCode::Spirv(_) => None,
         }
     };

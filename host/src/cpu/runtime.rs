@@ -60,13 +60,17 @@ impl<'j> Frame<'_, 'j> {
             exception: ExceptionDetails::default(),
             depth: self.depth,
             max_trace_depth: job.pipeline.max_trace_depth,
-            specialization: &job.pipeline.specialization,
+            specialization: &[],
         }
     }
 
     /// Calls `program` with `inv`; a failure unwinding out of it is noted as
     /// coming from it, unless a program it called was noted first.
-    pub(super) fn run(&self, program: Program, inv: &mut Invocation<'_>) {
+    pub(super) fn run<'i>(&self, program: Program, inv: &mut Invocation<'i>)
+    where
+        'j: 'i,
+    {
+        inv.specialization = self.job().pipeline.constant_sets.get(program.constants).map_or(&[], Vec::as_slice);
         let unwinding = NoteUnwinding { failed_in: &self.state.failed_in, program: program.name };
         let running = super::overflow::enter(program.name, self.state.launch_index.to_array());
         (program.cpu.run)(inv);

@@ -4,10 +4,6 @@
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum AccelError {
-    /// A geometry input is invalid.
-    #[error("geometry input: {0}")]
-    Geometry(String),
-
     /// A build has nothing to build: no geometry, no primitives, no instances.
     #[error("acceleration structure build: {what}; give at least one triangle, AABB or instance, or leave the empty part out")]
     Empty {

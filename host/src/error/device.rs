@@ -67,6 +67,8 @@ pub enum DeviceError {
     },
 
     /// The CPU backend's thread pool could not be made.
+    ///
+    /// A fault, not a refusal: the system could not start threads.
     #[error("cannot start the CPU backend's threads: {reason}")]
     CpuThreads {
         /// What the system said.
@@ -74,6 +76,8 @@ pub enum DeviceError {
     },
 
     /// The Vulkan loader (`libvulkan.so.1`) could not be loaded.
+    ///
+    /// A fault, not a refusal: the machine lacks the loader, whatever the input.
     #[error("cannot load the Vulkan loader: {0}. Install it (Debian: `apt-get install libvulkan1`) or run `cargo xtask test`, which installs what is missing")]
     LoaderMissing(String),
 
@@ -85,6 +89,8 @@ pub enum DeviceError {
     },
 
     /// A Vulkan call failed.
+    ///
+    /// A fault, not a refusal: the driver failed a call raykit made with checked arguments.
     #[error("Vulkan call {call} failed: {result}")]
     Vulkan {
         /// The function that failed.
@@ -94,6 +100,8 @@ pub enum DeviceError {
     },
 
     /// Device memory could not be allocated.
+    ///
+    /// A fault, not a refusal: the device is out of memory.
     #[error("allocating {what}: {source}; drop buffers and acceleration structures that are no longer needed, or make smaller ones")]
     Allocation {
         /// What the memory was for.
@@ -104,6 +112,8 @@ pub enum DeviceError {
     },
 
     /// Validation was asked for but the Khronos validation layer is not installed.
+    ///
+    /// A fault, not a refusal: the machine lacks the layer.
     #[error("validation requested but VK_LAYER_KHRONOS_validation is not installed (Debian: `apt-get install vulkan-validationlayers`)")]
     ValidationLayerMissing,
 
@@ -113,6 +123,8 @@ pub enum DeviceError {
     ContextMismatch,
 
     /// Reading or writing the compile cache file failed.
+    ///
+    /// A fault, not a refusal: the file system failed to read or write the cache.
     #[error("pipeline cache file {path}: {source}; set ContextOptions::pipeline_cache (or RAYKIT_PIPELINE_CACHE) to a writable directory, or turn the cache off")]
     PipelineCacheIo {
         /// The file.
@@ -123,6 +135,8 @@ pub enum DeviceError {
     },
 
     /// The GPU stopped responding.
+    ///
+    /// A fault, not a refusal: the GPU stopped, whatever the input.
     #[error(
         "the device was lost during {during}; every Context on it refuses new work from now on — drop them and \
          create a new Context (it gets a new device)"

@@ -59,6 +59,8 @@ pub(crate) fn exceptions_error(total: u32, recorded: Vec<UserException>, max_tra
 pub enum LaunchError {
     /// A device program panicked (a failed `assert!`, an index out of bounds, an
     /// explicit `panic!`) while the CPU backend ran it: the launch stopped.
+    ///
+    /// A fault, not a refusal: a device program failed while it ran; the launch was valid.
     #[error("device program `{program}` panicked at launch index {launch_index:?}: {message}")]
     ProgramPanicked {
         /// The program's entry-point name.
@@ -73,6 +75,8 @@ pub enum LaunchError {
     /// undefined: a trace into a traversable that is no live IAS, a record past
     /// the end of an SBT region, a payload or callable data of another type than
     /// the receiving program's. The launch stopped.
+    ///
+    /// A fault, not a refusal: a device program did what the device leaves undefined; the CPU backend catches it, a GPU cannot.
     #[error("device program `{program}` at launch index {launch_index:?}: {problem}")]
     CpuLaunchFault {
         /// The program running when it happened.
@@ -86,6 +90,8 @@ pub enum LaunchError {
     /// A device program ran out of stack on the CPU backend (recursion without
     /// end, or frames larger than the stack): the launch stopped, and the
     /// context goes on working.
+    ///
+    /// A fault, not a refusal: a device program recursed past its stack while it ran.
     #[error("device program `{program}` overflowed its stack of {stack_bytes} bytes at launch index {launch_index:?} (recursion without end, or too deep); bound the recursion, or keep large data in buffers rather than on the stack")]
     StackOverflow {
         /// The innermost program running when the stack ran out.

@@ -100,6 +100,8 @@ pub enum SbtError {
     },
 
     /// The SBT's host copy could not be allocated.
+    ///
+    /// A fault, not a refusal: the host is out of memory.
     #[error("the SBT needs {bytes} bytes, which cannot be allocated; use fewer or smaller records")]
     TooLarge {
         /// Its size.

@@ -13,6 +13,10 @@
 //! be linked together take one interface covering all of them
 //! ([`PipelineLibrary::interface_for`]).
 //!
+//! On the CPU backend, which compiles nothing at run time, a library is its
+//! checked groups with their specialization constants, and linking joins them:
+//! the same libraries are refused, and link, alike on both backends.
+//!
 //! lavapipe (Mesa 25) delivers push constants only to the stages of a pipeline
 //! that it compiled itself (`lvp_compile_ray_tracing_stages` sets the push-constant
 //! size in its loop over `pStages`, not over the libraries' stages), so a pipeline
@@ -28,7 +32,6 @@ use raykit_device::LaunchParams;
 use raykit_spirv::InterfaceSizes;
 
 use super::Specialization;
-use crate::backend::{refused_on_cpu, CpuRefusal};
 use crate::context::{Context, ContextRepr};
 use crate::error::LinkError;
 use crate::error::{Error, Result};
@@ -54,12 +57,35 @@ impl Default for LibraryOptions {
     }
 }
 
-/// Program groups compiled into a Vulkan pipeline library, ready to be linked
-/// into pipelines whose programs take launch params `P`.
+/// Program groups compiled into a pipeline library (on Vulkan, a
+/// `VK_KHR_pipeline_library` pipeline), ready to be linked into pipelines whose
+/// programs take launch params `P`.
 #[doc(alias("VK_KHR_pipeline_library"))]
 pub struct PipelineLibrary<P: LaunchParams> {
-    pub(crate) inner: Arc<LibraryInner>,
+    /// What it was checked with, the same on both backends.
+    pub(crate) info: Arc<LibraryInfo>,
+    pub(crate) repr: LibraryRepr,
     _params: PhantomData<fn(&P)>,
+}
+
+/// The backend-neutral facts of a [`PipelineLibrary`]: what linking checks.
+pub(crate) struct LibraryInfo {
+    /// The context it was made on.
+    pub(crate) ctx: Context,
+    /// Its groups, in library order.
+    pub(crate) groups: Vec<SpirvGroup>,
+    pub(crate) max_trace_depth: u32,
+    pub(crate) interface: InterfaceSizes,
+    /// The specialization constants fixed in it.
+    pub(crate) constants: Specialization,
+}
+
+/// What a [`PipelineLibrary`] is underneath.
+pub(crate) enum LibraryRepr {
+    /// A compiled Vulkan pipeline library.
+    Vulkan(Arc<LibraryInner>),
+    /// Nothing more: the CPU backend links the groups of [`LibraryInfo`].
+    Cpu,
 }
 
 impl<P: LaunchParams> PipelineLibrary<P> {
@@ -78,30 +104,40 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         options: LibraryOptions,
         constants: &Specialization,
     ) -> Result<PipelineLibrary<P>> {
-        let inner = match ctx.repr() {
-            ContextRepr::Vulkan(inner) => inner,
-            ContextRepr::Cpu(_) => return Err(refused_on_cpu(CpuRefusal::PipelineLibrary)),
-        };
-        if !inner.pipeline_library {
-            return Err(Error::Link(LinkError::PipelineLibrariesUnsupported));
-        }
         if groups.is_empty() {
             return Err(Error::Link(LinkError::EmptyLibrary));
         }
         let needed = Self::interface_for(groups);
         let groups = ProgramGroup::of_context(ctx, groups)?;
         let groups = groups.as_slice();
-        check_groups::<P, _>(&inner.limits, groups, options.max_trace_depth)?;
+        let limits = ctx.limits();
+        check_groups::<P, _>(limits, groups, options.max_trace_depth)?;
         let interface = options.interface.unwrap_or(needed);
         check_interface(groups, interface)?;
-        if interface.hit_attributes > inner.limits.max_ray_hit_attribute_size {
+        if interface.hit_attributes > limits.max_ray_hit_attribute_size {
             return Err(Error::Link(LinkError::HitAttributesTooLarge {
                 size: interface.hit_attributes,
-                limit: inner.limits.max_ray_hit_attribute_size,
+                limit: limits.max_ray_hit_attribute_size,
             }));
         }
-        let library = LibraryInner::new::<P>(inner, groups, options.max_trace_depth, interface, constants)?;
-        Ok(PipelineLibrary { inner: Arc::new(library), _params: PhantomData })
+        let repr = match ctx.repr() {
+            ContextRepr::Vulkan(inner) => {
+                if !inner.pipeline_library {
+                    return Err(Error::Link(LinkError::PipelineLibrariesUnsupported));
+                }
+                let library = LibraryInner::new::<P>(inner, groups, options.max_trace_depth, interface, constants)?;
+                LibraryRepr::Vulkan(Arc::new(library))
+            }
+            ContextRepr::Cpu(_) => LibraryRepr::Cpu,
+        };
+        let info = LibraryInfo {
+            ctx: ctx.clone(),
+            groups: groups.iter().map(|g| (*g).clone()).collect(),
+            max_trace_depth: options.max_trace_depth,
+            interface,
+            constants: constants.clone(),
+        };
+        Ok(PipelineLibrary { info: Arc::new(info), repr, _params: PhantomData })
     }
 
     /// The interface that covers every program of `groups`: the largest ray
@@ -118,17 +154,21 @@ impl<P: LaunchParams> PipelineLibrary<P> {
 
     /// The interface it was compiled for.
     pub fn interface(&self) -> InterfaceSizes {
-        self.inner.interface
+        self.info.interface
     }
 
     /// Its `max_trace_depth`.
     pub fn max_trace_depth(&self) -> u32 {
-        self.inner.max_trace_depth
+        self.info.max_trace_depth
     }
 
-    /// What the validation layer reported while it was compiled; see [`crate::log`].
+    /// What the validation layer reported while it was compiled (nothing on the
+    /// CPU backend); see [`crate::log`].
     pub fn creation_log(&self) -> &[crate::log::ValidationMessage] {
-        &self.inner.pipeline.log
+        match &self.repr {
+            LibraryRepr::Vulkan(inner) => &inner.pipeline.log,
+            LibraryRepr::Cpu => &[],
+        }
     }
 }
 
@@ -136,9 +176,9 @@ impl<P: LaunchParams> fmt::Debug for PipelineLibrary<P> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("PipelineLibrary")
             .field("params", &std::any::type_name::<P>())
-            .field("groups", &self.inner.groups)
-            .field("max_trace_depth", &self.inner.max_trace_depth)
-            .field("interface", &self.inner.interface)
+            .field("groups", &self.info.groups)
+            .field("max_trace_depth", &self.info.max_trace_depth)
+            .field("interface", &self.info.interface)
             .finish()
     }
 }

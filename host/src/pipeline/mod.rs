@@ -37,7 +37,6 @@ use std::sync::Arc;
 use raykit_device::LaunchParams;
 use raykit_spirv::{InterfaceSizes, ParamsDelivery};
 
-use crate::backend::{refused_on_cpu, CpuRefusal};
 use crate::context::{Context, ContextRepr};
 use crate::error::{DeviceError, LinkError};
 use crate::error::{Error, Result};
@@ -48,7 +47,7 @@ pub use crate::types::specialization::Specialization;
 use crate::validate::link::{check_groups, PipelineInfo};
 use crate::vulkan::module::SpirvGroup;
 use crate::vulkan::pipeline::link::PipelineInner;
-use library::{LibraryInner, PipelineLibrary};
+use library::{LibraryInner, LibraryRepr, PipelineLibrary};
 
 /// Link options (OptiX's `OptixPipelineLinkOptions`).
 #[derive(Copy, Clone, Debug)]
@@ -79,11 +78,6 @@ pub(crate) enum PipelineRepr {
     Vulkan(Arc<PipelineInner>),
     /// The CPU backend's programs.
     Cpu(Arc<crate::cpu::program::PipelineData>),
-}
-
-/// The error for stack sizes on the CPU backend.
-fn no_stack_on_cpu() -> Error {
-    crate::backend::refused_on_cpu(crate::backend::CpuRefusal::StackSize)
 }
 
 impl<P: LaunchParams> Pipeline<P> {
@@ -133,41 +127,34 @@ impl<P: LaunchParams> Pipeline<P> {
     /// sizing and launches work as for [`Pipeline::new`].
     #[doc(alias("optixPipelineCreate"))]
     pub fn link(ctx: &Context, libraries: &[&PipelineLibrary<P>], options: LinkOptions) -> Result<Pipeline<P>> {
-        let inner = match ctx.repr() {
-            ContextRepr::Vulkan(inner) => inner,
-            ContextRepr::Cpu(_) => return Err(refused_on_cpu(CpuRefusal::PipelineLibrary)),
-        };
-        if !inner.pipeline_library {
-            return Err(Error::Link(LinkError::PipelineLibrariesUnsupported));
-        }
-        if libraries.iter().any(|l| !Arc::ptr_eq(&l.inner.ctx, inner)) {
+        if libraries.iter().any(|l| !l.info.ctx.is_same(ctx)) {
             return Err(Error::Device(DeviceError::ContextMismatch));
         }
-        let interface = libraries.first().map(|l| l.inner.interface).unwrap_or_default();
+        let interface = libraries.first().map(|l| l.info.interface).unwrap_or_default();
         for (index, library) in libraries.iter().enumerate() {
-            if library.inner.max_trace_depth != options.max_trace_depth {
+            if library.info.max_trace_depth != options.max_trace_depth {
                 return Err(Error::Link(LinkError::LibraryMismatch {
                     what: "max_trace_depth",
                     index,
-                    found: library.inner.max_trace_depth.to_string(),
+                    found: library.info.max_trace_depth.to_string(),
                     expected: options.max_trace_depth.to_string(),
                     fix: "Give LibraryOptions::max_trace_depth the pipeline's LinkOptions::max_trace_depth.",
                 }));
             }
-            if library.inner.interface != interface {
+            if library.info.interface != interface {
                 return Err(Error::Link(LinkError::LibraryMismatch {
                     what: "interface",
                     index,
-                    found: describe_interface(library.inner.interface),
+                    found: describe_interface(library.info.interface),
                     expected: describe_interface(interface),
                     fix: "Make every library with LibraryOptions { interface: Some(PipelineLibrary::interface_for(&[every group of every library])), .. }.",
                 }));
             }
         }
-        let groups: Vec<&SpirvGroup> = libraries.iter().flat_map(|l| l.inner.groups.iter()).collect();
+        let groups: Vec<&SpirvGroup> = libraries.iter().flat_map(|l| l.info.groups.iter()).collect();
         let mut owner: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
         for (index, library) in libraries.iter().enumerate() {
-            for group in &library.inner.groups {
+            for group in &library.info.groups {
                 if let Some(first) = owner.insert(group.id, index) {
                     return Err(Error::Link(LinkError::GroupInSeveralLibraries {
                         kind: group.kind(),
@@ -179,23 +166,43 @@ impl<P: LaunchParams> Pipeline<P> {
         }
         crate::validate::check_linkable(groups.iter().map(|g| g.kind()))?;
         // Each library's groups were checked when it was made.
-        let info =
-            PipelineInfo::of::<P, _>(inner.limits, inner.launch_dimension_limits, &groups, options.max_trace_depth);
-        let libraries: Vec<&Arc<LibraryInner>> = libraries.iter().map(|l| &l.inner).collect();
-        let inner =
-            crate::vulkan::pipeline::link::link_libraries::<P>(inner, &libraries, options.max_trace_depth, interface)?;
-        Ok(Pipeline { info: Arc::new(info), repr: PipelineRepr::Vulkan(Arc::new(inner)), _params: PhantomData })
+        let depth = options.max_trace_depth;
+        let info = PipelineInfo::of::<P, _>(*ctx.limits(), ctx.launch_dimension_limits(), &groups, depth);
+        let repr = match ctx.repr() {
+            ContextRepr::Vulkan(inner) => {
+                if !inner.pipeline_library {
+                    return Err(Error::Link(LinkError::PipelineLibrariesUnsupported));
+                }
+                // Libraries of a Vulkan context are Vulkan libraries.
+                let compiled: Vec<&Arc<LibraryInner>> = libraries
+                    .iter()
+                    .filter_map(|l| match &l.repr {
+                        LibraryRepr::Vulkan(inner) => Some(inner),
+                        LibraryRepr::Cpu => None,
+                    })
+                    .collect();
+                PipelineRepr::Vulkan(Arc::new(crate::vulkan::pipeline::link::link_libraries::<P>(
+                    inner, &compiled, depth, interface,
+                )?))
+            }
+            ContextRepr::Cpu(cpu) => {
+                let parts: Vec<(Vec<&SpirvGroup>, &Specialization)> =
+                    libraries.iter().map(|l| (l.info.groups.iter().collect(), &l.info.constants)).collect();
+                PipelineRepr::Cpu(Arc::new(crate::cpu::program::link_parts(cpu, &parts, depth)))
+            }
+        };
+        Ok(Pipeline { info: Arc::new(info), repr, _params: PhantomData })
     }
 
     /// The stack sizes the driver reports for `group`'s shaders in this pipeline
     /// (`vkGetRayTracingShaderGroupStackSizeKHR`; OptiX's
     /// `optixProgramGroupGetStackSize`). Vulkan knows them only once the group is
-    /// linked, hence a pipeline method.
+    /// linked, hence a pipeline method. Zeros on the CPU backend, whose programs
+    /// run on its threads' own stacks.
     #[doc(alias("optixProgramGroupGetStackSize", "vkGetRayTracingShaderGroupStackSizeKHR"))]
     pub fn group_stack_sizes(&self, group: &ProgramGroup) -> Result<GroupStackSizes> {
         let index = self.group_index(group).ok_or(Error::Link(LinkError::GroupNotInPipeline { kind: group.kind() }))?;
-        let inner = self.vulkan_inner().ok_or_else(no_stack_on_cpu)?;
-        Ok(inner.groups[index].stack_sizes)
+        Ok(self.vulkan_inner().map_or_else(GroupStackSizes::default, |inner| inner.groups[index].stack_sizes))
     }
 
     /// Every group's role and stack sizes, in the order the groups were linked
@@ -233,11 +240,10 @@ impl<P: LaunchParams> Pipeline<P> {
     }
 
     /// The size `choice` gives for this pipeline, in bytes, without setting it.
+    /// `choice` is checked alike on both backends; on the CPU backend, whose
+    /// program stack sizes are zeros, the formulas give 0 and `Explicit(n)` gives `n`.
     #[doc(alias("optixUtilComputeStackSizes"))]
     pub fn compute_stack_size(&self, choice: &StackSize<'_>) -> Result<u32> {
-        if self.vulkan_inner().is_none() {
-            return Err(no_stack_on_cpu());
-        }
         let max_depth = self.max_trace_depth();
         let check_depth = |depth: u32| -> Result<()> {
             if depth > max_depth {
@@ -272,7 +278,9 @@ impl<P: LaunchParams> Pipeline<P> {
     /// Chooses the stack size every later launch sets
     /// (`vkCmdSetRayTracingPipelineStackSizeKHR`; OptiX's
     /// `optixPipelineSetStackSize`) and returns it in bytes. Until called, launches
-    /// use [`StackSize::DriverDefault`].
+    /// use [`StackSize::DriverDefault`]. On the CPU backend the choice is checked
+    /// as on Vulkan and changes nothing: programs run on the threads' own stacks
+    /// (64 MiB each), guarded against overflow.
     #[doc(alias("optixPipelineSetStackSize", "vkCmdSetRayTracingPipelineStackSizeKHR"))]
     pub fn set_stack_size(&self, choice: &StackSize<'_>) -> Result<u32> {
         let bytes = self.compute_stack_size(choice)?;

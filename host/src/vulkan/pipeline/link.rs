@@ -232,13 +232,10 @@ pub(crate) struct LibraryInner {
     pub(crate) pipeline: PipelineHandle,
     /// The layout it was compiled with, kept as long as the library.
     _layout: PipelineLayout,
-    pub(crate) ctx: Arc<ContextInner>,
     /// Its groups, in library order.
     pub(crate) groups: Vec<SpirvGroup>,
     /// Where its programs record user exceptions (their slot was specialized in).
     pub(crate) exceptions: Arc<ExceptionBuffer>,
-    pub(crate) max_trace_depth: u32,
-    pub(crate) interface: InterfaceSizes,
 }
 
 /// `sizes` as Vulkan takes them (`VkRayTracingPipelineInterfaceCreateInfoKHR`).
@@ -277,11 +274,8 @@ impl LibraryInner {
         let library = LibraryInner {
             pipeline,
             _layout: layout,
-            ctx: inner.clone(),
             groups: groups.iter().map(|g| (*g).clone()).collect(),
             exceptions,
-            max_trace_depth,
-            interface,
         };
         Ok(library)
     }
