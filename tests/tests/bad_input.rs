@@ -75,6 +75,22 @@ fn vulkan_case(
     with_context(name, |ctx| check_case(ctx, (raykit::Backend::Vulkan, why), name, mentions, provoke, expected))
 }
 
+/// [`case`] on the CPU backend only, for a refusal that only it makes; `why`
+/// says why in one line (it is the table's reason).
+fn cpu_case(
+    why: &str,
+    name: &str,
+    mentions: &[&str],
+    provoke: impl FnOnce(&Context) -> anyhow::Result<Error>,
+    expected: impl FnOnce(&Error) -> bool,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(!why.is_empty(), "{name}: a CPU-only case says why");
+    let options = ContextOptions { backend: Some(raykit::Backend::Cpu), ..raykit_tests::test_options() };
+    raykit_tests::with_context_options(name, options, |ctx| {
+        check_case(ctx, (raykit::Backend::Cpu, why), name, mentions, provoke, expected)
+    })
+}
+
 /// One case on `ctx` of `backend`: the error, its variant, its message, then a
 /// render. The refusal is noted for the refusal table, with why the case runs
 /// on that backend only (empty when it runs on both).
@@ -2972,4 +2988,55 @@ fn texture_past_a_full_texture_table() -> anyhow::Result<()> {
         },
         |e| matches!(e, Error::Resource(ResourceError::TextureTableFull { capacity: 4095 })),
     )
+}
+
+// ---------------------------------------------------------------- what only the CPU backend refuses
+
+#[test]
+fn gpu_timestamps_on_the_cpu_backend() -> anyhow::Result<()> {
+    cpu_case(
+        "GPU timestamps are part of Vulkan: a Vulkan context gives a LaunchTimer",
+        "gpu_timestamps_on_the_cpu_backend",
+        &["GPU timestamps", "Backend::Vulkan"],
+        |ctx| refused(raykit::LaunchTimer::new(ctx), "a launch timer"),
+        |e| matches!(e, Error::Device(raykit::DeviceError::NotOnCpuBackend { .. })),
+    )
+}
+
+/// The triangle's params, field for field, as another type.
+#[repr(C)]
+#[derive(Copy, Clone, raykit::bytemuck::Pod, raykit::bytemuck::Zeroable, raykit::LaunchParams)]
+#[bytemuck(crate = "raykit::bytemuck")]
+struct TwinParams {
+    image: raykit::Buffer<u32>,
+    size: raykit::glam::UVec2,
+    cam_eye: Vec3,
+    cam_u: Vec3,
+    cam_v: Vec3,
+    cam_w: Vec3,
+    _pad: u32,
+    handle: raykit::Traversable,
+}
+
+#[test]
+fn params_of_another_type_with_the_same_layout() -> anyhow::Result<()> {
+    cpu_case(
+        "a Rust program on the CPU reads its params through its own type; Vulkan compares layouts, and this one matches",
+        "params_of_another_type_with_the_same_layout",
+        &["TwinParams", "Params"],
+        |ctx| {
+            let p = triangle::Programs::rust(ctx)?;
+            refused(Pipeline::<TwinParams>::new(ctx, &[&p.raygen], LinkOptions::default()), "a twin params type")
+        },
+        |e| matches!(e, Error::Link(raykit::LinkError::CpuTypeMismatch { what: "launch params", .. })),
+    )
+}
+
+#[test]
+fn params_of_another_type_with_the_same_layout_link_on_vulkan() -> anyhow::Result<()> {
+    with_context("params_of_another_type_with_the_same_layout_link_on_vulkan", |ctx| {
+        let p = triangle::Programs::rust(ctx)?;
+        Pipeline::<TwinParams>::new(ctx, &[&p.raygen], LinkOptions::default())?;
+        Ok(())
+    })
 }

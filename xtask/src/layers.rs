@@ -1,7 +1,10 @@
 //! The host crate's layering, checked: the public types of `host/src` sit above
 //! the two backends (`vulkan/`, `cpu/`), which sit above the plain data, checks
 //! and errors (`types/`, `validate/`, `error/`). Imports run downward only, so a
-//! lower layer never names a module of a higher one.
+//! lower layer never names a module of a higher one. And each function of the
+//! public modules dispatches on its backend once: at most one match arm on a
+//! backend enum's Vulkan half (`ContextRepr::Vulkan(..) =>`; a tuple match over
+//! two values, whose arms start with `(`, counts as one).
 
 use std::path::Path;
 
@@ -90,6 +93,76 @@ pub fn check(root: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The functions of `text` with more than one Vulkan arm of a backend enum
+/// (`…Repr::Vulkan… =>` starting its line), as `(line, name, arms)`.
+fn repeated_dispatch(text: &str) -> Vec<(usize, String, usize)> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut found = Vec::new();
+    let mut at = 0;
+    while at < lines.len() {
+        let line = lines[at].trim_start();
+        let Some(name) = fn_name(line) else {
+            at += 1;
+            continue;
+        };
+        // The body: from the line with the opening brace to where the braces balance.
+        let (start, mut depth, mut arms) = (at, 0i64, 0);
+        let mut opened = false;
+        while at < lines.len() {
+            let l = lines[at];
+            let code = l.split("//").next().unwrap_or("");
+            depth += code.matches('{').count() as i64 - code.matches('}').count() as i64;
+            opened |= code.contains('{');
+            let t = l.trim_start();
+            if at > start && t.contains("Repr::Vulkan") && t.contains("=>") && !t.starts_with('(') {
+                arms += 1;
+            }
+            if (opened && depth <= 0) || (!opened && code.contains(';')) {
+                break;
+            }
+            at += 1;
+        }
+        if arms > 1 {
+            found.push((start + 1, name, arms));
+        }
+        at += 1;
+    }
+    found
+}
+
+/// The name of the function `line` starts, if it starts one.
+fn fn_name(line: &str) -> Option<String> {
+    let rest = ["pub fn ", "pub(crate) fn ", "pub(super) fn ", "fn "].iter().find_map(|p| line.strip_prefix(p))?;
+    Some(rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect())
+}
+
+/// Fails naming every function of the public modules that dispatches on its
+/// backend more than once.
+pub fn check_dispatch(root: &Path) -> anyhow::Result<()> {
+    let src = root.join("host/src");
+    let mut problems = Vec::new();
+    for entry in walk(&src)? {
+        let rel = entry.strip_prefix(&src).unwrap_or(&entry);
+        if BACKENDS.iter().chain(["types", "validate", "error"].iter()).any(|l| rel.starts_with(l)) {
+            continue;
+        }
+        let text = std::fs::read_to_string(&entry).with_context(|| format!("reading {}", entry.display()))?;
+        for (line, name, arms) in repeated_dispatch(&text) {
+            let shown = entry.strip_prefix(root).unwrap_or(&entry).display().to_string();
+            problems.push(format!("{shown}:{line}: `{name}` has {arms} Vulkan arms"));
+        }
+    }
+    if !problems.is_empty() {
+        bail!(
+            "lint gate `layers` failed: a public operation dispatches on its backend more than once:\n  {}\n\
+             Match the backend once and hand that backend everything it needs; read a half through an accessor \
+             (`vulkan_inner`)",
+            problems.join("\n  ")
+        );
+    }
+    Ok(())
+}
+
 /// Every `.rs` file under `dir`.
 fn walk(dir: &Path) -> anyhow::Result<Vec<std::path::PathBuf>> {
     let mut files = Vec::new();
@@ -124,6 +197,20 @@ mod tests {
         assert!(violations("raykit_crate::context::X", &forbidden("vulkan")).is_empty());
         assert_eq!(violations("-> crate::Result<crate::Gas>", &forbidden("cpu")), [(1, "crate::Gas".to_owned())]);
         assert!(violations("/// see [`Gas`](crate::Gas)", &forbidden("cpu")).is_empty());
+    }
+
+    #[test]
+    fn a_function_matching_its_backend_twice_is_found() {
+        let twice = "pub fn f(&self) {\n    match a {\n        ContextRepr::Vulkan(x) => 1,\n    }\n    match b {\n        PipelineRepr::Vulkan(y) => 2,\n    }\n}\n";
+        assert_eq!(repeated_dispatch(twice), [(1, "f".to_owned(), 2)]);
+        let once = "fn g() {\n    match (a, b) {\n        (ContextRepr::Vulkan(_), None) => 1,\n        (ContextRepr::Vulkan(_), Some(_)) => 2,\n        ContextRepr::Vulkan(x) => ModuleRepr::Vulkan(x),\n    }\n}\n";
+        assert!(repeated_dispatch(once).is_empty(), "{:?}", repeated_dispatch(once));
+    }
+
+    #[test]
+    fn the_host_crate_dispatches_once_per_operation() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask lies in the workspace root");
+        check_dispatch(root).expect("each public operation matches its backend once");
     }
 
     #[test]

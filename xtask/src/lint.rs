@@ -81,6 +81,7 @@ pub fn run_all(root: &Path) -> anyhow::Result<()> {
 
     println!("xtask lint: layers of host/src");
     crate::layers::check(root)?;
+    crate::layers::check_dispatch(root)?;
 
     Gate::cargo(
         "clippy",

@@ -94,7 +94,9 @@ pub(crate) fn leave(previous: Option<Overflow>) {
 }
 
 /// Resumes `coroutine` with its stack overflow guarded; an overflow makes it
-/// return (it is then done) and is returned.
+/// return (it is then done) and is returned. Inlined: lanes resume on every
+/// packet trace.
+#[inline]
 pub(crate) fn resume_guarded<Y, S: corosensei::stack::Stack>(
     coroutine: &mut Coroutine<(), Y, (), S>,
     guard_page: usize,

@@ -162,13 +162,18 @@ impl<P: LaunchParams> PipelineLibrary<P> {
         self.info.max_trace_depth
     }
 
+    /// The compiled Vulkan library, when this is one.
+    pub(crate) fn vulkan_inner(&self) -> Option<&Arc<LibraryInner>> {
+        match &self.repr {
+            LibraryRepr::Vulkan(inner) => Some(inner),
+            LibraryRepr::Cpu => None,
+        }
+    }
+
     /// What the validation layer reported while it was compiled (nothing on the
     /// CPU backend); see [`crate::log`].
     pub fn creation_log(&self) -> &[crate::log::ValidationMessage] {
-        match &self.repr {
-            LibraryRepr::Vulkan(inner) => &inner.pipeline.log,
-            LibraryRepr::Cpu => &[],
-        }
+        self.vulkan_inner().map_or(&[], |inner| &inner.pipeline.log)
     }
 }
 

@@ -47,7 +47,7 @@ pub use crate::types::specialization::Specialization;
 use crate::validate::link::{check_groups, PipelineInfo};
 use crate::vulkan::module::SpirvGroup;
 use crate::vulkan::pipeline::link::PipelineInner;
-use library::{LibraryInner, LibraryRepr, PipelineLibrary};
+use library::{LibraryInner, PipelineLibrary};
 
 /// Link options (OptiX's `OptixPipelineLinkOptions`).
 #[derive(Copy, Clone, Debug)]
@@ -174,13 +174,7 @@ impl<P: LaunchParams> Pipeline<P> {
                     return Err(Error::Link(LinkError::PipelineLibrariesUnsupported));
                 }
                 // Libraries of a Vulkan context are Vulkan libraries.
-                let compiled: Vec<&Arc<LibraryInner>> = libraries
-                    .iter()
-                    .filter_map(|l| match &l.repr {
-                        LibraryRepr::Vulkan(inner) => Some(inner),
-                        LibraryRepr::Cpu => None,
-                    })
-                    .collect();
+                let compiled: Vec<&Arc<LibraryInner>> = libraries.iter().filter_map(|l| l.vulkan_inner()).collect();
                 PipelineRepr::Vulkan(Arc::new(crate::vulkan::pipeline::link::link_libraries::<P>(
                     inner, &compiled, depth, interface,
                 )?))
