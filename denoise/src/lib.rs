@@ -40,7 +40,12 @@
 //! # Ok::<(), raykit_denoise::Error>(())
 //! ```
 
+#[cfg(feature = "cli")]
+mod cli;
 mod ffi;
+
+#[cfg(feature = "cli")]
+pub use cli::DenoiseArgs;
 
 use std::ffi::{c_char, c_void};
 use std::path::{Path, PathBuf};
@@ -60,6 +65,7 @@ pub const LIBRARY_DIR_VAR: &str = "RAYKIT_OIDN_DIR";
 
 /// Where OIDN runs.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum DenoiseDevice {
     /// OIDN's CUDA device when one works here (an NVIDIA GPU and driver), else its CPU device.
     #[default]

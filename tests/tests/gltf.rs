@@ -313,6 +313,93 @@ fn both_material_modes_shade_as_the_shared_material_code() -> anyhow::Result<()>
     })
 }
 
+#[test]
+fn the_path_tracer_writes_denoiser_guides_in_the_same_launch_and_denoising_with_them_converges() -> anyhow::Result<()> {
+    use gltf_pathtracer::PathTracer;
+    use raykit_denoise::{DenoiseDevice, Denoiser, Input};
+    let dir = raykit_tests::temp_dir("gltf_guides")?;
+    // Four quads with base colours (i/4, 1 − i/4, 0.5) filling [-1, 1]² at z = 0, normals +z.
+    let scene = GltfScene::load(&gltf_pathtracer::demo_scene::write_grid(&dir.0, 4)?)?;
+    let denoiser = Denoiser::new(DenoiseDevice::Cpu)?;
+    with_each_backend("the_path_tracer_writes_denoiser_guides_in_the_same_launch", |ctx, backend| {
+        let env = gltf_pathtracer::default_sky(64, 32)?;
+        let gpu = GpuScene::new(ctx, &scene)?;
+        let size = 48u32;
+        // The grid fills the middle of the picture; the sky is around it.
+        let cam = Camera { eye: Vec3::new(0.0, 0.0, 4.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_degrees: 40.0 };
+        let render = |guides: bool, spp: u32| -> anyhow::Result<PathTracer> {
+            let mut tracer = PathTracer::new(ctx, &gpu, &env, &cam, size, size)?;
+            if guides {
+                tracer.enable_guides(ctx)?;
+            }
+            for _ in 0..spp / 4 {
+                tracer.launch(4)?;
+            }
+            Ok(tracer)
+        };
+        let guided = render(true, 8)?;
+        let (noisy, _) = guided.image()?;
+        let (plain, _) = render(false, 8)?.image()?;
+        anyhow::ensure!(noisy == plain, "writing the guides changed the picture");
+        let guides = guided.guides()?.ok_or(anyhow::anyhow!("no guides"))?;
+
+        // Pixels whose whole footprint sees one quad: its colour and +z exactly;
+        // pixels that see only sky: zero.
+        let pixel_world = |x: f32, y: f32| -> Option<Vec3> {
+            let (u, v, w) = cam.uvw(1.0);
+            let d = 2.0 * Vec2::new(x, y) / size as f32 - 1.0;
+            let dir = (d.x * u - d.y * v + w).normalize();
+            (dir.z < 0.0).then(|| cam.eye + dir * (-cam.eye.z / dir.z))
+        };
+        let quad_of = |p: Vec3| -> Option<usize> {
+            (p.x.abs() < 1.0 && p.y.abs() < 1.0).then(|| usize::from(p.x > 0.0) + 2 * usize::from(p.y < 0.0))
+        };
+        let (mut on_quads, mut on_sky) = (0, 0);
+        for y in 0..size {
+            for x in 0..size {
+                let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+                    .map(|(dx, dy)| pixel_world(x as f32 + dx, y as f32 + dy).and_then(quad_of));
+                let i = (y * size + x) as usize;
+                let (albedo, normal) = (guides.albedo[i], guides.normal[i]);
+                if let Some(quad) = corners[0].filter(|q| corners.iter().all(|c| *c == Some(*q))) {
+                    let c = quad as f32 / 4.0;
+                    let want = Vec3::new(c, 1.0 - c, 0.5);
+                    anyhow::ensure!(
+                        (albedo - want).abs().max_element() < 1e-5,
+                        "pixel ({x}, {y}): albedo {albedo}, quad {quad}'s {want}"
+                    );
+                    anyhow::ensure!((normal - Vec3::Z).abs().max_element() < 1e-5, "pixel ({x}, {y}): normal {normal}");
+                    on_quads += 1;
+                } else if corners.iter().all(Option::is_none) {
+                    anyhow::ensure!(
+                        albedo == Vec3::ZERO && normal == Vec3::ZERO,
+                        "pixel ({x}, {y}) sees sky: {albedo} {normal}"
+                    );
+                    on_sky += 1;
+                }
+            }
+        }
+        anyhow::ensure!(on_quads > 600 && on_sky > 300, "{on_quads} quad pixels, {on_sky} sky pixels");
+
+        // Denoised with the guides, 8 spp comes closer to 512 spp than the noisy input.
+        let (reference, _) = render(false, 512)?.image()?;
+        let rgb = |v: &[Vec3]| v.iter().map(|c| c.to_array()).collect::<Vec<_>>();
+        let (color, albedo, normal) = (rgb(&noisy), rgb(&guides.albedo), rgb(&guides.normal));
+        let denoised = denoiser.denoise(&Input::new(size, size, &color).with_guides(&albedo, &normal))?;
+        let denoised: Vec<Vec3> = denoised.into_iter().map(Vec3::from_array).collect();
+        anyhow::ensure!(denoised.iter().all(|c| c.is_finite() && c.min_element() >= 0.0), "NaN or negative pixels");
+        // On the displayed scale (Reinhard), as the path tracer's own test measures.
+        let mse = |a: &[Vec3], b: &[Vec3]| -> f64 {
+            let tone = |c: Vec3| c / (Vec3::ONE + c);
+            a.iter().zip(b).map(|(p, q)| (tone(*p) - tone(*q)).length_squared() as f64).sum::<f64>() / a.len() as f64
+        };
+        let (before, after) = (mse(&noisy, &reference), mse(&denoised, &reference));
+        eprintln!("[{backend:?}] glTF guides: {on_quads} quad pixels, {on_sky} sky; MSE {before:.3e} noisy, {after:.3e} denoised ({:.1}x)", before / after);
+        anyhow::ensure!(after * 3.0 < before, "denoised MSE {after:.3e} is not 3x below the noisy {before:.3e}");
+        Ok(())
+    })
+}
+
 /// Per pixel, the estimates of `batches` independent batches of `spp` paths each.
 fn batch_images(tracer: &mut gltf_pathtracer::PathTracer, batches: usize, spp: u32) -> anyhow::Result<Vec<Vec<f64>>> {
     let mut previous: Option<Vec<f64>> = None;

@@ -41,6 +41,9 @@ pub enum ViewerError {
     /// raykit refused or failed (the display pass, a buffer, a launch).
     #[error(transparent)]
     Raykit(#[from] raykit::Error),
+    /// The denoiser could not be loaded or failed (its message says what to do).
+    #[error("denoising: {0}")]
+    Denoise(#[from] raykit_denoise::Error),
     /// The renderer behind the viewer failed.
     #[error("the renderer failed: {0}")]
     Render(RenderError),

@@ -46,6 +46,9 @@ pub enum ViewerInput {
     },
     /// Minimises (`true`) or restores the window.
     Minimize(bool),
+    /// `N` (with `--denoise`): shows the denoised picture (`true`) or the noisy
+    /// accumulation.
+    ShowDenoised(bool),
     /// `C`: prints the camera as a `--camera` value.
     PrintCamera,
     /// Closes the viewer, also while a launch is running.

@@ -17,10 +17,13 @@
 //! [`window::run`] opens the window; [`headless::run`] renders the same frames
 //! without one; [`run`] does whichever the command line's [`ViewerArgs`] ask for
 //! (`--view` or `--headless`), so a program's viewer is a [`Render`] and one call.
-//! [`script`]s replay inputs through [`ViewerInput`] for tests and demos.
+//! [`script`]s replay inputs through [`ViewerInput`] for tests and demos. With
+//! `--denoise` the window shows the accumulation denoised by Open Image Denoise
+//! ([`denoise`]), guided by the renderer's albedo and normals when it writes them.
 #![deny(missing_docs)]
 
 pub mod camera;
+pub mod denoise;
 pub mod display;
 pub mod error;
 pub mod headless;
@@ -35,10 +38,11 @@ pub mod viewer;
 pub mod window;
 
 pub use camera::{format_camera, parse_camera, CameraMode, CameraRig};
+pub use denoise::DenoiseOptions;
 pub use error::{RenderError, Result, ViewerError};
 pub use input::ViewerInput;
 pub use options::{ViewerArgs, ViewerCli};
-pub use render::Render;
+pub use render::{DenoiseGuides, Render};
 pub use script::Script;
 pub use session::{run, Session};
 pub use stats::Stats;

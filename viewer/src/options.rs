@@ -4,9 +4,12 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
+use raykit_denoise::DenoiseArgs;
+
 use raykit_scene::Camera;
 
 use crate::camera::parse_camera;
+use crate::denoise::{DenoiseOptions, DEFAULT_EVERY};
 use crate::error::{Result, ViewerError};
 use crate::script::Script;
 use crate::session::Session;
@@ -17,7 +20,7 @@ use crate::viewer::FrameOptions;
 #[derive(clap::Args, Clone, Debug)]
 pub struct ViewerArgs {
     /// Open the interactive viewer: a window that refines the picture while the
-    /// camera moves (drag, wheel, WASD/QE, Tab, R, F12/P, C, Esc).
+    /// camera moves (drag, wheel, WASD/QE, Tab, R, F12/P, C, N, Esc).
     #[arg(long)]
     pub view: bool,
     /// Render what the viewer's window would show without a window: `--frames`
@@ -45,6 +48,10 @@ pub struct ViewerArgs {
     /// Replay an input script in the window (see `raykit_viewer::script`).
     #[arg(long)]
     pub script: Option<PathBuf>,
+    /// With `--denoise`: denoise every N frames of one camera (so N frames after
+    /// it stops), besides at `--max-spp` and for screenshots.
+    #[arg(long, default_value_t = DEFAULT_EVERY, value_parser = clap::value_parser!(u32).range(1..))]
+    pub denoise_every: u32,
 }
 
 impl Default for ViewerArgs {
@@ -58,6 +65,7 @@ impl Default for ViewerArgs {
             frame_ms: DEFAULT_FRAME_MS,
             max_spp: None,
             script: None,
+            denoise_every: DEFAULT_EVERY,
         }
     }
 }
@@ -76,9 +84,10 @@ impl ViewerArgs {
         self.camera.as_deref().map_or(Ok(default), parse_camera)
     }
 
-    /// The frame options these arguments ask for, with `exposure`; a `frame_ms`
-    /// outside [`FRAME_MS_RANGE`] (NaN included) is [`ViewerError::FrameTime`].
-    pub fn frame_options(&self, exposure: f32) -> Result<FrameOptions> {
+    /// The frame options these arguments ask for, with `exposure` and, when
+    /// `denoise` asks for it (`--denoise`), the denoiser; a `frame_ms` outside
+    /// [`FRAME_MS_RANGE`] (NaN included) is [`ViewerError::FrameTime`].
+    pub fn frame_options(&self, exposure: f32, denoise: &DenoiseArgs) -> Result<FrameOptions> {
         let samples_per_frame = match (self.spp_per_frame, self.headless) {
             (Some(n), _) => Some(n.max(1)),
             (None, true) => Some(1),
@@ -90,6 +99,11 @@ impl ViewerArgs {
             target_frame_time: Duration::from_secs_f64(frame_ms / 1e3),
             max_samples: self.max_spp,
             exposure,
+            denoise: denoise.denoise.then_some(DenoiseOptions {
+                device: denoise.denoise_device,
+                guides: denoise.guides(),
+                every: self.denoise_every,
+            }),
         })
     }
 
@@ -127,6 +141,9 @@ pub struct ViewerCli {
     /// The viewer's options.
     #[command(flatten)]
     pub viewer: ViewerArgs,
+    /// `--denoise` and its options.
+    #[command(flatten)]
+    pub denoise: DenoiseArgs,
     /// Width of the picture (the window's inner width) in pixels.
     #[arg(long, default_value_t = 640, value_parser = clap::value_parser!(u32).range(1..))]
     pub width: u32,
@@ -155,6 +172,7 @@ impl ViewerCli {
             camera,
             exposure: 1.0,
             output: self.output.clone(),
+            denoise: self.denoise.clone(),
         }
     }
 }
@@ -175,11 +193,14 @@ mod tests {
         }
         for (value, ms) in [("1", 1.0), ("16.7", 16.7), ("10000", 10_000.0)] {
             let cli = parse(&["--frame-ms", value]).expect(value);
-            let options = cli.viewer.frame_options(1.0).expect(value);
+            let options = cli.viewer.frame_options(1.0, &DenoiseArgs::default()).expect(value);
             assert_eq!(options.target_frame_time, Duration::from_secs_f64(ms / 1e3), "{value}");
         }
         let default = parse(&[]).expect("no options");
-        assert_eq!(default.viewer.frame_options(1.0).expect("default").target_frame_time, Duration::from_millis(33));
+        assert_eq!(
+            default.viewer.frame_options(1.0, &DenoiseArgs::default()).expect("default").target_frame_time,
+            Duration::from_millis(33)
+        );
         assert_eq!(ViewerArgs::default().frame_ms, default.viewer.frame_ms);
     }
 
@@ -187,7 +208,7 @@ mod tests {
     fn frame_times_set_in_code_are_checked_too() {
         for frame_ms in [f64::NAN, f64::INFINITY, -1.0, 1e300] {
             let args = ViewerArgs { frame_ms, ..ViewerArgs::default() };
-            let err = args.frame_options(1.0).expect_err("refused");
+            let err = args.frame_options(1.0, &DenoiseArgs::default()).expect_err("refused");
             assert!(matches!(err, ViewerError::FrameTime { .. }), "{frame_ms}: {err}");
         }
     }

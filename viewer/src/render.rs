@@ -9,6 +9,16 @@ use raykit_scene::Camera;
 
 use crate::error::RenderError;
 
+/// The denoiser's guides of an accumulation: per pixel (row-major, row 0 at the
+/// top), the mean over its paths of the first hit's albedo and world normal.
+#[derive(Clone, Debug, Default)]
+pub struct DenoiseGuides {
+    /// First-hit albedo (0 for a miss).
+    pub albedo: Vec<[f32; 3]>,
+    /// First-hit world normal (0 for a miss).
+    pub normal: Vec<[f32; 3]>,
+}
+
 /// A progressive renderer the viewer drives.
 ///
 /// The accumulation buffer holds, per pixel (row-major, row 0 at the top), the sum
@@ -54,6 +64,19 @@ pub trait Render {
 
     /// Samples per pixel accumulated by the launches submitted so far.
     fn samples_done(&self) -> u32;
+
+    /// Asks the renderer to write the denoiser's guides (first-hit albedo and
+    /// normals, [`Render::guides`]) from the next launch on, in the same launches;
+    /// `Ok(false)`: it has none (the default), and the viewer denoises the colour alone.
+    fn enable_guides(&mut self) -> Result<bool, RenderError> {
+        Ok(false)
+    }
+
+    /// The guides of the accumulation so far, once [`Render::enable_guides`]
+    /// returned `true` (the viewer reads them only then, with no launch in flight).
+    fn guides(&self) -> Result<Option<DenoiseGuides>, RenderError> {
+        Ok(None)
+    }
 
     /// Hot reload: called before every launch; a renderer that watches its device
     /// programs swaps in new ones here and returns what happened (a message for the

@@ -16,6 +16,7 @@
 //! | `resize W H` | resizes the window |
 //! | `minimize`, `restore` | minimises or restores the window |
 //! | `print-camera` | prints the camera as a `--camera` value |
+//! | `denoised`, `noisy` | with `--denoise`: shows the denoised picture, or the noisy one (the `N` key) |
 //! | `close` | closes the viewer once the next launch is submitted, so while it runs |
 //!
 //! After its last line the script has nothing more to do and the viewer stays open
@@ -129,6 +130,8 @@ impl Script {
                 "minimize" => bare(ViewerInput::Minimize(true))?,
                 "restore" => bare(ViewerInput::Minimize(false))?,
                 "print-camera" => bare(ViewerInput::PrintCamera)?,
+                "denoised" => bare(ViewerInput::ShowDenoised(true))?,
+                "noisy" => bare(ViewerInput::ShowDenoised(false))?,
                 "close" => bare(ViewerInput::Close)?,
                 other => return Err(error(format!("unknown command `{other}`"))),
             };

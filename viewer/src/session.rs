@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use raykit_denoise::DenoiseArgs;
 use raykit_scene::Camera;
 
 use crate::error::{Result, ViewerError};
@@ -26,6 +27,8 @@ pub struct Session {
     /// Where `--headless` writes the picture (PNG; the mean radiance goes beside
     /// it as `.exr`).
     pub output: PathBuf,
+    /// `--denoise` and its options (`DenoiseArgs::default()`: no denoising).
+    pub denoise: DenoiseArgs,
 }
 
 /// Opens the window on `renderer` (`--view`) or renders `--frames N` frames of it
@@ -33,7 +36,7 @@ pub struct Session {
 /// (`viewer: N frames at WxH ...`) and returns it.
 pub fn run<R: Render>(renderer: R, args: &ViewerArgs, session: Session) -> Result<Summary> {
     let camera = args.camera_or(session.camera)?;
-    let frames = args.frame_options(session.exposure)?;
+    let frames = args.frame_options(session.exposure, &session.denoise)?;
     let summary = if args.headless {
         let count = args.frames.ok_or(ViewerError::HeadlessFrames)?;
         crate::headless::run(renderer, camera, session.width, session.height, frames, count, &session.output)?

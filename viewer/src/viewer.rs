@@ -11,6 +11,7 @@ use raykit::Launch;
 use raykit_scene::Camera;
 
 use crate::camera::{format_camera, CameraRig};
+use crate::denoise::{mean, DenoiseOptions, ViewDenoiser};
 use crate::display::{DisplayPass, PixelFormat, Samples};
 use crate::error::{Result, ViewerError};
 use crate::input::ViewerInput;
@@ -32,6 +33,8 @@ pub struct FrameOptions {
     pub max_samples: Option<u32>,
     /// Scale of the radiance before the tonemap.
     pub exposure: f32,
+    /// Denoise the picture (`--denoise`; see [`crate::denoise`]).
+    pub denoise: Option<DenoiseOptions>,
 }
 
 impl Default for FrameOptions {
@@ -41,6 +44,7 @@ impl Default for FrameOptions {
             target_frame_time: Duration::from_millis(33),
             max_samples: None,
             exposure: 1.0,
+            denoise: None,
         }
     }
 }
@@ -99,6 +103,12 @@ pub struct Viewer<R: Render> {
     failed_reloads: u64,
     /// Times the accumulation started over.
     restarts: u64,
+    /// Frames displayed since the last restart of launches submitted after it.
+    frames_since_restart: u64,
+    /// The denoiser, with `--denoise`.
+    denoiser: Option<ViewDenoiser>,
+    /// Whether the displayed picture is a denoised one.
+    showing_denoised: bool,
 }
 
 impl<R: Render> Viewer<R> {
@@ -115,6 +125,7 @@ impl<R: Render> Viewer<R> {
         let (width, height) = (width.max(1), height.max(1));
         renderer.resize(width, height, &camera).map_err(ViewerError::Render)?;
         let display = DisplayPass::new(renderer.context(), width, height, format)?;
+        let denoiser = options.denoise.as_ref().map(|d| ViewDenoiser::new(d, &mut renderer)).transpose()?;
         let next_samples = options.samples_per_frame.unwrap_or(1).max(1);
         Ok(Viewer {
             renderer,
@@ -134,6 +145,9 @@ impl<R: Render> Viewer<R> {
             reloads: 0,
             failed_reloads: 0,
             restarts: 0,
+            frames_since_restart: 0,
+            denoiser,
+            showing_denoised: false,
         })
     }
 
@@ -198,6 +212,17 @@ impl<R: Render> Viewer<R> {
         self.failed_reloads
     }
 
+    /// With `--denoise`, whether the window shows the denoised picture (`N`
+    /// toggles it); `None` without a denoiser.
+    pub fn shows_denoised(&self) -> Option<bool> {
+        self.denoiser.as_ref().map(|d| d.shown)
+    }
+
+    /// Whether the displayed picture is a denoised one.
+    pub fn displays_denoised(&self) -> bool {
+        self.showing_denoised
+    }
+
     /// Whether a launch is running.
     pub fn is_launching(&self) -> bool {
         self.in_flight.is_some()
@@ -235,6 +260,17 @@ impl<R: Render> Viewer<R> {
                 println!("camera: --camera {}", format_camera(&self.rig.camera()));
                 return Ok(());
             }
+            ViewerInput::ShowDenoised(show) => {
+                if let Some(denoiser) = &mut self.denoiser {
+                    denoiser.shown = show;
+                    if self.in_flight.is_none() {
+                        // Idle or between frames: show the change now (a launch in
+                        // flight shows it when it finishes).
+                        self.show(true, true)?;
+                    }
+                }
+                return Ok(());
+            }
             ViewerInput::Resize { .. } | ViewerInput::Minimize(_) | ViewerInput::Close => return Ok(()),
         }
         self.renderer.set_camera(&self.rig.camera());
@@ -247,6 +283,7 @@ impl<R: Render> Viewer<R> {
         self.renderer.reset();
         self.band_next_row = 0;
         self.restarts += 1;
+        self.frames_since_restart = 0;
         self.stats.restarted();
         if self.options.samples_per_frame.is_none() {
             // The first frames after a change come quickly.
@@ -368,11 +405,14 @@ impl<R: Render> Viewer<R> {
     /// as a frame but not towards Mrays/s: its rays and time belong to the
     /// accumulation that was started over.
     fn frame_finished(&mut self, samples: u32, rows: u32, shown: Samples, took: Duration, restarts: u64) -> Result<()> {
-        self.display.run(self.renderer.accumulation(), shown, self.options.exposure)?;
+        let current = restarts == self.restarts;
         self.displayed = shown;
+        if current {
+            self.frames_since_restart += 1;
+        }
+        self.show(current, false)?;
         self.frames += 1;
         let now = Instant::now();
-        let current = restarts == self.restarts;
         self.stats.frame(samples, current.then_some(took), now);
         if self.options.samples_per_frame.is_none() {
             self.adapt(samples, rows, took);
@@ -381,6 +421,33 @@ impl<R: Render> Viewer<R> {
             self.count_rays()?;
         }
         self.write_screenshots()
+    }
+
+    /// Runs the display pass on what the window shows: with a denoiser shown, the
+    /// latest denoised picture since the last restart (denoising the current
+    /// accumulation first when this frame is due one, when the last sample asked
+    /// for is in, or when `now` asks for it and the latest is older), else the
+    /// noisy accumulation. `current`: the displayed samples belong to the
+    /// accumulation since the last restart. Call it with no launch in flight.
+    fn show(&mut self, current: bool, now: bool) -> Result<()> {
+        let id = (self.restarts, self.displayed);
+        let exposure = self.options.exposure;
+        if let Some(denoiser) = self.denoiser.as_mut().filter(|d| d.shown && current) {
+            let finished = self.options.max_samples.is_some_and(|max| self.renderer.samples_done() >= max);
+            let due = denoiser.due(self.frames_since_restart) || finished || now;
+            if due && denoiser.radiance_of(id).is_none() {
+                let ctx = self.renderer.context().clone();
+                denoiser.denoise(&ctx, &self.renderer, self.display.size().0, id)?;
+            }
+            if let Some(picture) = denoiser.picture_since(self.restarts) {
+                self.display.run(picture, Samples::whole(1), exposure)?;
+                self.showing_denoised = true;
+                return Ok(());
+            }
+        }
+        self.display.run(self.renderer.accumulation(), self.displayed, exposure)?;
+        self.showing_denoised = false;
+        Ok(())
     }
 
     /// Counts the rays in the accumulation (its w) for the stats; call it while
@@ -439,10 +506,21 @@ impl<R: Render> Viewer<R> {
         Ok(())
     }
 
-    /// Writes the displayed picture to `path` (PNG) and the mean linear radiance
-    /// to `path` with `.exr`; waits for a launch in flight first.
+    /// Writes the displayed picture to `path` (PNG) and its linear radiance (the
+    /// accumulation's mean, or the denoised picture) to `path` with `.exr`;
+    /// finishes a launch in flight first, as a frame. With the denoiser shown,
+    /// the picture is the denoised accumulation as it is now.
     pub fn write_screenshot(&mut self, path: &Path) -> Result<()> {
-        self.finish_launch()?;
+        if let Some(InFlight { launch, samples, rows, shown, submitted, restarts }) = self.in_flight.take() {
+            // Its samples are in the accumulation once it is done: display them too.
+            launch.wait()?;
+            self.frame_finished(samples, rows, shown, submitted.elapsed(), restarts)?;
+        }
+        // A denoised screenshot is of the samples displayed now.
+        let denoised = self.denoiser.as_ref().is_some_and(|d| d.shown);
+        if denoised {
+            self.show(true, true)?;
+        }
         let (width, height) = self.display.size();
         let format = self.display.format();
         let pixels: Vec<u32> = self.display.pixels().read()?.into_iter().map(|p| format.to_rgba8(p)).collect();
@@ -452,24 +530,20 @@ impl<R: Render> Viewer<R> {
         }
         let screenshot_error = |source| ViewerError::Screenshot { path: path.to_path_buf(), source };
         raykit_scene::write_png_rgba8(path, width, height, &pixels).map_err(screenshot_error)?;
-        let samples = self.displayed;
-        let mean = |(i, a): (usize, &raykit::glam::Vec4)| {
-            let n = if (i as u32 / width) < samples.split_row { samples.above } else { samples.below };
-            if n == 0 {
-                Vec3::ZERO
-            } else {
-                a.truncate() / n as f32
-            }
+        let id = (self.restarts, self.displayed);
+        let radiance: Vec<Vec3> = match self.denoiser.as_ref().and_then(|d| d.radiance_of(id)) {
+            Some(radiance) if denoised => radiance.to_vec(),
+            _ => mean(&self.renderer.accumulation().read()?, width, self.displayed),
         };
-        let radiance: Vec<Vec3> = self.renderer.accumulation().read()?.iter().enumerate().map(mean).collect();
         let exr = path.with_extension("exr");
         raykit_scene::write_exr(&exr, width, height, &radiance)
             .map_err(|source| ViewerError::Screenshot { path: exr.clone(), source })?;
         println!(
-            "screenshot: {} and {} ({width}x{height}, {} spp, camera {})",
+            "screenshot: {} and {} ({width}x{height}, {} spp{}, camera {})",
             path.display(),
             exr.display(),
             self.displayed.below,
+            if self.showing_denoised { ", denoised" } else { "" },
             format_camera(&self.rig.camera())
         );
         Ok(())
@@ -484,8 +558,9 @@ impl<R: Render> Viewer<R> {
             Some(rows) => format!("{rows} rows/frame"),
             None => format!("{} spp/frame", self.stats.frame_samples.last().copied().unwrap_or(0)),
         };
+        let denoised = if self.showing_denoised { " (denoised)" } else { "" };
         format!(
-            "{} spp · {per_frame} · {frame_ms} ms/frame · {:.2} Mrays/s · {:?}: {}",
+            "{} spp{denoised} · {per_frame} · {frame_ms} ms/frame · {:.2} Mrays/s · {:?}: {}",
             self.displayed.below,
             self.stats.mrays_per_second(),
             ctx.backend(),

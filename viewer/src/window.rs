@@ -347,6 +347,15 @@ impl<R: Render> App<R> {
                 ViewerInput::Screenshot(PathBuf::from(format!("viewer-{}.png", self.screenshots)))
             }
             KeyCode::KeyC => ViewerInput::PrintCamera,
+            KeyCode::KeyN => {
+                let Some(running) = &self.running else { return Ok(()) };
+                let Some(denoised) = running.viewer.shows_denoised() else {
+                    println!("viewer: N toggles the denoised picture; start the viewer with --denoise");
+                    return Ok(());
+                };
+                println!("viewer: {} picture", if denoised { "noisy" } else { "denoised" });
+                ViewerInput::ShowDenoised(!denoised)
+            }
             KeyCode::Tab => {
                 let mode = match self.running.as_ref().map(|r| r.viewer.rig().mode) {
                     Some(CameraMode::Orbit) => CameraMode::Fly,

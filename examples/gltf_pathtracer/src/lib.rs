@@ -319,6 +319,23 @@ pub struct PathTracer {
     params: TraceParams,
     samples_done: u32,
     light_count: u32,
+    /// The guides' buffers (albedo, normal) once [`PathTracer::enable_guides`] ran.
+    guides: Option<(DeviceBuffer<Vec4>, DeviceBuffer<Vec4>)>,
+}
+
+/// The denoiser's guides of a render: per pixel, the mean over its paths of the
+/// first hit's albedo and shading normal (facing the camera), row 0 at the top.
+#[derive(Clone, Debug)]
+pub struct GuideImages {
+    /// First-hit albedo (an emitter's colour normalised to 1; 0 for a miss).
+    pub albedo: Vec<Vec3>,
+    /// First-hit shading normal (averaged over the pixel; 0 for a miss).
+    pub normal: Vec<Vec3>,
+}
+
+/// Mean of an accumulated guide (sum in xyz, paths in w).
+fn guide_mean(sums: &[Vec4]) -> Vec<Vec3> {
+    sums.iter().map(|s| if s.w > 0.0 { s.truncate() / s.w } else { Vec3::ZERO }).collect()
 }
 
 impl std::fmt::Debug for PathTracer {
@@ -374,6 +391,11 @@ impl PathTracer {
             light_textures: scene.light_textures.handle(),
             light_cdf: scene.light_cdf.handle(),
             light_count: scene.light_table.len() as u32,
+            guides: 0,
+            // Never written while `guides` is 0.
+            albedo: accum.handle(),
+            normal: accum.handle(),
+            _pad: 0,
         };
         Ok(PathTracer {
             pipeline,
@@ -384,7 +406,25 @@ impl PathTracer {
             params,
             samples_done: 0,
             light_count: scene.light_table.len() as u32,
+            guides: None,
         })
+    }
+
+    /// From now on every launch also writes the denoiser's guides (first-hit
+    /// albedo and normals, [`PathTracer::guides`]) in the same launch; starts over.
+    pub fn enable_guides(&mut self, ctx: &Context) -> raykit::Result<()> {
+        let pixels = self.params.size.x as usize * self.params.size.y as usize;
+        let (albedo, normal) = (ctx.buffer::<Vec4>(pixels)?, ctx.buffer::<Vec4>(pixels)?);
+        (self.params.albedo, self.params.normal, self.params.guides) = (albedo.handle(), normal.handle(), 1);
+        self.guides = Some((albedo, normal));
+        self.reset();
+        Ok(())
+    }
+
+    /// Reads the guides back (`None` unless [`PathTracer::enable_guides`] ran).
+    pub fn guides(&self) -> raykit::Result<Option<GuideImages>> {
+        let Some((albedo, normal)) = &self.guides else { return Ok(None) };
+        Ok(Some(GuideImages { albedo: guide_mean(&albedo.read()?), normal: guide_mean(&normal.read()?) }))
     }
 
     /// Sets the safety cap on bounces (Russian roulette ends paths; 1024 by default).
@@ -433,6 +473,11 @@ impl PathTracer {
         self.accum = ctx.buffer::<Vec4>(width as usize * height as usize)?;
         self.params.accum = self.accum.handle();
         self.params.size = UVec2::new(width, height);
+        if self.guides.is_some() {
+            self.enable_guides(ctx)?;
+        } else {
+            (self.params.albedo, self.params.normal) = (self.accum.handle(), self.accum.handle());
+        }
         self.set_camera(camera);
         Ok(())
     }

@@ -1,6 +1,6 @@
 //! `cargo run --release -p gltf_pathtracer -- --scene FILE.gltf [--env FILE.exr] [--width W] [--height H]
 //! [--spp N] [--max-depth N] [--no-light-sampling] [--materials callables|inlined] [--backend vulkan|cpu]
-//! [-o FILE.png]`: path-traces a glTF scene lit by its emissive triangles and an environment map (an
+//! [--denoise [--denoise-device auto|cpu|cuda] [--no-guides]] [-o FILE.png]`: path-traces a glTF scene lit by its emissive triangles and an environment map (an
 //! OpenEXR equirectangular map, or a procedural sky), progressively with a progress bar, to a tonemapped
 //! PNG and the linear radiance as OpenEXR beside it. `--view` opens the interactive viewer on the scene
 //! instead (`raykit-viewer`), and `--headless --frames N [--camera ...]` writes what its window would show.
@@ -58,6 +58,9 @@ struct Cli {
     /// `RAYKIT_BACKEND` environment variable, else `vulkan`.
     #[arg(long, value_parser = ["vulkan", "cpu"])]
     backend: Option<String>,
+    /// `--denoise`, `--denoise-device`, `--no-guides`.
+    #[command(flatten)]
+    denoise: raykit_denoise::DenoiseArgs,
     #[command(flatten)]
     viewer: raykit_viewer::ViewerArgs,
 }
@@ -102,9 +105,18 @@ fn main() -> anyhow::Result<()> {
         println!("{mode:?}: linked in {:?}, wrote {}", renderer.link_time, cli.output.display());
         return Ok(());
     }
+    anyhow::ensure!(
+        cli.materials.is_none() || !cli.denoise.denoise,
+        "--denoise is for the path tracer: drop --materials"
+    );
+    // Loaded before rendering: a missing library fails at once, naming its install command.
+    let denoiser = cli.denoise.denoiser()?;
     let mut tracer = PathTracer::new(&ctx, &gpu, &env, &camera, cli.width, cli.height)?;
     tracer.set_max_depth(cli.max_depth);
     tracer.set_light_sampling(!cli.no_light_sampling);
+    if cli.denoise.guides() {
+        tracer.enable_guides(&ctx)?;
+    }
     let bar = ProgressBar::new(cli.spp as u64);
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} spp  {msg}")
@@ -119,7 +131,10 @@ fn main() -> anyhow::Result<()> {
     }
     bar.finish();
     let seconds = started.elapsed().as_secs_f64();
-    let (radiance, rays) = tracer.image()?;
+    let (mut radiance, rays) = tracer.image()?;
+    if let Some(denoiser) = &denoiser {
+        radiance = denoise(&cli, denoiser, &tracer, radiance)?;
+    }
     let pixels: Vec<u32> = radiance.iter().map(|&c| path_tracer_tonemap(c)).collect();
     raykit_scene::write_png_rgba8(&cli.output, cli.width, cli.height, &pixels)?;
     let exr = cli.output.with_extension("exr");
@@ -135,6 +150,37 @@ fn main() -> anyhow::Result<()> {
         exr.display()
     );
     Ok(())
+}
+
+/// Writes `radiance` to `<output>-noisy.png` and returns it denoised by
+/// `denoiser`, guided by the tracer's guides when it wrote them.
+fn denoise(
+    cli: &Cli,
+    denoiser: &raykit_denoise::Denoiser,
+    tracer: &PathTracer,
+    radiance: Vec<Vec3>,
+) -> anyhow::Result<Vec<Vec3>> {
+    let stem = cli.output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let noisy = cli.output.with_file_name(format!("{stem}-noisy.png"));
+    let pixels: Vec<u32> = radiance.iter().map(|&c| path_tracer_tonemap(c)).collect();
+    raykit_scene::write_png_rgba8(&noisy, cli.width, cli.height, &pixels)?;
+    let rgb = |v: &[Vec3]| v.iter().map(|c| c.to_array()).collect::<Vec<_>>();
+    let color = rgb(&radiance);
+    let guides = tracer.guides()?.map(|g| (rgb(&g.albedo), rgb(&g.normal)));
+    let mut input = raykit_denoise::Input::new(cli.width, cli.height, &color);
+    if let Some((albedo, normal)) = &guides {
+        input = input.with_guides(albedo, normal);
+    }
+    let started = Instant::now();
+    let denoised = denoiser.denoise(&input)?;
+    println!(
+        "denoised on OIDN's {} device in {:.3} s ({}); the noisy input is {}",
+        denoiser.device(),
+        started.elapsed().as_secs_f64(),
+        if guides.is_some() { "with first-hit albedo and normal guides" } else { "without guides" },
+        noisy.display()
+    );
+    Ok(denoised.into_iter().map(Vec3::from_array).collect())
 }
 
 /// `--view` and `--headless`: the scene in the viewer's window, or what the window
@@ -156,6 +202,7 @@ fn view(
         camera,
         exposure: 1.0,
         output: cli.output.clone(),
+        denoise: cli.denoise.clone(),
     };
     raykit_viewer::run(renderer, &cli.viewer, session)?;
     Ok(())

@@ -4,7 +4,7 @@ use raykit::glam::Vec4;
 use raykit::{Context, DeviceBuffer, Launch};
 use raykit_scene::gltf::GltfScene;
 use raykit_scene::{Camera, EnvironmentMap};
-use raykit_viewer::{Render, RenderError};
+use raykit_viewer::{DenoiseGuides, Render, RenderError};
 
 use crate::{GpuScene, PathTracer};
 
@@ -57,5 +57,15 @@ impl Render for ViewRenderer {
 
     fn samples_done(&self) -> u32 {
         self.tracer.samples_done()
+    }
+
+    fn enable_guides(&mut self) -> Result<bool, RenderError> {
+        self.tracer.enable_guides(&self.ctx)?;
+        Ok(true)
+    }
+
+    fn guides(&self) -> Result<Option<DenoiseGuides>, RenderError> {
+        let rgb = |v: Vec<raykit::glam::Vec3>| v.into_iter().map(|c| c.to_array()).collect();
+        Ok(self.tracer.guides()?.map(|g| DenoiseGuides { albedo: rgb(g.albedo), normal: rgb(g.normal) }))
     }
 }

@@ -95,15 +95,9 @@ struct Cli {
     /// `examples/path_tracer/device`; another crate's SPIR-V goes to its `target/spirv/`).
     #[arg(long, requires = "watch")]
     device_dir: Option<PathBuf>,
-    /// Denoise the picture with Open Image Denoise (see `--denoise-device`, `--no-guides`).
-    #[arg(long, conflicts_with_all = ["devices", "watch"])]
-    denoise: bool,
-    /// Where OIDN runs: `auto` (CUDA where it works, else the CPU), `cpu` or `cuda`.
-    #[arg(long, default_value = "auto", value_parser = ["auto", "cpu", "cuda"], requires = "denoise")]
-    denoise_device: String,
-    /// Denoise the colour alone, without the first-hit albedo and normal guides.
-    #[arg(long, requires = "denoise")]
-    no_guides: bool,
+    /// `--denoise`, `--denoise-device`, `--no-guides`.
+    #[command(flatten)]
+    denoise: raykit_denoise::DenoiseArgs,
     #[cfg(feature = "viewer")]
     #[command(flatten)]
     viewer: raykit_viewer::ViewerArgs,
@@ -119,20 +113,18 @@ fn main() -> anyhow::Result<()> {
         return view(&cli);
     }
     if cli.devices.is_some() || cli.backend.as_deref() == Some("vulkan,cpu") {
-        anyhow::ensure!(!cli.denoise, "--denoise renders on one device: drop --devices and --backend vulkan,cpu");
+        anyhow::ensure!(
+            !cli.denoise.denoise,
+            "--denoise renders on one device: drop --devices and --backend vulkan,cpu"
+        );
         return render_group(&cli);
     }
     // Loaded before rendering: a missing library fails at once, naming its install command.
-    let denoiser = if cli.denoise {
-        let device = match cli.denoise_device.as_str() {
-            "cpu" => raykit_denoise::DenoiseDevice::Cpu,
-            "cuda" => raykit_denoise::DenoiseDevice::Cuda,
-            _ => raykit_denoise::DenoiseDevice::Auto,
-        };
-        Some(raykit_denoise::Denoiser::new(device)?)
-    } else {
-        None
-    };
+    anyhow::ensure!(
+        !(cli.denoise.denoise && cli.watch),
+        "--denoise renders one picture: drop --watch, or denoise in the viewer (--view --watch --denoise)"
+    );
+    let denoiser = cli.denoise.denoiser()?;
     let backend = cli.backend.as_deref().map(|b| if b == "cpu" { Backend::Cpu } else { Backend::Vulkan });
     let ctx = Context::new(ContextOptions { device_name_contains: cli.device.clone(), backend, ..Default::default() })?;
     let programs = match (cli.glsl, cli.wgsl) {
@@ -143,10 +135,10 @@ fn main() -> anyhow::Result<()> {
     let scene = Scene::new(&ctx)?;
     let mut renderer = Renderer::new(&ctx, &programs, &scene, cli.width, cli.height)?;
     renderer.set_max_depth(cli.max_depth);
-    let guided = denoiser.is_some() && !cli.no_guides && programs.raygen_guides.is_some();
+    let guided = cli.denoise.guides() && programs.raygen_guides.is_some();
     if guided {
         renderer.enable_guides(&ctx, &programs)?;
-    } else if denoiser.is_some() && !cli.no_guides {
+    } else if cli.denoise.guides() {
         println!("denoise: the GLSL and WGSL twins write no guides; denoising the colour alone");
     }
 
@@ -342,6 +334,7 @@ fn view(cli: &Cli) -> anyhow::Result<()> {
         camera: path_tracer::CAMERA,
         exposure: cli.exposure,
         output: cli.output.clone(),
+        denoise: cli.denoise.clone(),
     };
     raykit_viewer::run(renderer, &cli.viewer, session)?;
     report_validation(&log)

@@ -8,7 +8,7 @@ use std::time::Duration;
 use raykit::glam::Vec4;
 use raykit::{Context, DeviceBuffer, Launch};
 use raykit_builder::{DeviceBuild, DeviceWatcher, Report};
-use raykit_viewer::{Render, RenderError};
+use raykit_viewer::{DenoiseGuides, Render, RenderError};
 
 use crate::{Camera, Programs, Renderer, Scene};
 
@@ -16,6 +16,8 @@ use crate::{Camera, Programs, Renderer, Scene};
 pub struct ViewRenderer {
     ctx: Context,
     renderer: Renderer,
+    /// The programs linked now (hot reload swaps them); the guides' raygen is theirs.
+    programs: Programs,
     /// The scene the renderer's params point into.
     _scene: Scene,
     watcher: Option<DeviceWatcher>,
@@ -28,7 +30,7 @@ impl ViewRenderer {
         let scene = Scene::new(ctx)?;
         let mut renderer = Renderer::new(ctx, &programs, &scene, width.max(1), height.max(1))?;
         renderer.set_max_depth(max_depth);
-        Ok(ViewRenderer { ctx: ctx.clone(), renderer, _scene: scene, watcher: None })
+        Ok(ViewRenderer { ctx: ctx.clone(), renderer, programs, _scene: scene, watcher: None })
     }
 
     /// Hot reload: watches the device crate at `device_dir` (its SPIR-V goes to
@@ -84,11 +86,23 @@ impl Render for ViewRenderer {
         self.renderer.samples_done()
     }
 
+    fn enable_guides(&mut self) -> Result<bool, RenderError> {
+        self.renderer.enable_guides(&self.ctx, &self.programs)?;
+        Ok(true)
+    }
+
+    fn guides(&self) -> Result<Option<DenoiseGuides>, RenderError> {
+        let rgb = |v: Vec<raykit::glam::Vec3>| v.into_iter().map(|c| c.to_array()).collect();
+        Ok(self.renderer.guides()?.map(|g| DenoiseGuides { albedo: rgb(g.albedo), normal: rgb(g.normal) }))
+    }
+
     fn poll_reload(&mut self) -> Option<Result<String, RenderError>> {
         let rebuild = self.watcher.as_ref()?.try_next()?;
         let reloaded = rebuild.result.map_err(RenderError::from).and_then(|built| {
             let module = raykit::Module::from_file(&self.ctx, &built.spv)?;
-            self.renderer.swap_programs(&self.ctx, &Programs::rust_from(&module)?)?;
+            let programs = Programs::rust_from(&module)?;
+            self.renderer.swap_programs(&self.ctx, &programs)?;
+            self.programs = programs;
             Ok(())
         });
         Some(reloaded.map(|()| format!("reloaded in {:.2} s", rebuild.changed_at.elapsed().as_secs_f64())))

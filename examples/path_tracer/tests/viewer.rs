@@ -140,6 +140,71 @@ fn the_window_on_the_cpu_backend_shows_the_headless_render_of_its_camera() -> an
     window_equals_headless("window_cpu", "cpu")
 }
 
+/// `--denoise` in the window: after 6 frames of 2 paths, denoised every 3
+/// frames with guides, the window's screenshot equals a `--headless --denoise`
+/// render of the same frames byte for byte (PNG and radiance); `noisy` (the `N`
+/// key) shows the noisy accumulation, which equals the headless render without
+/// `--denoise`; the two differ.
+fn denoised_window_equals_headless(test: &str, backend: &str) -> anyhow::Result<()> {
+    if !display(test)? {
+        return Ok(());
+    }
+    let dir = scratch(test)?;
+    let (denoised_png, noisy_png) = (dir.join("denoised.png"), dir.join("noisy.png"));
+    let (headless_denoised, headless_noisy) = (dir.join("headless-denoised.png"), dir.join("headless-noisy.png"));
+    let script = dir.join("denoise.txt");
+    std::fs::write(
+        &script,
+        format!("frames 6\nscreenshot {}\nnoisy\nscreenshot {}\nclose\n", denoised_png.display(), noisy_png.display()),
+    )?;
+    const DENOISE: [&str; 5] = ["--denoise", "--denoise-device", "cpu", "--denoise-every", "3"];
+    let mut window = path_tracer();
+    size_args(&mut window, backend);
+    window.args(["--view", "--spp-per-frame", "2", "--max-spp", "12"]).args(DENOISE).arg("--script").arg(&script);
+    let out = run(window, RUN_BOUND)?;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("albedo and normal guides"), "{test}: {}", text(&out));
+    assert!(stdout.contains(&format!("({WIDTH}x{HEIGHT}, 12 spp, denoised, camera ")), "{test}: {}", text(&out));
+    assert!(stdout.contains(&format!("({WIDTH}x{HEIGHT}, 12 spp, camera ")), "{test}: {}", text(&out));
+
+    let headless = |denoise: bool, png: &Path| -> anyhow::Result<()> {
+        let mut cmd = path_tracer();
+        size_args(&mut cmd, backend);
+        cmd.args(["--headless", "--frames", "6", "--spp-per-frame", "2", "-o"]).arg(png);
+        if denoise {
+            cmd.args(DENOISE);
+        }
+        run(cmd, RUN_BOUND).map(|_| ())
+    };
+    headless(true, &headless_denoised)?;
+    headless(false, &headless_noisy)?;
+    let exr = |png: &Path| std::fs::read(png.with_extension("exr"));
+    for (shown, rendered, what) in
+        [(&denoised_png, &headless_denoised, "denoised"), (&noisy_png, &headless_noisy, "noisy")]
+    {
+        assert!(
+            rgba(shown)?.as_raw() == rgba(rendered)?.as_raw(),
+            "{test}: the window's {what} picture differs from the headless render"
+        );
+        assert!(exr(shown)? == exr(rendered)?, "{test}: the window's {what} radiance differs from the headless render");
+    }
+    let (denoised, noisy) = (rgba(&denoised_png)?, rgba(&noisy_png)?);
+    let changed = denoised.pixels().zip(noisy.pixels()).filter(|(a, b)| a != b).count();
+    assert!(changed > (WIDTH * HEIGHT / 2) as usize, "{test}: denoising changed only {changed} pixels");
+    std::fs::remove_dir_all(&dir)?;
+    Ok(())
+}
+
+#[test]
+fn the_denoised_window_on_vulkan_shows_the_headless_denoised_render() -> anyhow::Result<()> {
+    denoised_window_equals_headless("denoise_vulkan", "vulkan")
+}
+
+#[test]
+fn the_denoised_window_on_the_cpu_backend_shows_the_headless_denoised_render() -> anyhow::Result<()> {
+    denoised_window_equals_headless("denoise_cpu", "cpu")
+}
+
 /// Resizes to 1×1 and back, minimises, restores, and closes while a launch runs.
 fn resize_minimise_close(test: &str, backend: &str) -> anyhow::Result<()> {
     if !display(test)? {

@@ -370,6 +370,18 @@ pub struct TraceParams {
     /// The number of light triangles sampled; 0 turns light sampling off (emissive
     /// surfaces are then found by BSDF sampling alone).
     pub light_count: u32,
+    /// Whether launches also write the denoiser's guides (`albedo`, `normal`); 0: they
+    /// are not touched.
+    pub guides: u32,
+    /// With `guides`: per pixel, the sum over its paths of the first hit's albedo
+    /// (its base colour; an emitter's colour normalised to a largest channel of 1;
+    /// 0 for a miss) in xyz and the paths in w. Launch `subframe == 0` overwrites it.
+    pub albedo: Buffer<Vec4>,
+    /// With `guides`: per pixel, the sum over its paths of the first hit's shading
+    /// normal, facing the camera (0 for a miss), in xyz and the paths in w.
+    pub normal: Buffer<Vec4>,
+    /// Launch params have no implicit padding.
+    pub _pad: u32,
 }
 
 /// Offset of secondary rays from the surface.
@@ -396,6 +408,7 @@ fn rg_path(
     let (lights, light_textures, light_cdf) = (p.lights, p.light_textures, p.light_cdf);
     let mut sum = Vec3::ZERO;
     let mut rays = 0u32;
+    let (mut albedo_sum, mut normal_sum) = (Vec3::ZERO, Vec3::ZERO);
     let mut sample = 0;
     while sample < p.samples {
         let mut rng = Pcg::new(pixel, p.subframe.wrapping_mul(4096).wrapping_add(sample));
@@ -428,6 +441,11 @@ fn rg_path(
             };
             radiance += throughput * hit.emission * emission_weight;
             let n = if hit.normal.dot(dir) > 0.0 { -hit.normal } else { hit.normal };
+            if depth == 0 {
+                let emitter = hit.emission.max_element();
+                albedo_sum += if emitter > 0.0 { hit.emission / emitter } else { hit.color };
+                normal_sum += n;
+            }
             let position = origin + hit.t * dir + n * RAY_OFFSET;
             let frame = Onb::new(n);
             let v = frame.to_local(-dir);
@@ -510,6 +528,16 @@ fn rg_path(
     }
     let previous = if p.subframe == 0 { Vec4::ZERO } else { ctx.load(p.accum, pixel) };
     ctx.store(p.accum, pixel, previous + sum.extend(rays as f32));
+    if p.guides != 0 {
+        let paths = p.samples as f32;
+        let (albedo, normal) = if p.subframe == 0 {
+            (Vec4::ZERO, Vec4::ZERO)
+        } else {
+            (ctx.load(p.albedo, pixel), ctx.load(p.normal, pixel))
+        };
+        ctx.store(p.albedo, pixel, albedo + albedo_sum.extend(paths));
+        ctx.store(p.normal, pixel, normal + normal_sum.extend(paths));
+    }
 }
 
 /// The primary hit of `g` at this closest-hit: texture coordinates, distance,
