@@ -1,6 +1,6 @@
 //! `denoise`: Open Image Denoise's RT filter (`raykit-denoise`) at 512×512 and
-//! 1920×1080, the colour alone and with albedo and normal guides, on the device
-//! `DenoiseDevice::Auto` picks (CUDA where it works, else the CPU; every core).
+//! 1920×1080, the colour alone and with albedo and normal guides, on OIDN's CPU
+//! device (every core) and, where one works, its CUDA device.
 //! The input is a deterministic noisy gradient: the filter's cost does not
 //! depend on the picture. One untimed run warms the filter up; then the median
 //! of `--reps` wall-clock runs (upload, filter, read-back). Needs OIDN: `cargo
@@ -24,11 +24,21 @@ pub struct Row {
 /// The sizes measured.
 const SIZES: [(u32, u32); 2] = [(512, 512), (1920, 1080)];
 
-/// Times the filter at [`SIZES`], with and without guides, `reps` times each.
+/// Times the filter at [`SIZES`], with and without guides, `reps` times each, on
+/// OIDN's CPU device and, where it works, its CUDA device (side by side in one run).
 pub fn run(reps: usize) -> anyhow::Result<Vec<Row>> {
-    let denoiser = Denoiser::new(DenoiseDevice::Auto)?;
-    let device =
-        format!("OIDN {} ({} threads)", denoiser.device(), std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let mut rows = Vec::new();
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    rows.extend(run_on(&Denoiser::new(DenoiseDevice::Cpu)?, &format!("OIDN CPU ({threads} threads)"), reps)?);
+    match Denoiser::new(DenoiseDevice::Cuda) {
+        Ok(cuda) => rows.extend(run_on(&cuda, "OIDN CUDA", reps)?),
+        Err(e) => eprintln!("denoise: no CUDA row: {e}"),
+    }
+    Ok(rows)
+}
+
+/// The rows of one device.
+fn run_on(denoiser: &Denoiser, device: &str, reps: usize) -> anyhow::Result<Vec<Row>> {
     let mut rows = Vec::new();
     for (width, height) in SIZES {
         let pixels = width as usize * height as usize;
@@ -57,8 +67,8 @@ pub fn run(reps: usize) -> anyhow::Result<Vec<Row>> {
                 anyhow::ensure!(out.len() == pixels, "OIDN returned {} pixels of {pixels}", out.len());
             }
             let seconds = Summary::of(&times);
-            eprintln!("denoise: {width}x{height} guides={guides}: {:.1} ms", seconds.median * 1e3);
-            rows.push(Row { width, height, guides, device: device.clone(), seconds });
+            eprintln!("denoise: {device} {width}x{height} guides={guides}: {:.1} ms", seconds.median * 1e3);
+            rows.push(Row { width, height, guides, device: device.to_owned(), seconds });
         }
     }
     Ok(rows)

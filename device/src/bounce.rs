@@ -3,7 +3,14 @@
 //! trace's closest-hit program says how the path goes on ([`Bounce::scatter_from`],
 //! with a direction from [`crate::scatter`]) and the miss program what the sky
 //! gives it ([`Bounce::escape`]). The payload, [`Bounce`], carries the path's
-//! random numbers in and the bounce out; the pipeline's `max_trace_depth` is 1.
+//! random numbers in and the bounce out: the light a hit emits
+//! ([`Bounce::emit`], *The Next Week*'s diffuse lights) and the hit's distance
+//! ([`Bounce::hit`]) besides the scattered ray; the pipeline's `max_trace_depth` is 1.
+//!
+//! A loop of one's own (participating media, next-event estimation) is built
+//! from [`trace_bounce`], one trace of the path, as [`trace_path`] is: for a
+//! constant-density medium the loop samples a scattering distance and compares
+//! it with the payload's `distance` (see [`crate::medium`]).
 //!
 //! ```
 //! use raykit_device::bounce::{self, Bounce};
@@ -62,6 +69,12 @@ pub struct Bounce {
     pub origin: Vec3,
     /// Its direction.
     pub direction: Vec3,
+    /// Light the hit emits towards the path ([`Bounce::emit`]), counted whatever
+    /// the path does next.
+    pub emitted: Vec3,
+    /// The hit's distance along the ray ([`Bounce::hit`]); infinite for a miss,
+    /// or while no hit program has set it.
+    pub distance: f32,
     /// [`state::SCATTERED`], [`state::ABSORBED`] or [`state::ESCAPED`].
     pub state: u32,
 }
@@ -69,7 +82,28 @@ pub struct Bounce {
 impl Bounce {
     /// A payload carrying `rng`, absorbed until a program says otherwise.
     pub fn new(rng: Pcg) -> Bounce {
-        Bounce { rng, weight: Vec3::ZERO, origin: Vec3::ZERO, direction: Vec3::ZERO, state: state::ABSORBED }
+        Bounce {
+            rng,
+            weight: Vec3::ZERO,
+            origin: Vec3::ZERO,
+            direction: Vec3::ZERO,
+            emitted: Vec3::ZERO,
+            distance: f32::INFINITY,
+            state: state::ABSORBED,
+        }
+    }
+
+    /// Records the hit's distance along the ray (closest-hit's `ctx.hit_t()`).
+    pub fn hit(&mut self, distance: f32) -> &mut Bounce {
+        self.distance = distance;
+        self
+    }
+
+    /// The hit emits `radiance` towards the path (a light); the path may still
+    /// scatter or be absorbed.
+    pub fn emit(&mut self, radiance: Vec3) -> &mut Bounce {
+        self.emitted += radiance;
+        self
     }
 
     /// The path goes on from `origin` along `direction`, its light attenuated by `attenuation`.
@@ -98,11 +132,28 @@ impl Bounce {
     }
 }
 
+/// One trace of a path: `payload` (the raygen program's `#[payload]`) starts
+/// afresh with `rng`, `ray` is traced into `scene` with rays of type `R`, and
+/// `rng` goes on from where the hit programs left it. The payload then says
+/// what the trace did: its `state`, `weight`, `emitted`, `distance` and the
+/// scattered ray.
+pub fn trace_bounce<R: RayType<Payload = Bounce>>(
+    ctx: &mut Raygen,
+    scene: Traversable,
+    ray: Ray,
+    rng: &mut Pcg,
+    payload: &mut Bounce,
+) {
+    *payload = Bounce::new(*rng);
+    ctx.trace::<R>(scene, ray, payload);
+    *rng = payload.rng;
+}
+
 /// Follows one path from `ray` into `scene` with rays of type `R`, for at most
 /// `max_bounces` traces, drawing from `rng`: returns the radiance it brings back,
-/// the product of the attenuations along it times what it found on escaping (0
-/// when it was absorbed or took too many bounces). `payload` is the raygen
-/// program's `#[payload]`.
+/// the light emitted at each hit and what it found on escaping, each times the
+/// product of the attenuations before it (nothing more once it was absorbed or
+/// took too many bounces). `payload` is the raygen program's `#[payload]`.
 pub fn trace_path<R: RayType<Payload = Bounce>>(
     ctx: &mut Raygen,
     scene: Traversable,
@@ -114,11 +165,10 @@ pub fn trace_path<R: RayType<Payload = Bounce>>(
     let (mut ray, mut throughput, mut radiance) = (ray, Vec3::ONE, Vec3::ZERO);
     let mut bounces = 0;
     while bounces < max_bounces {
-        *payload = Bounce::new(*rng);
-        ctx.trace::<R>(scene, ray, payload);
-        *rng = payload.rng;
+        trace_bounce::<R>(ctx, scene, ray, rng, payload);
+        radiance += throughput * payload.emitted;
         if payload.state == state::ESCAPED {
-            radiance = throughput * payload.weight;
+            radiance += throughput * payload.weight;
         }
         if payload.state != state::SCATTERED {
             break;
@@ -150,5 +200,15 @@ mod tests {
         assert_eq!((bounce.state, bounce.weight), (state::ABSORBED, Vec3::ZERO));
         bounce.escape(Vec3::new(0.5, 0.7, 1.0));
         assert_eq!((bounce.state, bounce.weight), (state::ESCAPED, Vec3::new(0.5, 0.7, 1.0)));
+    }
+
+    #[test]
+    fn a_light_emits_and_records_its_distance_whatever_the_path_does_next() {
+        let mut bounce = Bounce::new(Pcg::new(1, 1));
+        assert_eq!((bounce.emitted, bounce.distance), (Vec3::ZERO, f32::INFINITY));
+        bounce.hit(2.5).emit(Vec3::splat(4.0)).absorb();
+        assert_eq!((bounce.state, bounce.emitted, bounce.distance), (state::ABSORBED, Vec3::splat(4.0), 2.5));
+        bounce.emit(Vec3::X);
+        assert_eq!(bounce.emitted, Vec3::new(5.0, 4.0, 4.0));
     }
 }

@@ -62,10 +62,13 @@
 //!
 //! Beside the program model, the pieces every small renderer writes:
 //! [`sphere`] (built-in spheres: the intersection test and its hit attributes),
+//! [`triangle`] (triangle meshes, quads and boxes: the world-space hit with its
+//! error bound and spawn origin, normals, uvs),
 //! [`sampling`] (random numbers, unit vectors, points in the unit sphere and
 //! disk, cosine-weighted directions), [`optics`] (reflect, refract, Fresnel and
 //! Schlick), [`scatter`] (the Lambertian, metal and dielectric materials),
-//! [`bounce`] (a path tracer's payload and its loop in raygen), [`camera`] (a
+//! [`bounce`] (a path tracer's payload and its loop in raygen), [`medium`]
+//! (constant-density participating media), [`camera`] (a
 //! thin-lens camera), [`ray::offset_ray_origin`] (self-intersection-free ray
 //! origins) and [`color`] (sRGB and RGBA8).
 //!
@@ -90,6 +93,7 @@ pub mod environment;
 pub mod exception;
 pub mod handles;
 pub mod math;
+pub mod medium;
 pub mod optics;
 pub mod params;
 pub mod ray;
@@ -99,6 +103,7 @@ pub mod scatter;
 pub mod sphere;
 pub mod stage;
 pub mod texture;
+pub mod triangle;
 
 pub use bytemuck;
 pub use element::Element;

@@ -104,7 +104,7 @@ pub use vulkan::timeline;
 
 pub use accel::{
     Aabb, Aabbs, BuildInput, BuildOptions, Gas, GasBuilder, GeometryFlags, Ias, IasBuilder, Indices, Instance,
-    InstanceFlags, PendingBuild, Triangles,
+    InstanceFlags, Mesh, PendingBuild, Triangles,
 };
 pub use cache::{CacheLoad, PipelineCacheInfo, PipelineCacheLocation};
 pub use context::{Backend, Context, ContextOptions, DeviceLimits, MemoryUsage};

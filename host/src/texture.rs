@@ -201,6 +201,32 @@ impl Texture {
         }
     }
 
+    /// A texture from an image file (PNG or JPEG, recognised by its contents),
+    /// decoded by the `image` crate and uploaded as [`Texture::from_image`] does:
+    /// `srgb` for colour pictures, linear for data. A file that cannot be read or
+    /// decoded is [`ResourceError::ImageFile`], naming it.
+    ///
+    /// ```no_run
+    /// use raykit::{Context, ContextOptions, Mipmaps, SamplerOptions, Texture};
+    /// let ctx = Context::new(ContextOptions::default())?;
+    /// let earth = Texture::load(&ctx, "earthmap.jpg".as_ref(), true, Mipmaps::Generate, SamplerOptions::default())?;
+    /// # let _ = earth;
+    /// # Ok::<(), raykit::Error>(())
+    /// ```
+    pub fn load(
+        ctx: &Context,
+        path: &std::path::Path,
+        srgb: bool,
+        mips: Mipmaps,
+        sampler: SamplerOptions,
+    ) -> Result<Texture> {
+        let refused = |reason: String| Error::Resource(ResourceError::ImageFile { path: path.to_path_buf(), reason });
+        let reader = image::ImageReader::open(path).map_err(|e| refused(e.to_string()))?;
+        let reader = reader.with_guessed_format().map_err(|e| refused(e.to_string()))?;
+        let image = reader.decode().map_err(|e| refused(e.to_string()))?;
+        Self::from_image(ctx, &image, srgb, mips, sampler)
+    }
+
     /// The handle device programs sample through.
     pub fn handle(&self) -> Texture2D {
         Texture2D::from_raw(self.handle)

@@ -3040,3 +3040,76 @@ fn params_of_another_type_with_the_same_layout_link_on_vulkan() -> anyhow::Resul
         Ok(())
     })
 }
+
+#[test]
+fn mesh_with_fewer_normals_than_positions() -> anyhow::Result<()> {
+    case(
+        "mesh_with_fewer_normals_than_positions",
+        &["3 normals for 4 positions", "one per position"],
+        |ctx| {
+            let quad = raykit::Mesh::quad(Vec3::ZERO, Vec3::X, Vec3::Y);
+            refused(Gas::mesh(ctx, &raykit::Mesh { normals: Some(vec![Vec3::Z; 3]), ..quad }), "three normals")
+        },
+        |e| matches!(e, Error::Accel(raykit::AccelError::MeshAttribute { attribute: "normals", .. })),
+    )
+}
+
+#[test]
+fn mesh_with_a_nan_texture_coordinate() -> anyhow::Result<()> {
+    case(
+        "mesh_with_a_nan_texture_coordinate",
+        &["texture coordinate 2", "not finite"],
+        |ctx| {
+            let mut quad = raykit::Mesh::quad(Vec3::ZERO, Vec3::X, Vec3::Y);
+            if let Some(uvs) = &mut quad.uvs {
+                uvs[2].x = f32::NAN;
+            }
+            refused(Gas::mesh(ctx, &quad), "a NaN uv")
+        },
+        |e| matches!(e, Error::Accel(raykit::AccelError::MeshAttribute { attribute: "uvs", .. })),
+    )
+}
+
+#[test]
+fn refit_of_a_mesh_gas() -> anyhow::Result<()> {
+    case(
+        "refit_of_a_mesh_gas",
+        &["Gas::mesh"],
+        |ctx| {
+            let quad = raykit::Mesh::quad(Vec3::ZERO, Vec3::X, Vec3::Y);
+            let mut gas = Gas::mesh(ctx, &quad)?;
+            let input = raykit::Triangles::new(&quad.positions).indices_u32(&quad.indices);
+            refused(gas.update(&[input.into()]), "a refit")
+        },
+        |e| matches!(e, Error::Accel(raykit::AccelError::UpdateRefused { what: "GAS", .. })),
+    )
+}
+
+#[test]
+fn texture_from_a_missing_image_file() -> anyhow::Result<()> {
+    case(
+        "texture_from_a_missing_image_file",
+        &["no-such-picture.png", "PNG or JPEG"],
+        |ctx| {
+            let path = std::env::temp_dir().join("raykit-no-such-picture.png");
+            refused(Texture::load(ctx, &path, true, Mipmaps::One, SamplerOptions::default()), "a missing file")
+        },
+        |e| matches!(e, Error::Resource(raykit::ResourceError::ImageFile { .. })),
+    )
+}
+
+#[test]
+fn texture_from_a_file_that_is_no_image() -> anyhow::Result<()> {
+    case(
+        "texture_from_a_file_that_is_no_image",
+        &["not-an-image.png"],
+        |ctx| {
+            let path = std::env::temp_dir().join(format!("raykit-{}-not-an-image.png", std::process::id()));
+            std::fs::write(&path, b"these bytes are no picture")?;
+            let result = Texture::load(ctx, &path, true, Mipmaps::One, SamplerOptions::default());
+            std::fs::remove_file(&path)?;
+            refused(result, "a text file")
+        },
+        |e| matches!(e, Error::Resource(raykit::ResourceError::ImageFile { .. })),
+    )
+}

@@ -386,6 +386,31 @@ fn sampling_an_image_crate_picture_decodes_srgb() -> anyhow::Result<()> {
 }
 
 #[test]
+fn image_files_load_as_textures_by_their_contents() -> anyhow::Result<()> {
+    let dir = raykit_tests::temp_dir("texture_files")?;
+    let picture = image::DynamicImage::ImageRgb8(image::RgbImage::from_pixel(8, 8, image::Rgb([188, 188, 188])));
+    let png = dir.0.join("grey.png");
+    picture.save(&png)?;
+    // A JPEG under a name that says PNG: the format is read from the bytes.
+    let jpeg = dir.0.join("grey-really-a-jpeg.png");
+    picture.save_with_format(&jpeg, image::ImageFormat::Jpeg)?;
+    anyhow::ensure!(std::fs::read(&jpeg)?.starts_with(&[0xff, 0xd8]), "not a JPEG");
+    with_each_backend("image_files_load_as_textures_by_their_contents", |ctx, backend| {
+        let rig = Rig::new(ctx)?;
+        let want = srgb_decode(188);
+        for file in [&png, &jpeg] {
+            let texture = Texture::load(ctx, file, true, Mipmaps::Generate, SamplerOptions::default())?;
+            anyhow::ensure!(texture.format() == TextureFormat::Rgba8Srgb && texture.size() == (8, 8));
+            let got = rig.render(ctx, &texture, texture_test_device::STAGE_RAYGEN, 0.0)?;
+            // JPEG may move a flat grey by a level or two.
+            let worst = got.iter().map(|g| (g.x - want).abs()).fold(0.0, f32::max);
+            anyhow::ensure!(worst < 3.0 / 255.0, "[{backend:?}] {}: off by {worst}", file.display());
+        }
+        Ok(())
+    })
+}
+
+#[test]
 fn dropped_and_null_texture_handles() -> anyhow::Result<()> {
     with_each_backend("dropped_and_null_texture_handles", |ctx, _backend| {
         let rig = Rig::new(ctx)?;

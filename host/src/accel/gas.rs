@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use glam::{Vec3, Vec4};
 
+use super::primitive_data::{MeshBuffers, PrimitiveData};
 use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::{Context, ContextRepr};
@@ -15,6 +16,7 @@ use crate::error::AccelError;
 use crate::error::{Error, Result};
 use crate::memory::DeviceBuffer;
 use crate::types::accel::{Aabb, Aabbs, BuildInput, Shape, Triangles};
+use crate::types::mesh::Mesh;
 use crate::validate::accel as input;
 use crate::vulkan::accel::build;
 use crate::vulkan::accel::structure::AccelStructure;
@@ -34,8 +36,8 @@ pub struct Compaction {
 /// trace it.
 pub struct Gas {
     pub(crate) repr: GasRepr,
-    /// The spheres of [`Gas::spheres`], for its intersection program.
-    pub(crate) spheres: Option<Arc<DeviceBuffer<Vec4>>>,
+    /// The spheres of [`Gas::spheres`] or the mesh of [`Gas::mesh`], for its programs.
+    pub(crate) primitives: Option<Arc<PrimitiveData>>,
     shapes: Vec<Shape>,
     options: BuildOptions,
     sizes: AccelSizes,
@@ -166,7 +168,7 @@ fn submit_gases(
         .zip(builds)
         .map(|(b, builder)| Gas {
             repr: GasRepr::Vulkan(Arc::new(b.accel)),
-            spheres: None,
+            primitives: None,
             shapes: b.shapes,
             options: builder.options,
             sizes: b.sizes,
@@ -235,8 +237,50 @@ impl Gas {
         let boxes: Vec<Aabb> = centres.iter().zip(radii).map(|(&c, &r)| Aabb::around_sphere(c, r)).collect();
         let data: Vec<Vec4> = centres.iter().zip(radii).map(|(&c, &r)| c.extend(r)).collect();
         let mut gas = Gas::aabbs(ctx, &boxes)?;
-        gas.spheres = Some(Arc::new(DeviceBuffer::from_slice(ctx, &data)?));
+        gas.primitives = Some(Arc::new(PrimitiveData::Spheres(DeviceBuffer::from_slice(ctx, &data)?)));
         Ok(gas)
+    }
+
+    /// A GAS over a triangle [`Mesh`] (quads and boxes are meshes too:
+    /// [`Mesh::quad`], [`Mesh::cuboid`]), which it keeps in device memory with its
+    /// normals and texture coordinates: put [`Gas::mesh_data`] in the hit group's
+    /// record or the launch params and call `raykit_device::triangle::surface` in
+    /// closest-hit for the world-space hit (position with a rigorous error bound
+    /// and the spawn origin it gives, geometric and shading normals, uv, face).
+    /// Built for fast trace, and waited for.
+    ///
+    /// Refused as [`Gas::triangles`] refuses its inputs, and with
+    /// [`AccelError::MeshAttribute`](crate::AccelError::MeshAttribute) for normals
+    /// or uvs whose count is not the positions' or that are not finite.
+    ///
+    /// ```
+    /// use raykit::glam::{Affine3A, Quat, Vec3};
+    /// use raykit::{Backend, Context, ContextOptions, Gas, Ias, Instance, Mesh};
+    /// let ctx = Context::new(ContextOptions { backend: Some(Backend::Cpu), ..Default::default() })?;
+    /// let cube = Gas::mesh(&ctx, &Mesh::cuboid(Vec3::ZERO, Vec3::splat(165.0)))?;
+    /// let record = cube.mesh_data(); // Some(MeshData) for the hit group's record
+    /// // A rotated, moved box is one instance.
+    /// let turned = Affine3A::from_rotation_translation(Quat::from_rotation_y(-0.3), Vec3::new(130.0, 0.0, 65.0));
+    /// let scene = Ias::new(&ctx, &[Instance::new(&cube).transform(turned)])?;
+    /// # let _ = (record, scene);
+    /// # Ok::<(), raykit::Error>(())
+    /// ```
+    #[doc(alias("optixAccelBuild", "OPTIX_BUILD_INPUT_TYPE_TRIANGLES"))]
+    pub fn mesh(ctx: &Context, mesh: &Mesh) -> Result<Gas> {
+        input::mesh(mesh)?;
+        let mut gas = Gas::triangles(ctx, &mesh.positions, Some(&mesh.indices))?;
+        gas.primitives = Some(Arc::new(PrimitiveData::Mesh(Box::new(MeshBuffers::new(ctx, mesh)?))));
+        Ok(gas)
+    }
+
+    /// The mesh of a GAS made by [`Gas::mesh`], as `raykit_device::triangle`
+    /// reads it; `None` for other GASes. Its buffers live as long as the GAS or an
+    /// [`Ias`](super::Ias) over it.
+    pub fn mesh_data(&self) -> Option<raykit_device::triangle::MeshData> {
+        match self.primitives.as_deref() {
+            Some(PrimitiveData::Mesh(mesh)) => Some(mesh.data()),
+            _ => None,
+        }
     }
 
     /// The spheres of a GAS made by [`Gas::spheres`] (centre in `xyz`, radius in
@@ -244,7 +288,10 @@ impl Gas {
     /// other GASes. The buffer lives as long as the GAS or an
     /// [`Ias`](super::Ias) over it.
     pub fn sphere_buffer(&self) -> Option<raykit_device::Buffer<Vec4>> {
-        self.spheres.as_ref().map(|b| b.handle())
+        match self.primitives.as_deref() {
+            Some(PrimitiveData::Spheres(spheres)) => Some(spheres.handle()),
+            _ => None,
+        }
     }
 
     /// Builds several GASes in one submission and waits for all of them.
@@ -293,13 +340,18 @@ impl Gas {
     /// their bounds follow.
     #[doc(alias("OPTIX_BUILD_OPERATION_UPDATE"))]
     pub fn update(&mut self, inputs: &[BuildInput<'_>]) -> Result<()> {
-        if self.spheres.is_some() {
-            return Err(Error::Accel(AccelError::UpdateRefused {
-                what: "GAS",
-                reason: "it holds built-in spheres, whose buffer a refit of its boxes would leave behind; \
-                         make a new one with Gas::spheres"
-                    .to_owned(),
-            }));
+        if let Some(primitives) = self.primitives.as_deref() {
+            let reason = match primitives {
+                PrimitiveData::Spheres(_) => {
+                    "it holds built-in spheres, whose buffer a refit of its boxes would leave behind; \
+                     make a new one with Gas::spheres"
+                }
+                PrimitiveData::Mesh(_) => {
+                    "it holds a mesh, whose vertices and attributes a refit would leave behind; \
+                     make a new one with Gas::mesh"
+                }
+            };
+            return Err(Error::Accel(AccelError::UpdateRefused { what: "GAS", reason: reason.to_owned() }));
         }
         if !self.options.allow_update {
             return Err(Error::Accel(AccelError::UpdateRefused {
@@ -321,7 +373,8 @@ impl Gas {
 
     /// Rebuilds the GAS from `inputs` with its options; the topology may change.
     /// The structure may move: rebuild the [`Ias`](super::Ias)es that instance it.
-    /// A GAS of [`Gas::spheres`] becomes a GAS of `inputs` without spheres.
+    /// A GAS of [`Gas::spheres`] or [`Gas::mesh`] becomes a GAS of `inputs`
+    /// without its spheres or mesh data.
     pub fn rebuild(&mut self, inputs: &[BuildInput<'_>]) -> Result<()> {
         let ctx = self.repr.context();
         let rebuilt = GasBuilder { inputs: inputs.to_vec(), options: self.options }.build(&ctx)?;
@@ -349,7 +402,7 @@ impl Gas {
         Ok(Gas {
             compaction: Some(Compaction { before: accel.size, after: compacted.size }),
             repr: GasRepr::Vulkan(Arc::new(compacted)),
-            spheres: self.spheres,
+            primitives: self.primitives,
             shapes: self.shapes,
             options: self.options,
             sizes: self.sizes,
@@ -414,7 +467,7 @@ impl Gas {
     fn from_cpu(accel: Arc<crate::cpu::accel::CpuGas>, shapes: Vec<Shape>, options: BuildOptions, size: u64) -> Gas {
         let sizes = AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 };
         let compacted_size = options.allow_compaction.then_some(size);
-        Gas { repr: GasRepr::Cpu(accel), spheres: None, shapes, options, sizes, compacted_size, compaction: None }
+        Gas { repr: GasRepr::Cpu(accel), primitives: None, shapes, options, sizes, compacted_size, compaction: None }
     }
 }
 

@@ -6,16 +6,16 @@
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
-use glam::{Affine3A, Vec4};
+use glam::Affine3A;
 use raykit_device::Traversable;
 
 use super::gas::{Gas, GasRepr};
+use super::primitive_data::PrimitiveData;
 use super::PendingBuild;
 use super::{AccelSizes, BuildOptions};
 use crate::context::{Context, ContextRepr};
 use crate::error::{AccelError, DeviceError};
 use crate::error::{Error, Result};
-use crate::memory::DeviceBuffer;
 use crate::types::accel::{transform_rows, InstanceFlags, InstancePlacement};
 use crate::validate::hit_reach::HitReach;
 use crate::vulkan::accel::structure::AccelStructure;
@@ -25,8 +25,8 @@ use crate::vulkan::accel::structure::AccelStructure;
 #[must_use]
 pub struct Instance {
     pub(crate) accel: GasRepr,
-    /// The spheres of a [`Gas::spheres`] GAS, kept alive with the IAS.
-    spheres: Option<Arc<DeviceBuffer<Vec4>>>,
+    /// The spheres or mesh its GAS keeps for its programs, kept alive with the IAS.
+    primitives: Option<Arc<PrimitiveData>>,
     pub(crate) placement: InstancePlacement,
     /// Geometries of its GAS: the hit records it spans per ray type.
     geometries: u32,
@@ -40,7 +40,7 @@ impl Instance {
     pub fn new(gas: &Gas) -> Instance {
         Instance {
             accel: gas.repr.clone(),
-            spheres: gas.spheres.clone(),
+            primitives: gas.primitives.clone(),
             placement: InstancePlacement {
                 transform: transform_rows(&Affine3A::IDENTITY),
                 custom_index: 0,
@@ -193,7 +193,7 @@ impl IasBuilder<'_> {
                 let ias = Ias {
                     repr: IasRepr::Vulkan(accel),
                     gases: self.instances.iter().map(|i| i.accel.clone()).collect(),
-                    spheres: sphere_buffers(self.instances),
+                    primitives: primitive_data(self.instances),
                     options: self.options,
                     sizes,
                     reach: Arc::new(hit_reach(self.instances)),
@@ -205,7 +205,7 @@ impl IasBuilder<'_> {
                 let mut ias = Ias {
                     repr: IasRepr::Cpu { ctx: cpu.clone(), address: crate::cpu::next_scene_address() },
                     gases: Vec::new(),
-                    spheres: Vec::new(),
+                    primitives: Vec::new(),
                     options: self.options,
                     sizes: AccelSizes::default(),
                     reach: Arc::new(HitReach::default()),
@@ -217,9 +217,9 @@ impl IasBuilder<'_> {
     }
 }
 
-/// The sphere buffers the instances' GASes hold.
-fn sphere_buffers(instances: &[Instance]) -> Vec<Arc<DeviceBuffer<Vec4>>> {
-    instances.iter().filter_map(|i| i.spheres.clone()).collect()
+/// The spheres and meshes the instances' GASes keep.
+fn primitive_data(instances: &[Instance]) -> Vec<Arc<PrimitiveData>> {
+    instances.iter().filter_map(|i| i.primitives.clone()).collect()
 }
 
 /// What an [`Ias`] is underneath.
@@ -252,8 +252,8 @@ pub struct Ias {
     // Field order: the structure goes before the GASes it references.
     repr: IasRepr,
     gases: Vec<GasRepr>,
-    /// The sphere buffers of its GASes, for their intersection programs.
-    spheres: Vec<Arc<DeviceBuffer<Vec4>>>,
+    /// The spheres and meshes of its GASes, for their programs.
+    primitives: Vec<Arc<PrimitiveData>>,
     options: BuildOptions,
     sizes: AccelSizes,
     /// The hit records its instances can select, checked by every launch.
@@ -302,7 +302,7 @@ impl Ias {
         };
         crate::vulkan::accel::ias::refit(accel, &placements(instances), self.options)?;
         self.gases = instances.iter().map(|i| i.accel.clone()).collect();
-        self.spheres = sphere_buffers(instances);
+        self.primitives = primitive_data(instances);
         self.reach = Arc::new(hit_reach(instances));
         self.register();
         Ok(())
@@ -342,7 +342,7 @@ impl Ias {
         let size = data.size();
         self.sizes = AccelSizes { structure: size, build_scratch: 0, update_scratch: 0 };
         self.gases = instances.iter().map(|i| i.accel.clone()).collect();
-        self.spheres = sphere_buffers(instances);
+        self.primitives = primitive_data(instances);
         self.reach = Arc::new(hit_reach(instances));
         let over = self.gases.iter().map(|g| (g.version().clone(), g.version().load(Ordering::Acquire))).collect();
         let check = crate::validate::handles::LiveIas { over, reach: self.reach.clone() };

@@ -58,11 +58,13 @@
 pub(crate) mod gas;
 mod ias;
 mod pending;
+mod primitive_data;
 
 pub use crate::types::accel::{
     Aabb, Aabbs, AccelSizes, BuildInput, BuildOptions, BuildPreference, GeometryFlags, Indices, InstanceFlags,
     Triangles,
 };
+pub use crate::types::mesh::Mesh;
 pub use gas::{Compaction, Gas, GasBuilder};
 pub use ias::{Ias, IasBuilder, Instance};
 pub use pending::PendingBuild;

@@ -125,6 +125,16 @@ pub enum AccelError {
         reason: &'static str,
     },
 
+    /// A mesh attribute (normals, uvs) with another count than the positions,
+    /// or a normal that is not finite.
+    #[error("mesh {attribute}: {reason}")]
+    MeshAttribute {
+        /// `"normals"` or `"uvs"`.
+        attribute: &'static str,
+        /// What is wrong, and the fix.
+        reason: String,
+    },
+
     /// A geometry or instance transform is NaN or infinite.
     #[error("{what} is not finite; give a finite affine transform")]
     NonFiniteTransform {

@@ -70,6 +70,15 @@ pub enum ResourceError {
         fix: &'static str,
     },
 
+    /// An image file that cannot be read or decoded.
+    #[error("reading the image {path}: {reason}; give a PNG or JPEG file, or decode it yourself and call Texture::from_image")]
+    ImageFile {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What the reader or the decoder said.
+        reason: String,
+    },
+
     /// A buffer of that size cannot be made.
     #[error("buffer of {len} elements of {element_size} bytes: {reason}")]
     BufferSize {

@@ -6,6 +6,7 @@
 pub(crate) mod accel;
 pub(crate) mod context;
 pub(crate) mod group;
+pub(crate) mod mesh;
 pub(crate) mod program;
 pub(crate) mod sbt;
 pub(crate) mod specialization;

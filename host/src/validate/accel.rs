@@ -32,6 +32,37 @@ fn check_transform(what: String, t: &Affine3A) -> Result<()> {
     Ok(())
 }
 
+/// Checks a `Gas::mesh` mesh's attributes: one normal and one uv per position
+/// when given, finite. (Its positions and indices are the GAS's triangles,
+/// checked as every triangle input is.)
+pub(crate) fn mesh(mesh: &crate::types::mesh::Mesh) -> Result<()> {
+    let vertices = mesh.positions.len();
+    let refuse = |attribute, reason: String| Err(Error::Accel(AccelError::MeshAttribute { attribute, reason }));
+    if let Some(normals) = &mesh.normals {
+        if normals.len() != vertices {
+            return refuse(
+                "normals",
+                format!("{} normals for {vertices} positions; give one per position, or none", normals.len()),
+            );
+        }
+        if let Some(i) = normals.iter().position(|n| !n.is_finite()) {
+            return refuse("normals", format!("normal {i} is {} (not finite); give finite normals", normals[i]));
+        }
+    }
+    if let Some(uvs) = &mesh.uvs {
+        if uvs.len() != vertices {
+            return refuse(
+                "uvs",
+                format!("{} texture coordinates for {vertices} positions; give one per position, or none", uvs.len()),
+            );
+        }
+        if let Some(i) = uvs.iter().position(|uv| !uv.is_finite()) {
+            return refuse("uvs", format!("texture coordinate {i} is {} (not finite); give finite ones", uvs[i]));
+        }
+    }
+    Ok(())
+}
+
 /// Checks the inputs of `Gas::spheres`: one radius per centre, finite
 /// centres, radii finite and ≥ 0, and boxes (centre ± radius) within `f32`.
 pub(crate) fn spheres(centres: &[glam::Vec3], radii: &[f32]) -> Result<()> {

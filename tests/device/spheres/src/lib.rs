@@ -4,11 +4,13 @@
 //! sees (distance, hit kind, primitive, instance, the world-space surface
 //! point, its error bound and normal). From each hit raygen traces one more
 //! ray, from the surface's spawn origin along a direction the host chose, and
-//! records what that ray hits.
+//! records what that ray hits. The triangle hit groups do the same for
+//! `raykit::Gas::mesh` meshes through `raykit_device::triangle`.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 use raykit_device::glam::{Vec3, Vec4};
 use raykit_device::sphere::{self, SphereHit};
+use raykit_device::triangle::{self, MeshData};
 use raykit_device::{
     any_hit, closest_hit, intersection, miss, raygen, AnyHit, Buffer, ClosestHit, Intersection, LaunchParams, Miss,
     Ray, RayType, Raygen, SbtRecordData, Traversable,
@@ -140,4 +142,42 @@ fn ch_sphere(ctx: &mut ClosestHit, #[attributes] hit: &SphereHit, #[payload] p: 
     p.normal = surface.normal;
     p.front = surface.front_face as u32;
     p.bounce = surface.spawn_origin(p.bounce);
+}
+
+/// The record of the triangle hit groups: the mesh of the instance's GAS.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Zeroable, SbtRecordData)]
+pub struct MeshRecord {
+    /// `raykit::Gas::mesh_data` of the instance's GAS.
+    pub mesh: MeshData,
+}
+
+/// A triangle hit: the surface point, its error bound along the normal (in
+/// `error`), the geometric normal, the face, and the spawn origin.
+#[closest_hit(ray = Probe)]
+fn ch_triangle(ctx: &mut ClosestHit, #[record] r: &MeshRecord, #[payload] p: &mut HitRecord) {
+    let surface = triangle::surface(ctx, &r.mesh);
+    p.t = ctx.hit_t();
+    p.kind = ctx.hit_kind();
+    p.primitive = ctx.primitive_index();
+    p.instance = ctx.instance_index();
+    p.position = surface.position;
+    p.error = surface.plane_error();
+    p.normal = surface.geometric_normal;
+    p.front = surface.front_face as u32;
+    p.bounce = surface.spawn_origin(p.bounce);
+}
+
+/// A triangle hit's shading: the texture coordinates (in `position.xy`) and the
+/// shading normal (in `normal`).
+#[closest_hit(ray = Probe)]
+fn ch_triangle_shading(ctx: &mut ClosestHit, #[record] r: &MeshRecord, #[payload] p: &mut HitRecord) {
+    let surface = triangle::surface(ctx, &r.mesh);
+    p.t = ctx.hit_t();
+    p.kind = ctx.hit_kind();
+    p.primitive = ctx.primitive_index();
+    p.instance = ctx.instance_index();
+    p.position = surface.uv.extend(0.0);
+    p.normal = surface.shading_normal;
+    p.front = surface.front_face as u32;
 }
