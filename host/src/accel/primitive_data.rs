@@ -41,13 +41,14 @@ impl MeshBuffers {
 
     /// The handles device programs read the mesh through.
     pub(crate) fn data(&self) -> MeshData {
-        // The null handle: reads give zero (`HAS_NORMALS`/`HAS_UVS` say not to read).
-        let (null, null_uvs) = (raykit_device::Buffer::from_table_index(0), raykit_device::Buffer::from_table_index(0));
+        // Absent attributes get the null handle (slot 0: reads give zero), and
+        // `HAS_NORMALS`/`HAS_UVS` say not to read them.
+        use raykit_device::Buffer;
         MeshData {
             positions: self.positions.handle(),
             indices: self.indices.handle(),
-            normals: self.normals.as_ref().map_or(null, |b| b.handle()),
-            uvs: self.uvs.as_ref().map_or(null_uvs, |b| b.handle()),
+            normals: self.normals.as_ref().map_or(Buffer::from_table_index(0), |b| b.handle()),
+            uvs: self.uvs.as_ref().map_or(Buffer::from_table_index(0), |b| b.handle()),
             attributes: if self.normals.is_some() { HAS_NORMALS } else { 0 }
                 | if self.uvs.is_some() { HAS_UVS } else { 0 },
         }
