@@ -46,6 +46,9 @@ pub struct BuiltModule {
     pub seconds: f64,
 }
 
+/// How many times a build compiles a crate whose sources keep changing under it.
+const REBUILDS_FOR_CHANGES_DURING_A_BUILD: usize = 3;
+
 impl DeviceBuild {
     /// A build of the device crate in `crate_dir` (the directory of its Cargo.toml).
     pub fn new(crate_dir: impl Into<PathBuf>) -> DeviceBuild {
@@ -136,6 +139,9 @@ impl DeviceBuild {
     }
 
     /// Compiles the crate (or finds it up to date) and checks its params layouts.
+    ///
+    /// A crate whose sources change while it compiles is compiled again (three
+    /// times at most), so its SPIR-V is not older than its sources.
     pub fn build(&self) -> Result<BuiltModule> {
         let builder = ShaderBuilder::ensure(self.report)?;
         self.build_with(&builder)
@@ -160,8 +166,19 @@ impl DeviceBuild {
         let target_dir = self.target_dir.clone().unwrap_or_else(|| self.crate_dir.join("target").join("raykit"));
         crate::codegen::check_spirv_tools()?;
         let started = Instant::now();
-        let mut cmd = builder.command(&self.crate_dir, &spv, &target_dir.join("spirv-builder"));
-        compile(&mut cmd, &name, self.report)?;
+        // A source saved while the compiler runs would leave SPIR-V older than the crate: build again. The
+        // stamp records the sources the last compile started from, so sources still changing rebuild next time.
+        let (mut built_from, mut now) = (print.clone(), print);
+        for _ in 0..REBUILDS_FOR_CHANGES_DURING_A_BUILD {
+            built_from = now;
+            let mut cmd = builder.command(&self.crate_dir, &spv, &target_dir.join("spirv-builder"));
+            compile(&mut cmd, &name, self.report)?;
+            now = format!("{}{}", self.fingerprint(builder)?, if self.spirv_opt { "+spirv-opt" } else { "" });
+            if now == built_from {
+                break;
+            }
+            self.report.progress(&format!("{name} changed during its build: building it again"));
+        }
         if self.spirv_opt {
             spirv_opt(&spv)?;
         }
@@ -172,7 +189,7 @@ impl DeviceBuild {
             crate::params::check(&self.crate_dir, &name, &out_dir, &target_dir.join("host"), self.report)?;
         }
         // Written last: a crate whose check failed is rebuilt and checked again.
-        std::fs::write(&stamp, print).map_err(io("writing", &stamp))?;
+        std::fs::write(&stamp, built_from).map_err(io("writing", &stamp))?;
         Ok(BuiltModule { name, spv, rebuilt: true, seconds })
     }
 

@@ -1,7 +1,7 @@
 //! The comparison of a params block with the layout the host recorded, and the
 //! message that names the first difference.
 
-use raykit_abi::{ParamsLayout, ScalarKind, Shape};
+use raykit_abi::{ParamsLayout, ScalarKind, Shape, PARAMS_BINDING, PARAMS_SET, PUSH_CONSTANT_BUDGET};
 
 use super::{BlockMember, BlockType, LayoutError, ParamsBlock, ParamsDelivery, Result};
 
@@ -157,9 +157,34 @@ fn likely_cause(type_name: &str) -> String {
              place it at an offset that is a multiple of 16 with explicit padding fields, or use `Vec3`/`[f32; 4]`"
         )
     } else {
-        "the host and the SPIR-V were built from different definitions (rebuild the shaders with \
-         `cargo xtask build-shaders`), or the pipeline's params type is not the one the program declares"
+        "the SPIR-V is older than its device crate (the params struct changed after, or while, the SPIR-V was \
+         built: rebuild it, `cargo build` again in a project whose build script builds it, `cargo xtask \
+         build-shaders` in raykit's workspace), or the host and the SPIR-V were built from different definitions, \
+         or the pipeline's params type is not the one the program declares"
             .to_owned()
+    }
+}
+
+/// The likely cause of a program reading its params another way than raykit delivers them.
+fn delivery_cause(host: &ParamsLayout, blocks: &[ParamsBlock]) -> String {
+    let raykit_ubo = ParamsDelivery::UniformBuffer { set: PARAMS_SET, binding: PARAMS_BINDING };
+    let raykits_own = !blocks.is_empty()
+        && blocks.iter().all(|b| b.delivery == ParamsDelivery::PushConstants || b.delivery == raykit_ubo);
+    if raykits_own {
+        format!(
+            "the program was built for params on the other side of the {PUSH_CONSTANT_BUDGET}-byte push-constant \
+             budget than `{name}`. Most often the SPIR-V is older than its device crate (the struct changed after, \
+             or while, the SPIR-V was built): rebuild it, with `cargo build` again in a project whose build script \
+             builds it or `cargo xtask build-shaders` in raykit's workspace. Otherwise the program belongs to \
+             another params type than the pipeline's",
+            name = host.name
+        )
+    } else {
+        format!(
+            "the program declares its params block by hand. Use `#[params]` in Rust programs; in GLSL declare the \
+             block as `layout(push_constant)` or `layout(set = {PARAMS_SET}, binding = {PARAMS_BINDING}, scalar) \
+             uniform`"
+        )
     }
 }
 
@@ -175,6 +200,7 @@ pub fn check(host: &ParamsLayout, entry: &str, blocks: &[ParamsBlock], expected:
             entry: entry.to_owned(),
             expected: expected.to_string(),
             found: blocks.iter().map(|b| b.delivery.to_string()).collect::<Vec<_>>().join(" and "),
+            cause: delivery_cause(host, blocks),
         });
     };
     // rust-gpu wraps the struct in a one-member block; GLSL blocks are the struct.
@@ -225,7 +251,7 @@ fn field_type(host: &ParamsLayout, path: &str) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raykit_abi::{FieldLayout, Scalar, PARAMS_BINDING, PARAMS_SET};
+    use raykit_abi::{FieldLayout, Scalar};
 
     const INNER: ParamsLayout = ParamsLayout {
         name: "Inner",
@@ -363,5 +389,11 @@ mod tests {
         let ubo = ParamsDelivery::UniformBuffer { set: PARAMS_SET, binding: PARAMS_BINDING };
         let err = check(&HOST, "e", &[block(vec![plain(0, 4), inner(4), plain(16, 16)])], ubo).unwrap_err();
         assert!(matches!(err, LayoutError::Delivery { .. }), "{err}");
+        // Push constants where raykit now delivers a uniform buffer: the SPIR-V predates a change of the struct.
+        assert!(err.to_string().contains("the SPIR-V is older than its device crate"), "{err}");
+        let mut other = block(vec![plain(0, 4), inner(4), plain(16, 16)]);
+        other.delivery = ParamsDelivery::UniformBuffer { set: 3, binding: 7 };
+        let err = check(&HOST, "e", &[other], ubo).unwrap_err().to_string();
+        assert!(err.contains("declares its params block by hand") && !err.contains("older"), "{err}");
     }
 }

@@ -94,6 +94,8 @@ pub enum LayoutError {
         expected: String,
         /// How the program reads it.
         found: String,
+        /// What usually causes this, and the fix.
+        cause: String,
     },
 }
 
@@ -121,15 +123,11 @@ impl std::fmt::Display for LayoutError {
                  (`#[derive(Element)]` records it only in crates with `[package.metadata.raykit] device = true`), \
                  built by `cargo xtask build-shaders`"
             ),
-            LayoutError::Delivery { struct_name, size, entry, expected, found } => write!(
+            LayoutError::Delivery { struct_name, size, entry, expected, found, cause } => write!(
                 f,
                 "`{entry}` reads its params from {found}, but raykit delivers `{struct_name}` ({size} bytes) in \
-                 {expected}: params of at most {budget} bytes go in push constants, larger ones in a uniform buffer \
-                 at set {set}, binding {binding}. Use `#[params]` in Rust programs; in GLSL declare the block \
-                 accordingly (`layout(push_constant)` or `layout(set = {set}, binding = {binding}, scalar) uniform`)",
-                budget = PUSH_CONSTANT_BUDGET,
-                set = PARAMS_SET,
-                binding = PARAMS_BINDING,
+                 {expected}: params of at most {PUSH_CONSTANT_BUDGET} bytes go in push constants, larger ones in a \
+                 uniform buffer at set {PARAMS_SET}, binding {PARAMS_BINDING}. Likely cause: {cause}"
             ),
         }
     }
