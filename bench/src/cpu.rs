@@ -17,7 +17,7 @@ use path_tracer::{Programs as PathPrograms, Renderer, Scene};
 use raykit::{Backend, Context, ContextOptions};
 
 use crate::stats::Summary;
-use crate::trace::{primary_pipeline, primary_scene, Language, Options};
+use crate::trace::{primary_pipeline, primary_scene, Coverage, Language, Options};
 
 /// One measurement: a backend on one workload.
 pub struct Row {
@@ -75,38 +75,40 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
     let names = [names[0].as_str(), names[1].as_str()];
     let mut out = Vec::new();
 
-    // Primary rays.
-    let (width, height) = opts.primary_size;
-    let dims = [width, height, 1];
-    let rays = u64::from(width) * u64::from(height);
-    let built = Instant::now();
-    let scene_v = primary_scene(vulkan, opts.triangles, opts.primary_size, opts.primary_gas)?;
-    let vulkan_build = built.elapsed().as_secs_f64();
-    let built = Instant::now();
-    let scene_c = primary_scene(&cpu, opts.triangles, opts.primary_size, opts.primary_gas)?;
-    let cpu_build = built.elapsed().as_secs_f64();
-    eprintln!("cpu: {} triangles built in {vulkan_build:.2} s (Vulkan) and {cpu_build:.2} s (CPU)", opts.triangles);
-    let pv = primary_pipeline(vulkan, Language::Rust)?;
-    let pc = primary_pipeline(&cpu, Language::Rust)?;
-    let results = interleave(
-        opts.reps,
-        || {
-            let start = Instant::now();
-            pv.pipeline.launch(&pv.sbt, &scene_v.params, dims)?;
-            Ok((start.elapsed().as_secs_f64(), rays))
-        },
-        || {
-            let start = Instant::now();
-            pc.pipeline.launch(&pc.sbt, &scene_c.params, dims)?;
-            Ok((start.elapsed().as_secs_f64(), rays))
-        },
-    )?;
-    // Both backends drew the same picture (barycentric colours, within rounding).
-    let (a, b) = (scene_v.image.read()?, scene_c.image.read()?);
-    let differing = a.iter().zip(&b).filter(|(x, y)| channel_distance(**x, **y) > 2).count();
-    anyhow::ensure!(differing <= a.len() / 1000, "{differing} primary-ray pixels differ between the backends");
-    let workload = format!("primary: {} triangles, {width}x{height}, 1 ray/pixel", opts.triangles);
-    out.extend(rows(&workload, names, &results));
+    // Primary rays, on the scene every ray hits and on the one most rays miss.
+    let (pv, pc) = (primary_pipeline(vulkan, Language::Rust)?, primary_pipeline(&cpu, Language::Rust)?);
+    for coverage in Coverage::BOTH {
+        let (width, height) = opts.primary_size;
+        let dims = [width, height, 1];
+        let rays = u64::from(width) * u64::from(height);
+        let built = Instant::now();
+        let scene_v = primary_scene(vulkan, opts.triangles, opts.primary_size, opts.primary_gas, coverage)?;
+        let vulkan_build = built.elapsed().as_secs_f64();
+        let built = Instant::now();
+        let scene_c = primary_scene(&cpu, opts.triangles, opts.primary_size, opts.primary_gas, coverage)?;
+        let cpu_build = built.elapsed().as_secs_f64();
+        eprintln!("cpu: {} triangles built in {vulkan_build:.2} s (Vulkan) and {cpu_build:.2} s (CPU)", opts.triangles);
+        let results = interleave(
+            opts.reps,
+            || {
+                let start = Instant::now();
+                pv.pipeline.launch(&pv.sbt, &scene_v.params, dims)?;
+                Ok((start.elapsed().as_secs_f64(), rays))
+            },
+            || {
+                let start = Instant::now();
+                pc.pipeline.launch(&pc.sbt, &scene_c.params, dims)?;
+                Ok((start.elapsed().as_secs_f64(), rays))
+            },
+        )?;
+        // Both backends drew the same picture (barycentric colours, within rounding).
+        let (a, b) = (scene_v.image.read()?, scene_c.image.read()?);
+        let differing = a.iter().zip(&b).filter(|(x, y)| channel_distance(**x, **y) > 2).count();
+        anyhow::ensure!(differing <= a.len() / 1000, "{differing} primary-ray pixels differ between the backends");
+        let workload =
+            format!("primary: {} triangles, {}, {width}x{height}, 1 ray/pixel", opts.triangles, coverage.label());
+        out.extend(rows(&workload, names, &results));
+    }
 
     // The path tracer.
     let size = opts.path_size;

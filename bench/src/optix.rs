@@ -316,7 +316,13 @@ fn primary(
     dir: &Path,
     (width, height): (u32, u32),
 ) -> anyhow::Result<Section> {
-    let scene = crate::trace::primary_scene(ctx, opts.triangles, (width, height), opts.primary_gas)?;
+    let scene = crate::trace::primary_scene(
+        ctx,
+        opts.triangles,
+        (width, height),
+        opts.primary_gas,
+        crate::trace::Coverage::AllHits,
+    )?;
     let rust = crate::trace::primary_pipeline(ctx, Language::Rust)?;
     let glsl = crate::trace::primary_pipeline(ctx, Language::Glsl)?;
     let ash = AshTracer::new(ctx, width as usize * height as usize)?;

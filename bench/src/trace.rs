@@ -254,14 +254,38 @@ pub struct PrimaryScene {
     pub params: PrimaryParams,
 }
 
+/// How much of the primary-ray picture the height field covers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coverage {
+    /// Every ray hits the mesh.
+    AllHits,
+    /// The mesh covers a quarter of the picture (its footprint is twice as wide
+    /// and twice as high as the mesh): three rays in four miss.
+    QuarterHits,
+}
+
+impl Coverage {
+    /// Both, in the order the suites report them.
+    pub const BOTH: [Coverage; 2] = [Coverage::AllHits, Coverage::QuarterHits];
+
+    /// How rows name the scene.
+    pub fn label(self) -> &'static str {
+        match self {
+            Coverage::AllHits => "every ray hits",
+            Coverage::QuarterHits => "25% of rays hit",
+        }
+    }
+}
+
 /// Builds the height field of `triangles` triangles over [0,1]² (a compacted
 /// GAS for fast trace under a one-instance IAS) and a camera above it whose
-/// every ray hits it.
+/// rays hit it as `coverage` says.
 pub fn primary_scene(
     ctx: &Context,
     triangles: usize,
     (width, height): (u32, u32),
     choice: GasChoice,
+    coverage: Coverage,
 ) -> anyhow::Result<PrimaryScene> {
     let (vertices, indices) = crate::accel::grid(triangles);
     let mut options = raykit::accel::BuildOptions::default().allow_compaction(choice.compact);
@@ -274,12 +298,21 @@ pub fn primary_scene(
     let ias = Ias::new(ctx, &[raykit::Instance::new(&gas).flags(choice.instance_flags)])?;
     let image = ctx.buffer::<u32>(width as usize * height as usize)?;
     let aspect = width as f32 / height as f32;
-    let half_height = 0.45 / aspect.max(1.0);
+    // Half the footprint's width and height on the mesh's plane (one unit along `cam_w`).
+    let (half_width, half_height) = match coverage {
+        Coverage::AllHits => {
+            let half_height = 0.45 / aspect.max(1.0);
+            (half_height * aspect, half_height)
+        }
+        // A footprint of area 4 with the picture's aspect, centred on the unit mesh: the mesh
+        // lies inside it when 2·sqrt(aspect) ≥ 1 and 2/sqrt(aspect) ≥ 1 (aspects from 1/4 to 4).
+        Coverage::QuarterHits => (aspect.sqrt(), 1.0 / aspect.sqrt()),
+    };
     let params = PrimaryParams {
         image: image.handle(),
         size: UVec2::new(width, height),
         cam_eye: Vec3::new(0.5, 0.5, 1.2),
-        cam_u: Vec3::new(half_height * aspect, 0.0, 0.0),
+        cam_u: Vec3::new(half_width, 0.0, 0.0),
         cam_v: Vec3::new(0.0, half_height, 0.0),
         cam_w: Vec3::new(0.0, 0.0, -1.2),
         _pad: 0,
@@ -338,13 +371,30 @@ impl GasChoice {
 /// The `primary` suite.
 pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> anyhow::Result<Vec<Row>> {
     let (width, height) = opts.primary_size;
-    let built = Instant::now();
-    let scene = primary_scene(ctx, opts.triangles, opts.primary_size, opts.primary_gas)?;
-    eprintln!("primary: {} triangles built in {:.1} s", opts.triangles, built.elapsed().as_secs_f64());
     let rust = primary_pipeline(ctx, Language::Rust)?;
     let glsl = primary_pipeline(ctx, Language::Glsl)?;
     let wgsl = primary_pipeline(ctx, Language::Wgsl)?;
     let ash = AshTracer::new(ctx, width as usize * height as usize)?;
+    let mut out = Vec::new();
+    for coverage in Coverage::BOTH {
+        out.extend(primary_rows(ctx, timer, opts, coverage, [&rust, &glsl, &wgsl], &ash)?);
+    }
+    Ok(out)
+}
+
+/// The `primary` suite's rows for one scene.
+fn primary_rows(
+    ctx: &Context,
+    timer: Option<&LaunchTimer>,
+    opts: &Options,
+    coverage: Coverage,
+    [rust, glsl, wgsl]: [&PrimaryPipeline; 3],
+    ash: &AshTracer<'_>,
+) -> anyhow::Result<Vec<Row>> {
+    let (width, height) = opts.primary_size;
+    let built = Instant::now();
+    let scene = primary_scene(ctx, opts.triangles, opts.primary_size, opts.primary_gas, coverage)?;
+    eprintln!("primary: {} triangles built in {:.1} s", opts.triangles, built.elapsed().as_secs_f64());
     let ash_params = AshTracer::params_with_output(bytemuck::bytes_of(&scene.params));
     let rays = width as u64 * height as u64;
     let launch = |p: &PrimaryPipeline| -> anyhow::Result<(f64, u64)> {
@@ -360,10 +410,10 @@ pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> an
         Ok((s, rays))
     };
     let mut variants: Vec<Variant<'_>> = vec![
-        ("Rust", Box::new(|| launch(&rust))),
-        ("GLSL", Box::new(|| launch(&glsl))),
-        ("WGSL", Box::new(|| launch(&wgsl))),
-        ("ash", Box::new(|| Ok((ash_launch(&ash, &rust, &ash_params, [width, height, 1])?, rays)))),
+        ("Rust", Box::new(|| launch(rust))),
+        ("GLSL", Box::new(|| launch(glsl))),
+        ("WGSL", Box::new(|| launch(wgsl))),
+        ("ash", Box::new(|| Ok((ash_launch(ash, rust, &ash_params, [width, height, 1])?, rays)))),
     ];
     let results = interleave(&mut variants, opts.reps)?;
     drop(variants);
@@ -371,9 +421,14 @@ pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> an
     rust.pipeline.launch(&rust.sbt, &scene.params, [width, height, 1])?;
     let picture = scene.image.read()?;
     anyhow::ensure!(picture.iter().any(|&p| p != picture[0]), "the primary-ray image is uniform");
+    if coverage == Coverage::QuarterHits {
+        // The corner pixel misses; three pixels in four are the miss colour (up to the mesh's edge pixels).
+        let misses = picture.iter().filter(|&&p| p == picture[0]).count() as f64 / picture.len() as f64;
+        anyhow::ensure!((misses - 0.75).abs() < 0.02, "{:.1}% of primary rays missed, not 75%", misses * 100.0);
+    }
     let differing = picture.iter().zip(ash.picture()?).filter(|(a, b)| **a != *b).count();
     anyhow::ensure!(differing == 0, "the ash launch drew {differing} pixels unlike raykit's");
-    let setup = format!("{} triangles, {width}x{height}, 1 ray/pixel", opts.triangles);
+    let setup = format!("{} triangles, {}, {width}x{height}, 1 ray/pixel", opts.triangles, coverage.label());
     Ok(rows("primary", &setup, timing_name(timer), &["Rust", "GLSL", "WGSL", "ash"], &results))
 }
 
