@@ -17,7 +17,7 @@ use path_tracer::{Programs as PathPrograms, Renderer, Scene};
 use raykit::{Backend, Context, ContextOptions};
 
 use crate::stats::Summary;
-use crate::trace::{primary_pipeline, primary_scene, Coverage, Language, Options};
+use crate::trace::{primary_pipeline, Coverage, Language, Options};
 
 /// One measurement: a backend on one workload.
 pub struct Row {
@@ -82,10 +82,10 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
         let dims = [width, height, 1];
         let rays = u64::from(width) * u64::from(height);
         let built = Instant::now();
-        let scene_v = primary_scene(vulkan, opts.triangles, opts.primary_size, opts.primary_gas, coverage)?;
+        let scene_v = opts.primary_scene(vulkan, coverage)?;
         let vulkan_build = built.elapsed().as_secs_f64();
         let built = Instant::now();
-        let scene_c = primary_scene(&cpu, opts.triangles, opts.primary_size, opts.primary_gas, coverage)?;
+        let scene_c = opts.primary_scene(&cpu, coverage)?;
         let cpu_build = built.elapsed().as_secs_f64();
         eprintln!("cpu: {} triangles built in {vulkan_build:.2} s (Vulkan) and {cpu_build:.2} s (CPU)", opts.triangles);
         let results = interleave(

@@ -86,25 +86,13 @@ pub fn run(suite: &str, ctx: &Context, opts: &Options, out: &Path) -> anyhow::Re
             (crate::trace::markdown(&rows), crate::trace::json(&rows))
         }
         "launch" => {
-            let scene = crate::trace::primary_scene(
-                ctx,
-                opts.triangles,
-                opts.primary_size,
-                opts.primary_gas,
-                crate::trace::Coverage::AllHits,
-            )?;
+            let scene = opts.primary_scene(ctx, crate::trace::Coverage::AllHits)?;
             let mut rows = crate::launch::launches(ctx, &scene, opts.primary_size, opts.reps)?;
             rows.extend(crate::launch::creation(ctx, opts.reps * 4)?);
             (crate::launch::markdown(&rows), crate::launch::json(&rows))
         }
         "launch-loop" => {
-            let scene = crate::trace::primary_scene(
-                ctx,
-                opts.triangles,
-                opts.primary_size,
-                opts.primary_gas,
-                crate::trace::Coverage::AllHits,
-            )?;
+            let scene = opts.primary_scene(ctx, crate::trace::Coverage::AllHits)?;
             let rows = crate::launch::launch_loop(ctx, &scene, opts.launches, opts.reps)?;
             (crate::launch::markdown(&rows), crate::launch::json(&rows))
         }

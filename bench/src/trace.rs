@@ -62,6 +62,13 @@ pub struct Options {
     pub optix_rounds: usize,
 }
 
+impl Options {
+    /// The primary-ray scene at `--triangles`, `--primary-size` and `--primary-gas`.
+    pub fn primary_scene(&self, ctx: &Context, coverage: Coverage) -> anyhow::Result<PrimaryScene> {
+        primary_scene(ctx, self.triangles, self.primary_size, self.primary_gas, coverage)
+    }
+}
+
 /// One variant's results.
 pub struct Row {
     /// `primary` or `path`.
@@ -393,7 +400,7 @@ fn primary_rows(
 ) -> anyhow::Result<Vec<Row>> {
     let (width, height) = opts.primary_size;
     let built = Instant::now();
-    let scene = primary_scene(ctx, opts.triangles, opts.primary_size, opts.primary_gas, coverage)?;
+    let scene = opts.primary_scene(ctx, coverage)?;
     eprintln!("primary: {} triangles built in {:.1} s", opts.triangles, built.elapsed().as_secs_f64());
     let ash_params = AshTracer::params_with_output(bytemuck::bytes_of(&scene.params));
     let rays = width as u64 * height as u64;
