@@ -5,6 +5,16 @@ use glam::Vec3A;
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::ray::Ray as BvhRay;
 
+/// `direction` with its `-0.0` components made `+0.0` (adding `+0.0` does it and
+/// changes nothing else), for the box tests: they pick a slab's near plane by
+/// `direction < 0.0` but divide by the signed zero, so a `-0.0` component gave
+/// an infinite near distance on the wrong plane and a ray along an axis
+/// (`-Vec3::Z`) missed every box.
+#[inline(always)]
+pub(super) fn without_negative_zeros(direction: Vec3A) -> Vec3A {
+    direction + Vec3A::ZERO
+}
+
 /// The hit mask of `node`'s children for `ray` (see [`CwBvhNode::intersect_ray`]);
 /// `AVX2` only where the CPU has the features of
 /// [`Traversal::run_avx2`](super::traverse::Traversal::run_avx2).

@@ -25,7 +25,7 @@ use raykit_device::{Ray, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FRONT_FACING_TR
 
 use super::accel::{SceneData, SceneInstance};
 use super::geometry::{Geometry, Leaf};
-use super::intersect::{intersect_node, intersect_triangle};
+use super::intersect::{intersect_node, intersect_triangle, without_negative_zeros};
 use super::job::{fault, AnyHitEnd, InvocationState, LaunchJob};
 use crate::types::accel::InstanceFlags;
 use crate::validate::link::ATTRIBUTE_BYTES;
@@ -171,6 +171,7 @@ impl<'f> Traversal<'f> {
             return;
         }
         let bvh = &self.scene.bvh;
+        let direction = without_negative_zeros(direction);
         let mut world_ray = BvhRay::new(origin, direction, self.ray.t_min, self.t_max.get());
         let mut state = bvh.new_traversal(direction);
         let mut node;
@@ -200,7 +201,7 @@ impl<'f> Traversal<'f> {
         let gas = &instance.gas;
         let bvh = &gas.bvh;
         let (o, d) = (Vec3A::from(origin), Vec3A::from(direction));
-        let mut ray = BvhRay::new(o, d, self.ray.t_min, self.t_max.get());
+        let mut ray = BvhRay::new(o, without_negative_zeros(d), self.ray.t_min, self.t_max.get());
         #[cfg(target_arch = "x86_64")]
         if let (true, Some(blocks)) = (AVX2, &gas.flat) {
             // A small GAS: every triangle, eight at a time, in leaf order.
@@ -225,7 +226,7 @@ impl<'f> Traversal<'f> {
             }
             return;
         }
-        let mut state = bvh.new_traversal(d);
+        let mut state = bvh.new_traversal(ray.direction);
         let mut node;
         use glam::UVec2;
         obvhs::traverse!(bvh, node, state, intersect_node::<AVX2>(node, &ray, state.oct_inv4), {
