@@ -94,6 +94,7 @@ pub mod exception;
 pub mod handles;
 pub mod math;
 pub mod medium;
+pub mod motion;
 pub mod optics;
 pub mod params;
 pub mod ray;

@@ -351,6 +351,30 @@ pub fn intersect(origin: Vec3, direction: Vec3, sphere: Vec4, t_min: f32, t_max:
 /// accepted.
 pub fn report(ctx: &mut Intersection, spheres: Buffer<Vec4>, hit: &mut SphereHit) -> bool {
     let sphere = ctx.load(spheres, ctx.primitive_index());
+    report_sphere(ctx, sphere, hit)
+}
+
+/// The intersection program of moving spheres (`raykit::Gas::moving_spheres`):
+/// sphere `i` of the GAS moves linearly from `spheres[2i]` at time 0 to
+/// `spheres[2i + 1]` at time 1 (centre in `xyz`, radius in `w`, the
+/// `moving_sphere_buffer()`); the ray meets it where it is at `time` (from
+/// [`crate::motion::ray_time`]), as [`report`] meets a still one.
+pub fn report_moving(ctx: &mut Intersection, spheres: Buffer<Vec4>, time: f32, hit: &mut SphereHit) -> bool {
+    let primitive = ctx.primitive_index();
+    let (start, end) = (ctx.load(spheres, 2 * primitive), ctx.load(spheres, 2 * primitive + 1));
+    report_sphere(ctx, moving_sphere_at(start, end, time), hit)
+}
+
+/// The sphere moving from `start` (time 0) to `end` (time 1) at `time`: its
+/// centre interpolated linearly, exactly `start` at 0 and `end` at 1, and the
+/// start's radius.
+pub fn moving_sphere_at(start: Vec4, end: Vec4, time: f32) -> Vec4 {
+    let centre = start.truncate() * (1.0 - time) + end.truncate() * time;
+    centre.extend(start.w)
+}
+
+/// [`report`] for a sphere already read.
+fn report_sphere(ctx: &mut Intersection, sphere: Vec4, hit: &mut SphereHit) -> bool {
     let Some(frame) = SphereFrame::new(ctx.object_ray_origin(), ctx.object_ray_direction(), sphere) else {
         return false;
     };

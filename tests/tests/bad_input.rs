@@ -2469,6 +2469,19 @@ fn sphere_with_a_nan_radius() -> anyhow::Result<()> {
     )
 }
 
+#[test]
+fn moving_spheres_with_fewer_ends_than_starts() -> anyhow::Result<()> {
+    case(
+        "moving_spheres_with_fewer_ends_than_starts",
+        &["2 start centres", "1 end centres", "one end centre per start centre"],
+        |ctx| {
+            let ends = [Vec3::X];
+            refused(Gas::moving_spheres(ctx, &[Vec3::ZERO, Vec3::X], &ends, &[1.0, 1.0]), "two starts, one end")
+        },
+        |e| matches!(e, Error::Accel(raykit::AccelError::MovingSphereCount { start: 2, end: 1 })),
+    )
+}
+
 // ---------------------------------------------------------------- textures
 
 /// An sRGB texture of `width × height` from `data`.

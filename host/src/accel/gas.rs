@@ -36,7 +36,7 @@ pub struct Compaction {
 /// trace it.
 pub struct Gas {
     pub(crate) repr: GasRepr,
-    /// The spheres of [`Gas::spheres`] or the mesh of [`Gas::mesh`], for its programs.
+    /// The spheres of [`Gas::spheres`] or [`Gas::moving_spheres`], or the mesh of [`Gas::mesh`], for its programs.
     pub(crate) primitives: Option<Arc<PrimitiveData>>,
     shapes: Vec<Shape>,
     options: BuildOptions,
@@ -241,6 +241,42 @@ impl Gas {
         Ok(gas)
     }
 
+    /// A GAS of moving spheres, for motion blur: sphere `i` has radius
+    /// `radii[i]` and moves linearly from `start[i]` at time 0 to `end[i]` at
+    /// time 1. Each is the box around its whole sweep (the union of its boxes at
+    /// the two ends, which holds every position between, rounded outwards by a
+    /// few more ulps for the device's interpolation), hit through an
+    /// intersection program that calls `raykit_device::sphere::report_moving`
+    /// with [`Gas::moving_sphere_buffer`] and the ray's time
+    /// (`raykit_device::motion`). Built for fast trace, and waited for.
+    ///
+    /// Refused as [`Gas::spheres`] refuses either end, and with
+    /// [`AccelError::MovingSphereCount`](crate::AccelError::MovingSphereCount)
+    /// when the two ends' counts differ.
+    ///
+    /// ```
+    /// use raykit::glam::Vec3;
+    /// use raykit::{Backend, Context, ContextOptions, Gas};
+    /// let ctx = Context::new(ContextOptions { backend: Some(Backend::Cpu), ..Default::default() })?;
+    /// let start = [Vec3::new(400.0, 400.0, 200.0)];
+    /// let gas = Gas::moving_spheres(&ctx, &start, &[start[0] + Vec3::new(30.0, 0.0, 0.0)], &[50.0])?;
+    /// let spheres = gas.moving_sphere_buffer(); // Some(Buffer<Vec4>): two per sphere
+    /// assert!(gas.sphere_buffer().is_none()); // `sphere::report` would read it wrongly
+    /// # let _ = spheres;
+    /// # Ok::<(), raykit::Error>(())
+    /// ```
+    #[doc(alias("OptixMotionOptions", "motion blur"))]
+    pub fn moving_spheres(ctx: &Context, start: &[Vec3], end: &[Vec3], radii: &[f32]) -> Result<Gas> {
+        input::moving_spheres(start, end, radii)?;
+        let boxes: Vec<Aabb> =
+            start.iter().zip(end).zip(radii).map(|((&s, &e), &r)| Aabb::around_sweep(s, e, r)).collect();
+        let data: Vec<Vec4> =
+            start.iter().zip(end).zip(radii).flat_map(|((&s, &e), &r)| [s.extend(r), e.extend(r)]).collect();
+        let mut gas = Gas::aabbs(ctx, &boxes)?;
+        gas.primitives = Some(Arc::new(PrimitiveData::MovingSpheres(DeviceBuffer::from_slice(ctx, &data)?)));
+        Ok(gas)
+    }
+
     /// A GAS over a triangle [`Mesh`] (quads and boxes are meshes too:
     /// [`Mesh::quad`], [`Mesh::cuboid`]), which it keeps in device memory with its
     /// normals and texture coordinates: put [`Gas::mesh_data`] in the hit group's
@@ -290,6 +326,18 @@ impl Gas {
     pub fn sphere_buffer(&self) -> Option<raykit_device::Buffer<Vec4>> {
         match self.primitives.as_deref() {
             Some(PrimitiveData::Spheres(spheres)) => Some(spheres.handle()),
+            _ => None,
+        }
+    }
+
+    /// The spheres of a GAS made by [`Gas::moving_spheres`]: sphere `i` at
+    /// time 0 at index `2i`, at time 1 at `2i + 1` (centre in `xyz`, radius in
+    /// `w`), for `raykit_device::sphere::report_moving`; `None` for other
+    /// GASes. The buffer lives as long as the GAS or an [`Ias`](super::Ias)
+    /// over it.
+    pub fn moving_sphere_buffer(&self) -> Option<raykit_device::Buffer<Vec4>> {
+        match self.primitives.as_deref() {
+            Some(PrimitiveData::MovingSpheres(spheres)) => Some(spheres.handle()),
             _ => None,
         }
     }
@@ -345,6 +393,10 @@ impl Gas {
                 PrimitiveData::Spheres(_) => {
                     "it holds built-in spheres, whose buffer a refit of its boxes would leave behind; \
                      make a new one with Gas::spheres"
+                }
+                PrimitiveData::MovingSpheres(_) => {
+                    "it holds moving spheres, whose buffer a refit of its boxes would leave behind; \
+                     make a new one with Gas::moving_spheres"
                 }
                 PrimitiveData::Mesh(_) => {
                     "it holds a mesh, whose vertices and attributes a refit would leave behind; \

@@ -51,8 +51,9 @@
 //!
 //! Vulkan differences from OptiX, documented where they show: a GAS holds either
 //! triangles or AABBs, not both; a geometry's SBT index is its position in the
-//! build (Vulkan has no per-primitive SBT index buffer); motion blur and curves
-//! have no Vulkan equivalent. An [`Ias`] keeps the [`Gas`]es it instances alive,
+//! build (Vulkan has no per-primitive SBT index buffer); curves and moving
+//! instances have no Vulkan equivalent (moving spheres are
+//! [`Gas::moving_spheres`], motion blur in software). An [`Ias`] keeps the [`Gas`]es it instances alive,
 //! so an instance can never point at a destroyed GAS.
 
 pub(crate) mod gas;

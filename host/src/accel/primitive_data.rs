@@ -1,5 +1,6 @@
 //! What a GAS keeps in device memory for its programs besides the structure:
-//! the spheres of [`Gas::spheres`](super::Gas::spheres) for their intersection
+//! the spheres of [`Gas::spheres`](super::Gas::spheres) and
+//! [`Gas::moving_spheres`](super::Gas::moving_spheres) for their intersection
 //! program, or the mesh of [`Gas::mesh`](super::Gas::mesh) for
 //! `raykit_device::triangle::surface`. An [`Ias`](super::Ias) over the GAS keeps
 //! it alive too.
@@ -16,6 +17,8 @@ use crate::types::mesh::Mesh;
 pub(crate) enum PrimitiveData {
     /// Built-in spheres: centre in `xyz`, radius in `w`, by primitive.
     Spheres(DeviceBuffer<Vec4>),
+    /// Moving spheres: sphere `i` at time 0 at `2i`, at time 1 at `2i + 1`.
+    MovingSpheres(DeviceBuffer<Vec4>),
     /// A triangle mesh's vertices and attributes.
     Mesh(Box<MeshBuffers>),
 }

@@ -111,6 +111,15 @@ pub enum AccelError {
         radii: usize,
     },
 
+    /// Moving spheres given a different number of start and end centres.
+    #[error("moving spheres: {start} start centres but {end} end centres; give one end centre per start centre")]
+    MovingSphereCount {
+        /// Number of start centres.
+        start: usize,
+        /// Number of end centres.
+        end: usize,
+    },
+
     /// A built-in sphere whose centre is not finite or whose radius is not a
     /// finite number ≥ 0.
     #[error("built-in sphere {sphere} (centre {centre:?}, radius {radius}) is invalid: {reason}")]

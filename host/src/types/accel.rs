@@ -214,6 +214,18 @@ impl Aabb {
         let max = (centre + Vec3::splat(radius)).to_array().map(|v| v.next_up().min(f32::MAX));
         Aabb { min, max }
     }
+
+    /// A box around every position of a sphere of `radius` moving linearly
+    /// from `start` to `end`: the union of its boxes at the two ends (the
+    /// sweep is their convex hull), widened by 4 ulps more per side so that a
+    /// centre interpolated in `f32` (a few ulps from the exact line) stays in
+    /// it.
+    pub fn around_sweep(start: Vec3, end: Vec3, radius: f32) -> Self {
+        let (a, b) = (Aabb::around_sphere(start, radius), Aabb::around_sphere(end, radius));
+        let min = std::array::from_fn(|k| (0..4).fold(a.min[k].min(b.min[k]), |v, _| v.next_down()).max(f32::MIN));
+        let max = std::array::from_fn(|k| (0..4).fold(a.max[k].max(b.max[k]), |v, _| v.next_up()).min(f32::MAX));
+        Aabb { min, max }
+    }
 }
 
 /// A procedural geometry: boxes whose contents an intersection program decides.

@@ -92,6 +92,17 @@ pub(crate) fn spheres(centres: &[glam::Vec3], radii: &[f32]) -> Result<()> {
     Ok(())
 }
 
+/// Checks the inputs of `Gas::moving_spheres`: as many end centres as start
+/// centres, each end a sphere `Gas::spheres` accepts, and the sweep's box
+/// within `f32`.
+pub(crate) fn moving_spheres(start: &[glam::Vec3], end: &[glam::Vec3], radii: &[f32]) -> Result<()> {
+    if start.len() != end.len() {
+        return Err(Error::Accel(AccelError::MovingSphereCount { start: start.len(), end: end.len() }));
+    }
+    spheres(start, radii)?;
+    spheres(end, radii)
+}
+
 /// Checks `inputs` against Vulkan's rules and `limits`; returns each geometry's
 /// shape. Pure: nothing is uploaded. `for_update` also fingerprints the index
 /// data (needed only by builds that allow updates).

@@ -5,15 +5,18 @@
 //! point, its error bound and normal). From each hit raygen traces one more
 //! ray, from the surface's spawn origin along a direction the host chose, and
 //! records what that ray hits. The triangle hit groups do the same for
-//! `raykit::Gas::mesh` meshes through `raykit_device::triangle`.
+//! `raykit::Gas::mesh` meshes through `raykit_device::triangle`. The motion
+//! programs take a picture of moving spheres (`raykit::Gas::moving_spheres`):
+//! orthographic rays down −z, each sample at a random time.
 #![cfg_attr(target_arch = "spirv", no_std)]
 
-use raykit_device::glam::{Vec3, Vec4};
+use raykit_device::glam::{UVec2, Vec2, Vec3, Vec4};
+use raykit_device::sampling::Pcg;
 use raykit_device::sphere::{self, SphereHit};
 use raykit_device::triangle::{self, MeshData};
 use raykit_device::{
-    any_hit, closest_hit, intersection, miss, raygen, AnyHit, Buffer, ClosestHit, Intersection, LaunchParams, Miss,
-    Ray, RayType, Raygen, SbtRecordData, Traversable,
+    any_hit, closest_hit, intersection, miss, motion, raygen, AnyHit, Buffer, ClosestHit, Intersection, LaunchParams,
+    Miss, Ray, RayType, Raygen, SbtRecordData, Traversable,
 };
 
 /// Launch params.
@@ -180,4 +183,82 @@ fn ch_triangle_shading(ctx: &mut ClosestHit, #[record] r: &MeshRecord, #[payload
     p.position = surface.uv.extend(0.0);
     p.normal = surface.shading_normal;
     p.front = surface.front_face as u32;
+}
+
+/// Launch params of the motion-blur picture.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Pod, bytemuck::Zeroable, LaunchParams)]
+pub struct MotionParams {
+    /// Per pixel (row-major, bottom row first): the fraction of its samples
+    /// whose ray hit.
+    pub image: Buffer<f32>,
+    /// Per pixel: the time of its current sample.
+    pub times: Buffer<f32>,
+    /// The picture's lower-left corner in the `z = 0` plane.
+    pub corner: Vec2,
+    /// A pixel's side.
+    pub pixel: f32,
+    /// Samples per pixel.
+    pub samples: u32,
+    /// With 1, every sample's time is [`MotionParams::fixed_time`] instead of random.
+    pub fixed: u32,
+    /// The time of every sample when `fixed` is 1.
+    pub fixed_time: f32,
+    /// The picture's size in pixels.
+    pub size: UVec2,
+    /// The scene.
+    pub scene: Traversable,
+}
+
+/// The record of the moving-sphere hit group.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, bytemuck::Zeroable, SbtRecordData)]
+pub struct MovingRecord {
+    /// `raykit::Gas::moving_sphere_buffer` of the instance's GAS.
+    pub spheres: Buffer<Vec4>,
+    /// [`MotionParams::times`].
+    pub times: Buffer<f32>,
+}
+
+/// The ray type of the motion picture: 1 for a hit, 0 for a miss.
+pub struct Exposure;
+impl RayType for Exposure {
+    type Payload = f32;
+}
+
+/// One ray per sample through the pixel's centre, down −z from `z = 10`, at
+/// a random time in `[0, 1)` (or the fixed one).
+#[raygen]
+fn rg_motion(ctx: &mut Raygen, #[params] p: &MotionParams, #[payload] hit: &mut f32) {
+    let (pixel, index) = (ctx.launch_index().truncate().as_vec2(), ctx.launch_linear_index());
+    let centre = p.corner + (pixel + Vec2::splat(0.5)) * p.pixel;
+    let mut rng = Pcg::new(index, 17);
+    let mut hits = 0.0;
+    let mut s = 0;
+    while s < p.samples {
+        let time = if p.fixed == 1 { p.fixed_time } else { rng.next_f32() };
+        motion::set_ray_time(ctx, p.times, time);
+        *hit = 0.0;
+        ctx.trace::<Exposure>(p.scene, Ray::new(centre.extend(10.0), -Vec3::Z).with_interval(0.0, 100.0), hit);
+        hits += *hit;
+        s += 1;
+    }
+    ctx.store(p.image, index, hits / p.samples as f32);
+}
+
+#[miss(ray = Exposure)]
+fn ms_motion(_ctx: &mut Miss, #[payload] hit: &mut f32) {
+    *hit = 0.0;
+}
+
+/// Moving spheres where they are at the ray's time.
+#[intersection]
+fn is_moving(ctx: &mut Intersection, #[record] r: &MovingRecord, #[attributes] hit: &mut SphereHit) {
+    let time = motion::ray_time(ctx, r.times);
+    sphere::report_moving(ctx, r.spheres, time, hit);
+}
+
+#[closest_hit(ray = Exposure)]
+fn ch_motion(_ctx: &mut ClosestHit, #[attributes] _hit: &SphereHit, #[payload] hit: &mut f32) {
+    *hit = 1.0;
 }
