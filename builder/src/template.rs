@@ -100,11 +100,12 @@ const WINDOWS_RESERVED_NAMES: [&str; 22] = [
 /// The package names of raykit's workspace. A new project depends on some of
 /// them and cargo tells packages apart by name (with `-` and `_` the same), so
 /// neither the project nor its device crate may take one.
-const RAYKIT_PACKAGES: [&str; 30] = [
+const RAYKIT_PACKAGES: [&str; 31] = [
     "accel-test-device",
     "gltf-pathtracer-device",
     "gltf_pathtracer",
     "math-test-device",
+    "next-week-reference",
     "one-dependency",
     "params-device",
     "path-tracer-device",

@@ -45,6 +45,7 @@
 use spirv_std::glam::{Vec2, Vec3};
 
 use crate::sampling::{transform_normal_to_world, transform_point};
+use crate::sphere::SurfaceHit;
 use crate::{Buffer, ClosestHit, Matrix4x3};
 
 /// [`MeshData::attributes`] bit: the mesh has per-vertex normals.
@@ -189,6 +190,21 @@ impl TriangleSurface {
             self.geometric_normal
         } else {
             -self.geometric_normal
+        }
+    }
+
+    /// The hit as [`crate::scatter`]'s materials and
+    /// [`Bounce::scatter_from`](crate::bounce::Bounce::scatter_from) take it: the
+    /// position, the geometric normal and face, and the error bound's extent
+    /// along that normal ([`TriangleSurface::plane_error`]), so that its
+    /// `spawn_origin` starts past the triangle's plane. (The shading normal
+    /// stays here, for a shader's own use.)
+    pub fn surface_hit(&self) -> SurfaceHit {
+        SurfaceHit {
+            position: self.position,
+            normal: self.geometric_normal,
+            front_face: self.front_face,
+            error: self.plane_error(),
         }
     }
 

@@ -19,6 +19,7 @@ chapters! {
     getting_started => "getting-started.md",
     own_project => "own-project.md",
     first_renderer => "first-renderer.md",
+    next_week => "next-week.md",
     program_model => "program-model.md",
     launch_params => "launch-params.md",
     acceleration_structures => "acceleration-structures.md",

@@ -4,7 +4,7 @@
 //! 1. `rustfmt`: `cargo fmt --all -- --check` with the tree's `rustfmt.toml`.
 //! 2. `rustfmt outside the workspace`: the crates the workspace excludes
 //!    (`builder/shader-builder` pins a nightly without rustfmt, `fuzz` is built by
-//!    cargo-fuzz, `examples/first_renderer` is a project of its own), checked with
+//!    cargo-fuzz, `examples/first_renderer` and `examples/next_week` are projects of their own), checked with
 //!    this stable rustfmt and the same `rustfmt.toml`.
 //! 3. `committed binaries`: every binary file `git ls-files` lists is a test
 //!    fixture with a `build.sh` and a `SHA256SUMS` beside it naming it
@@ -26,13 +26,16 @@ use anyhow::{bail, Context as _};
 
 /// Files of the crates outside the workspace that rustfmt checks (it follows their
 /// `mod` declarations).
-const EXCLUDED_CRATE_ROOTS: [&str; 6] = [
+const EXCLUDED_CRATE_ROOTS: [&str; 9] = [
     "builder/shader-builder/build.rs",
     "builder/shader-builder/src/main.rs",
     "fuzz/fuzz_targets/spirv_intake.rs",
     "examples/first_renderer/build.rs",
     "examples/first_renderer/src/main.rs",
     "examples/first_renderer/device/src/lib.rs",
+    "examples/next_week/build.rs",
+    "examples/next_week/src/main.rs",
+    "examples/next_week/device/src/lib.rs",
 ];
 
 /// One gate: its name, the command, and what to run to fix or see the problem.
