@@ -7,9 +7,14 @@
 //! * the path tracer: the Cornell box at `--path-size` (default 512) with 16
 //!   paths per pixel in one launch (`--spp N` for another count).
 //!
-//! Both backends are timed by the wall clock of the whole launch (submission and
+//! On the primary-ray scenes the CPU backend is also measured against Embree 3
+//! (`crate::embree`: the same mesh and rays, on as many threads, one ray at a
+//! time and in 16-wide packets), when `libembree3-3` is installed.
+//!
+//! Each pair is timed by the wall clock of the whole launch (submission and
 //! wait included), interleaved after one warm-up launch each; the ratio is the
-//! median of per-repetition ratios of Mrays/s, CPU over Vulkan.
+//! median of per-repetition ratios of Mrays/s, CPU backend over the pair's
+//! baseline (Vulkan, or Embree).
 
 use std::time::Instant;
 
@@ -27,8 +32,8 @@ pub struct Row {
     rays: u64,
     seconds: Summary,
     mrays: Summary,
-    /// Per-repetition ratio of the CPU backend's Mrays/s to Vulkan's.
-    cpu_over_vulkan: Summary,
+    /// Per-repetition ratio of the CPU backend's Mrays/s to its baseline's (Vulkan's or Embree's).
+    cpu_over_baseline: Summary,
 }
 
 /// Runs `vulkan` and `cpu` once each to warm up, then `reps` rounds in
@@ -63,7 +68,7 @@ fn rows(workload: &str, names: [&str; 2], results: &[Vec<(f64, u64)>; 2]) -> Vec
             rays: r.first().map_or(0, |x| x.1),
             seconds: Summary::of(&r.iter().map(|x| x.0).collect::<Vec<_>>()),
             mrays: Summary::of(&mrays(r)),
-            cpu_over_vulkan: Summary::of(&ratio),
+            cpu_over_baseline: Summary::of(&ratio),
         })
         .collect()
 }
@@ -76,6 +81,10 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
     let mut out = Vec::new();
 
     // Primary rays, on the scene every ray hits and on the one most rays miss.
+    let embree = {
+        let (vertices, indices) = crate::accel::grid(opts.triangles);
+        crate::embree::Scene::new(&vertices, &indices)
+    };
     let (pv, pc) = (primary_pipeline(vulkan, Language::Rust)?, primary_pipeline(&cpu, Language::Rust)?);
     for coverage in Coverage::BOTH {
         let (width, height) = opts.primary_size;
@@ -108,6 +117,40 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
         let workload =
             format!("primary: {} triangles, {}, {width}x{height}, 1 ray/pixel", opts.triangles, coverage.label());
         out.extend(rows(&workload, names, &results));
+
+        // The same mesh and rays through Embree, single rays and 16-wide packets.
+        let embree = match &embree {
+            Ok(scene) => scene,
+            Err(e) => {
+                eprintln!("cpu: no Embree rows: {e}");
+                continue;
+            }
+        };
+        let threads = cpu_threads();
+        for (packets, name) in [(false, "Embree 3 rtcIntersect1"), (true, "Embree 3 rtcIntersect16")] {
+            let mut image = vec![0u32; rays as usize];
+            let results = interleave(
+                opts.reps,
+                || {
+                    let start = Instant::now();
+                    embree.trace(&scene_c.params, opts.primary_size, threads, packets, &mut image);
+                    Ok((start.elapsed().as_secs_f64(), rays))
+                },
+                || {
+                    let start = Instant::now();
+                    pc.pipeline.launch(&pc.sbt, &scene_c.params, dims)?;
+                    Ok((start.elapsed().as_secs_f64(), rays))
+                },
+            )?;
+            // The same hits: the same barycentric colours and misses, within rounding.
+            let differing = image.iter().zip(&b).filter(|(x, y)| channel_distance(**x, **y) > 2).count();
+            anyhow::ensure!(
+                differing <= b.len() / 1000,
+                "{differing} pixels differ between {name} and the CPU backend"
+            );
+            let name = format!("{name} ({threads} threads)");
+            out.extend(rows(&workload, [name.as_str(), names[1]], &results));
+        }
     }
 
     // The path tracer.
@@ -132,6 +175,16 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
     Ok(out)
 }
 
+/// The CPU backend's thread count, by the rule its context follows:
+/// `RAYKIT_CPU_THREADS`, else one per logical CPU.
+fn cpu_threads() -> usize {
+    std::env::var("RAYKIT_CPU_THREADS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|&n: &usize| n > 0)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
 fn channel_distance(a: u32, b: u32) -> u8 {
     a.to_le_bytes().iter().zip(b.to_le_bytes()).map(|(x, y)| x.abs_diff(y)).max().unwrap_or(0)
 }
@@ -139,9 +192,9 @@ fn channel_distance(a: u32, b: u32) -> u8 {
 /// The rows as a Markdown table.
 pub fn markdown(rows: &[Row]) -> String {
     let mut s = String::from(
-        "Same Rust device programs, scenes and host code on both backends; wall clock of whole launches, alternating after one warm-up each; median (± half the interquartile range); `CPU / Vulkan` is the median of per-repetition ratios of Mrays/s.\n\n",
+        "Same Rust device programs, scenes and host code on both backends; wall clock of whole launches, alternating after one warm-up each; median (± half the interquartile range); `CPU / baseline` is the median of per-repetition ratios of Mrays/s, the CPU backend over the other row of its pair (Vulkan, or Embree on the same mesh, rays and thread count).\n\n",
     );
-    s.push_str("| workload | backend | reps | rays/launch | ms/launch | Mrays/s | CPU / Vulkan (min–max) |\n");
+    s.push_str("| workload | backend | reps | rays/launch | ms/launch | Mrays/s | CPU / baseline (min–max) |\n");
     s.push_str("|---|---|---:|---:|---:|---:|---:|\n");
     for r in rows {
         s.push_str(&format!(
@@ -153,9 +206,9 @@ pub fn markdown(rows: &[Row]) -> String {
             r.seconds.median * 1e3,
             r.seconds.spread_percent(),
             r.mrays.median,
-            r.cpu_over_vulkan.median,
-            r.cpu_over_vulkan.min,
-            r.cpu_over_vulkan.max,
+            r.cpu_over_baseline.median,
+            r.cpu_over_baseline.min,
+            r.cpu_over_baseline.max,
         ));
     }
     s
@@ -168,7 +221,7 @@ pub fn json(rows: &[Row]) -> serde_json::Value {
             .map(|r| {
                 serde_json::json!({
                     "workload": r.workload, "backend": r.backend, "reps": r.reps, "rays_per_launch": r.rays,
-                    "seconds": r.seconds.json(), "mrays_per_s": r.mrays.json(), "cpu_over_vulkan": r.cpu_over_vulkan.json(),
+                    "seconds": r.seconds.json(), "mrays_per_s": r.mrays.json(), "cpu_over_baseline": r.cpu_over_baseline.json(),
                 })
             })
             .collect(),

@@ -58,6 +58,7 @@ mod ash_baseline;
 mod cpu;
 mod denoise;
 mod devices;
+mod embree;
 mod launch;
 mod materials;
 mod optix;

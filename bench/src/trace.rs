@@ -244,11 +244,14 @@ pub fn primary_pipeline(ctx: &Context, language: Language) -> anyhow::Result<Pri
     let pipeline = Pipeline::<PrimaryParams>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
     let sbt = Sbt::builder(&pipeline)
         .raygen(&raygen, ())
-        .miss(&miss, MissData { bg_color: Vec3::new(0.3, 0.1, 0.2) })
+        .miss(&miss, MissData { bg_color: PRIMARY_BACKGROUND })
         .hit(&hit, ())
         .build()?;
     Ok(PrimaryPipeline { pipeline, sbt })
 }
+
+/// The colour of the primary-ray programs' misses (their miss record).
+pub const PRIMARY_BACKGROUND: Vec3 = Vec3::new(0.3, 0.1, 0.2);
 
 /// The primary-ray scene: the mesh's TLAS and the image, and the params.
 pub struct PrimaryScene {

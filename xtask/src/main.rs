@@ -221,6 +221,9 @@ fn main() -> anyhow::Result<()> {
             if args.iter().any(|a| a == "denoise") {
                 oidn::ensure_oidn()?;
             }
+            if args.iter().any(|a| a == "cpu") {
+                setup::ensure_embree()?;
+            }
             run(cargo().args(["build", "--release", "--quiet", "-p", "raykit-bench"]), "building raykit-bench")?;
             let binary = root.join("target").join("release").join("raykit-bench");
             run(

@@ -174,6 +174,18 @@ pub fn ensure_glsl_tools() -> anyhow::Result<()> {
     ensure_tools(&GLSL_TOOLS, &GLSL_PACKAGES, "the tests rebuild the committed SPIR-V")
 }
 
+/// Embree 3's library, which the bench's `cpu` suite loads for its twin, and
+/// the Debian package that has it.
+const EMBREE_LIBRARY: &str = "/usr/lib/x86_64-linux-gnu/libembree3.so.3";
+const EMBREE_PACKAGES: [&str; 1] = ["libembree3-3"];
+
+/// Makes sure Embree 3 is installed (installing it as root with apt), for the
+/// `cpu` suite's Embree rows.
+pub fn ensure_embree() -> anyhow::Result<()> {
+    let present = |path: &str| Path::new(path).is_file();
+    ensure_present(&[EMBREE_LIBRARY], present, &EMBREE_PACKAGES, "the cpu suite measures the CPU backend against it")
+}
+
 /// Makes sure the SPIRV-Tools that rust-gpu's codegen backend runs
 /// ([`raykit_builder::SPIRV_TOOLS`]) are installed, installing them as root with apt.
 pub fn ensure_spirv_tools() -> anyhow::Result<()> {
