@@ -153,6 +153,21 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
         }
     }
 
+    // Built-in spheres, hit through an intersection program.
+    let (width, height) = (opts.primary_size.0 / 2, opts.primary_size.1 / 2);
+    let (sv, sc) = (SphereScene::new(vulkan, width, height)?, SphereScene::new(&cpu, width, height)?);
+    let results = interleave(opts.reps, || sv.launch(), || sc.launch())?;
+    let (hv, hc) = (sv.hits()?, sc.hits()?);
+    let differing = hv.iter().zip(&hc).filter(|(a, b)| a != b).count();
+    anyhow::ensure!(differing <= hv.len() / 1000, "{differing} sphere rays hit differently on the two backends");
+    let hit = hv.iter().filter(|h| h.0 != spheres_test_device::MISS).count();
+    let workload = format!(
+        "spheres: {} built-in spheres (intersection program), {width}x{height}, 1 ray/pixel, {:.0}% hit",
+        SPHERES * SPHERES,
+        100.0 * hit as f64 / hv.len() as f64
+    );
+    out.extend(rows(&workload, names, &results));
+
     // The path tracer.
     let size = opts.path_size;
     let spp = if opts.spp == 1 { 16 } else { opts.spp };
@@ -173,6 +188,77 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
     let workload = format!("path tracer: Cornell box, {size}x{size}, {spp} spp");
     out.extend(rows(&workload, names, &results));
     Ok(out)
+}
+
+/// Spheres per side of the sphere scene's grid.
+const SPHERES: usize = 100;
+
+/// A grid of `SPHERES²` built-in spheres (radius 0.4 to 0.5, one unit apart,
+/// heights varying) seen from above by one camera ray per pixel, through
+/// `spheres-test-device`'s programs (the library's sphere test and a
+/// closest-hit program recording the hit).
+struct SphereScene {
+    pipeline: raykit::Pipeline<spheres_test_device::Params>,
+    sbt: raykit::Sbt,
+    params: spheres_test_device::Params,
+    rays: usize,
+    hits: raykit::DeviceBuffer<raykit::glam::Vec4>,
+    _inputs: (raykit::Ias, raykit::DeviceBuffer<raykit::glam::Vec4>),
+}
+
+impl SphereScene {
+    fn new(ctx: &Context, width: u32, height: u32) -> anyhow::Result<SphereScene> {
+        use raykit::glam::{Vec3, Vec4};
+        use raykit::{Gas, Ias, LinkOptions, Module, Pipeline, ProgramGroup, Sbt};
+        use spheres_test_device as programs;
+        let n = SPHERES as f32;
+        let (mut centres, mut radii) = (Vec::new(), Vec::new());
+        for (i, j) in (0..SPHERES).flat_map(|i| (0..SPHERES).map(move |j| (i, j))) {
+            let (x, y) = (i as f32, j as f32);
+            centres.push(Vec3::new(x, y, 0.5 * ((0.3 * x).sin() + (0.2 * y).cos())));
+            radii.push(0.4 + 0.1 * ((x * 7.0 + y * 3.0) % 5.0) / 5.0);
+        }
+        let gas = Gas::spheres(ctx, &centres, &radii)?;
+        let record =
+            programs::SphereRecord { spheres: gas.sphere_buffer().ok_or_else(|| anyhow::anyhow!("no spheres"))? };
+        let scene = Ias::single(ctx, &gas)?;
+        let module = Module::from_device_crate(ctx, "spheres-test-device")?;
+        let raygen = ProgramGroup::raygen(&module, programs::RG)?;
+        let miss = ProgramGroup::miss(&module, programs::MS)?;
+        let hit = ProgramGroup::hit_group(&module)
+            .intersection(programs::IS_SPHERE)
+            .closest_hit(programs::CH_SPHERE)
+            .build()?;
+        let pipeline =
+            Pipeline::<programs::Params>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
+        let sbt = Sbt::builder(&pipeline).raygen(&raygen, ()).miss(&miss, ()).hit(&hit, record).build()?;
+        // From above the grid's centre, seeing only the grid: most rays hit a sphere, some pass between.
+        let eye = Vec3::new(n / 2.0, n / 2.0, 0.55 * n);
+        let mut words = Vec::with_capacity(width as usize * height as usize * programs::RAY_WORDS as usize);
+        for (y, x) in (0..height).flat_map(|y| (0..width).map(move |x| (y, x))) {
+            let s = (x as f32 + 0.5) / width as f32 - 0.5;
+            let t = (y as f32 + 0.5) / height as f32 - 0.5;
+            let direction = Vec3::new(s * width as f32 / height as f32, t, -1.0).normalize();
+            words.extend([eye.extend(0.0), direction.extend(1e16), Vec4::ZERO]);
+        }
+        let rays = words.len() / programs::RAY_WORDS as usize;
+        let input = ctx.buffer_from(&words)?;
+        let hits = ctx.buffer::<Vec4>(rays * programs::HIT_WORDS as usize)?;
+        let params = programs::Params { rays: input.handle(), hits: hits.handle(), scene: scene.handle() };
+        Ok(SphereScene { pipeline, sbt, params, rays, hits, _inputs: (scene, input) })
+    }
+
+    fn launch(&self) -> anyhow::Result<(f64, u64)> {
+        let start = Instant::now();
+        self.pipeline.launch(&self.sbt, &self.params, [self.rays as u32, 1, 1])?;
+        Ok((start.elapsed().as_secs_f64(), self.rays as u64))
+    }
+
+    /// Per ray: the hit kind (or `MISS`) and the sphere.
+    fn hits(&self) -> anyhow::Result<Vec<(u32, u32)>> {
+        let words = self.hits.read()?;
+        Ok(words.chunks(spheres_test_device::HIT_WORDS as usize).map(|w| (w[0].y as u32, w[0].z as u32)).collect())
+    }
 }
 
 /// The CPU backend's thread count, by the rule its context follows:
