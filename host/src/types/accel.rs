@@ -217,13 +217,15 @@ impl Aabb {
 
     /// A box around every position of a sphere of `radius` moving linearly
     /// from `start` to `end`: the union of its boxes at the two ends (the
-    /// sweep is their convex hull), widened by 4 ulps more per side so that a
-    /// centre interpolated in `f32` (a few ulps from the exact line) stays in
-    /// it.
+    /// sweep is their convex hull), widened on every side by `4ε` times the
+    /// centres' largest coordinate and rounded outwards, so that a centre the
+    /// device interpolates in `f32` (`start · (1 − t) + end · t`: three
+    /// roundings of terms no larger than that coordinate) keeps its sphere inside.
     pub fn around_sweep(start: Vec3, end: Vec3, radius: f32) -> Self {
         let (a, b) = (Aabb::around_sphere(start, radius), Aabb::around_sphere(end, radius));
-        let min = std::array::from_fn(|k| (0..4).fold(a.min[k].min(b.min[k]), |v, _| v.next_down()).max(f32::MIN));
-        let max = std::array::from_fn(|k| (0..4).fold(a.max[k].max(b.max[k]), |v, _| v.next_up()).min(f32::MAX));
+        let slack = 4.0 * f32::EPSILON * start.abs().max(end.abs()).max_element();
+        let min = std::array::from_fn(|k| (a.min[k].min(b.min[k]) - slack).next_down().max(f32::MIN));
+        let max = std::array::from_fn(|k| (a.max[k].max(b.max[k]) + slack).next_up().min(f32::MAX));
         Aabb { min, max }
     }
 }

@@ -409,6 +409,35 @@ mod tests {
     }
 
     #[test]
+    fn a_sweeps_box_holds_the_sphere_wherever_the_device_puts_it() {
+        // The device's centre: `raykit_device::sphere::moving_sphere_at`, in f32.
+        let mut rng = raykit_device::sampling::Pcg::new(5, 3);
+        // Random sweeps, and centres far from the origin with radii nearly as large
+        // (the box's faces near 0, where its ulps are smaller than the centre's).
+        let mut sweeps: Vec<(Vec3, Vec3, f32)> = (0..2000)
+            .map(|_| {
+                let scale = 10f32.powi((rng.next_f32() * 8.0) as i32 - 2);
+                let point = |rng: &mut raykit_device::sampling::Pcg| (rng.next_vec3() * 2.0 - 1.0) * scale;
+                (point(&mut rng), point(&mut rng), rng.next_f32() * scale)
+            })
+            .collect();
+        for k in 0..200 {
+            let c = Vec3::splat(1000.0 + k as f32);
+            sweeps.extend([(c, c, 999.9 + k as f32), (c, c + Vec3::new(0.0, 0.25, 0.5), 999.95 + k as f32)]);
+        }
+        for (start, end, radius) in sweeps {
+            let b = crate::types::accel::Aabb::around_sweep(start, end, radius);
+            for k in 0..=256 {
+                let t = if k % 2 == 0 { k as f32 / 256.0 } else { rng.next_f32() };
+                let at = raykit_device::sphere::moving_sphere_at(start.extend(radius), end.extend(radius), t);
+                let (lo, hi) = (at.truncate() - Vec3::splat(at.w), at.truncate() + Vec3::splat(at.w));
+                let inside = (0..3).all(|i| b.min[i] <= lo[i] && hi[i] <= b.max[i]);
+                assert!(inside, "{start} → {end}, r {radius}, t {t}: the sphere [{lo}, {hi}] leaves {b:?}");
+            }
+        }
+    }
+
+    #[test]
     fn updates_need_the_same_topology() -> std::result::Result<(), Box<dyn std::error::Error>> {
         let moved = [Vec3::ZERO, Vec3::X * 2.0, Vec3::Y];
         let quad = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE];
