@@ -292,6 +292,19 @@ fn wait_for_file(
     Ok(())
 }
 
+/// `error` with what the viewer printed: it is stopped first, so that its pipes end.
+fn with_viewer_output(
+    error: anyhow::Error,
+    child: &mut std::process::Child,
+    stdout: std::thread::JoinHandle<Vec<String>>,
+    stderr: std::thread::JoinHandle<Vec<String>>,
+) -> anyhow::Error {
+    let _ = child.kill();
+    let _ = child.wait();
+    let (out, err) = (stdout.join().unwrap_or_default().join("\n"), stderr.join().unwrap_or_default().join("\n"));
+    error.context(format!("the viewer's stdout:\n{out}\nits stderr:\n{err}"))
+}
+
 /// Reads a child's pipe to its end on a thread of its own, line by line.
 fn collect_lines(pipe: impl std::io::Read + Send + 'static) -> std::thread::JoinHandle<Vec<String>> {
     std::thread::spawn(move || BufReader::new(pipe).lines().map_while(Result::ok).collect())
@@ -341,12 +354,16 @@ fn a_broken_edit_keeps_the_old_pipeline_and_a_good_edit_then_reaches_the_window(
     let stdout = collect_lines(child.stdout.take().ok_or(anyhow::anyhow!("no stdout"))?);
     let stderr = collect_lines(child.stderr.take().ok_or(anyhow::anyhow!("no stderr"))?);
     let started = Instant::now();
-    wait_for_file(&mut child, &before, started, RUN_BOUND)?;
+    if let Err(e) = wait_for_file(&mut child, &before, started, RUN_BOUND) {
+        return Err(with_viewer_output(e, &mut child, stdout, stderr));
+    }
     // A type error: the build fails, the window keeps the programs it has.
     let lib = device.join("src").join("lib.rs");
     let source = std::fs::read_to_string(&lib)?;
     std::fs::write(&lib, format!("{source}\nconst WRONG: u32 = 1.5;\n"))?;
-    wait_for_file(&mut child, &kept, started, RELOAD_BOUND)?;
+    if let Err(e) = wait_for_file(&mut child, &kept, started, RELOAD_BOUND) {
+        return Err(with_viewer_output(e, &mut child, stdout, stderr));
+    }
     // A colour edit: the radiance of every path is tinted red.
     let line = "        sums.radiance += state.radiance;\n";
     assert!(source.contains(line), "the raygen program's accumulation line changed");
