@@ -97,22 +97,12 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
         let scene_c = opts.primary_scene(&cpu, coverage)?;
         let cpu_build = built.elapsed().as_secs_f64();
         eprintln!("cpu: {} triangles built in {vulkan_build:.2} s (Vulkan) and {cpu_build:.2} s (CPU)", opts.triangles);
-        let results = interleave(
-            opts.reps,
-            || {
-                let start = Instant::now();
-                pv.pipeline.launch(&pv.sbt, &scene_v.params, dims)?;
-                Ok((start.elapsed().as_secs_f64(), rays))
-            },
-            || {
-                let start = Instant::now();
-                pc.pipeline.launch(&pc.sbt, &scene_c.params, dims)?;
-                Ok((start.elapsed().as_secs_f64(), rays))
-            },
-        )?;
+        let launch_cpu = || timed(rays, || Ok(pc.pipeline.launch(&pc.sbt, &scene_c.params, dims)?));
+        let launch_vulkan = || timed(rays, || Ok(pv.pipeline.launch(&pv.sbt, &scene_v.params, dims)?));
+        let results = interleave(opts.reps, launch_vulkan, launch_cpu)?;
         // Both backends drew the same picture (barycentric colours, within rounding).
         let (a, b) = (scene_v.image.read()?, scene_c.image.read()?);
-        let differing = a.iter().zip(&b).filter(|(x, y)| channel_distance(**x, **y) > 2).count();
+        let differing = differing_pixels(&a, &b);
         anyhow::ensure!(differing <= a.len() / 1000, "{differing} primary-ray pixels differ between the backends");
         let workload =
             format!("primary: {} triangles, {}, {width}x{height}, 1 ray/pixel", opts.triangles, coverage.label());
@@ -129,21 +119,15 @@ pub fn run(vulkan: &Context, opts: &Options) -> anyhow::Result<Vec<Row>> {
         let threads = cpu_threads();
         for (packets, name) in [(false, "Embree 3 rtcIntersect1"), (true, "Embree 3 rtcIntersect16")] {
             let mut image = vec![0u32; rays as usize];
-            let results = interleave(
-                opts.reps,
-                || {
-                    let start = Instant::now();
+            let launch_embree = || {
+                timed(rays, || {
                     embree.trace(&scene_c.params, opts.primary_size, threads, packets, &mut image);
-                    Ok((start.elapsed().as_secs_f64(), rays))
-                },
-                || {
-                    let start = Instant::now();
-                    pc.pipeline.launch(&pc.sbt, &scene_c.params, dims)?;
-                    Ok((start.elapsed().as_secs_f64(), rays))
-                },
-            )?;
+                    Ok(())
+                })
+            };
+            let results = interleave(opts.reps, launch_embree, launch_cpu)?;
             // The same hits: the same barycentric colours and misses, within rounding.
-            let differing = image.iter().zip(&b).filter(|(x, y)| channel_distance(**x, **y) > 2).count();
+            let differing = differing_pixels(&image, &b);
             anyhow::ensure!(
                 differing <= b.len() / 1000,
                 "{differing} pixels differ between {name} and the CPU backend"
@@ -249,9 +233,7 @@ impl SphereScene {
     }
 
     fn launch(&self) -> anyhow::Result<(f64, u64)> {
-        let start = Instant::now();
-        self.pipeline.launch(&self.sbt, &self.params, [self.rays as u32, 1, 1])?;
-        Ok((start.elapsed().as_secs_f64(), self.rays as u64))
+        timed(self.rays as u64, || Ok(self.pipeline.launch(&self.sbt, &self.params, [self.rays as u32, 1, 1])?))
     }
 
     /// Per ray: the hit kind (or `MISS`) and the sphere.
@@ -269,6 +251,18 @@ fn cpu_threads() -> usize {
         .and_then(|v| v.parse().ok())
         .filter(|&n: &usize| n > 0)
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+/// The wall-clock seconds of `launch`, and the rays it traces.
+fn timed(rays: u64, launch: impl FnOnce() -> anyhow::Result<()>) -> anyhow::Result<(f64, u64)> {
+    let start = Instant::now();
+    launch()?;
+    Ok((start.elapsed().as_secs_f64(), rays))
+}
+
+/// How many RGBA8 pixels of two pictures differ by more than two steps in a channel.
+fn differing_pixels(a: &[u32], b: &[u32]) -> usize {
+    a.iter().zip(b).filter(|(x, y)| channel_distance(**x, **y) > 2).count()
 }
 
 fn channel_distance(a: u32, b: u32) -> u8 {

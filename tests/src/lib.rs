@@ -11,6 +11,7 @@
 //! otherwise prints a loud SKIPPED line.
 
 pub mod gltf_fixture;
+pub mod own_project;
 
 use raykit::{Backend, Context, ContextOptions, Error, PipelineCacheLocation};
 

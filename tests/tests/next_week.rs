@@ -11,109 +11,21 @@
 //! The PNG is the PFM's radiance, sRGB-encoded. The project is at most 350
 //! lines of code.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Command;
 use std::time::Instant;
 
 use raykit::glam::DVec3;
 use raykit::Backend;
+use raykit_tests::own_project::{
+    binary, cargo_build, check_png, code_lines, copy_project, project_dir, read_pfm, text, SOURCES,
+};
 
 const WIDTH: u32 = 96;
 const HEIGHT: u32 = 96;
 /// Samples per pixel of the project's render, and of the reference.
 const DEVICE_SPP: u32 = 256;
 const REFERENCE_SPP: u32 = 1024;
-
-fn raykit_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the tests crate is inside the workspace").to_path_buf()
-}
-
-fn project_dir() -> PathBuf {
-    raykit_root().join("examples").join("next_week")
-}
-
-/// The project's Rust sources, relative to its directory.
-const SOURCES: [&str; 3] = ["build.rs", "src/main.rs", "device/src/lib.rs"];
-
-/// Lines of code: lines that are neither blank nor comments (`//`, `///`, `//!`).
-fn code_lines(source: &str) -> usize {
-    source.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")).count()
-}
-
-/// Copies the project to a fresh directory under the system's temporary
-/// directory, its `path` dependencies pointed at this raykit checkout.
-fn copy_project() -> PathBuf {
-    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
-    let dir = std::env::temp_dir().join(format!("raykit-next-week-{}-{nanos}", std::process::id()));
-    let root = raykit_root().display().to_string();
-    for file in ["Cargo.toml", "device/Cargo.toml"].iter().chain(&SOURCES) {
-        let text = std::fs::read_to_string(project_dir().join(file)).expect("reading the project");
-        let up = if file.starts_with("device/") { "../../../" } else { "../../" };
-        let moved = text.replace(&format!("path = \"{up}"), &format!("path = \"{root}/"));
-        assert!(!file.ends_with(".toml") || moved != text, "{file} names no raykit crate by `{up}`");
-        let to = dir.join(file);
-        std::fs::create_dir_all(to.parent().expect("a file has a directory")).expect("creating the project");
-        std::fs::write(to, moved).expect("writing the project");
-    }
-    dir
-}
-
-/// `cargo build` in `project`, as a user runs it, sharing the template test's
-/// target directory (raykit and its dependencies compile once for both).
-fn cargo_build(project: &Path) -> Output {
-    let mut cmd = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
-    for (key, _) in std::env::vars_os() {
-        if key.to_str().is_some_and(|k| k.starts_with("CARGO") && k != "CARGO_HOME") {
-            cmd.env_remove(key);
-        }
-    }
-    cmd.arg("build")
-        .current_dir(project)
-        .env("CARGO_TARGET_DIR", raykit_root().join("target").join("template-project"));
-    cmd.output().expect("running cargo build")
-}
-
-fn text(output: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr))
-}
-
-/// Reads a PFM of `WIDTH × HEIGHT` (rows bottom to top, little-endian), top row first.
-fn read_pfm(path: &Path) -> Vec<DVec3> {
-    let bytes = std::fs::read(path).expect("the project writes a PFM");
-    let header = format!("PF\n{WIDTH} {HEIGHT}\n-1.0\n");
-    assert!(bytes.starts_with(header.as_bytes()), "unexpected PFM header in {}", path.display());
-    let floats: Vec<f64> =
-        bytes[header.len()..].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64).collect();
-    assert_eq!(floats.len(), (WIDTH * HEIGHT * 3) as usize);
-    let w = WIDTH as usize;
-    (0..(WIDTH * HEIGHT) as usize)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            let at = ((HEIGHT as usize - 1 - y) * w + x) * 3;
-            DVec3::new(floats[at], floats[at + 1], floats[at + 2])
-        })
-        .collect()
-}
-
-/// The sRGB encoding of a linear value, quantised to 8 bits.
-fn srgb8(c: f64) -> i32 {
-    let c = c.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
-    (s * 255.0 + 0.5) as i32
-}
-
-/// The PNG holds the PFM's radiance sRGB-encoded (within one step of rounding).
-fn check_png(path: &Path, radiance: &[DVec3]) {
-    let png = image::open(path).expect("the project writes a PNG").to_rgba8();
-    assert_eq!(png.dimensions(), (WIDTH, HEIGHT));
-    for (i, (pixel, c)) in png.pixels().zip(radiance).enumerate() {
-        for (channel, want) in [c.x, c.y, c.z].into_iter().enumerate() {
-            let got = pixel.0[channel] as i32;
-            assert!((got - srgb8(want)).abs() <= 1, "PNG pixel {i} channel {channel}: {got} for radiance {want}");
-        }
-        assert_eq!(pixel.0[3], 255);
-    }
-}
 
 /// Runs the project's binary on `backend` and checks its pictures against the
 /// reference (per pixel: the mean and the variance of one sample).
@@ -132,8 +44,8 @@ fn render_and_compare(binary: &Path, dir: &Path, backend: Backend, want: &[(DVec
         .expect("running the next_week example");
     assert!(output.status.success(), "the next_week example failed on {name}:\n{}", text(&output));
     eprintln!("{name}: rendered in {:.1} s: {}", started.elapsed().as_secs_f64(), text(&output).trim());
-    let got = read_pfm(&dir.join(format!("{name}.pfm")));
-    check_png(&dir.join(format!("{name}.png")), &got);
+    let got = read_pfm(&dir.join(format!("{name}.pfm")), WIDTH, HEIGHT);
+    check_png(&dir.join(format!("{name}.png")), WIDTH, HEIGHT, &got);
     assert!(got.iter().all(|c| c.is_finite() && c.min_element() >= 0.0), "{name}: a pixel is negative or not finite");
 
     // The variance of a pixel's mean: of the device's, then of the reference's.
@@ -192,7 +104,7 @@ fn render_and_compare(binary: &Path, dir: &Path, backend: Backend, want: &[(DVec
 fn the_next_week_example_is_short() {
     let mut total = 0;
     for file in SOURCES {
-        let source = std::fs::read_to_string(project_dir().join(file)).expect("reading the project");
+        let source = std::fs::read_to_string(project_dir("next_week").join(file)).expect("reading the project");
         eprintln!("{file}: {} lines of code", code_lines(&source));
         total += code_lines(&source);
     }
@@ -202,12 +114,12 @@ fn the_next_week_example_is_short() {
 
 #[test]
 fn the_next_week_example_builds_outside_the_workspace_and_matches_a_plain_rust_path_tracer() {
-    let project = copy_project();
+    let project = copy_project("next_week");
     let started = Instant::now();
     let output = cargo_build(&project);
     assert!(output.status.success(), "cargo build of the next_week example failed:\n{}", text(&output));
     eprintln!("the next_week example built in {:.1} s", started.elapsed().as_secs_f64());
-    let binary = raykit_root().join("target").join("template-project").join("debug").join("next_week");
+    let binary = binary("next_week");
 
     let started = Instant::now();
     let want = next_week_reference::render(WIDTH, HEIGHT, REFERENCE_SPP, 2);

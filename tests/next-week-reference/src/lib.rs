@@ -41,8 +41,8 @@ struct Scene {
     spheres: Vec<Sphere>,
     /// Per row of the ground (fixed x), its bounds and its 20 boxes.
     rows: Vec<(Bounds, Vec<Bounds>)>,
-    /// The cluster's frame (object to world) and its cells: bounds and centres.
-    cluster: (DAffine3, Vec<(Bounds, Vec<DVec3>)>),
+    /// The cluster's frame (object to world), its inverse, and its cells: bounds and centres.
+    cluster: (DAffine3, DAffine3, Vec<(Bounds, Vec<DVec3>)>),
 }
 
 const LIGHT_Y: f64 = 554.0;
@@ -90,7 +90,7 @@ fn scene() -> Scene {
     }
     let frame =
         DAffine3::from_rotation_translation(DQuat::from_rotation_y(15f64.to_radians()), v(-100.0, 270.0, 395.0));
-    Scene { spheres, rows, cluster: (frame, cells) }
+    Scene { spheres, rows, cluster: (frame, frame.inverse(), cells) }
 }
 
 /// The entry distance of the ray into a box, if it meets it before `t_max`.
@@ -152,8 +152,7 @@ fn hit(scene: &Scene, o: DVec3, d: DVec3, time: f64) -> Option<(f64, DVec3, Mate
             closer(&mut best, t, -DVec3::Y, Material::Light(DVec3::splat(7.0)));
         }
     }
-    let (frame, cells) = &scene.cluster;
-    let to_object = frame.inverse();
+    let (frame, to_object, cells) = &scene.cluster;
     let (lo, ld) = (to_object.transform_point3(o), to_object.transform_vector3(d));
     let linv = ld.recip();
     for (bounds, centres) in cells {
