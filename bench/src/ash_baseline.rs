@@ -1,38 +1,55 @@
-//! The hand-written baseline: the same GAS build written directly against ash,
-//! the way a careful Vulkan programmer would without raykit: its own instance and
-//! device; a persistent, persistently mapped host-visible input buffer and a
-//! persistent scratch buffer, both grown on demand (so no allocation per build);
-//! structure storage from `vkAllocateMemory`, reused after a structure is
-//! destroyed (as an allocator reuses freed memory); one submission with the
-//! compacted-size query; fence wait.
+//! The hand-written baselines: code written directly against ash, the way a
+//! careful Vulkan programmer would without raykit.
 //!
-//! [`AshTracer`] is the hand-written launch of the primary-ray programs that the
-//! `primary` and `optix` suites time against raykit's: the same compiled
-//! `VkPipeline` and SBT regions, and the TLAS, but its own descriptor set (raykit's
-//! buffer-table layout, one slot written) whose output buffer is device-local,
-//! as the fastest Vulkan program keeps it; the picture is copied out to a
-//! host-visible buffer after the launch, outside the timed part. GPU timestamps
-//! bracket `vkCmdTraceRaysKHR`, as raykit's `launch_timed` does.
+//! [`AshDevice`] is its own instance and device on raykit's GPU (matched by
+//! `deviceUUID`; with `RAYKIT_VALIDATION=1`, with the Khronos validation layer,
+//! whose messages it collects). On it, the `accel` suite's GAS build: a
+//! persistent, persistently mapped host-visible input buffer and a persistent
+//! scratch buffer, both grown on demand (so no allocation per build); structure
+//! storage from `vkAllocateMemory`, reused after a structure is destroyed (as an
+//! allocator reuses freed memory); one submission with the compacted-size query;
+//! fence wait. The primary-ray suites' independent baseline also runs on it
+//! (see [`crate::ash_independent`]).
+//!
+//! [`AshTracer`] is the hand-written launch of raykit's own compiled primary-ray
+//! `VkPipeline`, SBT regions and TLAS that the `primary` and `optix` suites time
+//! beside raykit's launch (what raykit's launch path costs), on raykit's device
+//! with its own descriptor set (raykit's buffer-table layout, one slot written)
+//! whose output buffer is device-local, as the fastest Vulkan program keeps it;
+//! the picture is copied out to a host-visible buffer after the launch, outside
+//! the timed part. GPU timestamps bracket `vkCmdTraceRaysKHR`, as raykit's
+//! `launch_timed` does.
 
 use std::cell::RefCell;
 use std::ffi::CStr;
+use std::sync::Mutex;
 
 use anyhow::{bail, Context as _};
 use ash::vk;
 
-/// A Vulkan device set up for acceleration-structure builds.
+/// A Vulkan device of its own (its own instance too) on raykit's GPU, set up for
+/// acceleration-structure builds and ray-tracing pipelines.
 pub struct AshDevice {
     _entry: ash::Entry,
     instance: ash::Instance,
-    device: ash::Device,
-    accel: ash::khr::acceleration_structure::Device,
-    queue: vk::Queue,
-    pool: vk::CommandPool,
+    pub(crate) device: ash::Device,
+    pub(crate) accel: ash::khr::acceleration_structure::Device,
+    pub(crate) rt: ash::khr::ray_tracing_pipeline::Device,
+    /// The ray-tracing pipeline properties (SBT handle size and alignments).
+    pub(crate) rt_props: RtProperties,
+    pub(crate) queue: vk::Queue,
+    pub(crate) pool: vk::CommandPool,
     memory_props: vk::PhysicalDeviceMemoryProperties,
     scratch_alignment: u64,
-    timestamp_period_ns: f64,
+    pub(crate) timestamp_period_ns: f64,
+    /// Valid bits of the queue's timestamps (0: none).
+    pub(crate) timestamp_valid_bits: u32,
     timestamps: bool,
     arena: RefCell<Arena>,
+    /// The validation layer's messenger, when `RAYKIT_VALIDATION=1`.
+    messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    /// Messages the validation layer reported (the messenger's user data).
+    messages: Box<Mutex<Vec<String>>>,
 }
 
 /// Buffers kept from build to build.
@@ -47,11 +64,12 @@ struct Arena {
     free_storage: Vec<(Buffer, u64)>,
 }
 
-/// A buffer with its own memory.
-struct Buffer {
-    buffer: vk::Buffer,
-    memory: vk::DeviceMemory,
-    address: u64,
+/// A buffer with its own memory (null handles: none).
+#[derive(Default)]
+pub(crate) struct Buffer {
+    pub buffer: vk::Buffer,
+    pub memory: vk::DeviceMemory,
+    pub address: u64,
 }
 
 /// One built GAS.
@@ -66,49 +84,152 @@ pub struct AshGas {
     pub gpu_ns: Option<f64>,
 }
 
+/// The SBT-related limits of `VkPhysicalDeviceRayTracingPipelinePropertiesKHR`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RtProperties {
+    pub handle_size: u32,
+    pub handle_alignment: u32,
+    pub base_alignment: u32,
+}
+
+/// The Khronos validation layer.
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// Whether the validation layer is on: `RAYKIT_VALIDATION=1`, as for raykit's contexts.
+pub fn validation_requested() -> bool {
+    std::env::var("RAYKIT_VALIDATION").is_ok_and(|v| v == "1")
+}
+
+/// Collects the validation layer's warnings and errors into the `Mutex<Vec<String>>`
+/// its user data points to.
+unsafe extern "system" fn on_message(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user_data: *mut std::ffi::c_void,
+) -> vk::Bool32 {
+    if user_data.is_null() || data.is_null() {
+        return vk::FALSE;
+    }
+    // SAFETY: `user_data` is the device's boxed message list, which outlives the
+    // messenger; `data` and its strings are valid for this call.
+    let (messages, data) = unsafe { (&*(user_data as *const Mutex<Vec<String>>), &*data) };
+    let text = if data.p_message.is_null() {
+        String::new()
+    } else {
+        // SAFETY: as above: a NUL-terminated string.
+        unsafe { CStr::from_ptr(data.p_message) }.to_string_lossy().into_owned()
+    };
+    if let Ok(mut list) = messages.lock() {
+        list.push(format!("{severity:?}: {text}"));
+    }
+    vk::FALSE
+}
+
+/// The `deviceUUID` of `physical`.
+fn device_uuid(instance: &ash::Instance, physical: vk::PhysicalDevice) -> [u8; vk::UUID_SIZE] {
+    let mut id = vk::PhysicalDeviceIDProperties::default();
+    let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut id);
+    // SAFETY: `physical` belongs to `instance`; the chain is valid.
+    unsafe { instance.get_physical_device_properties2(physical, &mut props) };
+    id.device_uuid
+}
+
 impl AshDevice {
-    /// Creates a device on the first physical device whose name contains `name`.
-    pub fn new(name: &str) -> anyhow::Result<AshDevice> {
+    /// Creates a device on raykit's GPU (the physical device of `ctx`, matched by
+    /// its `deviceUUID`), with the validation layer when `RAYKIT_VALIDATION=1`.
+    pub fn new(ctx: &raykit::Context) -> anyhow::Result<AshDevice> {
+        let theirs = ctx.raw_instance().context("the ash baseline needs a Vulkan context")?;
+        let their_physical = ctx.raw_physical_device().context("the ash baseline needs a Vulkan context")?;
+        let uuid = device_uuid(theirs, their_physical);
+        let validation = validation_requested();
         // SAFETY: loading the system Vulkan loader.
         let entry = unsafe { ash::Entry::load() }.context("loading libvulkan")?;
+        let mut layers = Vec::new();
+        let mut instance_extensions = Vec::new();
+        if validation {
+            // SAFETY: plain enumeration call.
+            let available = unsafe { entry.enumerate_instance_layer_properties() }?;
+            if !available.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER)) {
+                bail!("RAYKIT_VALIDATION=1 but VK_LAYER_KHRONOS_validation is not installed");
+            }
+            layers.push(VALIDATION_LAYER.as_ptr());
+            instance_extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        let messages: Box<Mutex<Vec<String>>> = Box::default();
+        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(
+                vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+            )
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+            )
+            .pfn_user_callback(Some(on_message))
+            .user_data(&*messages as *const Mutex<Vec<String>> as *mut std::ffi::c_void);
         let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
-        // SAFETY: valid create info.
-        let instance =
-            unsafe { entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None) }?;
+        let mut info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&instance_extensions);
+        if validation {
+            info = info.push_next(&mut messenger_info);
+        }
+        // SAFETY: valid create info; the messenger's user data outlives the instance.
+        let instance = unsafe { entry.create_instance(&info, None) }?;
+        let messenger = if validation {
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            // SAFETY: valid create info; the user data outlives the messenger.
+            match unsafe { loader.create_debug_utils_messenger(&messenger_info, None) } {
+                Ok(m) => Some((loader, m)),
+                Err(e) => {
+                    // SAFETY: nothing else was made on the instance.
+                    unsafe { instance.destroy_instance(None) };
+                    return Err(e).context("vkCreateDebugUtilsMessengerEXT");
+                }
+            }
+        } else {
+            None
+        };
+        // From here on, dropping `partial` destroys the messenger and the instance.
+        let partial = PartialInstance { instance: &instance, messenger: messenger.as_ref() };
         // SAFETY: live instance.
         let physicals = unsafe { instance.enumerate_physical_devices() }?;
-        let mut chosen = None;
-        for p in physicals {
-            // SAFETY: `p` belongs to `instance`.
-            let props = unsafe { instance.get_physical_device_properties(p) };
-            let n = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-            if n.contains(name) {
-                chosen = Some((p, props));
-                break;
-            }
-        }
-        let Some((physical, props)) = chosen else {
-            // SAFETY: nothing else uses the instance.
-            unsafe { instance.destroy_instance(None) };
-            bail!("no Vulkan device named like {name:?} for the ash baseline");
+        let Some(physical) = physicals.into_iter().find(|&p| device_uuid(&instance, p) == uuid) else {
+            bail!("raykit's GPU ({}) is not among this instance's devices", ctx.device_name());
         };
+        // SAFETY: `physical` belongs to `instance`.
+        let props = unsafe { instance.get_physical_device_properties(physical) };
         // SAFETY: as above.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
         let family = families
             .iter()
             .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
             .context("no compute queue")?;
-        let timestamps = families[family].timestamp_valid_bits > 0 && props.limits.timestamp_period > 0.0;
+        let timestamp_valid_bits = families[family].timestamp_valid_bits;
+        let timestamps = timestamp_valid_bits > 0 && props.limits.timestamp_period > 0.0;
         let mut accel_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
-        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut accel_props);
+        let mut rt_props = vk::PhysicalDeviceRayTracingPipelinePropertiesKHR::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut accel_props).push_next(&mut rt_props);
         // SAFETY: as above.
         unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
         let scratch_alignment = accel_props.min_acceleration_structure_scratch_offset_alignment.max(1) as u64;
+        let rt_props = RtProperties {
+            handle_size: rt_props.shader_group_handle_size,
+            handle_alignment: rt_props.shader_group_handle_alignment.max(1),
+            base_alignment: rt_props.shader_group_base_alignment.max(1),
+        };
 
-        let extensions: [&CStr; 2] = [ash::khr::acceleration_structure::NAME, ash::khr::deferred_host_operations::NAME];
+        let extensions: [&CStr; 3] = [
+            ash::khr::acceleration_structure::NAME,
+            ash::khr::ray_tracing_pipeline::NAME,
+            ash::khr::deferred_host_operations::NAME,
+        ];
         let extension_ptrs: Vec<_> = extensions.iter().map(|e| e.as_ptr()).collect();
         let mut accel_features =
             vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+        let mut rt_features = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
         let mut v12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
         let priorities = [1.0f32];
         let queues =
@@ -117,17 +238,28 @@ impl AshDevice {
             .queue_create_infos(&queues)
             .enabled_extension_names(&extension_ptrs)
             .push_next(&mut accel_features)
+            .push_next(&mut rt_features)
             .push_next(&mut v12);
         // SAFETY: the extensions and features are those raykit also requires of this device.
         let device = unsafe { instance.create_device(physical, &info, None) }?;
+        std::mem::forget(partial);
         let accel = ash::khr::acceleration_structure::Device::new(&instance, &device);
+        let rt = ash::khr::ray_tracing_pipeline::Device::new(&instance, &device);
         // SAFETY: the queue was requested above.
         let queue = unsafe { device.get_device_queue(family as u32, 0) };
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(family as u32)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: valid create info.
-        let pool = unsafe { device.create_command_pool(&pool_info, None) }?;
+        let pool = match unsafe { device.create_command_pool(&pool_info, None) } {
+            Ok(pool) => pool,
+            Err(e) => {
+                // SAFETY: nothing else was made on the device.
+                unsafe { device.destroy_device(None) };
+                drop(PartialInstance { instance: &instance, messenger: messenger.as_ref() });
+                return Err(e).context("vkCreateCommandPool");
+            }
+        };
         // SAFETY: as above.
         let memory_props = unsafe { instance.get_physical_device_memory_properties(physical) };
         Ok(AshDevice {
@@ -135,14 +267,24 @@ impl AshDevice {
             instance,
             device,
             accel,
+            rt,
+            rt_props,
             queue,
             pool,
             memory_props,
             scratch_alignment,
             timestamp_period_ns: props.limits.timestamp_period as f64,
+            timestamp_valid_bits,
             timestamps,
             arena: RefCell::new(Arena::default()),
+            messenger,
+            messages,
         })
+    }
+
+    /// The validation layer's messages so far (none without `RAYKIT_VALIDATION=1`).
+    pub fn messages(&self) -> Vec<String> {
+        self.messages.lock().map(|m| m.clone()).unwrap_or_default()
     }
 
     fn memory_type(&self, bits: u32, wanted: vk::MemoryPropertyFlags) -> anyhow::Result<u32> {
@@ -162,7 +304,7 @@ impl AshDevice {
             .context("no suitable memory type")
     }
 
-    fn buffer(&self, size: u64, usage: vk::BufferUsageFlags, host: bool) -> anyhow::Result<Buffer> {
+    pub(crate) fn buffer(&self, size: u64, usage: vk::BufferUsageFlags, host: bool) -> anyhow::Result<Buffer> {
         let info = vk::BufferCreateInfo::default()
             .size(size.max(4))
             .usage(usage | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS);
@@ -192,7 +334,7 @@ impl AshDevice {
 
     /// Copies `parts` into the persistent input buffer (grown when too small), each
     /// at a 16-byte-aligned offset; returns their device addresses.
-    fn upload(&self, parts: &[&[u8]]) -> anyhow::Result<Vec<u64>> {
+    pub(crate) fn upload(&self, parts: &[&[u8]]) -> anyhow::Result<Vec<u64>> {
         let mut offsets = Vec::new();
         let mut len = 0u64;
         for p in parts {
@@ -228,7 +370,7 @@ impl AshDevice {
     }
 
     /// The persistent scratch buffer's aligned address, grown to `size` when smaller.
-    fn scratch(&self, size: u64) -> anyhow::Result<u64> {
+    pub(crate) fn scratch(&self, size: u64) -> anyhow::Result<u64> {
         let mut arena = self.arena.borrow_mut();
         let size = size + self.scratch_alignment;
         if arena.scratch.as_ref().is_none_or(|(_, cap)| *cap < size) {
@@ -241,7 +383,7 @@ impl AshDevice {
         Ok(b.address.div_ceil(self.scratch_alignment) * self.scratch_alignment)
     }
 
-    fn free(&self, b: Buffer) {
+    pub(crate) fn free(&self, b: Buffer) {
         // SAFETY: the work using the buffer has finished.
         unsafe {
             self.device.destroy_buffer(b.buffer, None);
@@ -250,7 +392,7 @@ impl AshDevice {
     }
 
     /// Records `record` into a one-time command buffer, submits it and waits.
-    fn submit_and_wait(&self, record: impl FnOnce(vk::CommandBuffer)) -> anyhow::Result<()> {
+    pub(crate) fn submit_and_wait(&self, record: impl FnOnce(vk::CommandBuffer)) -> anyhow::Result<()> {
         let info = vk::CommandBufferAllocateInfo::default().command_pool(self.pool).command_buffer_count(1);
         // SAFETY: single-threaded use of the pool.
         let cmd = unsafe { self.device.allocate_command_buffers(&info) }?[0];
@@ -475,36 +617,59 @@ impl Drop for AshDevice {
                 self.free(b);
             }
             self.device.destroy_command_pool(self.pool, None);
+            let before = self.messages().len();
             self.device.destroy_device(None);
+            // What the validation layer says at destruction (objects left alive)
+            // comes after the suites' checks: it is printed.
+            for m in self.messages().iter().skip(before) {
+                eprintln!("ash baseline: validation at device destruction: {m}");
+            }
+            if let Some((loader, messenger)) = &self.messenger {
+                loader.destroy_debug_utils_messenger(*messenger, None);
+            }
             self.instance.destroy_instance(None);
         }
     }
 }
 
-fn as_bytes<T: Copy>(data: &[T]) -> &[u8] {
+/// An instance (and its messenger) that the device's constructor destroys
+/// when it returns early.
+struct PartialInstance<'a> {
+    instance: &'a ash::Instance,
+    messenger: Option<&'a (ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+}
+
+impl Drop for PartialInstance<'_> {
+    fn drop(&mut self) {
+        // SAFETY: no device of the instance is left; the messenger goes first.
+        unsafe {
+            if let Some((loader, messenger)) = self.messenger {
+                loader.destroy_debug_utils_messenger(*messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+pub(crate) fn as_bytes<T: Copy>(data: &[T]) -> &[u8] {
     // SAFETY: `T` is plain data here (f32 arrays, u32) without padding.
     unsafe { std::slice::from_raw_parts(data.as_ptr() as *const u8, std::mem::size_of_val(data)) }
 }
 
 /// Memory properties, timestamp bits and timestamp period (ns) of raykit's physical
-/// device (matched by name).
+/// device.
 fn raykit_physical(ctx: &raykit::Context) -> anyhow::Result<(vk::PhysicalDeviceMemoryProperties, u32, f64)> {
     let instance = ctx.raw_instance().context("the ash tracer needs a Vulkan context")?;
+    let physical = ctx.raw_physical_device().context("the ash tracer needs a Vulkan context")?;
     let family = ctx.queue_family().context("the ash tracer needs a Vulkan context")? as usize;
-    // SAFETY: live instance.
-    for physical in unsafe { instance.enumerate_physical_devices() }? {
-        // SAFETY: `physical` came from this instance.
-        let props = unsafe { instance.get_physical_device_properties(physical) };
-        if props.device_name_as_c_str().is_ok_and(|n| n.to_string_lossy() == ctx.device_name()) {
-            // SAFETY: as above.
-            let memory = unsafe { instance.get_physical_device_memory_properties(physical) };
-            // SAFETY: as above.
-            let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-            let bits = families.get(family).map_or(0, |f| f.timestamp_valid_bits);
-            return Ok((memory, bits, props.limits.timestamp_period as f64));
-        }
-    }
-    bail!("raykit's device is not among the instance's devices")
+    // SAFETY: `physical` came from this live instance.
+    let props = unsafe { instance.get_physical_device_properties(physical) };
+    // SAFETY: as above.
+    let memory = unsafe { instance.get_physical_device_memory_properties(physical) };
+    // SAFETY: as above.
+    let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+    let bits = families.get(family).map_or(0, |f| f.timestamp_valid_bits);
+    Ok((memory, bits, props.limits.timestamp_period as f64))
 }
 
 /// Slots of raykit's buffer table (binding 0) and texture table (binding 1).

@@ -55,6 +55,7 @@
 
 mod accel;
 mod ash_baseline;
+mod ash_independent;
 mod cpu;
 mod denoise;
 mod devices;
@@ -161,8 +162,15 @@ fn parse() -> anyhow::Result<Args> {
 
 fn main() -> anyhow::Result<()> {
     let args = parse()?;
+    // With `RAYKIT_VALIDATION=1` the Khronos validation layer checks raykit's calls
+    // and the hand-written ash baselines' (their `AshDevice` follows the same
+    // variable); timings taken so are not the device's.
+    let validation = ash_baseline::validation_requested();
+    if validation {
+        eprintln!("RAYKIT_VALIDATION=1: the validation layer is on; timings are not representative");
+    }
     let ctx = Context::new(ContextOptions {
-        validation: Some(false),
+        validation: Some(validation),
         device_name_contains: args.device.clone(),
         ..Default::default()
     })?;
@@ -172,7 +180,7 @@ fn main() -> anyhow::Result<()> {
     let mut markdown = format!("# raykit benchmarks on {device}\n\n");
     for suite in &args.suites {
         if suite == "accel" {
-            let ash = ash_baseline::AshDevice::new(&device)?;
+            let ash = ash_baseline::AshDevice::new(&ctx)?;
             eprintln!("accel: GPU timestamps {}", if ash.has_timestamps() { "available" } else { "not available" });
             let rows = accel::run(&ctx, &ash, &args.sizes, args.reps)?;
             let table = accel::markdown(&rows, &device);

@@ -2,7 +2,10 @@
 //!
 //! * Primary rays, at each `--optix-sizes` (default 1920x1080 and 3840x2160):
 //!   the `primary` suite's height field and camera. raykit's Rust programs, their
-//!   GLSL twin and the hand-written ash launch (device-local output, see
+//!   GLSL twin, the independent ash baseline (its own programs, structures,
+//!   pipeline and SBT on its own device, see [`crate::ash_independent`]; its
+//!   picture is checked against raykit's before anything is timed) and the
+//!   hand-written ash launch of raykit's own pipeline (see
 //!   [`crate::ash_baseline::AshTracer`]) run interleaved as in `primary`; then the
 //!   scene (vertices, indices, camera, background, size) is written to a file and
 //!   the OptiX program (`raykit-optix primary`) builds its own compacted GAS from
@@ -37,9 +40,10 @@ use raykit::glam::Vec3;
 use raykit::{Context, LaunchTimer};
 use serde_json::{json, Value};
 
-use crate::ash_baseline::AshTracer;
+use crate::ash_baseline::{AshDevice, AshTracer};
+use crate::ash_independent::{Camera, Difference, IndependentTracer};
 use crate::stats::Summary;
-use crate::trace::{interleave, Language, Options, Variant};
+use crate::trace::{interleave, Language, Options, Variant, ASH_INDEPENDENT, ASH_LAUNCH};
 
 /// The scene files' magic (`ROPT`) and version; `bench/optix/main.cpp` reads them.
 const MAGIC: u32 = 0x5450_4f52;
@@ -307,9 +311,11 @@ fn timing_name(timer: Option<&LaunchTimer>) -> &'static str {
     }
 }
 
-/// The primary-ray comparison at `size`.
+/// The primary-ray comparison at `size`; `device` is the independent ash
+/// baseline's.
 fn primary(
     ctx: &Context,
+    device: &AshDevice,
     timer: Option<&LaunchTimer>,
     opts: &Options,
     twin: &Twin,
@@ -327,8 +333,22 @@ fn primary(
     let glsl = crate::trace::primary_pipeline(ctx, Language::Glsl)?;
     let ash = AshTracer::new(ctx, width as usize * height as usize)?;
     let ash_params = AshTracer::params_with_output(bytemuck::bytes_of(&scene.params));
+    let (vertices, indices) = crate::accel::grid(opts.triangles);
+    let arrays: Vec<[f32; 3]> = vertices.iter().map(|v| v.to_array()).collect();
+    let independent = IndependentTracer::new(device, &arrays, &indices, width as usize * height as usize)?;
+    drop(arrays);
+    let camera = Camera::of(&scene.params, BACKGROUND);
     let rays = width as u64 * height as u64;
     let dims = [width, height, 1];
+    // The independent baseline must draw raykit's picture: checked before anything is timed.
+    rust.pipeline.launch(&rust.sbt, &scene.params, dims)?;
+    independent.launch(&camera, dims)?;
+    let independent_difference =
+        Difference::of(&scene.image.read()?, &independent.picture()?, triangle_device::make_color(BACKGROUND));
+    anyhow::ensure!(
+        independent_difference.differ == 0,
+        "the independent ash baseline's picture is not raykit's ({width}x{height}): {independent_difference}"
+    );
     let launch = |p: &crate::trace::PrimaryPipeline| -> anyhow::Result<(f64, u64)> {
         let s = match timer {
             Some(t) => p.pipeline.launch_timed(&p.sbt, &scene.params, dims, t)?.as_secs_f64(),
@@ -344,7 +364,6 @@ fn primary(
     // The scene as raykit traces it, for the twin.
     let scene_path = dir.join(format!("primary_{width}x{height}.scene"));
     if let Twin::Ready(_) = twin {
-        let (vertices, indices) = crate::accel::grid(opts.triangles);
         let p = &scene.params;
         let mut w = Writer::header(1);
         w.u32(width).u32(height).u32(vertices.len() as u32).u32(indices.len() as u32);
@@ -365,12 +384,13 @@ fn primary(
         .filter(|(_, (tw, th))| width % tw == 0 && height % th == 0)
         .map(|(name, tile)| Ok((name, crate::trace::primary_pipeline(ctx, Language::WgslTiled(tile.0, tile.1))?)))
         .collect::<anyhow::Result<_>>()?;
-    let mut names = vec!["Rust", "GLSL", "ash", "WGSL"];
+    let mut names = vec!["Rust", "GLSL", ASH_INDEPENDENT, ASH_LAUNCH, "WGSL"];
     names.extend(tiles.iter().map(|(name, _)| *name));
     let mut variants: Vec<Variant<'_>> = vec![
         ("Rust", Box::new(|| launch(&rust))),
         ("GLSL", Box::new(|| launch(&glsl))),
-        ("ash", Box::new(|| Ok((crate::trace::ash_launch(&ash, &rust, &ash_params, dims)?, rays)))),
+        (ASH_INDEPENDENT, Box::new(|| Ok((independent.launch(&camera, dims)?, rays)))),
+        (ASH_LAUNCH, Box::new(|| Ok((crate::trace::ash_launch(&ash, &rust, &ash_params, dims)?, rays)))),
         ("WGSL", Box::new(|| launch(&wgsl))),
     ];
     for (name, pipeline) in &tiles {
@@ -387,6 +407,11 @@ fn primary(
     rust.pipeline.launch(&rust.sbt, &scene.params, dims)?;
     let picture = scene.image.read()?;
     let ash_differs = picture.iter().zip(ash.picture()?).filter(|(a, b)| **a != *b).count();
+    let independent_differs =
+        Difference::of(&picture, &independent.picture()?, triangle_device::make_color(BACKGROUND));
+    let ash_check =
+        format!("{ASH_INDEPENDENT}: {independent_differs}; {ASH_LAUNCH}: {ash_differs} pixels differ from raykit's");
+    let ash_same = ash_differs == 0 && independent_differs.differ == 0;
     // The tiled WGSL programs must draw the plain WGSL picture.
     wgsl.pipeline.launch(&wgsl.sbt, &scene.params, dims)?;
     let wgsl_picture = scene.image.read()?;
@@ -401,13 +426,13 @@ fn primary(
             suite: "primary",
             setup,
             rows,
-            check: format!("ash: {ash_differs} pixels differ from raykit's; OptiX not run"),
-            passed: Some(ash_differs == 0),
+            check: format!("{ash_check}; OptiX not run"),
+            passed: Some(ash_same),
             optix: None,
         });
     }
     let mut checks = Vec::new();
-    let mut all_same = ash_differs == 0;
+    let mut all_same = ash_same;
     for traversable in Traversable::BOTH {
         let Some((run, image)) = runs.get(traversable) else { continue };
         let (check, same) = compare_primary(&picture, image, traversable.row_name())?;
@@ -419,7 +444,7 @@ fn primary(
     // The tiled programs are a timing study: NVIDIA compiles them apart from the
     // plain WGSL ones, and a few pixels round the other way; counted, not failed.
     let check = format!(
-        "{}; ash: {ash_differs} differ; the tiled WGSL programs: {tiled_differs} pixels differ from the plain WGSL's",
+        "{}; {ash_check}; the tiled WGSL programs: {tiled_differs} pixels differ from the plain WGSL's",
         checks.join("; ")
     );
     // raykit's picture, for a closer look beside the twin's.
@@ -658,17 +683,20 @@ pub fn run(
     }
     let dir = out.join("optix");
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    // The independent ash baseline's device, on raykit's GPU.
+    let device = AshDevice::new(ctx)?;
     let mut sections = Vec::new();
     for &size in &opts.optix_sizes {
-        sections.push(primary(ctx, timer, opts, &twin, &dir, size)?);
+        sections.push(primary(ctx, &device, timer, opts, &twin, &dir, size)?);
     }
     sections.push(path(ctx, timer, opts, &twin, &dir)?);
+    crate::ash_independent::ensure_no_validation_messages(ctx, &device)?;
     Ok((markdown(&sections, &twin), json(&sections, &twin)))
 }
 
 fn markdown(sections: &[Section], twin: &Twin) -> String {
     let mut s = String::from(
-        "raykit's Rust programs against their GLSL twin, the hand-written ash launch (device-local output) and the OptiX twin (`bench/optix`, CUDA events around `optixLaunch`, compacted GAS, fast trace). In each of `--optix-rounds` rounds, Rust, GLSL and ash run interleaved after a warm-up launch each, then OptiX in its own process after 3 warm-up launches, tracing its GAS alone (`OptiX`, as the SDK's samples) and a one-instance IAS over it (`OptiX (IAS)`, the two levels every Vulkan trace has); launch times are pooled over the rounds. Median (± half the interquartile range); `raykit / X` is raykit's Mrays/s over X's (> 1: raykit faster): median of per-repetition ratios, against OptiX the ratio of medians.\n\n",
+        "raykit's Rust programs against their GLSL twin, the independent ash baseline (`ash (independent)`: its own GLSL programs with a plain descriptor set, its own BLAS (fast trace, not compacted), one-instance TLAS, pipeline and SBT on its own `VkDevice`, device-local output), the hand-written ash launch of raykit's own pipeline, SBT and TLAS (`ash launch, raykit pipeline`: what raykit's launch path costs) and the OptiX twin (`bench/optix`, CUDA events around `optixLaunch`, compacted GAS, fast trace). In each of `--optix-rounds` rounds, raykit's variants and the ash baselines run interleaved after a warm-up launch each, then OptiX in its own process after 3 warm-up launches, tracing its GAS alone (`OptiX`, as the SDK's samples) and a one-instance IAS over it (`OptiX (IAS)`, the two levels every Vulkan trace has); launch times are pooled over the rounds. Median (± half the interquartile range); `raykit / X` is raykit's Mrays/s over X's (> 1: raykit faster): median of per-repetition ratios, against OptiX the ratio of medians.\n\n",
     );
     if let Twin::Missing(why) = twin {
         s.push_str(&format!("**OptiX not run**: {why}\n\n"));
@@ -695,7 +723,7 @@ fn markdown(sections: &[Section], twin: &Twin) -> String {
         }
     }
     s.push_str(
-        "\n| suite | setup | raykit / GLSL | raykit / ash | raykit / OptiX | raykit / OptiX (IAS) |\n|---|---|---:|---:|---:|---:|\n",
+        "\n| suite | setup | raykit / GLSL | raykit / ash (independent) | raykit / ash launch of raykit's pipeline | raykit / OptiX | raykit / OptiX (IAS) |\n|---|---|---:|---:|---:|---:|---:|\n",
     );
     for sec in sections {
         let ratio = |name: &str| {
@@ -705,11 +733,12 @@ fn markdown(sections: &[Section], twin: &Twin) -> String {
                 .map_or("–".to_owned(), |r| format!("{:.3}", r.raykit_over.median))
         };
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} |\n",
             sec.suite,
             sec.setup,
             ratio("GLSL"),
-            ratio("ash"),
+            ratio(ASH_INDEPENDENT),
+            ratio(ASH_LAUNCH),
             ratio("OptiX"),
             ratio("OptiX (IAS)")
         ));

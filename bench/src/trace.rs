@@ -5,9 +5,13 @@
 //!   (`--triangles`, default 1,000,000) at `--primary-size` (default 1920x1080),
 //!   with optixTriangle's programs (`triangle-device`;
 //!   `examples/triangle/glsl` through `spirv-opt -O`, in `bench/glsl/`;
-//!   `examples/triangle/wgsl`, compiled by naga when the suite starts), and the
-//!   hand-written ash launch of the Rust pipeline with a device-local output
-//!   buffer ([`AshTracer`]; `vs ash`), whose picture must be raykit's.
+//!   `examples/triangle/wgsl`, compiled by naga when the suite starts), against
+//!   the independent ash baseline ([`IndependentTracer`]: its own GLSL programs,
+//!   BLAS, TLAS, pipeline and SBT on its own device; `ash (independent)`, whose
+//!   ratios are the `vs ash` column), and beside them the hand-written ash launch
+//!   of the Rust programs' own `VkPipeline` and SBT ([`AshTracer`];
+//!   `ash launch, raykit pipeline`: what raykit's launch path costs). Both ash
+//!   pictures must be raykit's.
 //! * `path`: the path tracer (`path-tracer-device`, `examples/path_tracer/glsl`
 //!   and `examples/path_tracer/wgsl`) on the Cornell box at `--path-size`
 //!   (default 512) with `--spp` paths per pixel in one launch (default 1).
@@ -28,8 +32,14 @@ use triangle_device::{MissData, Params as PrimaryParams};
 
 use anyhow::Context as _;
 
-use crate::ash_baseline::AshTracer;
+use crate::ash_baseline::{AshDevice, AshTracer};
+use crate::ash_independent::{Camera, Difference, IndependentTracer};
 use crate::stats::Summary;
+
+/// The row of the independent ash baseline ([`IndependentTracer`]).
+pub const ASH_INDEPENDENT: &str = "ash (independent)";
+/// The row of the hand-written ash launch of raykit's own pipeline and SBT ([`AshTracer`]).
+pub const ASH_LAUNCH: &str = "ash launch, raykit pipeline";
 
 /// Options of the tracing suites.
 pub struct Options {
@@ -87,9 +97,12 @@ pub struct Row {
     pub mrays: Summary,
     /// Per-repetition ratio of this variant's Mrays/s to the GLSL twin's.
     pub vs_glsl: Summary,
-    /// Per-repetition ratio of this variant's Mrays/s to the hand-written ash
-    /// launch's, where the suite has one.
+    /// Per-repetition ratio of this variant's Mrays/s to the independent ash
+    /// baseline's, where the suite has one.
     pub vs_ash: Option<Summary>,
+    /// Per-repetition ratio of this variant's Mrays/s to the hand-written ash
+    /// launch of raykit's pipeline, where the suite has one.
+    pub vs_ash_launch: Option<Summary>,
     /// `GPU timestamps` or `wall clock`.
     pub timing: &'static str,
 }
@@ -125,17 +138,20 @@ fn rows(
     let glsl = names.iter().position(|n| *n == "GLSL").unwrap_or(0);
     let mrays_of = |r: &[(f64, u64)]| -> Vec<f64> { r.iter().map(|(s, rays)| *rays as f64 / s / 1e6).collect() };
     let glsl_mrays = mrays_of(&results[glsl]);
-    let ash_mrays = names.iter().position(|n| *n == "ash").map(|i| mrays_of(&results[i]));
+    let ash_mrays = names.iter().position(|n| *n == ASH_INDEPENDENT).map(|i| mrays_of(&results[i]));
+    let launch_mrays = names.iter().position(|n| *n == ASH_LAUNCH).map(|i| mrays_of(&results[i]));
     names
         .iter()
         .zip(results)
         .map(|(name, r)| {
             let mrays = mrays_of(r);
             let ratios: Vec<f64> = mrays.iter().zip(&glsl_mrays).map(|(a, b)| a / b).collect();
-            let vs_ash = ash_mrays.as_ref().map(|ash| {
-                let ratios: Vec<f64> = mrays.iter().zip(ash).map(|(a, b)| a / b).collect();
+            let over = |base: &Vec<f64>| {
+                let ratios: Vec<f64> = mrays.iter().zip(base).map(|(a, b)| a / b).collect();
                 Summary::of(&ratios)
-            });
+            };
+            let vs_ash = ash_mrays.as_ref().map(over);
+            let vs_ash_launch = launch_mrays.as_ref().map(over);
             let mut rays: Vec<u64> = r.iter().map(|(_, n)| *n).collect();
             rays.sort_unstable();
             Row {
@@ -148,6 +164,7 @@ fn rows(
                 mrays: Summary::of(&mrays),
                 vs_glsl: Summary::of(&ratios),
                 vs_ash,
+                vs_ash_launch,
                 timing,
             }
         })
@@ -384,11 +401,21 @@ pub fn primary(ctx: &Context, timer: Option<&LaunchTimer>, opts: &Options) -> an
     let rust = primary_pipeline(ctx, Language::Rust)?;
     let glsl = primary_pipeline(ctx, Language::Glsl)?;
     let wgsl = primary_pipeline(ctx, Language::Wgsl)?;
-    let ash = AshTracer::new(ctx, width as usize * height as usize)?;
+    let words = width as usize * height as usize;
+    let ash = AshTracer::new(ctx, words)?;
+    // The independent baseline: its own device on raykit's GPU, its own structures
+    // over the same mesh (both scenes trace it; only the camera differs).
+    let device = AshDevice::new(ctx)?;
+    let (vertices, indices) = crate::accel::grid(opts.triangles);
+    let vertices: Vec<[f32; 3]> = vertices.iter().map(|v| v.to_array()).collect();
+    let independent = IndependentTracer::new(&device, &vertices, &indices, words)?;
+    drop((vertices, indices));
     let mut out = Vec::new();
     for coverage in Coverage::BOTH {
-        out.extend(primary_rows(ctx, timer, opts, coverage, [&rust, &glsl, &wgsl], &ash)?);
+        out.extend(primary_rows(ctx, timer, opts, coverage, [&rust, &glsl, &wgsl], &ash, &independent)?);
     }
+    drop(independent);
+    crate::ash_independent::ensure_no_validation_messages(ctx, &device)?;
     Ok(out)
 }
 
@@ -400,15 +427,17 @@ fn primary_rows(
     coverage: Coverage,
     [rust, glsl, wgsl]: [&PrimaryPipeline; 3],
     ash: &AshTracer<'_>,
+    independent: &IndependentTracer<'_>,
 ) -> anyhow::Result<Vec<Row>> {
     let (width, height) = opts.primary_size;
     let built = Instant::now();
     let scene = opts.primary_scene(ctx, coverage)?;
     eprintln!("primary: {} triangles built in {:.1} s", opts.triangles, built.elapsed().as_secs_f64());
     let ash_params = AshTracer::params_with_output(bytemuck::bytes_of(&scene.params));
+    let camera = Camera::of(&scene.params, PRIMARY_BACKGROUND);
     let rays = width as u64 * height as u64;
+    let dims = [width, height, 1];
     let launch = |p: &PrimaryPipeline| -> anyhow::Result<(f64, u64)> {
-        let dims = [width, height, 1];
         let s = match timer {
             Some(t) => seconds(p.pipeline.launch_timed(&p.sbt, &scene.params, dims, t)?),
             None => {
@@ -423,11 +452,12 @@ fn primary_rows(
         ("Rust", Box::new(|| launch(rust))),
         ("GLSL", Box::new(|| launch(glsl))),
         ("WGSL", Box::new(|| launch(wgsl))),
-        ("ash", Box::new(|| Ok((ash_launch(ash, rust, &ash_params, [width, height, 1])?, rays)))),
+        (ASH_INDEPENDENT, Box::new(|| Ok((independent.launch(&camera, dims)?, rays)))),
+        (ASH_LAUNCH, Box::new(|| Ok((ash_launch(ash, rust, &ash_params, dims)?, rays)))),
     ];
     let results = interleave(&mut variants, opts.reps)?;
     drop(variants);
-    // The programs drew a picture, and the ash launch the same one.
+    // The programs drew a picture, and both ash baselines the same one.
     rust.pipeline.launch(&rust.sbt, &scene.params, [width, height, 1])?;
     let picture = scene.image.read()?;
     anyhow::ensure!(picture.iter().any(|&p| p != picture[0]), "the primary-ray image is uniform");
@@ -437,9 +467,15 @@ fn primary_rows(
         anyhow::ensure!((misses - 0.75).abs() < 0.02, "{:.1}% of primary rays missed, not 75%", misses * 100.0);
     }
     let differing = picture.iter().zip(ash.picture()?).filter(|(a, b)| **a != *b).count();
-    anyhow::ensure!(differing == 0, "the ash launch drew {differing} pixels unlike raykit's");
+    anyhow::ensure!(differing == 0, "the ash launch of raykit's pipeline drew {differing} pixels unlike raykit's");
+    let difference = Difference::of(&picture, &independent.picture()?, triangle_device::make_color(PRIMARY_BACKGROUND));
+    anyhow::ensure!(
+        difference.differ == 0,
+        "the independent ash baseline's picture is not raykit's ({}): {difference}",
+        coverage.label()
+    );
     let setup = format!("{} triangles, {}, {width}x{height}, 1 ray/pixel", opts.triangles, coverage.label());
-    Ok(rows("primary", &setup, timing_name(timer), &["Rust", "GLSL", "WGSL", "ash"], &results))
+    Ok(rows("primary", &setup, timing_name(timer), &["Rust", "GLSL", "WGSL", ASH_INDEPENDENT, ASH_LAUNCH], &results))
 }
 
 /// One launch of the Rust primary-ray pipeline `p` through the hand-written
@@ -494,11 +530,11 @@ fn timing_name(timer: Option<&LaunchTimer>) -> &'static str {
 /// The rows as a Markdown table.
 pub fn markdown(rows: &[Row]) -> String {
     let mut s = String::from(
-        "Same host code, same acceleration structures; variants interleaved in rotating order after one warm-up launch each; median (± half the interquartile range); `vs GLSL` is the median of per-repetition ratios of Mrays/s (> 1: faster than the GLSL twin).\n\n",
+        "raykit's variants (Rust, GLSL, WGSL) share their host code and acceleration structures; variants interleaved in rotating order after one warm-up launch each; median (± half the interquartile range); `vs GLSL` is the median of per-repetition ratios of Mrays/s (> 1: faster than the GLSL twin).\n\n",
     );
     let with_ash = rows.iter().any(|r| r.vs_ash.is_some());
     if with_ash {
-        s.push_str("`ash` is the hand-written launch of the Rust programs' `VkPipeline` and SBT with a device-local output buffer (`ash_baseline.rs`); `vs ash` is the median of per-repetition ratios of Mrays/s to it (the Rust row: raykit / ash).\n\n");
+        s.push_str("`ash (independent)` is the independent hand-written Vulkan baseline (`ash_independent.rs`): its own GLSL programs with a plain descriptor set, its own BLAS (not compacted) and one-instance TLAS, pipeline and SBT on its own `VkDevice`, device-local output; `vs ash` is the median of per-repetition ratios of Mrays/s to it (the Rust row: raykit / ash (independent)). `ash launch, raykit pipeline` launches raykit's own `VkPipeline`, SBT and TLAS by hand (`ash_baseline.rs`): raykit against it is what raykit's launch path costs.\n\n");
     }
     let (ash_head, ash_rule) = if with_ash { (" vs ash (min–max) |", "---:|") } else { ("", "") };
     s.push_str(&format!(
@@ -527,6 +563,24 @@ pub fn markdown(rows: &[Row]) -> String {
             r.timing
         ));
     }
+    if with_ash {
+        s.push_str(&summary(rows));
+    }
+    s
+}
+
+/// Per scene, raykit's Rust programs against the independent ash baseline and
+/// against the by-hand launch of raykit's own pipeline.
+fn summary(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "\n| setup | raykit / ash (independent) (min–max) | raykit / ash launch of raykit's pipeline (min–max) |\n|---|---:|---:|\n",
+    );
+    let cell = |r: &Option<Summary>| {
+        r.as_ref().map_or("–".to_owned(), |a| format!("{:.3} ({:.3}–{:.3})", a.median, a.min, a.max))
+    };
+    for r in rows.iter().filter(|r| r.variant == "Rust" && r.vs_ash.is_some()) {
+        s.push_str(&format!("| {} | {} | {} |\n", r.setup, cell(&r.vs_ash), cell(&r.vs_ash_launch)));
+    }
     s
 }
 
@@ -538,7 +592,8 @@ pub fn json(rows: &[Row]) -> serde_json::Value {
                 serde_json::json!({
                     "suite": r.suite, "setup": r.setup, "programs": r.variant, "reps": r.reps, "rays_per_launch": r.rays,
                     "seconds": r.seconds.json(), "mrays_per_s": r.mrays.json(), "vs_glsl": r.vs_glsl.json(),
-                    "vs_ash": r.vs_ash.map(|a| a.json()), "timing": r.timing,
+                    "vs_ash_independent": r.vs_ash.map(|a| a.json()),
+                    "vs_ash_launch_raykit_pipeline": r.vs_ash_launch.map(|a| a.json()), "timing": r.timing,
                 })
             })
             .collect(),
