@@ -5,7 +5,8 @@
 //! `stack` — per-group stack sizes and each stack-size estimate, with the
 //! driver default, for the example and test pipelines (no timing);
 //! `primary` and `path` — Rust device programs against their GLSL and WGSL twins (primary
-//! rays on a ≥ 1M-triangle mesh, the path tracer); `launch` — raykit's launch
+//! rays on a ≥ 1M-triangle mesh, the path tracer); the primary rays also against an
+//! independent hand-written ash program (see `ash_independent.rs`); `launch` — raykit's launch
 //! path and pipeline + SBT creation against hand-written ash; `shaders` — SPIR-V
 //! sizes (and build times measured by `cargo xtask bench`). `pipeline` — pipeline creation with the compile
 //! cache off, cold and warm. See `bench/README.md`.
@@ -25,8 +26,8 @@
 //!
 //! `optix` — raykit's primary rays (at each `--optix-sizes`) and path tracer
 //! against their OptiX twin (`bench/optix`, a separate CUDA program that
-//! `--optix-bin` names), with the GLSL twin and the hand-written ash launch
-//! beside them, and checks that the pictures agree (see `optix.rs`). Not run
+//! `--optix-bin` names), with the GLSL twin and the two hand-written ash
+//! baselines beside them, and checks that the pictures agree (see `optix.rs`). Not run
 //! unless named.
 //!
 //! `denoise` — Open Image Denoise's RT filter (`raykit-denoise`) at 512×512 and

@@ -8,7 +8,7 @@
 //!   `examples/triangle/wgsl`, compiled by naga when the suite starts), against
 //!   the independent ash baseline ([`IndependentTracer`]: its own GLSL programs,
 //!   BLAS, TLAS, pipeline and SBT on its own device; `ash (independent)`, whose
-//!   ratios are the `vs ash` column), and beside them the hand-written ash launch
+//!   ratios are the `vs ash (independent)` column), and beside them the hand-written ash launch
 //!   of the Rust programs' own `VkPipeline` and SBT ([`AshTracer`];
 //!   `ash launch, raykit pipeline`: what raykit's launch path costs). Both ash
 //!   pictures must be raykit's.
@@ -534,9 +534,9 @@ pub fn markdown(rows: &[Row]) -> String {
     );
     let with_ash = rows.iter().any(|r| r.vs_ash.is_some());
     if with_ash {
-        s.push_str("`ash (independent)` is the independent hand-written Vulkan baseline (`ash_independent.rs`): its own GLSL programs with a plain descriptor set, its own BLAS (not compacted) and one-instance TLAS, pipeline and SBT on its own `VkDevice`, device-local output; `vs ash` is the median of per-repetition ratios of Mrays/s to it (the Rust row: raykit / ash (independent)). `ash launch, raykit pipeline` launches raykit's own `VkPipeline`, SBT and TLAS by hand (`ash_baseline.rs`): raykit against it is what raykit's launch path costs.\n\n");
+        s.push_str("`ash (independent)` is the independent hand-written Vulkan baseline (`ash_independent.rs`): its own GLSL programs with a plain descriptor set, its own BLAS (not compacted) and one-instance TLAS, pipeline and SBT on its own `VkDevice`, device-local output; `vs ash (independent)` is the median of per-repetition ratios of Mrays/s to it (the Rust row: raykit / ash (independent)). `ash launch, raykit pipeline` launches raykit's own `VkPipeline`, SBT and TLAS by hand (`ash_baseline.rs`): raykit against it is what raykit's launch path costs.\n\n");
     }
-    let (ash_head, ash_rule) = if with_ash { (" vs ash (min–max) |", "---:|") } else { ("", "") };
+    let (ash_head, ash_rule) = if with_ash { (" vs ash (independent) (min–max) |", "---:|") } else { ("", "") };
     s.push_str(&format!(
         "| suite | setup | programs | reps | rays/launch | ms/launch | Mrays/s | vs GLSL (min–max) |{ash_head} timing |\n"
     ));
