@@ -690,3 +690,26 @@ pub fn ensure_no_validation_messages(ctx: &raykit::Context, dev: &AshDevice) -> 
     );
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn camera_is_the_programs_push_constant_block() {
+        // Five std430 vec4s: eye, u, v, w, background.
+        assert_eq!(std::mem::size_of::<Camera>(), 80);
+        assert_eq!(std::mem::offset_of!(Camera, background), 64);
+    }
+
+    #[test]
+    fn differences_are_told_apart() {
+        let background = 0xff33_1a4d;
+        let ours = [background, 0xff00_0000, 0xff10_2030, 0xff10_2030];
+        let theirs = [background, 0xff00_0001, 0xff10_2040, background];
+        let d = Difference::of(&ours, &theirs, background);
+        assert_eq!((d.total, d.differ, d.beyond_one, d.hit_miss), (4, 3, 2, 1));
+        assert_eq!(Difference::of(&ours, &ours, background).differ, 0);
+        assert_eq!(Difference::of(&ours, &ours[..3], background).differ, 1);
+    }
+}
