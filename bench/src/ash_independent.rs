@@ -646,6 +646,13 @@ pub struct Difference {
 }
 
 impl Difference {
+    /// Whether the pictures show the same hits: colours rounded the other way
+    /// anywhere, and at most one pixel in a thousand where another build's tree
+    /// gave a ray the other triangle of a shared edge (or grazed it).
+    pub fn acceptable(&self) -> bool {
+        self.beyond_one <= self.total / 1000
+    }
+
     /// Compares `theirs` with raykit's `ours`, `background` being the miss colour's word.
     pub fn of(ours: &[u32], theirs: &[u32], background: u32) -> Difference {
         let mut d = Difference { total: ours.len().max(theirs.len()), ..Difference::default() };

@@ -346,7 +346,7 @@ fn primary(
     let independent_difference =
         Difference::of(&scene.image.read()?, &independent.picture()?, triangle_device::make_color(BACKGROUND));
     anyhow::ensure!(
-        independent_difference.differ == 0,
+        independent_difference.acceptable(),
         "the independent ash baseline's picture is not raykit's ({width}x{height}): {independent_difference}"
     );
     let launch = |p: &crate::trace::PrimaryPipeline| -> anyhow::Result<(f64, u64)> {
