@@ -261,7 +261,7 @@ fn timed(rays: u64, launch: impl FnOnce() -> anyhow::Result<()>) -> anyhow::Resu
 }
 
 /// How many RGBA8 pixels of two pictures differ by more than two steps in a channel.
-fn differing_pixels(a: &[u32], b: &[u32]) -> usize {
+pub(crate) fn differing_pixels(a: &[u32], b: &[u32]) -> usize {
     a.iter().zip(b).filter(|(x, y)| channel_distance(**x, **y) > 2).count()
 }
 

@@ -18,7 +18,10 @@
 //! callgrind's `--toggle-collect`.
 //!
 //! `cpu` — the CPU backend against the Vulkan device, primary rays and the path
-//! tracer (16 spp), with the same Rust programs (see `cpu.rs`).
+//! tracer (16 spp), with the same Rust programs (see `cpu.rs`). `cpu-scaling` —
+//! the CPU backend's primary rays beside Embree's at each `--threads N,N,..`
+//! (default 1, 2, 4, … up to the logical CPUs; see `cpu_scaling.rs`). Not run
+//! unless named.
 //!
 //! `devices` — the path tracer on one device against the same progressive render
 //! split across a device group (`--devices all`, every ray-tracing GPU, or a
@@ -58,6 +61,7 @@ mod accel;
 mod ash_baseline;
 mod ash_independent;
 mod cpu;
+mod cpu_scaling;
 mod denoise;
 mod devices;
 mod embree;
@@ -77,7 +81,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context as _};
 use raykit::{Context, ContextOptions};
 
-const SUITES: [&str; 14] = [
+const SUITES: [&str; 15] = [
     "accel",
     "stack",
     "pipeline",
@@ -88,16 +92,18 @@ const SUITES: [&str; 14] = [
     "shaders",
     "soak",
     "cpu",
+    "cpu-scaling",
     "materials",
     "devices",
     "optix",
     "denoise",
 ];
 
-/// Suites run only when named: `devices` splits work across every GPU of the host;
+/// Suites run only when named: `cpu-scaling` runs the CPU backend and Embree at
+/// several thread counts; `devices` splits work across every GPU of the host;
 /// `optix` needs the OptiX twin built beside the binary; `denoise` needs Open
 /// Image Denoise (`cargo xtask bench denoise` installs it).
-const ONLY_WHEN_NAMED: [&str; 3] = ["devices", "optix", "denoise"];
+const ONLY_WHEN_NAMED: [&str; 4] = ["devices", "optix", "denoise", "cpu-scaling"];
 
 struct Args {
     suites: Vec<String>,
@@ -210,6 +216,13 @@ fn main() -> anyhow::Result<()> {
             markdown.push_str("## cpu\n\n");
             markdown.push_str(&table);
             report["suites"]["cpu"] = cpu::json(&rows);
+        } else if suite == "cpu-scaling" {
+            let rows = cpu_scaling::run(&args.trace, &args.trace.cpu_threads)?;
+            let table = cpu_scaling::markdown(&rows, &args.trace);
+            println!("## cpu-scaling\n\n{table}");
+            markdown.push_str("## cpu-scaling\n\n");
+            markdown.push_str(&table);
+            report["suites"]["cpu-scaling"] = cpu_scaling::json(&rows);
         } else if suite == "devices" {
             let results = devices::run(&args.trace, args.device.as_deref())?;
             let table = devices::markdown(&results);

@@ -22,6 +22,7 @@ pub fn default_options() -> Options {
         optix_bin: None,
         optix_sizes: vec![(1920, 1080), (3840, 2160)],
         optix_rounds: 3,
+        cpu_threads: Vec::new(),
         primary_gas: crate::trace::GasChoice::default(),
     }
 }
@@ -29,7 +30,7 @@ pub fn default_options() -> Options {
 /// Parses one option of these suites (`--triangles`, `--primary-size WxH`,
 /// `--path-size N`, `--spp N`, `--launches N`, `--devices all|N`,
 /// `--spp-per-launch N`, `--optix-bin PATH`, `--optix-sizes WxH,WxH`,
-/// `--optix-rounds N`, `--primary-gas LIST`); returns
+/// `--optix-rounds N`, `--primary-gas LIST`, `--threads N,N`); returns
 /// false when `name` is not one.
 pub fn parse_option(
     opts: &mut Options,
@@ -56,6 +57,13 @@ pub fn parse_option(
         "--optix-rounds" => {
             opts.optix_rounds = value()?.parse().context("--optix-rounds takes a number")?;
             anyhow::ensure!(opts.optix_rounds > 0, "--optix-rounds must be at least 1");
+        }
+        "--threads" => {
+            opts.cpu_threads = value()?
+                .split(',')
+                .map(|n| n.trim().parse::<usize>().context("--threads takes thread counts, N,N,..."))
+                .collect::<anyhow::Result<_>>()?;
+            anyhow::ensure!(opts.cpu_threads.iter().all(|&n| n > 0), "--threads counts must be at least 1");
         }
         "--optix-sizes" => {
             opts.optix_sizes = value()?

@@ -66,6 +66,8 @@ pub struct Options {
     pub primary_gas: GasChoice,
     /// Image sizes of the `optix` suite's primary rays.
     pub optix_sizes: Vec<(u32, u32)>,
+    /// Thread counts of the `cpu-scaling` suite (empty: 1, 2, 4, … up to the logical CPUs).
+    pub cpu_threads: Vec<usize>,
     /// Rounds of the `optix` suite: each runs raykit's variants interleaved,
     /// then the OptiX twin (single GAS, then IAS), so that both sides see the
     /// GPU in the same states.
