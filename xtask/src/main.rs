@@ -221,7 +221,7 @@ fn main() -> anyhow::Result<()> {
             if args.iter().any(|a| a == "denoise") {
                 oidn::ensure_oidn()?;
             }
-            if args.iter().any(|a| a == "cpu") {
+            if args.iter().any(|a| a == "cpu" || a == "cpu-scaling") {
                 setup::ensure_embree()?;
             }
             run(cargo().args(["build", "--release", "--quiet", "-p", "raykit-bench"]), "building raykit-bench")?;
