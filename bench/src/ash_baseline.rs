@@ -27,6 +27,8 @@ use std::sync::Mutex;
 use anyhow::{bail, Context as _};
 use ash::vk;
 
+use crate::ash_launcher::{Output, Submitter};
+
 /// A Vulkan device of its own (its own instance too) on raykit's GPU, set up for
 /// acceleration-structure builds and ray-tracing pipelines.
 pub struct AshDevice {
@@ -683,21 +685,12 @@ const OUTPUT_SLOT: u32 = 1;
 pub struct AshTracer<'c> {
     device: &'c ash::Device,
     rt: &'c ash::khr::ray_tracing_pipeline::Device,
-    queue: vk::Queue,
     pool: vk::CommandPool,
-    cmd: vk::CommandBuffer,
-    fence: vk::Fence,
+    submitter: Submitter<'c>,
     descriptor_pool: vk::DescriptorPool,
     set: vk::DescriptorSet,
-    /// The programs' output, device-local.
-    output: Buffer,
-    /// Host-visible, coherent copy of the output, mapped.
-    readback: Buffer,
-    readback_ptr: *const u8,
-    bytes: u64,
-    timestamps: Option<vk::QueryPool>,
-    period_ns: f64,
-    mask: u64,
+    /// The programs' output, device-local, and its mapped copy.
+    output: Output,
 }
 
 impl<'c> AshTracer<'c> {
@@ -739,9 +732,8 @@ impl<'c> AshTracer<'c> {
             vk::BufferUsageFlags::TRANSFER_DST,
             vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
         )?;
-        // SAFETY: host-visible memory, mapped for the tracer's lifetime.
-        let readback_ptr =
-            unsafe { device.map_memory(readback.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }? as *const u8;
+        let mut output = Output::new(output, readback, bytes);
+        output.map(device)?;
 
         // A set of raykit's buffer-table layout, with the output in one slot.
         let sizes = [
@@ -758,7 +750,7 @@ impl<'c> AshTracer<'c> {
         let alloc = vk::DescriptorSetAllocateInfo::default().descriptor_pool(descriptor_pool).set_layouts(&layouts);
         // SAFETY: the pool has room for this one set of that layout.
         let set = unsafe { device.allocate_descriptor_sets(&alloc) }?[0];
-        let infos = [vk::DescriptorBufferInfo::default().buffer(output.buffer).offset(0).range(vk::WHOLE_SIZE)];
+        let infos = [vk::DescriptorBufferInfo::default().buffer(output.device.buffer).offset(0).range(vk::WHOLE_SIZE)];
         let write = vk::WriteDescriptorSet::default()
             .dst_set(set)
             .dst_binding(raykit_abi::BUFFER_TABLE_BINDING)
@@ -776,36 +768,8 @@ impl<'c> AshTracer<'c> {
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: valid create info.
         let pool = unsafe { device.create_command_pool(&info, None) }?;
-        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1);
-        // SAFETY: the pool was just created.
-        let cmd = unsafe { device.allocate_command_buffers(&alloc) }?[0];
-        // SAFETY: valid create info.
-        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }?;
-        let timestamps = if valid_bits > 0 && period_ns > 0.0 {
-            let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2);
-            // SAFETY: valid create info.
-            Some(unsafe { device.create_query_pool(&info, None) }?)
-        } else {
-            None
-        };
-        let mask = if valid_bits >= 64 { u64::MAX } else { (1u64 << valid_bits) - 1 };
-        Ok(AshTracer {
-            device,
-            rt,
-            queue,
-            pool,
-            cmd,
-            fence,
-            descriptor_pool,
-            set,
-            output,
-            readback,
-            readback_ptr,
-            bytes,
-            timestamps,
-            period_ns,
-            mask,
-        })
+        let submitter = Submitter::new(device, queue, pool, valid_bits, period_ns)?;
+        Ok(AshTracer { device, rt, pool, submitter, descriptor_pool, set, output })
     }
 
     /// `params` (push constants) with their first word, the output buffer's
@@ -816,25 +780,6 @@ impl<'c> AshTracer<'c> {
             first.copy_from_slice(&OUTPUT_SLOT.to_ne_bytes());
         }
         bytes
-    }
-
-    /// Records `record` into the command buffer, submits it and waits.
-    fn submit(&self, record: impl FnOnce(vk::CommandBuffer)) -> anyhow::Result<()> {
-        let d = self.device;
-        // SAFETY: the command buffer is not in use (the last submission was waited for).
-        unsafe {
-            d.begin_command_buffer(
-                self.cmd,
-                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-            )?;
-            record(self.cmd);
-            d.end_command_buffer(self.cmd)?;
-            let cmds = [self.cmd];
-            d.queue_submit(self.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], self.fence)?;
-            d.wait_for_fences(&[self.fence], true, u64::MAX)?;
-            d.reset_fences(&[self.fence])?;
-        }
-        Ok(())
     }
 
     /// One launch of `pipeline` (raykit's `VkPipeline`, `layout` its layout) with
@@ -851,86 +796,42 @@ impl<'c> AshTracer<'c> {
     ) -> anyhow::Result<f64> {
         let d = self.device;
         let [raygen, miss, hit, callable] = regions;
-        let start = std::time::Instant::now();
-        self.submit(|cmd| {
-            // SAFETY: the pipeline, layout and SBT belong to live raykit objects; the
-            // set and the query pool are the tracer's.
-            unsafe {
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, pipeline);
-                d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, layout, 0, &[self.set], &[]);
-                d.cmd_push_constants(cmd, layout, crate::launch::rt_stages(), 0, params);
-                if let Some(pool) = self.timestamps {
-                    d.cmd_reset_query_pool(cmd, pool, 0, 2);
-                    d.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0);
+        self.submitter.timed(
+            |cmd| {
+                // SAFETY: the pipeline and layout belong to live raykit objects; the set is the tracer's.
+                unsafe {
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, pipeline);
+                    d.cmd_bind_descriptor_sets(
+                        cmd,
+                        vk::PipelineBindPoint::RAY_TRACING_KHR,
+                        layout,
+                        0,
+                        &[self.set],
+                        &[],
+                    );
+                    d.cmd_push_constants(cmd, layout, crate::launch::rt_stages(), 0, params);
                 }
-                self.rt.cmd_trace_rays(cmd, raygen, miss, hit, callable, dims[0], dims[1], dims[2]);
-                if let Some(pool) = self.timestamps {
-                    d.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
-                }
-            }
-        })?;
-        let wall = start.elapsed().as_secs_f64();
-        let Some(pool) = self.timestamps else { return Ok(wall) };
-        let mut ticks = [0u64; 2];
-        // SAFETY: both queries were written by the finished submission.
-        unsafe {
-            d.get_query_pool_results(pool, 0, &mut ticks, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT)
-        }?;
-        Ok((ticks[1].wrapping_sub(ticks[0]) & self.mask) as f64 * self.period_ns * 1e-9)
+            },
+            // SAFETY: raykit's SBT regions, of its live pipeline bound above.
+            |cmd| unsafe { self.rt.cmd_trace_rays(cmd, raygen, miss, hit, callable, dims[0], dims[1], dims[2]) },
+        )
     }
 
     /// The output buffer's words, copied out of device-local memory.
     pub fn picture(&self) -> anyhow::Result<Vec<u32>> {
-        let d = self.device;
-        self.submit(|cmd| {
-            let before = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
-            let after = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ);
-            let region = [vk::BufferCopy::default().size(self.bytes)];
-            // SAFETY: both buffers are the tracer's and live.
-            unsafe {
-                d.cmd_pipeline_barrier(
-                    cmd,
-                    vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::DependencyFlags::empty(),
-                    &[before],
-                    &[],
-                    &[],
-                );
-                d.cmd_copy_buffer(cmd, self.output.buffer, self.readback.buffer, &region);
-                d.cmd_pipeline_barrier(
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::PipelineStageFlags::HOST,
-                    vk::DependencyFlags::empty(),
-                    &[after],
-                    &[],
-                    &[],
-                );
-            }
-        })?;
-        // SAFETY: the mapping covers `bytes` bytes of coherent memory the finished copy wrote.
-        let bytes = unsafe { std::slice::from_raw_parts(self.readback_ptr, self.bytes as usize) };
-        Ok(bytes.chunks_exact(4).map(|c| u32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect())
+        self.submitter.picture(&self.output)
     }
 }
 
 impl Drop for AshTracer<'_> {
     fn drop(&mut self) {
+        self.submitter.destroy();
+        self.output.unmap(self.device);
         // SAFETY: nothing is in flight (every submission was waited for); children first.
         unsafe {
-            if let Some(pool) = self.timestamps {
-                self.device.destroy_query_pool(pool, None);
-            }
-            self.device.destroy_fence(self.fence, None);
             self.device.destroy_command_pool(self.pool, None);
             self.device.destroy_descriptor_pool(self.descriptor_pool, None);
-            self.device.unmap_memory(self.readback.memory);
-            for b in [&self.output, &self.readback] {
+            for b in [&self.output.device, &self.output.readback] {
                 self.device.destroy_buffer(b.buffer, None);
                 self.device.free_memory(b.memory, None);
             }

@@ -23,11 +23,12 @@
 //! as raykit's `launch_timed` and [`crate::ash_baseline::AshTracer`] time theirs,
 //! so the times compare; without timestamps, the wall time of the submission.
 
-use anyhow::{bail, Context as _};
+use anyhow::Context as _;
 use ash::vk;
 use raykit::glam::Vec3;
 
 use crate::ash_baseline::{as_bytes, AshDevice, Buffer};
+use crate::ash_launcher::{Output, Submitter};
 
 /// The programs' SPIR-V (`bench/glsl/build.sh`).
 const RGEN: &[u8] = include_bytes!("../glsl/independent.rgen.spv");
@@ -92,16 +93,9 @@ pub struct IndependentTracer<'d> {
     /// The SBT, device-local, and its raygen, miss, hit and callable regions.
     sbt: Buffer,
     regions: [vk::StridedDeviceAddressRegionKHR; 4],
-    /// The programs' output, device-local.
-    output: Buffer,
-    /// Host-visible, coherent copy of the output, mapped at `readback_ptr`.
-    readback: Buffer,
-    readback_ptr: *const u8,
-    bytes: u64,
-    cmd: vk::CommandBuffer,
-    fence: vk::Fence,
-    timestamps: vk::QueryPool,
-    mask: u64,
+    /// The programs' output, device-local, and its mapped copy.
+    output: Output,
+    submitter: Submitter<'d>,
 }
 
 impl<'d> IndependentTracer<'d> {
@@ -113,7 +107,8 @@ impl<'d> IndependentTracer<'d> {
         indices: &[u32],
         words: usize,
     ) -> anyhow::Result<IndependentTracer<'d>> {
-        let bits = dev.timestamp_valid_bits;
+        let submitter =
+            Submitter::new(&dev.device, dev.queue, dev.pool, dev.timestamp_valid_bits, dev.timestamp_period_ns)?;
         let mut t = IndependentTracer {
             dev,
             blas: Accel::default(),
@@ -125,38 +120,15 @@ impl<'d> IndependentTracer<'d> {
             set: vk::DescriptorSet::null(),
             sbt: Buffer::default(),
             regions: [vk::StridedDeviceAddressRegionKHR::default(); 4],
-            output: Buffer::default(),
-            readback: Buffer::default(),
-            readback_ptr: std::ptr::null(),
-            bytes: (words as u64 * 4).max(4),
-            cmd: vk::CommandBuffer::null(),
-            fence: vk::Fence::null(),
-            timestamps: vk::QueryPool::null(),
-            mask: if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 },
+            output: Output::new(Buffer::default(), Buffer::default(), (words as u64 * 4).max(4)),
+            submitter,
         };
-        t.make_sync()?;
         t.build_structures(vertices, indices)?;
         t.make_output()?;
         t.make_pipeline()?;
         t.make_sbt()?;
         t.make_set()?;
         Ok(t)
-    }
-
-    /// The command buffer, fence and timestamp queries of the launches.
-    fn make_sync(&mut self) -> anyhow::Result<()> {
-        let d = &self.dev.device;
-        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(self.dev.pool).command_buffer_count(1);
-        // SAFETY: the device's pool; the bench uses it from one thread.
-        self.cmd = unsafe { d.allocate_command_buffers(&alloc) }?[0];
-        // SAFETY: valid create info.
-        self.fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }?;
-        if self.dev.has_timestamps() {
-            let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2);
-            // SAFETY: valid create info.
-            self.timestamps = unsafe { d.create_query_pool(&info, None) }?;
-        }
-        Ok(())
     }
 
     /// The BLAS over the mesh and the one-instance TLAS over it, in one
@@ -299,12 +271,9 @@ impl<'d> IndependentTracer<'d> {
     /// The device-local output and its mapped, host-visible copy.
     fn make_output(&mut self) -> anyhow::Result<()> {
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-        self.output = self.dev.buffer(self.bytes, usage, false)?;
-        self.readback = self.dev.buffer(self.bytes, vk::BufferUsageFlags::TRANSFER_DST, true)?;
-        // SAFETY: host-visible memory, mapped for the tracer's lifetime.
-        self.readback_ptr = unsafe {
-            self.dev.device.map_memory(self.readback.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
-        }? as *const u8;
+        self.output.device = self.dev.buffer(self.output.bytes, usage, false)?;
+        self.output.readback = self.dev.buffer(self.output.bytes, vk::BufferUsageFlags::TRANSFER_DST, true)?;
+        self.output.map(&self.dev.device)?;
         Ok(())
     }
 
@@ -353,24 +322,7 @@ impl<'d> IndependentTracer<'d> {
                 stage(modules[1], vk::ShaderStageFlags::MISS_KHR),
                 stage(modules[2], vk::ShaderStageFlags::CLOSEST_HIT_KHR),
             ];
-            let general = |index: u32| {
-                vk::RayTracingShaderGroupCreateInfoKHR::default()
-                    .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
-                    .general_shader(index)
-                    .closest_hit_shader(vk::SHADER_UNUSED_KHR)
-                    .any_hit_shader(vk::SHADER_UNUSED_KHR)
-                    .intersection_shader(vk::SHADER_UNUSED_KHR)
-            };
-            let groups = [
-                general(0),
-                general(1),
-                vk::RayTracingShaderGroupCreateInfoKHR::default()
-                    .ty(vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP)
-                    .general_shader(vk::SHADER_UNUSED_KHR)
-                    .closest_hit_shader(2)
-                    .any_hit_shader(vk::SHADER_UNUSED_KHR)
-                    .intersection_shader(vk::SHADER_UNUSED_KHR),
-            ];
+            let groups = crate::ash_launcher::primary_groups();
             let info = [vk::RayTracingPipelineCreateInfoKHR::default()
                 .stages(&stages)
                 .groups(&groups)
@@ -473,7 +425,8 @@ impl<'d> IndependentTracer<'d> {
         let structures = [self.tlas.handle];
         let mut tlas_write =
             vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(&structures);
-        let buffers = [vk::DescriptorBufferInfo::default().buffer(self.output.buffer).offset(0).range(vk::WHOLE_SIZE)];
+        let buffers =
+            [vk::DescriptorBufferInfo::default().buffer(self.output.device.buffer).offset(0).range(vk::WHOLE_SIZE)];
         let writes = [
             vk::WriteDescriptorSet::default()
                 .dst_set(self.set)
@@ -492,112 +445,39 @@ impl<'d> IndependentTracer<'d> {
         Ok(())
     }
 
-    /// Records `record` into the tracer's command buffer, submits it and waits.
-    fn submit(&self, record: impl FnOnce(vk::CommandBuffer)) -> anyhow::Result<()> {
-        let d = &self.dev.device;
-        // SAFETY: the command buffer is not in use (the last submission was waited for).
-        unsafe {
-            d.begin_command_buffer(
-                self.cmd,
-                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-            )?;
-            record(self.cmd);
-            d.end_command_buffer(self.cmd)?;
-            let cmds = [self.cmd];
-            d.queue_submit(self.dev.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], self.fence)?;
-            d.wait_for_fences(&[self.fence], true, u64::MAX)?;
-            d.reset_fences(&[self.fence])?;
-        }
-        Ok(())
-    }
-
     /// One launch of `dims` rays with `camera`; returns the seconds of the trace
     /// (GPU timestamps, else the wall time of the submission).
     pub fn launch(&self, camera: &Camera, dims: [u32; 3]) -> anyhow::Result<f64> {
         anyhow::ensure!(
-            dims.iter().map(|&n| n as u64).product::<u64>() * 4 <= self.bytes,
+            dims.iter().map(|&n| n as u64).product::<u64>() * 4 <= self.output.bytes,
             "a {dims:?} launch writes past the tracer's output"
         );
         let d = &self.dev.device;
-        let pool = self.timestamps;
-        let timed = pool != vk::QueryPool::null();
         let [raygen, miss, hit, callable] = &self.regions;
-        let start = std::time::Instant::now();
-        self.submit(|cmd| {
-            // SAFETY: the pipeline, layout, set, SBT and query pool are the tracer's and live.
-            unsafe {
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, self.pipeline);
-                d.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::RAY_TRACING_KHR,
-                    self.layout,
-                    0,
-                    &[self.set],
-                    &[],
-                );
-                d.cmd_push_constants(cmd, self.layout, push_stages(), 0, bytemuck::bytes_of(camera));
-                if timed {
-                    d.cmd_reset_query_pool(cmd, pool, 0, 2);
-                    d.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0);
+        self.submitter.timed(
+            |cmd| {
+                // SAFETY: the pipeline, layout and set are the tracer's and live.
+                unsafe {
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, self.pipeline);
+                    d.cmd_bind_descriptor_sets(
+                        cmd,
+                        vk::PipelineBindPoint::RAY_TRACING_KHR,
+                        self.layout,
+                        0,
+                        &[self.set],
+                        &[],
+                    );
+                    d.cmd_push_constants(cmd, self.layout, push_stages(), 0, bytemuck::bytes_of(camera));
                 }
-                self.dev.rt.cmd_trace_rays(cmd, raygen, miss, hit, callable, dims[0], dims[1], dims[2]);
-                if timed {
-                    d.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
-                }
-            }
-        })?;
-        let wall = start.elapsed().as_secs_f64();
-        if !timed {
-            return Ok(wall);
-        }
-        let mut ticks = [0u64; 2];
-        // SAFETY: both queries were written by the finished submission.
-        unsafe {
-            d.get_query_pool_results(pool, 0, &mut ticks, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT)
-        }?;
-        Ok((ticks[1].wrapping_sub(ticks[0]) & self.mask) as f64 * self.dev.timestamp_period_ns * 1e-9)
+            },
+            // SAFETY: the tracer's SBT regions, of its pipeline bound above.
+            |cmd| unsafe { self.dev.rt.cmd_trace_rays(cmd, raygen, miss, hit, callable, dims[0], dims[1], dims[2]) },
+        )
     }
 
     /// The output buffer's words, copied out of device-local memory.
     pub fn picture(&self) -> anyhow::Result<Vec<u32>> {
-        let d = &self.dev.device;
-        self.submit(|cmd| {
-            let before = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
-            let after = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ);
-            let region = [vk::BufferCopy::default().size(self.bytes)];
-            // SAFETY: both buffers are the tracer's and live.
-            unsafe {
-                d.cmd_pipeline_barrier(
-                    cmd,
-                    vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::DependencyFlags::empty(),
-                    &[before],
-                    &[],
-                    &[],
-                );
-                d.cmd_copy_buffer(cmd, self.output.buffer, self.readback.buffer, &region);
-                d.cmd_pipeline_barrier(
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::PipelineStageFlags::HOST,
-                    vk::DependencyFlags::empty(),
-                    &[after],
-                    &[],
-                    &[],
-                );
-            }
-        })?;
-        if self.readback_ptr.is_null() {
-            bail!("the tracer's readback buffer is not mapped");
-        }
-        // SAFETY: the mapping covers `bytes` bytes of coherent memory the finished copy wrote.
-        let bytes = unsafe { std::slice::from_raw_parts(self.readback_ptr, self.bytes as usize) };
-        Ok(bytes.chunks_exact(4).map(|c| u32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect())
+        self.submitter.picture(&self.output)
     }
 }
 
@@ -605,27 +485,28 @@ impl Drop for IndependentTracer<'_> {
     fn drop(&mut self) {
         let dev = self.dev;
         let d = &dev.device;
-        // SAFETY: nothing is in flight (every submission was waited for); objects go
-        // child first; null handles (never made) are ignored by Vulkan.
+        // SAFETY: the device is live; waiting has no other requirement.
+        let _ = unsafe { d.device_wait_idle() };
+        self.submitter.destroy();
+        self.output.unmap(d);
+        // SAFETY: nothing is in flight (waited for above); objects go child first;
+        // null handles (never made) are ignored by Vulkan.
         unsafe {
-            let _ = d.device_wait_idle();
-            d.destroy_query_pool(self.timestamps, None);
-            d.destroy_fence(self.fence, None);
-            if self.cmd != vk::CommandBuffer::null() {
-                d.free_command_buffers(dev.pool, &[self.cmd]);
-            }
             d.destroy_descriptor_pool(self.descriptor_pool, None);
             d.destroy_pipeline(self.pipeline, None);
             d.destroy_pipeline_layout(self.layout, None);
             d.destroy_descriptor_set_layout(self.set_layout, None);
-            if !self.readback_ptr.is_null() {
-                d.unmap_memory(self.readback.memory);
-            }
             for accel in [&self.tlas, &self.blas] {
                 dev.accel.destroy_acceleration_structure(accel.handle, None);
             }
         }
-        for b in [&mut self.sbt, &mut self.output, &mut self.readback, &mut self.tlas.storage, &mut self.blas.storage] {
+        for b in [
+            &mut self.sbt,
+            &mut self.output.device,
+            &mut self.output.readback,
+            &mut self.tlas.storage,
+            &mut self.blas.storage,
+        ] {
             dev.free(std::mem::take(b));
         }
     }

@@ -264,24 +264,7 @@ fn ash_create(
             .zip(kinds)
             .map(|(n, k)| vk::PipelineShaderStageCreateInfo::default().stage(k).module(module).name(n))
             .collect();
-        let general = |i: u32| {
-            vk::RayTracingShaderGroupCreateInfoKHR::default()
-                .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
-                .general_shader(i)
-                .closest_hit_shader(vk::SHADER_UNUSED_KHR)
-                .any_hit_shader(vk::SHADER_UNUSED_KHR)
-                .intersection_shader(vk::SHADER_UNUSED_KHR)
-        };
-        let groups = [
-            general(0),
-            general(1),
-            vk::RayTracingShaderGroupCreateInfoKHR::default()
-                .ty(vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP)
-                .general_shader(vk::SHADER_UNUSED_KHR)
-                .closest_hit_shader(2)
-                .any_hit_shader(vk::SHADER_UNUSED_KHR)
-                .intersection_shader(vk::SHADER_UNUSED_KHR),
-        ];
+        let groups = crate::ash_launcher::primary_groups();
         let set_layouts = [ctx.raw_buffer_table_layout().expect("a Vulkan context")];
         let ranges = [vk::PushConstantRange::default().stage_flags(rt_stages()).offset(0).size(72)];
         let layout = d.create_pipeline_layout(

@@ -60,6 +60,7 @@
 mod accel;
 mod ash_baseline;
 mod ash_independent;
+mod ash_launcher;
 mod cpu;
 mod cpu_scaling;
 mod denoise;
