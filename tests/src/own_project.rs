@@ -1,7 +1,8 @@
 //! The examples that are projects of their own (`examples/first_renderer`,
 //! `examples/next_week`), as their tests use them: copied out of the workspace,
 //! built with plain `cargo build` as a user builds them, their lines of code
-//! counted, and the PFM and PNG they write read back.
+//! counted, run, the PFM and PNG they write read back, and their pictures
+//! compared with a reference block by block.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -109,4 +110,94 @@ pub fn check_png(path: &Path, width: u32, height: u32, radiance: &[DVec3]) {
         }
         assert_eq!(pixel.0[3], 255);
     }
+}
+
+/// Runs the project's `binary` in `dir` on `backend` (validation on), asking
+/// for a `width × height` picture of `spp` samples per pixel, checks that it
+/// succeeded and that its PNG is its PFM sRGB-encoded; returns the PFM's
+/// radiance, top row first. `what` names the project in failures.
+pub fn render(
+    binary: &Path,
+    dir: &Path,
+    what: &str,
+    backend: raykit::Backend,
+    [width, height, spp]: [u32; 3],
+) -> Vec<DVec3> {
+    let name = backend_name(backend);
+    let started = std::time::Instant::now();
+    let output = Command::new(binary)
+        .args([&format!("{name}.png"), &width.to_string(), &height.to_string(), &spp.to_string()])
+        .current_dir(dir)
+        .env("RAYKIT_BACKEND", name)
+        .env("RAYKIT_VALIDATION", "1")
+        .output()
+        .unwrap_or_else(|e| panic!("running {what}: {e}"));
+    assert!(output.status.success(), "{what} failed on {name}:\n{}", text(&output));
+    eprintln!("{name}: rendered in {:.1} s: {}", started.elapsed().as_secs_f64(), text(&output).trim());
+    let got = read_pfm(&dir.join(format!("{name}.pfm")), width, height);
+    check_png(&dir.join(format!("{name}.png")), width, height, &got);
+    got
+}
+
+/// `RAYKIT_BACKEND`'s name of `backend`.
+pub fn backend_name(backend: raykit::Backend) -> &'static str {
+    match backend {
+        raykit::Backend::Vulkan => "vulkan",
+        raykit::Backend::Cpu => "cpu",
+    }
+}
+
+/// How many standard errors `got` is from `reference` per channel, where the
+/// variance of their difference is `variance`; a floor of 1e-5 on the standard
+/// error stands for f32 rounding where there is no noise (no light reaches).
+pub fn standard_errors(got: DVec3, reference: DVec3, variance: DVec3) -> DVec3 {
+    (got - reference).abs()
+        / DVec3::new(variance.x.sqrt(), variance.y.sqrt(), variance.z.sqrt()).max(DVec3::splat(1e-5))
+}
+
+/// An 8×8 block of a picture compared with the reference.
+pub struct Block {
+    pub x: u32,
+    pub y: u32,
+    /// The block's mean radiance, and the reference's.
+    pub mean: DVec3,
+    pub reference: DVec3,
+    /// [`standard_errors`] of the two means.
+    pub z: DVec3,
+}
+
+/// The picture `got` (`width × height`, both multiples of 8) against the
+/// reference's per-pixel means `want[p].0`, in 8×8 blocks, row by row;
+/// `pixel_variance(p)` is the variance of pixel `p`'s difference.
+pub fn blocks(
+    got: &[DVec3],
+    want: &[(DVec3, DVec3)],
+    (width, height): (u32, u32),
+    pixel_variance: impl Fn(usize) -> DVec3,
+) -> Vec<Block> {
+    let mut blocks = Vec::new();
+    for (by, bx) in (0..height / 8).flat_map(|by| (0..width / 8).map(move |bx| (by, bx))) {
+        let (mut mean, mut reference, mut variance) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+        for p in (0..64).map(|k| ((by * 8 + k / 8) * width + bx * 8 + k % 8) as usize) {
+            mean += got[p] / 64.0;
+            reference += want[p].0 / 64.0;
+            variance += pixel_variance(p) / (64.0 * 64.0);
+        }
+        blocks.push(Block { x: bx, y: by, mean, reference, z: standard_errors(mean, reference, variance) });
+    }
+    blocks
+}
+
+/// Over every block and channel: the worst standard errors, their root mean
+/// square and their mean signed by the difference's sign; and the count.
+pub fn block_summary(blocks: &[Block]) -> (f64, f64, f64, f64) {
+    let (mut worst, mut squares, mut signed) = (0.0f64, 0.0, 0.0);
+    for b in blocks {
+        for c in 0..3 {
+            let z = b.z[c];
+            (worst, squares, signed) = (worst.max(z), squares + z * z, signed + z.copysign(b.mean[c] - b.reference[c]));
+        }
+    }
+    let n = (blocks.len() * 3) as f64;
+    (worst, (squares / n).sqrt(), signed / n, n)
 }

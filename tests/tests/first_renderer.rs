@@ -11,13 +11,13 @@
 //! the chapter's code blocks of it are its code.
 
 use std::path::Path;
-use std::process::Command;
 use std::time::Instant;
 
 use raykit::glam::DVec3;
 use raykit::Backend;
 use raykit_tests::own_project::{
-    binary, cargo_build, check_png, code_lines, copy_project, project_dir, raykit_root, read_pfm, text, SOURCES,
+    backend_name, binary, block_summary, blocks, cargo_build, code_lines, copy_project, project_dir, raykit_root,
+    render, text, SOURCES,
 };
 
 const WIDTH: u32 = 64;
@@ -182,52 +182,32 @@ fn reference() -> Vec<(DVec3, DVec3)> {
 /// Runs the project's binary on `backend` and checks its pictures against the
 /// reference (per pixel: the mean and the variance of one sample).
 fn render_and_compare(binary: &Path, dir: &Path, backend: Backend, want: &[(DVec3, DVec3)]) {
-    let name = match backend {
-        Backend::Vulkan => "vulkan",
-        Backend::Cpu => "cpu",
-    };
-    let started = Instant::now();
-    let output = Command::new(binary)
-        .args([&format!("{name}.png"), &WIDTH.to_string(), &HEIGHT.to_string(), &DEVICE_SPP.to_string()])
-        .current_dir(dir)
-        .env("RAYKIT_BACKEND", name)
-        .env("RAYKIT_VALIDATION", "1")
-        .output()
-        .expect("running the first renderer");
-    assert!(output.status.success(), "the first renderer failed on {name}:\n{}", text(&output));
-    eprintln!("{name}: rendered in {:.1} s: {}", started.elapsed().as_secs_f64(), text(&output).trim());
-    let got = read_pfm(&dir.join(format!("{name}.pfm")), WIDTH, HEIGHT);
-    check_png(&dir.join(format!("{name}.png")), WIDTH, HEIGHT, &got);
+    let name = backend_name(backend);
+    let got = render(binary, dir, "the first renderer", backend, [WIDTH, HEIGHT, DEVICE_SPP]);
 
-    let (mut worst, mut squares, mut signed) = (0.0f64, 0.0, 0.0);
-    for (by, bx) in (0..HEIGHT / 8).flat_map(|by| (0..WIDTH / 8).map(move |bx| (by, bx))) {
-        let (mut mean, mut reference, mut variance) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
-        for p in (0..64).map(|k| ((by * 8 + k / 8) * WIDTH + bx * 8 + k % 8) as usize) {
-            mean += got[p] / 64.0;
-            reference += want[p].0 / 64.0;
-            // The variance of a pixel's mean: of the device's, then of the reference's.
-            variance += want[p].1 * (1.0 / DEVICE_SPP as f64 + 1.0 / REFERENCE_SPP as f64) / (64.0 * 64.0);
-        }
+    // The variance of a pixel's mean: of the device's, then of the reference's.
+    let pixel_variance = |p: usize| want[p].1 * (1.0 / DEVICE_SPP as f64 + 1.0 / REFERENCE_SPP as f64);
+    let blocks = blocks(&got, want, (WIDTH, HEIGHT), pixel_variance);
+    for b in &blocks {
+        // Blocks of sky alone have almost no noise: f32 rounding is the floor.
         for c in 0..3 {
-            // Blocks of sky alone have almost no noise: f32 rounding is the floor.
-            let z = (mean[c] - reference[c]).abs() / variance[c].sqrt().max(1e-5);
-            (worst, squares, signed) = (worst.max(z), squares + z * z, signed + z.copysign(mean[c] - reference[c]));
             assert!(
-                z < 5.0,
-                "{name}: block ({bx}, {by}) channel {c}: {} against the reference's {} ({z:.1} standard errors)",
-                mean[c],
-                reference[c]
+                b.z[c] < 5.0,
+                "{name}: block ({}, {}) channel {c}: {} against the reference's {} ({:.1} standard errors)",
+                b.x,
+                b.y,
+                b.mean[c],
+                b.reference[c],
+                b.z[c]
             );
         }
         // The scene is not black: the comparison has something to compare.
-        assert!(reference.min_element() > 0.05, "block ({bx}, {by}) of the reference is black");
+        assert!(b.reference.min_element() > 0.05, "block ({}, {}) of the reference is black", b.x, b.y);
     }
-    let n = (WIDTH / 8 * HEIGHT / 8 * 3) as f64;
+    let (worst, rms, signed, n) = block_summary(&blocks);
     eprintln!(
         "{name}: worst 8x8 block {worst:.2} standard errors from the reference (over {n} blocks and channels: \
-         root mean square {:.2}, mean {:+.2})",
-        (squares / n).sqrt(),
-        signed / n
+         root mean square {rms:.2}, mean {signed:+.2})"
     );
 }
 

@@ -12,13 +12,13 @@
 //! lines of code.
 
 use std::path::Path;
-use std::process::Command;
 use std::time::Instant;
 
 use raykit::glam::DVec3;
 use raykit::Backend;
 use raykit_tests::own_project::{
-    binary, cargo_build, check_png, code_lines, copy_project, project_dir, read_pfm, text, SOURCES,
+    backend_name, binary, block_summary, blocks, cargo_build, code_lines, copy_project, project_dir, render,
+    standard_errors, text, SOURCES,
 };
 
 const WIDTH: u32 = 96;
@@ -30,67 +30,36 @@ const REFERENCE_SPP: u32 = 1024;
 /// Runs the project's binary on `backend` and checks its pictures against the
 /// reference (per pixel: the mean and the variance of one sample).
 fn render_and_compare(binary: &Path, dir: &Path, backend: Backend, want: &[(DVec3, DVec3)]) {
-    let name = match backend {
-        Backend::Vulkan => "vulkan",
-        Backend::Cpu => "cpu",
-    };
-    let started = Instant::now();
-    let output = Command::new(binary)
-        .args([&format!("{name}.png"), &WIDTH.to_string(), &HEIGHT.to_string(), &DEVICE_SPP.to_string()])
-        .current_dir(dir)
-        .env("RAYKIT_BACKEND", name)
-        .env("RAYKIT_VALIDATION", "1")
-        .output()
-        .expect("running the next_week example");
-    assert!(output.status.success(), "the next_week example failed on {name}:\n{}", text(&output));
-    eprintln!("{name}: rendered in {:.1} s: {}", started.elapsed().as_secs_f64(), text(&output).trim());
-    let got = read_pfm(&dir.join(format!("{name}.pfm")), WIDTH, HEIGHT);
-    check_png(&dir.join(format!("{name}.png")), WIDTH, HEIGHT, &got);
+    let name = backend_name(backend);
+    let got = render(binary, dir, "the next_week example", backend, [WIDTH, HEIGHT, DEVICE_SPP]);
     assert!(got.iter().all(|c| c.is_finite() && c.min_element() >= 0.0), "{name}: a pixel is negative or not finite");
 
     // The variance of a pixel's mean: of the device's, then of the reference's.
     let pixel_variance = |p: usize| want[p].1 * (1.0 / DEVICE_SPP as f64 + 1.0 / REFERENCE_SPP as f64);
-    let z = |got: DVec3, reference: DVec3, variance: DVec3| {
-        // A block no light reaches has no noise: f32 rounding is the floor.
-        (got - reference).abs()
-            / DVec3::new(variance.x.sqrt(), variance.y.sqrt(), variance.z.sqrt()).max(DVec3::splat(1e-5))
-    };
-    let (mut worst, mut squares, mut signed) = (0.0f64, 0.0, 0.0);
-    for (by, bx) in (0..HEIGHT / 8).flat_map(|by| (0..WIDTH / 8).map(move |bx| (by, bx))) {
-        let (mut mean, mut reference, mut variance) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
-        for p in (0..64).map(|k| ((by * 8 + k / 8) * WIDTH + bx * 8 + k % 8) as usize) {
-            mean += got[p] / 64.0;
-            reference += want[p].0 / 64.0;
-            variance += pixel_variance(p) / (64.0 * 64.0);
-        }
-        let block = z(mean, reference, variance);
+    let blocks = blocks(&got, want, (WIDTH, HEIGHT), pixel_variance);
+    for b in &blocks {
         for c in 0..3 {
-            (worst, squares, signed) = (
-                worst.max(block[c]),
-                squares + block[c] * block[c],
-                signed + block[c].copysign(mean[c] - reference[c]),
-            );
             assert!(
-                block[c] < 5.0,
-                "{name}: block ({bx}, {by}) channel {c}: {} against the reference's {} ({:.1} standard errors)",
-                mean[c],
-                reference[c],
-                block[c]
+                b.z[c] < 5.0,
+                "{name}: block ({}, {}) channel {c}: {} against the reference's {} ({:.1} standard errors)",
+                b.x,
+                b.y,
+                b.mean[c],
+                b.reference[c],
+                b.z[c]
             );
         }
     }
-    let n = (WIDTH / 8 * HEIGHT / 8 * 3) as f64;
+    let (worst, rms, signed, n) = block_summary(&blocks);
     let count = (WIDTH * HEIGHT) as f64;
     let mean: DVec3 = got.iter().sum::<DVec3>() / count;
     let reference: DVec3 = want.iter().map(|w| w.0).sum::<DVec3>() / count;
     let variance: DVec3 = (0..got.len()).map(pixel_variance).sum::<DVec3>() / (count * count);
-    let whole = z(mean, reference, variance);
+    let whole = standard_errors(mean, reference, variance);
     eprintln!(
         "{name}: worst 8x8 block {worst:.2} standard errors from the reference (over {n} blocks and channels: \
-         root mean square {:.2}, mean {:+.2}); the whole picture {:.2} / {:.2} / {:.2} (mean radiance {:.4}, \
+         root mean square {rms:.2}, mean {signed:+.2}); the whole picture {:.2} / {:.2} / {:.2} (mean radiance {:.4}, \
          reference {:.4})",
-        (squares / n).sqrt(),
-        signed / n,
         whole.x,
         whole.y,
         whole.z,
