@@ -38,6 +38,8 @@ pub(crate) struct GasData {
     /// The leaves' triangles eight at a time, for a GAS small enough to test
     /// without its tree (see [`super::flat`]).
     pub(crate) flat: Option<Box<[super::flat::TriangleBlock]>>,
+    /// Whether it has boxes (an AABB geometry).
+    pub(crate) boxes: bool,
 }
 
 impl std::fmt::Debug for GasData {
@@ -102,7 +104,8 @@ impl GasData {
             .collect();
         let geometries: Vec<Geometry> = built.into_iter().map(|(g, _)| g).collect();
         let flat = super::flat::blocks(&geometries, &leaves);
-        GasData { geometries, leaves, bvh, bounds, flat }
+        let boxes = geometries.iter().any(|g| matches!(g, Geometry::Aabbs { .. }));
+        GasData { geometries, leaves, bvh, bounds, flat, boxes }
     }
 
     /// Bytes the structure takes on the host.
@@ -213,10 +216,8 @@ fn builtin_matrix(a: Affine3A) -> Matrix4x3 {
 pub(crate) struct SceneData {
     pub(crate) instances: Vec<SceneInstance>,
     pub(crate) bvh: CwBvh,
-    /// Every primitive is a triangle.
-    pub(crate) all_triangles: bool,
-    /// Every primitive is an opaque triangle (see [`scene_kind`]).
-    pub(crate) all_opaque_triangles: bool,
+    /// Every triangle is opaque (see [`triangles_opaque`]).
+    pub(crate) triangles_opaque: bool,
 }
 
 impl std::fmt::Debug for SceneData {
@@ -230,8 +231,8 @@ impl SceneData {
     pub(crate) fn build(instances: Vec<SceneInstance>) -> SceneData {
         let boxes: Vec<BvhAabb> = instances.iter().map(world_bounds).collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(boxes.len()), &mut Duration::default());
-        let (all_triangles, all_opaque_triangles) = scene_kind(&instances);
-        SceneData { instances, bvh, all_triangles, all_opaque_triangles }
+        let triangles_opaque = triangles_opaque(&instances);
+        SceneData { instances, bvh, triangles_opaque }
     }
 
     /// Bytes the structure takes on the host.
@@ -302,16 +303,15 @@ pub(crate) fn affine_from_rows(rows: &[f32; 12]) -> Affine3A {
     )
 }
 
-/// all-opaque one, run no program while they traverse.
-pub(crate) fn scene_kind(instances: &[SceneInstance]) -> (bool, bool) {
-    let mut triangles = true;
+/// Whether every triangle of a scene of `instances` is opaque, by its
+/// geometry's flag and its instance's `FORCE_*` flags (boxes may be either):
+/// rays into such a scene, or with the ray's `OPAQUE` flag, run no program
+/// for a triangle, so packets can take them.
+pub(crate) fn triangles_opaque(instances: &[SceneInstance]) -> bool {
     let mut opaque = true;
     for instance in instances {
         for geometry in &instance.gas.geometries {
-            let Geometry::Triangles { flags, .. } = geometry else {
-                triangles = false;
-                continue;
-            };
+            let Geometry::Triangles { flags, .. } = geometry else { continue };
             let mut geometry_opaque = flags.contains(GeometryFlags::OPAQUE);
             if instance.flags.contains(InstanceFlags::FORCE_OPAQUE) {
                 geometry_opaque = true;
@@ -322,5 +322,5 @@ pub(crate) fn scene_kind(instances: &[SceneInstance]) -> (bool, bool) {
             opaque &= geometry_opaque;
         }
     }
-    (triangles, triangles && opaque)
+    opaque
 }

@@ -10,7 +10,7 @@ use glam::{UVec3, Vec3};
 use super::accel::SceneData;
 use super::buffers::Words;
 use super::lanes::LaneYielder;
-use super::packet::Packet;
+use super::packet::{Mail, Packet};
 use super::program::{Aligned, PipelineData, SbtData};
 use super::CpuContext;
 use crate::error::UserException;
@@ -121,6 +121,9 @@ pub(super) struct LaneSeat {
     pub(super) yielder: *const LaneYielder,
     /// The block's packet.
     pub(super) packet: *const UnsafeCell<Packet>,
+    /// Where the packet's walk asks the lane to run a candidate's programs
+    /// and the lane answers.
+    pub(super) mail: *const Cell<Mail>,
     /// The lane's index in the block and its packet.
     pub(super) index: usize,
 }

@@ -14,7 +14,7 @@ use raykit_device::stage::HitBuiltins;
 
 use super::job::{Fault, InvocationState, LaneSeat, LaunchJob};
 use super::lanes::{self, LaneYielder};
-use super::packet::{self, Packet};
+use super::packet::{self, Candidate, Mail, Packet};
 use super::program::{PipelineData, SbtData};
 use super::traverse::Frame;
 use super::CpuLiveness;
@@ -157,9 +157,10 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
     let first_failure = Cell::new(u64::MAX);
     let outcomes: [RefCell<Outcome>; packet::WIDTH] = std::array::from_fn(|_| RefCell::default());
     let packet = UnsafeCell::new(Packet::new());
+    let mail: [Cell<Mail>; packet::WIDTH] = Default::default();
     let body = |lane: usize, yielder: &LaneYielder| {
         let mut state = InvocationState::new(job);
-        state.lane.set(Some(LaneSeat { yielder, packet: &packet, index: lane }));
+        state.lane.set(Some(LaneSeat { yielder, packet: &packet, mail: &mail[lane], index: lane }));
         let mut outcome = outcomes[lane].borrow_mut();
         // The lane's place in each block.
         let (dx, dy) = (lane as u32 % bw, lane as u32 / bw);
@@ -185,11 +186,20 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome:
         }
     };
     let mut packet_rays = 0;
-    let traced = lanes::run_lanes(packet::WIDTH, &body, || {
+    let traced = lanes::run_lanes(packet::WIDTH, &body, |lanes| {
         // SAFETY: every lane is suspended or finished: none holds a reference
-        // into the packet (they do only while they run).
+        // into the packet (they do only while they run a trace's request, not
+        // while they run a candidate's programs).
         let packet = unsafe { &mut *packet.get() };
-        packet_rays += u64::from(packet.trace_waiting());
+        let mut ask = |lane: usize, candidate: Candidate| {
+            mail[lane].set(Mail::Candidate(candidate));
+            let suspended = lanes.resume(lane);
+            match mail[lane].replace(Mail::Empty) {
+                Mail::Ran(ran) if suspended => Some(ran),
+                _ => None,
+            }
+        };
+        packet_rays += u64::from(packet.trace_waiting(&mut ask));
     });
     job.ctx.packet_rays.fetch_add(packet_rays, Ordering::Relaxed);
     let overflows = match traced {

@@ -1,6 +1,5 @@
 //! Packet traces: up to sixteen rays of a block of invocations traced together
-//! through a scene of opaque triangles, where no program runs during the
-//! traversal.
+//! through a scene whose triangles are opaque.
 //!
 //! Each group of rays with one direction octant walks the tree once. A node's
 //! children are tested against the group's interval: the boxes of origins and
@@ -11,13 +10,21 @@
 //! alone; only which of two hits at exactly the same distance wins may differ.
 //! Rays far apart in direction or origin would make the interval loose, so such
 //! groups are walked one ray at a time by the same code.
+//!
+//! Boxes (AABB geometries) are tested against each ray as a trace alone tests
+//! them; for each ray that enters one, the walk asks the ray's lane to run the
+//! candidate's programs (its intersection program, and any-hit for what it
+//! reports) through [`Mail`]: the lane runs them on its own stack, as its trace
+//! alone would, and answers with the ray's new closest distance.
 
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::cwbvh::CwBvh;
+use obvhs::ray::Ray as BvhRay;
 
 use super::accel::{GasData, SceneData};
-use super::geometry::Leaf;
+use super::geometry::{Geometry, Leaf};
+use super::intersect::without_negative_zeros;
 use super::simd::{child_mask, quantized};
 use crate::types::accel::InstanceFlags;
 
@@ -51,6 +58,37 @@ pub(crate) enum Traced {
     Hit,
 }
 
+/// A primitive whose box a lane's ray enters: leaf `leaf` of instance
+/// `instance`, for a ray whose closest accepted hit so far is at `t_max`.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct Candidate {
+    pub(crate) instance: u32,
+    pub(crate) leaf: u32,
+    pub(crate) t_max: f32,
+}
+
+/// What a lane did with a [`Candidate`]: its ray's closest distance after it,
+/// and whether its traversal ended (the ray terminated, or a program failed).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(crate) struct Ran {
+    pub(crate) t_max: f32,
+    pub(crate) ended: bool,
+}
+
+/// What passes between a packet walk and a lane it asks to run programs.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub(crate) enum Mail {
+    /// Nothing asked: the lane's trace is over.
+    #[default]
+    Empty,
+    Candidate(Candidate),
+    Ran(Ran),
+}
+
+/// How a walk runs a candidate in its lane: `None` when the lane could not
+/// answer (its stack overflowed).
+pub(crate) type AskLane<'a> = dyn FnMut(usize, Candidate) -> Option<Ran> + 'a;
+
 /// The closest accepted triangle of a ray.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub(crate) struct PacketHit {
@@ -64,9 +102,6 @@ pub(crate) struct PacketHit {
     pub(crate) primitive: u32,
 }
 
-/// Whether every primitive of a scene of `instances` is a triangle, and whether every one is
-/// opaque (by its geometry's flag and its instance's `FORCE_*` flags): rays
-/// into an all-triangle scene with the ray's `OPAQUE` flag, or into an
 /// Rays lane by lane, coordinate by coordinate: `o[axis][lane]`,
 /// `d[axis][lane]`; rows on 32-byte boundaries, so AVX2 loads of them never
 /// split a cache line.
@@ -120,8 +155,10 @@ pub(crate) struct Packet {
     /// Lanes whose ray the packet could not take (an infinite or NaN origin
     /// or direction, or no AVX2): their invocations trace them alone.
     alone: LaneMask,
-    /// Lanes that hit something: their closest hit is in `hits`.
+    /// Lanes that hit a triangle: their closest one is in `hits`.
     hit_lanes: LaneMask,
+    /// Lanes whose rays test boxes (not `SKIP_AABBS`).
+    box_lanes: LaneMask,
     hits: [PacketHit; WIDTH],
 }
 
@@ -154,12 +191,14 @@ impl Packet {
             active: 0,
             alone: 0,
             hit_lanes: 0,
+            box_lanes: 0,
             hits: [PacketHit::default(); WIDTH],
         }
     }
 
     /// Lane `lane`'s request: a ray into `scene` (which outlives the trace),
-    /// with `cull_mask`, ending at its first accepted hit with `first_hit`.
+    /// with `cull_mask`, ending at its first accepted hit with `first_hit`,
+    /// testing boxes with `boxes`.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(crate) fn request(
@@ -172,6 +211,7 @@ impl Packet {
         t_max: f32,
         cull_mask: u32,
         first_hit: bool,
+        boxes: bool,
     ) {
         self.world.set(lane, origin, direction);
         self.t_min[lane] = t_min;
@@ -180,10 +220,12 @@ impl Packet {
         self.scenes[lane] = scene;
         let bit: LaneMask = 1 << lane;
         self.first_hit = if first_hit { self.first_hit | bit } else { self.first_hit & !bit };
+        self.box_lanes = if boxes { self.box_lanes | bit } else { self.box_lanes & !bit };
         self.waiting |= bit;
     }
 
-    /// What became of lane `lane`'s last request, and its closest hit.
+    /// What became of lane `lane`'s last request, and its closest triangle
+    /// hit (`Traced::Hit`; a box's hit is the lane's own).
     #[inline(always)]
     pub(crate) fn outcome(&self, lane: usize) -> (Traced, &PacketHit) {
         let bit: LaneMask = 1 << lane;
@@ -197,9 +239,10 @@ impl Packet {
         (traced, &self.hits[lane])
     }
 
-    /// Traces the waiting lanes' rays: those into one scene together. Returns
-    /// how many rays the packet took (the others are traced alone).
-    pub(crate) fn trace_waiting(&mut self) -> u32 {
+    /// Traces the waiting lanes' rays: those into one scene together, asking
+    /// lanes to run the programs of boxes their rays enter. Returns how many
+    /// rays the packet took (the others are traced alone).
+    pub(crate) fn trace_waiting(&mut self, ask: &mut AskLane<'_>) -> u32 {
         let waiting = self.waiting;
         let mut left = self.waiting;
         while left != 0 {
@@ -220,7 +263,7 @@ impl Packet {
             // traces), and packets run only where the CPU has AVX2 and its
             // companions (`LaunchJob::packets`).
             unsafe {
-                self.trace_scene(&*scene, lanes)
+                self.trace_scene(&*scene, lanes, ask)
             };
             #[cfg(not(target_arch = "x86_64"))]
             {
@@ -234,7 +277,7 @@ impl Packet {
     /// Traces the rays of `lanes`, all into `scene`.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    fn trace_scene(&mut self, scene: &SceneData, lanes: LaneMask) {
+    fn trace_scene(&mut self, scene: &SceneData, lanes: LaneMask, ask: &mut AskLane<'_>) {
         // Rays with an infinite or NaN origin or direction are traced alone; an
         // empty or NaN interval hits nothing.
         let (finite, nonempty) = self.finite_and_nonempty();
@@ -248,7 +291,7 @@ impl Packet {
             // One instance: its GAS's tree does every box test the IAS's would.
             [only] => {
                 if !only.gas.leaves.is_empty() {
-                    self.instance(scene, 0, self.active);
+                    self.instance(scene, 0, self.active, ask);
                 }
             }
             _ => {
@@ -256,7 +299,7 @@ impl Packet {
                 let world = self.world;
                 while left != 0 {
                     let group = Group::next(&mut left, &world, &self.t_min);
-                    self.walk_scene(scene, &group);
+                    self.walk_scene(scene, &group, ask);
                 }
             }
         }
@@ -291,7 +334,7 @@ impl Packet {
     /// Walks the IAS's tree with `group` (world space), visiting instances.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    fn walk_scene(&mut self, scene: &SceneData, group: &Group) {
+    fn walk_scene(&mut self, scene: &SceneData, group: &Group, ask: &mut AskLane<'_>) {
         let bvh: &CwBvh = &scene.bvh;
         let mut state = bvh.new_traversal(group.octant);
         let mut node: &CwBvhNode;
@@ -299,7 +342,7 @@ impl Packet {
         let mut far = self.far(group);
         obvhs::traverse!(bvh, node, state, self.node_mask(node, group, far, state.oct_inv4), {
             let index = bvh.primitive_indices[state.primitive_id as usize];
-            self.instance(scene, index, group.lanes & self.active);
+            self.instance(scene, index, group.lanes & self.active, ask);
             if group.lanes & self.active == 0 {
                 break;
             }
@@ -310,7 +353,7 @@ impl Packet {
     /// Traverses instance `index` with the rays of `lanes` its mask lets in.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    fn instance(&mut self, scene: &SceneData, index: u32, lanes: LaneMask) {
+    fn instance(&mut self, scene: &SceneData, index: u32, lanes: LaneMask, ask: &mut AskLane<'_>) {
         let instance = &scene.instances[index as usize];
         let mut lanes = lanes;
         let mut rest = lanes;
@@ -339,18 +382,35 @@ impl Packet {
             }
         }
         let gas = &instance.gas;
-        let flip = instance.flags.contains(InstanceFlags::FLIP_TRIANGLE_FACING);
+        // The rays boxes are tested with, as a trace alone makes them.
+        let mut box_rays = BoxRays { o: [[0.0; WIDTH]; 3], inverse: [[0.0; WIDTH]; 3] };
+        if gas.boxes {
+            let mut rest = lanes & self.box_lanes;
+            while rest != 0 {
+                let lane = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let (o, d) = (Vec3A::from(object.origin(lane)), Vec3A::from(object.direction(lane)));
+                let ray = BvhRay::new(o, without_negative_zeros(d), self.t_min[lane], self.t_max[lane]);
+                for axis in 0..3 {
+                    box_rays.o[axis][lane] = ray.origin[axis];
+                    box_rays.inverse[axis][lane] = ray.inv_direction[axis];
+                }
+            }
+        }
+        let walk = Walk { instance: index, gas, flip: instance.flags.contains(InstanceFlags::FLIP_TRIANGLE_FACING) };
         let mut left = lanes;
         while left != 0 {
             let group = Group::next(&mut left, &object, &self.t_min);
-            self.walk_gas(index, gas, flip, &object, &group);
+            self.walk_gas(&walk, &object, &box_rays, &group, ask);
         }
     }
 
-    /// Walks a GAS's tree with `group` (object space), testing triangles.
+    /// Walks a GAS's tree with `group` (object space), testing triangles and
+    /// having lanes run the programs of boxes.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    fn walk_gas(&mut self, instance: u32, gas: &GasData, flip: bool, rays: &Rays, group: &Group) {
+    fn walk_gas(&mut self, walk: &Walk<'_>, rays: &Rays, box_rays: &BoxRays, group: &Group, ask: &mut AskLane<'_>) {
+        let gas = walk.gas;
         let bvh: &CwBvh = &gas.bvh;
         let mut state = bvh.new_traversal(group.octant);
         let mut node: &CwBvhNode;
@@ -358,13 +418,56 @@ impl Packet {
         let mut far = self.far(group);
         obvhs::traverse!(bvh, node, state, self.node_mask(node, group, far, state.oct_inv4), {
             let leaf = &gas.leaves[state.primitive_id as usize];
-            if self.triangle(instance, leaf, flip, rays, group) {
+            let changed = match &gas.geometries[leaf.geometry as usize] {
+                Geometry::Triangles { .. } => self.triangle(walk.instance, leaf, walk.flip, rays, group),
+                Geometry::Aabbs { boxes, .. } => {
+                    let candidate = Candidate { instance: walk.instance, leaf: state.primitive_id, t_max: 0.0 };
+                    self.aabb(&boxes[leaf.primitive as usize], candidate, box_rays, group, ask)
+                }
+            };
+            if changed {
                 if group.lanes & self.active == 0 {
                     break;
                 }
                 far = self.far(group);
             }
         });
+    }
+
+    /// Has each lane of the group whose ray enters `aabb` run `candidate`'s
+    /// programs; whether any ray's interval or activity changed.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    #[inline]
+    fn aabb(
+        &mut self,
+        aabb: &obvhs::aabb::Aabb,
+        candidate: Candidate,
+        box_rays: &BoxRays,
+        group: &Group,
+        ask: &mut AskLane<'_>,
+    ) -> bool {
+        let mut lanes = box_rays.entering(aabb, group.lanes & self.active & self.box_lanes);
+        let mut changed = false;
+        while lanes != 0 {
+            let lane = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let bit: LaneMask = 1 << lane;
+            match ask(lane, Candidate { t_max: self.t_max[lane], ..candidate }) {
+                Some(ran) => {
+                    changed |= ran.t_max != self.t_max[lane] || ran.ended;
+                    self.t_max[lane] = ran.t_max;
+                    if ran.ended {
+                        self.active &= !bit;
+                    }
+                }
+                None => {
+                    self.active &= !bit;
+                    changed = true;
+                }
+            }
+        }
+        changed
     }
 
     /// The farthest `t_max` of the group's active rays.
@@ -471,6 +574,62 @@ impl Packet {
         }
         true
     }
+}
+
+/// The rays boxes are tested with, lane by lane: the origins and inverse
+/// directions of the object-space rays a trace alone would test them with
+/// (obvhs's `Ray`); rows on 32-byte boundaries.
+#[repr(C, align(32))]
+struct BoxRays {
+    o: [[f32; WIDTH]; 3],
+    inverse: [[f32; WIDTH]; 3],
+}
+
+impl BoxRays {
+    /// The lanes of `lanes` whose rays enter `aabb`: obvhs's `Aabb::intersect_ray`
+    /// eight lanes at a time, with the same operations in the same order (its
+    /// minima and maxima, and glam's reductions over the axes), so each lane
+    /// decides as alone.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    #[inline]
+    fn entering(&self, aabb: &obvhs::aabb::Aabb, lanes: LaneMask) -> LaneMask {
+        use std::arch::x86_64::*;
+        let mut entering = 0;
+        for half in 0..WIDTH / 8 {
+            let at = 8 * half;
+            if (lanes >> at) & 0xff == 0 {
+                continue;
+            }
+            // SAFETY: each row holds `WIDTH` `f32`s; eight are read from `at`,
+            // which is at most `WIDTH - 8`.
+            let load = |row: &[f32; WIDTH]| unsafe { _mm256_loadu_ps(row.as_ptr().add(at)) };
+            let slab = |axis: usize| {
+                let (o, inverse) = (load(&self.o[axis]), load(&self.inverse[axis]));
+                let t1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(aabb.min[axis]), o), inverse);
+                let t2 = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(aabb.max[axis]), o), inverse);
+                (_mm256_min_ps(t1, t2), _mm256_max_ps(t1, t2))
+            };
+            let ((near_x, far_x), (near_y, far_y), (near_z, far_z)) = (slab(0), slab(1), slab(2));
+            // glam's `max_element` and `min_element`: (x ∘ z) ∘ (y ∘ z).
+            let near = _mm256_max_ps(_mm256_max_ps(near_x, near_z), _mm256_max_ps(near_y, near_z));
+            let far = _mm256_min_ps(_mm256_min_ps(far_x, far_z), _mm256_min_ps(far_y, far_z));
+            let hit = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GE_OQ>(far, near),
+                _mm256_cmp_ps::<_CMP_GE_OQ>(far, _mm256_setzero_ps()),
+            );
+            entering |= (_mm256_movemask_ps(hit) as LaneMask) << at;
+        }
+        entering & lanes
+    }
+}
+
+/// The instance a GAS walk is for: its index, its GAS, and whether it flips
+/// triangles' facing.
+struct Walk<'g> {
+    instance: u32,
+    gas: &'g GasData,
+    flip: bool,
 }
 
 impl Group {

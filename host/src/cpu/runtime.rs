@@ -3,7 +3,7 @@
 //! intersection reports, textures), as the device's built-in functions.
 
 use std::cell::Cell;
-use std::panic::resume_unwind;
+use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
 use std::sync::atomic::AtomicU32;
 
 use glam::{UVec3, Vec3};
@@ -14,7 +14,7 @@ use raykit_device::{Ray, Traversable, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FR
 
 use super::accel::SceneData;
 use super::job::{fault, AnyHitEnd, LaunchJob};
-use super::packet::Traced;
+use super::packet::{Mail, Ran, Traced};
 use super::program::Program;
 use super::traverse::{hit_builtins, ray_flags, Attributes, Committed, Frame, Traversal};
 use crate::error::UserException;
@@ -81,17 +81,18 @@ impl<'j> Frame<'_, 'j> {
     }
 
     /// Whether a trace of `ray` into `scene` goes in a packet: the invocation
-    /// runs in a lane, no program can run while the ray traverses (triangles
-    /// only, all opaque or made so by the ray; no flag a packet does not
-    /// follow), and the ray starts where the invocation's first such trace did
-    /// (a camera's rays).
+    /// runs in a lane (and not in a program a packet walk asked it to run), no
+    /// program runs for a triangle (all opaque, or made so by the ray; boxes
+    /// run theirs in the lane), the ray has no flag a packet does not follow,
+    /// and it starts where the invocation's first such trace did (a camera's
+    /// rays).
     fn packet_ready(&self, scene: &SceneData, ray: &Ray, call: TraceCall) -> bool {
         const PACKET_FLAGS: u32 =
             ray_flags::OPAQUE | ray_flags::TERMINATE_ON_FIRST_HIT | ray_flags::SKIP_CLOSEST_HIT | ray_flags::SKIP_AABBS;
         if self.state.lane.get().is_none() || call.flags & !PACKET_FLAGS != 0 {
             return false;
         }
-        if !(scene.all_opaque_triangles || (scene.all_triangles && call.flags & ray_flags::OPAQUE != 0)) {
+        if !(scene.triangles_opaque || call.flags & ray_flags::OPAQUE != 0) {
             return false;
         }
         match self.state.camera.get() {
@@ -103,22 +104,26 @@ impl<'j> Frame<'_, 'j> {
         }
     }
 
-    /// Suspends the invocation until its block has traced `ray` in a packet;
-    /// the committed hit and its attributes, if any (`Some(None)`: a miss), or
-    /// `None` when the packet could not take the ray.
+    /// Suspends the invocation until its block has traced `ray` in a packet,
+    /// running the programs of the boxes the walk finds for it meanwhile;
+    /// the committed hit and its attributes, if any (`Some(None)`: a miss),
+    /// or `None` when the packet could not take the ray.
     #[allow(clippy::option_option)]
     fn trace_in_packet(
         &self,
         scene: &SceneData,
         ray: &Ray,
         call: TraceCall,
+        depth: u32,
+        payload: &Erased<'_>,
     ) -> Option<Option<(Committed, Attributes)>> {
         let seat = self.state.lane.get()?;
         let first_hit = call.flags & ray_flags::TERMINATE_ON_FIRST_HIT != 0;
         // SAFETY: the lanes of a block run one at a time on this thread, and
         // while one runs nothing else holds a reference into their packet (the
-        // block's driver does only while every lane is suspended; a lane only
-        // within this call, not across its suspension).
+        // block's driver does only while every lane is suspended or runs a
+        // candidate, and a lane only within this call, not across its
+        // suspension nor while it runs a candidate).
         unsafe { &mut *(*seat.packet).get() }.request(
             seat.index,
             scene,
@@ -128,9 +133,38 @@ impl<'j> Frame<'_, 'j> {
             ray.t_max,
             call.cull_mask,
             first_hit,
+            call.flags & ray_flags::SKIP_AABBS == 0,
         );
-        // SAFETY: the lane's coroutine made the yielder and is running this call.
-        unsafe { &*seat.yielder }.suspend(());
+        // SAFETY: the block's mail outlives its lanes.
+        let mail = unsafe { &*seat.mail };
+        // The traversal the candidates' programs run in, made for the first.
+        let mut boxes: Option<Traversal<'_>> = None;
+        let mut failure = None;
+        loop {
+            // SAFETY: the lane's coroutine made the yielder and is running this call.
+            unsafe { &*seat.yielder }.suspend(());
+            let Mail::Candidate(candidate) = mail.get() else { break };
+            let traversal = boxes.get_or_insert_with(|| Traversal::new(self, scene, *ray, call, depth, payload));
+            // Traces from the candidate's programs go alone: the packet is
+            // the walk's meanwhile.
+            self.state.lane.set(None);
+            let ran = catch_unwind(AssertUnwindSafe(|| traversal.candidate(candidate)));
+            self.state.lane.set(Some(seat));
+            let ended = match ran {
+                Ok(()) => traversal.terminated(),
+                Err(payload) => {
+                    // Carried out of the trace once the walk is over.
+                    super::overflow::leave(None);
+                    failure = Some(payload);
+                    true
+                }
+            };
+            mail.set(Mail::Ran(Ran { t_max: traversal.t_max(), ended }));
+        }
+        if let Some(payload) = failure {
+            resume_unwind(payload);
+        }
+        let box_hit = boxes.and_then(|t| Some((t.committed.get()?, t.committed_attributes.get())));
         let (traced, hit) = {
             // SAFETY: as for the request above; the hit is copied out before
             // anything else runs.
@@ -138,7 +172,9 @@ impl<'j> Frame<'_, 'j> {
             let (traced, hit) = packet.outcome(seat.index);
             (traced, *hit)
         };
-        match traced {
+        let triangle = match traced {
+            Traced::Alone => return None,
+            Traced::Miss => None,
             Traced::Hit => {
                 let instance = &scene.instances[hit.instance as usize];
                 let record = crate::types::sbt::selected_hit_record(
@@ -158,11 +194,14 @@ impl<'j> Frame<'_, 'j> {
                 };
                 let mut attributes: Attributes = [0; ATTRIBUTE_BYTES / 16];
                 bytemuck::cast_slice_mut::<u128, f32>(&mut attributes)[..2].copy_from_slice(&[hit.u, hit.v]);
-                Some(Some((committed, attributes)))
+                Some((committed, attributes))
             }
-            Traced::Miss => Some(None),
-            Traced::Alone => None,
-        }
+        };
+        // The closer of the two (each was accepted only up to the other's distance).
+        Some(match (triangle, box_hit) {
+            (Some(t), Some(b)) => Some(if t.0.t < b.0.t { t } else { b }),
+            (t, b) => t.or(b),
+        })
     }
 
     /// Traces `ray` by itself; the committed hit and its attributes, if any.
@@ -240,7 +279,10 @@ impl Runtime for Frame<'_, '_> {
         let Some((_, scene)) = job.scenes.iter().find(|(a, _)| *a == address) else {
             fault(format!("a trace into traversable {address:#x}, which is no live IAS of this Context"));
         };
-        let traced = if self.packet_ready(scene, &ray, call) { self.trace_in_packet(scene, &ray, call) } else { None };
+        let traced = match self.packet_ready(scene, &ray, call) {
+            true => self.trace_in_packet(scene, &ray, call, depth, &payload),
+            false => None,
+        };
         let committed = match traced {
             Some(committed) => committed,
             None => self.trace_alone(scene, ray, call, depth, &payload),

@@ -239,6 +239,34 @@ impl<'f> Traversal<'f> {
         });
     }
 
+    /// Tests `candidate`, a primitive whose box a packet walk found this ray
+    /// enters, as the walk alone would (the instance's object-space ray, the
+    /// same flags and programs), with the ray's closest distance so far.
+    pub(super) fn candidate(&self, candidate: super::packet::Candidate) {
+        self.t_max.set(candidate.t_max);
+        let index = candidate.instance;
+        let instance: &SceneInstance = &self.scene.instances[index as usize];
+        let w2o: Affine3A = instance.world_to_object;
+        let (o, d) = (
+            Vec3A::from(w2o.transform_point3(self.ray.origin)),
+            Vec3A::from(w2o.transform_vector3(self.ray.direction)),
+        );
+        let ray = BvhRay::new(o, without_negative_zeros(d), self.ray.t_min, self.t_max.get());
+        let leaf = &instance.gas.leaves[candidate.leaf as usize];
+        self.primitive(index, instance, leaf, o, d, &ray, None);
+    }
+
+    /// The ray's closest distance so far (its `t_max` until a hit).
+    pub(super) fn t_max(&self) -> f32 {
+        self.t_max.get()
+    }
+
+    /// Whether the traversal ended (an accepted hit of a ray ending at its
+    /// first, or an any-hit program's `terminate_ray`).
+    pub(super) fn terminated(&self) -> bool {
+        self.terminated.get()
+    }
+
     /// Tests one primitive of instance `index`; a triangle's intersection
     /// `(t, u, v, determinant)` may come `found` already.
     #[allow(clippy::too_many_arguments)]
