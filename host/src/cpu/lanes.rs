@@ -107,6 +107,7 @@ where
         });
     }
     let mut overflows: Vec<Option<Overflow>> = vec![None; count];
+    super::overflow::ready_thread();
     loop {
         let mut suspended = false;
         for (lane, coroutine) in lanes.iter_mut().enumerate().filter(|(_, lane)| !lane.done()) {

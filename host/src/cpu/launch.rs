@@ -49,17 +49,25 @@ type LaunchFailure = (u64, [u32; 3], Failure);
 /// Runs the launch; returns its error, if any, after every invocation ran.
 pub(crate) fn run(job: &LaunchJob) -> Result<()> {
     let [w, h, d] = job.dims;
+    // A tile of about `size × size` invocations: as many rows as the launch
+    // has, up to `size`, and wide enough for the rest (a launch of one row
+    // gets tiles of one row, `size²` wide), so that a tile's set-up is shared
+    // by as many invocations whatever the launch's shape.
+    let shape = |size: u32| {
+        let rows = size.min(h.max(1));
+        (size * (size / rows), rows)
+    };
+    let count = |(tw, th): (u32, u32)| u64::from(w.div_ceil(tw)) * u64::from(h.div_ceil(th)) * u64::from(d);
     // Lanes' tiles are larger, so that more invocations share what a tile
     // sets up, but not so large that a thread gets fewer than 64 of them on
     // average: the load would not balance.
-    let count = |size: u32| u64::from(w.div_ceil(size)) * u64::from(h.div_ceil(size)) * u64::from(d);
     let enough = 64 * job.ctx.pool.current_num_threads() as u64;
-    let tile_size = match job.packets {
-        true if count(4 * TILE) >= enough => 4 * TILE,
-        true => 2 * TILE,
-        false => TILE,
+    let (tile_w, tile_h) = match job.packets {
+        true if count(shape(4 * TILE)) >= enough => shape(4 * TILE),
+        true => shape(2 * TILE),
+        false => shape(TILE),
     };
-    let (tiles_x, tiles_y) = (w.div_ceil(tile_size), h.div_ceil(tile_size));
+    let (tiles_x, tiles_y) = (w.div_ceil(tile_w), h.div_ceil(tile_h));
     let tiles = u64::from(tiles_x) * u64::from(tiles_y) * u64::from(d);
     let stop = AtomicBool::new(false);
     let outcomes: Vec<Outcome> = job.ctx.pool.install(|| {
@@ -75,7 +83,7 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                 let rest = tile % (u64::from(tiles_x) * u64::from(tiles_y));
                 let (ty, tx) = ((rest / u64::from(tiles_x)) as u32, (rest % u64::from(tiles_x)) as u32);
                 if job.packets {
-                    run_tile_in_lanes(job, [tx * tile_size, ty * tile_size, z], tile_size, &mut outcome);
+                    run_tile_in_lanes(job, [tx * tile_w, ty * tile_h, z], [tile_w, tile_h], &mut outcome);
                     if outcome.failure.is_some() {
                         stop.store(true, Ordering::Relaxed);
                     }
@@ -85,8 +93,8 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                 // stack whose overflow ends the tile, not the process.
                 let mut state = InvocationState::new(job);
                 let guarded = super::overflow::run_guarded(|| {
-                    for y in ty * tile_size..((ty + 1) * tile_size).min(h) {
-                        for x in tx * tile_size..((tx + 1) * tile_size).min(w) {
+                    for y in ty * tile_h..((ty + 1) * tile_h).min(h) {
+                        for x in tx * tile_w..((tx + 1) * tile_w).min(w) {
                             state.launch_index = UVec3::new(x, y, z);
                             state.failed_in.set(None);
                             outcome.failure = invoke(&state, &mut outcome.exceptions);
@@ -100,7 +108,7 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
                     Ok(None) => {}
                     Ok(Some(overflow)) => outcome.failure = Some(overflowed(job, overflow)),
                     Err(e) => {
-                        let index = [tx * tile_size, ty * tile_size, z];
+                        let index = [tx * tile_w, ty * tile_h, z];
                         let failure = Failure::Fault { program: "(launch)", problem: e.to_string() };
                         outcome.failure = Some((linear_index(job.dims, index), index, failure));
                     }
@@ -143,15 +151,15 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
     Err(crate::error::exceptions_error(total, exceptions, job.pipeline.max_trace_depth).into())
 }
 
-/// Runs the tile of `size × size` invocations from `[x0, y0, z]` in
+/// Runs the tile of `width × height` invocations from `[x0, y0, z]` in
 /// [`packet::WIDTH`] lanes, their camera rays traced in packets. Lane `i` runs
 /// the tile's invocations `i`, `i + WIDTH`, … in rows of blocks of
 /// 4 × `WIDTH / 4` invocations, so that the lanes' rays stay close together.
 /// Once an invocation failed, lanes run only the invocations before it in
 /// launch order, so the tile reports its first failure in launch order.
-fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], size: u32, outcome: &mut Outcome) {
+fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], [width, height]: [u32; 2], outcome: &mut Outcome) {
     let [w, h, _] = job.dims;
-    let (x_end, y_end) = ((x0 + size).min(w), (y0 + size).min(h));
+    let (x_end, y_end) = (x0.saturating_add(width).min(w), y0.saturating_add(height).min(h));
     let (bw, bh) = if y_end - y0 == 1 { (packet::WIDTH as u32, 1) } else { (4, packet::WIDTH as u32 / 4) };
     // The launch-order position of the first failure so far.
     let first_failure = Cell::new(u64::MAX);

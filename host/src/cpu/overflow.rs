@@ -93,15 +93,22 @@ pub(crate) fn leave(previous: Option<Overflow>) {
     RUNNING.set(previous);
 }
 
+/// Readies this thread to catch overflows in guarded coroutines: once per
+/// thread before [`resume_guarded`] (which runs often: lanes resume on every
+/// packet trace and candidate, so it does not do this itself).
+#[inline]
+pub(crate) fn ready_thread() {
+    handler::install();
+}
+
 /// Resumes `coroutine` with its stack overflow guarded; an overflow makes it
-/// return (it is then done) and is returned. Inlined: lanes resume on every
-/// packet trace.
+/// return (it is then done) and is returned. The thread must be ready
+/// ([`ready_thread`]). Inlined: lanes resume on every packet trace.
 #[inline]
 pub(crate) fn resume_guarded<Y, S: corosensei::stack::Stack>(
     coroutine: &mut Coroutine<(), Y, (), S>,
     guard_page: usize,
 ) -> (CoroutineResult<Y, ()>, Option<Overflow>) {
-    handler::install();
     let previous = GUARD.replace(Some(Guard { handler: coroutine.trap_handler(), guard_page }));
     let result = coroutine.resume(());
     GUARD.set(previous);
@@ -128,6 +135,7 @@ pub(crate) fn run_guarded<F: FnOnce()>(f: F) -> Result<Option<Overflow>> {
     // trap handler, before this function returns.
     let mut coroutine: Coroutine<(), (), (), DefaultStack> =
         unsafe { Coroutine::with_stack_unchecked(stack, move |_: &corosensei::Yielder<(), ()>, ()| f()) };
+    ready_thread();
     let (_, overflow) = resume_guarded(&mut coroutine, guard_page);
     // A stack that overflowed is given back (its pages are all touched).
     if coroutine.done() && overflow.is_none() {
