@@ -1,19 +1,19 @@
 //! The any-hit stage (`__anyhit__`): runs for each candidate hit along a ray
 //! (unless the geometry is opaque) and may reject it or end the traversal.
 
-use super::hit::{hit_accessors, hit_kind_accessors, HitBuiltins};
+use super::hit::{hit_accessors, hit_kind_accessors, HitRef};
 
 /// What an any-hit program may use: the ray, the candidate hit, device, and
 /// [`AnyHit::ignore_intersection`] / [`AnyHit::terminate_ray`].
 pub struct AnyHit<'a> {
-    hit: HitBuiltins,
+    hit: HitRef<'a>,
     device: super::DeviceAccess<'a>,
     exception_slot: u32,
 }
 
 impl<'a> AnyHit<'a> {
     #[doc(hidden)]
-    pub fn __new(hit: HitBuiltins, device: super::DeviceAccess<'a>, exception_slot: u32) -> Self {
+    pub fn __new(hit: HitRef<'a>, device: super::DeviceAccess<'a>, exception_slot: u32) -> Self {
         AnyHit { hit, device, exception_slot }
     }
 

@@ -3,14 +3,14 @@
 
 use spirv_std::glam::Vec2;
 
-use super::hit::{hit_accessors, hit_kind_accessors, HitBuiltins};
+use super::hit::{hit_accessors, hit_kind_accessors, HitRef};
 
 /// What a closest-hit program may use: the ray, the hit, device, tracing and
 /// callables. Typed hit attributes (from an intersection program) are an
 /// `#[attributes] a: &T` parameter; for triangles without one,
 /// [`ClosestHit::barycentrics`] gives the built-in attributes.
 pub struct ClosestHit<'a> {
-    hit: HitBuiltins,
+    hit: HitRef<'a>,
     barycentrics: Vec2,
     device: super::DeviceAccess<'a>,
     exception_slot: u32,
@@ -24,7 +24,7 @@ pub struct ClosestHit<'a> {
 impl<'a> ClosestHit<'a> {
     #[doc(hidden)]
     pub fn __new(
-        hit: HitBuiltins,
+        hit: HitRef<'a>,
         barycentrics: Vec2,
         device: super::DeviceAccess<'a>,
         exception_slot: u32,

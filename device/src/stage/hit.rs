@@ -32,6 +32,19 @@ pub struct HitBuiltins {
     pub world_to_object: Matrix4x3,
 }
 
+/// The hit built-ins as a hit stage's context holds them: by value on the GPU
+/// (read from the built-in variables at entry), borrowed from the invocation
+/// on the CPU (not copied for each program call).
+#[doc(hidden)]
+#[cfg(target_arch = "spirv")]
+pub type HitRef<'a> = HitBuiltins;
+/// The hit built-ins as a hit stage's context holds them: by value on the GPU
+/// (read from the built-in variables at entry), borrowed from the invocation
+/// on the CPU (not copied for each program call).
+#[doc(hidden)]
+#[cfg(not(target_arch = "spirv"))]
+pub type HitRef<'a> = &'a HitBuiltins;
+
 impl HitBuiltins {
     /// All zeros: the built-ins of a stage that has no hit.
     pub const ZERO: HitBuiltins = HitBuiltins {

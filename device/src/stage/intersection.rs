@@ -1,20 +1,20 @@
 //! The intersection stage (`__intersection__`): computes hits with custom
 //! primitives (AABBs in the GAS) and reports them with typed attributes.
 
-use super::hit::{hit_accessors, HitBuiltins};
+use super::hit::{hit_accessors, HitRef};
 
 /// What an intersection program may use: the ray, the primitive, device, and
 /// [`Intersection::report_intersection`]. Its hit attributes are a
 /// `#[attributes] a: &mut T` parameter, written before reporting.
 pub struct Intersection<'a> {
-    hit: HitBuiltins,
+    hit: HitRef<'a>,
     device: super::DeviceAccess<'a>,
     exception_slot: u32,
 }
 
 impl<'a> Intersection<'a> {
     #[doc(hidden)]
-    pub fn __new(hit: HitBuiltins, device: super::DeviceAccess<'a>, exception_slot: u32) -> Self {
+    pub fn __new(hit: HitRef<'a>, device: super::DeviceAccess<'a>, exception_slot: u32) -> Self {
         Intersection { hit, device, exception_slot }
     }
 

@@ -77,6 +77,17 @@ struct Candidate {
     opaque: bool,
 }
 
+/// What is known of a primitive before [`Traversal::primitive`] tests it.
+#[derive(Copy, Clone)]
+enum Known<'r> {
+    /// Nothing: a triangle is intersected, a box tested with this ray.
+    Nothing(&'r BvhRay),
+    /// A triangle's intersection `(t, u, v, determinant)`, found already.
+    TriangleHit((f32, f32, f32, f32)),
+    /// The ray enters the box: a packet walk tested it as this ray's would.
+    BoxEntered,
+}
+
 /// One trace through one IAS.
 pub(super) struct Traversal<'f> {
     frame: &'f Frame<'f, 'f>,
@@ -218,7 +229,7 @@ impl<'f> Traversal<'f> {
                     }
                     let leaf = &gas.leaves[8 * b + lane];
                     let found = (hits.t.0[lane], hits.u.0[lane], hits.v.0[lane], hits.det.0[lane]);
-                    self.primitive(index, instance, leaf, o, d, &ray, Some(found));
+                    self.primitive(index, instance, leaf, o, d, Known::TriangleHit(found));
                     if self.terminated.get() {
                         return;
                     }
@@ -231,7 +242,7 @@ impl<'f> Traversal<'f> {
         use glam::UVec2;
         obvhs::traverse!(bvh, node, state, intersect_node::<AVX2>(node, &ray, state.oct_inv4), {
             let leaf = &gas.leaves[state.primitive_id as usize];
-            self.primitive(index, instance, leaf, o, d, &ray, None);
+            self.primitive(index, instance, leaf, o, d, Known::Nothing(&ray));
             if self.terminated.get() {
                 break;
             }
@@ -246,14 +257,18 @@ impl<'f> Traversal<'f> {
         self.t_max.set(candidate.t_max);
         let index = candidate.instance;
         let instance: &SceneInstance = &self.scene.instances[index as usize];
-        let w2o: Affine3A = instance.world_to_object;
-        let (o, d) = (
-            Vec3A::from(w2o.transform_point3(self.ray.origin)),
-            Vec3A::from(w2o.transform_vector3(self.ray.direction)),
-        );
-        let ray = BvhRay::new(o, without_negative_zeros(d), self.ray.t_min, self.t_max.get());
+        // As `instance` computes it; the identity's arithmetic is skipped (the
+        // hit built-ins skip it too).
+        let (origin, direction) = match instance.identity {
+            true => (self.ray.origin, self.ray.direction),
+            false => {
+                let w2o: Affine3A = instance.world_to_object;
+                (w2o.transform_point3(self.ray.origin), w2o.transform_vector3(self.ray.direction))
+            }
+        };
+        let (o, d) = (Vec3A::from(origin), Vec3A::from(direction));
         let leaf = &instance.gas.leaves[candidate.leaf as usize];
-        self.primitive(index, instance, leaf, o, d, &ray, None);
+        self.primitive(index, instance, leaf, o, d, Known::BoxEntered);
     }
 
     /// The ray's closest distance so far (its `t_max` until a hit).
@@ -267,9 +282,8 @@ impl<'f> Traversal<'f> {
         self.terminated.get()
     }
 
-    /// Tests one primitive of instance `index`; a triangle's intersection
-    /// `(t, u, v, determinant)` may come `found` already.
-    #[allow(clippy::too_many_arguments)]
+    /// Tests one primitive of instance `index` with the object-space ray
+    /// `origin + t direction`, knowing `known` of it.
     #[inline(always)]
     fn primitive(
         &self,
@@ -278,8 +292,7 @@ impl<'f> Traversal<'f> {
         leaf: &Leaf,
         origin: Vec3A,
         direction: Vec3A,
-        ray: &BvhRay,
-        found: Option<(f32, f32, f32, f32)>,
+        known: Known<'_>,
     ) {
         let (geometry, primitive) = (leaf.geometry, leaf.primitive);
         let geo = &instance.gas.geometries[geometry as usize];
@@ -312,11 +325,13 @@ impl<'f> Traversal<'f> {
                 if flags & ray_flags::SKIP_TRIANGLES != 0 {
                     return;
                 }
-                let Some((t, u, v, det)) =
-                    found.or_else(|| intersect_triangle(&leaf.triangle, origin, direction, ray.tmin, self.t_max.get()))
-                else {
-                    return;
+                let found = match known {
+                    Known::TriangleHit(found) => Some(found),
+                    Known::Nothing(_) | Known::BoxEntered => {
+                        intersect_triangle(&leaf.triangle, origin, direction, self.ray.t_min, self.t_max.get())
+                    }
                 };
+                let Some((t, u, v, det)) = found else { return };
                 // Facing is decided in object space, where the instance's flip
                 // applies: a triangle whose vertices run counter-clockwise as seen
                 // from the ray's origin is front-facing (a positive determinant
@@ -340,7 +355,13 @@ impl<'f> Traversal<'f> {
                 if flags & ray_flags::SKIP_AABBS != 0 {
                     return;
                 }
-                if boxes[primitive as usize].intersect_ray(ray) == f32::INFINITY {
+                let enters = match known {
+                    Known::Nothing(ray) => boxes[primitive as usize].intersect_ray(ray) != f32::INFINITY,
+                    Known::BoxEntered => true,
+                    // No triangle's hit is a box's.
+                    Known::TriangleHit(_) => false,
+                };
+                if !enters {
                     return;
                 }
                 self.intersect(candidate);

@@ -169,12 +169,12 @@ fn context(program: &Program) -> TokenStream {
                 quote!(unsafe { __inv.barycentrics() })
             };
             quote! {
-                ::raykit_device::#ctx_ty::__new(*__inv.hit, #barycentrics, __inv.runtime, 0, &mut __raykit_exception_call)
+                ::raykit_device::#ctx_ty::__new(__inv.hit, #barycentrics, __inv.runtime, 0, &mut __raykit_exception_call)
                     .__with_trace_depth(__inv.depth, __inv.max_trace_depth)
             }
         }
         ProgramPrefix::AnyHit | ProgramPrefix::Intersection => quote! {
-            ::raykit_device::#ctx_ty::__new(*__inv.hit, __inv.runtime, 0)
+            ::raykit_device::#ctx_ty::__new(__inv.hit, __inv.runtime, 0)
         },
     }
 }
