@@ -56,7 +56,11 @@
 //! the larger of `|f|∞` and `r` into `[1, 2)` and `d` by another to bring `|d|∞`
 //! there, so that no square overflows (a centre at 1e20) or underflows (a
 //! radius of 1e-20), and the roots are scaled back. Lengths are taken the same
-//! way, and the discriminant's root as `√(a (r − |l|)) · √(r + |l|)`.
+//! way, and the discriminant's root as `√(a (r − |l|)) · √(r + |l|)` where the
+//! product under one root would underflow. Rays and
+//! spheres of ordinary size (the direction's largest component and the radius
+//! within `[2⁻³⁰, 2³⁰]`, the origin within `2³⁰` of the centre) need no scaling
+//! and skip it, as lengths whose square is within `[2⁻¹⁰⁰, 2¹⁰⁰]` do.
 //!
 //! # Hit attributes ([`SphereHit`]) and hit kinds
 //! * `normal`: the object-space outward unit normal;
@@ -72,6 +76,10 @@
 //! [`SurfaceHit::spawn_origin`] offsets the point along the normal by its error
 //! bound and by [`offset_ray_origin`], so
 //! secondary rays from a radius-1000 ground start outside it with `t_min = 0`.
+
+// Comparisons, not `RangeInclusive::contains`: rust-gpu does not compile the
+// reference `contains` takes in this code to valid SPIR-V.
+#![allow(clippy::manual_range_contains)]
 
 use spirv_std::glam::{Vec3, Vec4};
 
@@ -157,6 +165,21 @@ impl SphereHit {
     }
 }
 
+/// Squares in `[2⁻¹⁰⁰, 2¹⁰⁰]`: no term of a dot product this large under- or
+/// overflowed enough to change it.
+const TINY_SQUARE: f32 = 1.0 / 1_267_650_600_228_229_401_496_703_205_376.0;
+const HUGE_SQUARE: f32 = 1_267_650_600_228_229_401_496_703_205_376.0;
+
+/// Whether `square` is within `[2⁻¹⁰⁰, 2¹⁰⁰]` (false for NaN).
+fn ordinary_square(square: f32) -> bool {
+    TINY_SQUARE <= square && square <= HUGE_SQUARE
+}
+
+/// Magnitudes in `[2⁻³⁰, 2³⁰]`: rays and spheres this size need no frame
+/// scaling, as no sum or product of the test leaves `f32`'s normal range.
+const SMALLEST_UNSCALED: f32 = 1.0 / 1_073_741_824.0;
+const LARGEST_UNSCALED: f32 = 1_073_741_824.0;
+
 /// `2^e` for `e` in `[-126, 127]` (normal `f32`s only: GPUs flush subnormals).
 fn power_of_two(e: i32) -> f32 {
     f32::from_bits(((e + 127) as u32) << 23)
@@ -178,6 +201,10 @@ fn normal_exponent(e: i32) -> i32 {
 /// `x · 2^e` for `e` in `[-378, 378]`, in steps that never leave the normal
 /// range themselves: exact unless the result overflows or underflows.
 fn scale_by_power_of_two(x: f32, e: i32) -> f32 {
+    if -126 <= e && e <= 126 {
+        // One step: the same product (the other two factors are 1).
+        return x * power_of_two(e);
+    }
     let first = normal_exponent(e);
     let second = normal_exponent(e - first);
     x * power_of_two(first) * power_of_two(second) * power_of_two(e - first - second)
@@ -186,6 +213,13 @@ fn scale_by_power_of_two(x: f32, e: i32) -> f32 {
 /// `|v|` without overflow or underflow of `v · v`: computed on `v` scaled by a
 /// power of two to a largest component in `[1, 2)`.
 fn robust_length(v: Vec3) -> f32 {
+    let squared = v.dot(v);
+    // Also false for NaN and infinities.
+    if ordinary_square(squared) {
+        // No square under- or overflowed: the scaled computation below gives
+        // the same value.
+        return sqrt(squared);
+    }
     if !v.is_finite() {
         return f32::NAN;
     }
@@ -223,9 +257,16 @@ impl SphereFrame {
         if !valid {
             return None;
         }
+        // The common case: every magnitude within `[2⁻³⁰, 2³⁰]` (also false
+        // for infinities), the frame the caller's own.
+        let f = origin - centre;
+        let unscaled = |m: f32| SMALLEST_UNSCALED <= m && m <= LARGEST_UNSCALED;
+        if unscaled(d_largest) && unscaled(radius) && f.abs().max_element() <= LARGEST_UNSCALED {
+            return Some(SphereFrame { f, d: direction, radius, t_exponent: 0 });
+        }
         // `o − c` overflows when the two are more than `f32::MAX` apart: then
         // both are halved first (exactly), and the radius with them.
-        let mut f = origin - centre;
+        let mut f = f;
         let mut radius = radius;
         let mut halved = 0;
         if !f.is_finite() {
@@ -261,8 +302,11 @@ impl SphereFrame {
         if !meets {
             return None;
         }
-        // √(a (r − l)(r + l)), in two roots so that a tiny radius does not underflow.
-        let s = sqrt(a * (radius - l)) * sqrt(radius + l);
+        // √(a (r − l)(r + l)): one root where the product is of ordinary size,
+        // else two, so that a tiny radius does not underflow.
+        let discriminant = a * (radius - l) * (radius + l);
+        let s =
+            if ordinary_square(discriminant) { sqrt(discriminant) } else { sqrt(a * (radius - l)) * sqrt(radius + l) };
         let q = if b < 0.0 { s - b } else { -s - b };
         if q == 0.0 {
             // b = 0 and a tangent line: the double root at the closest approach.
