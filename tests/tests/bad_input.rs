@@ -1451,6 +1451,19 @@ fn in_child(name: &str, body: impl FnOnce() -> anyhow::Result<()>) -> anyhow::Re
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()?;
+    // Read on threads while the child runs, so that a child writing more than
+    // a pipe holds (backtraces of its panics) does not block on it.
+    let drain = |pipe: Option<Box<dyn Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut text = String::new();
+            if let Some(mut pipe) = pipe {
+                let _ = pipe.read_to_string(&mut text);
+            }
+            text
+        })
+    };
+    let out = drain(child.stdout.take().map(|o| Box::new(o) as Box<dyn Read + Send>));
+    let err = drain(child.stderr.take().map(|e| Box::new(e) as Box<dyn Read + Send>));
     let start = std::time::Instant::now();
     let status = loop {
         if let Some(status) = child.try_wait()? {
@@ -1463,9 +1476,8 @@ fn in_child(name: &str, body: impl FnOnce() -> anyhow::Result<()>) -> anyhow::Re
         }
         std::thread::sleep(std::time::Duration::from_millis(20));
     };
-    let (mut out, mut err) = (String::new(), String::new());
-    child.stdout.take().map(|mut o| o.read_to_string(&mut out));
-    child.stderr.take().map(|mut e| e.read_to_string(&mut err));
+    let joined = |reader: std::thread::JoinHandle<String>| reader.join().unwrap_or_default();
+    let (out, err) = (joined(out), joined(err));
     anyhow::ensure!(status.success(), "{name}: the child process failed ({status}):\n{out}\n{err}");
     anyhow::ensure!(out.contains("1 passed"), "{name}: the child process ran no test:\n{out}\n{err}");
     Ok(())
@@ -2336,6 +2348,84 @@ fn cpu_program_recursing_without_end() -> anyhow::Result<()> {
                 ));
                 still_usable(&ctx)?;
             }
+        }
+        Ok(())
+    })
+}
+
+/// The launch error of a CPU launch of orthographic rays into one box whose
+/// intersection program recurses without end (`recursing`) or panics, and the
+/// first launch index, in launch order, whose ray enters the box.
+fn intersection_failure(ctx: &Context, recursing: bool) -> anyhow::Result<(Error, [u32; 3])> {
+    use accel_test_device::{pixel_position, ColorData, Params as AccelParams};
+    use raykit::glam::{UVec2, Vec2};
+    let module = Module::from_device_crate(ctx, "accel-test-device")?;
+    let raygen = ProgramGroup::raygen(&module, accel_test_device::RG)?;
+    let miss = ProgramGroup::miss(&module, accel_test_device::MS)?;
+    let intersection = if recursing { accel_test_device::IS_RECURSING } else { accel_test_device::IS_PANICKING };
+    let hit = ProgramGroup::hit_group(&module).intersection(intersection).build()?;
+    let pipeline = Pipeline::<AccelParams>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
+    let sbt = Sbt::builder(&pipeline)
+        .raygen(&raygen, ())
+        .miss(&miss, ColorData { color: Vec3::ZERO })
+        .hit(&hit, ())
+        .build()?;
+    // Four pixel centres lie inside the box, none on its sides.
+    let (lo, hi) = (Vec2::new(-0.3, -0.3), Vec2::new(-0.05, -0.05));
+    let gas = Gas::aabbs(ctx, &[raykit::Aabb::new(lo.extend(-1.0), hi.extend(1.0))])?;
+    let scene = Ias::single(ctx, &gas)?;
+    let (width, height) = (16, 16);
+    let image = ctx.buffer::<u32>((width * height) as usize)?;
+    let params = AccelParams {
+        image: image.handle(),
+        width,
+        height,
+        _pad: 0,
+        x0: -1.0,
+        y0: -1.0,
+        x1: 1.0,
+        y1: 1.0,
+        scene: scene.handle(),
+    };
+    let first = (0..height)
+        .flat_map(|y| (0..width).map(move |x| (x, y)))
+        .find(|&(x, y)| {
+            let p = pixel_position(UVec2::new(x, y), &params);
+            p.cmpgt(lo).all() && p.cmplt(hi).all()
+        })
+        .ok_or_else(|| anyhow::anyhow!("no ray enters the box"))?;
+    let err = refused(pipeline.launch(&sbt, &params, [width, height, 1]), "a launch whose intersection program fails")?;
+    Ok((err, [first.0, first.1, 0]))
+}
+
+#[test]
+fn cpu_intersection_program_failing_in_packets_and_alone() -> anyhow::Result<()> {
+    // Overflows killed the process with SIGSEGV once: in a child.
+    in_child("cpu_intersection_program_failing_in_packets_and_alone", || {
+        for packets in [false, true] {
+            let ctx = cpu_context(packets)?;
+            for recursing in [true, false] {
+                let label = format!("packets {packets}, recursing {recursing}");
+                let (err, first) = intersection_failure(&ctx, recursing)?;
+                match &err {
+                    Error::Launch(LaunchError::StackOverflow { program, launch_index, .. }) if recursing => {
+                        anyhow::ensure!(program == "__intersection__is_recursing", "{label}: named {program}");
+                        anyhow::ensure!(*launch_index == first, "{label}: at {launch_index:?}, not {first:?}");
+                    }
+                    Error::Launch(LaunchError::ProgramPanicked { program, launch_index, message }) if !recursing => {
+                        anyhow::ensure!(program == "__intersection__is_panicking", "{label}: named {program}");
+                        anyhow::ensure!(*launch_index == first, "{label}: at {launch_index:?}, not {first:?}");
+                        anyhow::ensure!(message.contains("the ray entered box 0"), "{label}: {message}");
+                    }
+                    other => anyhow::bail!("{label}: {other:?}"),
+                }
+                // The same error again, then a picture.
+                anyhow::ensure!(intersection_failure(&ctx, recursing)?.0.to_string() == err.to_string(), "{label}");
+                still_usable(&ctx)?;
+            }
+            // With packets on, the rays went in packets (the walk ran the
+            // failing programs); with them off, none did.
+            anyhow::ensure!((ctx.packet_rays() > 0) == packets, "packets {packets}: {} packet rays", ctx.packet_rays());
         }
         Ok(())
     })

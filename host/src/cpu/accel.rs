@@ -218,6 +218,8 @@ pub(crate) struct SceneData {
     pub(crate) bvh: CwBvh,
     /// Every triangle is opaque (see [`triangles_opaque`]).
     pub(crate) triangles_opaque: bool,
+    /// Some instance's GAS has boxes (an AABB geometry).
+    pub(crate) boxes: bool,
 }
 
 impl std::fmt::Debug for SceneData {
@@ -232,7 +234,8 @@ impl SceneData {
         let boxes: Vec<BvhAabb> = instances.iter().map(world_bounds).collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(boxes.len()), &mut Duration::default());
         let triangles_opaque = triangles_opaque(&instances);
-        SceneData { instances, bvh, triangles_opaque }
+        let boxes = instances.iter().any(|instance| instance.gas.boxes);
+        SceneData { instances, bvh, triangles_opaque, boxes }
     }
 
     /// Bytes the structure takes on the host.

@@ -1,6 +1,7 @@
 //! One CPU launch as its invocations see it: what the launch reads, fixed when
 //! it starts, each invocation's state, and how a program's fault ends it.
 
+use std::any::Any;
 use std::cell::{Cell, RefCell, UnsafeCell};
 use std::panic::resume_unwind;
 use std::sync::Arc;
@@ -10,8 +11,10 @@ use glam::{UVec3, Vec3};
 use super::accel::SceneData;
 use super::buffers::Words;
 use super::lanes::LaneYielder;
-use super::packet::{Mail, Packet};
+use super::overflow::Overflow;
+use super::packet::Packet;
 use super::program::{Aligned, PipelineData, SbtData};
+use super::traverse::Traversal;
 use super::CpuContext;
 use crate::error::UserException;
 
@@ -121,11 +124,28 @@ pub(super) struct LaneSeat {
     pub(super) yielder: *const LaneYielder,
     /// The block's packet.
     pub(super) packet: *const UnsafeCell<Packet>,
-    /// Where the packet's walk asks the lane to run a candidate's programs
-    /// and the lane answers.
-    pub(super) mail: *const Cell<Mail>,
+    /// Where the lane's waiting trace meets the packet's walk.
+    pub(super) desk: *const LaneDesk,
     /// The lane's index in the block and its packet.
     pub(super) index: usize,
+}
+
+/// Where a lane's trace waiting in its packet meets the walk: the traversal
+/// in which the walk runs the programs of the boxes the lane's ray enters, and
+/// what failed in them.
+pub(super) struct LaneDesk {
+    /// The traversal of the lane's waiting trace; null when its ray tests no
+    /// boxes.
+    pub(super) traversal: Cell<*const Traversal<'static>>,
+    /// A failure of a candidate's programs (a panic's payload, or
+    /// [`Overflowed`]), carried out of the lane's trace once the walk is over.
+    pub(super) failure: Cell<Option<Box<dyn Any + Send>>>,
+}
+
+impl Default for LaneDesk {
+    fn default() -> Self {
+        LaneDesk { traversal: Cell::new(std::ptr::null()), failure: Cell::new(None) }
+    }
 }
 
 /// The identities of two types found equal (see
@@ -136,6 +156,10 @@ type TypePair = (usize, usize);
 /// unknown traversable, a record past the SBT, a payload of another type).
 /// Unwinds the invocation; the launch returns it as an error.
 pub(super) struct Fault(pub(super) String);
+
+/// An overflow of the stack a packet's walk ran a candidate's programs on:
+/// unwinds the invocation the candidate was for, which ends with it.
+pub(super) struct Overflowed(pub(super) Overflow);
 
 /// What an any-hit program decided by not returning.
 pub(super) enum AnyHitEnd {

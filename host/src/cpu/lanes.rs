@@ -3,7 +3,8 @@
 //! can take writes it into the block's packet and suspends; once every
 //! invocation of the block has suspended or finished, the block traces the
 //! packet and resumes them. Everything else an invocation does runs as before,
-//! on its own stack.
+//! on its own stack; the programs of the boxes a walk finds run on the walk's
+//! (see [`super::launch`]).
 //!
 //! Stacks are as deep as the pool's threads', start [`STAGGER`] bytes apart
 //! modulo a page, and are kept per thread for the next block.
@@ -56,37 +57,15 @@ thread_local! {
     static STACKS: RefCell<Vec<DefaultStack>> = const { RefCell::new(Vec::new()) };
 }
 
-/// The lanes of a block while its driver traces: [`Lanes::resume`] runs one
-/// lane until it suspends again (to run a program for the trace in progress).
-pub(crate) struct Lanes<'l> {
-    coroutines: &'l mut [Lane],
-    guard_pages: &'l [usize],
-    overflows: &'l mut [Option<Overflow>],
-}
-
-impl Lanes<'_> {
-    /// Resumes `lane` (suspended); whether it suspended again. A lane that
-    /// overflowed its stack ended there: false, and the overflow is kept.
-    pub(crate) fn resume(&mut self, lane: usize) -> bool {
-        let Some(coroutine) = self.coroutines.get_mut(lane).filter(|c| !c.done()) else { return false };
-        let (result, overflow) = super::overflow::resume_guarded(coroutine, self.guard_pages[lane]);
-        if overflow.is_some() {
-            self.overflows[lane] = overflow;
-        }
-        matches!(result, CoroutineResult::Yield(()))
-    }
-}
-
 /// Runs `body(lane, yielder)` for each lane of `0..count` (at most
 /// [`WIDTH`]), each in a coroutine of its own. Whenever every lane has
-/// suspended or returned, and some suspended, `trace` runs (it may resume
-/// single lanes through [`Lanes`]) and then the suspended lanes are resumed.
-/// A lane that overflows its stack ends there (see [`super::overflow`]); the
-/// overflows are returned.
+/// suspended or returned, and some suspended, `trace` runs and then the
+/// suspended lanes are resumed. A lane that overflows its stack ends there
+/// (see [`super::overflow`]); the overflows are returned.
 pub(crate) fn run_lanes<F, T>(count: usize, body: &F, mut trace: T) -> Result<Vec<Overflow>>
 where
     F: Fn(usize, &LaneYielder),
-    T: FnMut(&mut Lanes<'_>),
+    T: FnMut(),
 {
     debug_assert!(count <= WIDTH);
     let mut lanes: Vec<Lane> = Vec::with_capacity(count);
@@ -120,7 +99,7 @@ where
         if !suspended {
             break;
         }
-        trace(&mut Lanes { coroutines: &mut lanes, guard_pages: &guard_pages, overflows: &mut overflows });
+        trace();
     }
     // The stack of a lane that overflowed is given back (its pages are all
     // touched), the others kept for the next block.

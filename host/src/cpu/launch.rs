@@ -12,9 +12,9 @@ use glam::UVec3;
 use raykit_device::exception::EXCEPTION_CAPACITY;
 use raykit_device::stage::HitBuiltins;
 
-use super::job::{Fault, InvocationState, LaneSeat, LaunchJob};
+use super::job::{Fault, InvocationState, LaneDesk, LaneSeat, LaunchJob, Overflowed};
 use super::lanes::{self, LaneYielder};
-use super::packet::{self, Candidate, Mail, Packet};
+use super::packet::{self, Candidate, Packet};
 use super::program::{PipelineData, SbtData};
 use super::traverse::Frame;
 use super::CpuLiveness;
@@ -157,6 +157,14 @@ pub(crate) fn run(job: &LaunchJob) -> Result<()> {
 /// 4 × `WIDTH / 4` invocations, so that the lanes' rays stay close together.
 /// Once an invocation failed, lanes run only the invocations before it in
 /// launch order, so the tile reports its first failure in launch order.
+///
+/// A packet's walk runs on a guarded stack of its own (one per thread, reused,
+/// so always in cache), and so do the programs of the boxes it finds: each in
+/// the traversal its lane's waiting trace published ([`LaneDesk`]), without
+/// switching to the lane. A failure there is the lane's: a panic is kept for
+/// the lane to carry out of its trace once the walk is over; an overflow of the
+/// walk's stack ends the walk, fails the lane whose candidate overflowed it,
+/// and has the packet's other rays traced alone.
 fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], [width, height]: [u32; 2], outcome: &mut Outcome) {
     let [w, h, _] = job.dims;
     let (x_end, y_end) = (x0.saturating_add(width).min(w), y0.saturating_add(height).min(h));
@@ -165,10 +173,10 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], [width, height]: [u
     let first_failure = Cell::new(u64::MAX);
     let outcomes: [RefCell<Outcome>; packet::WIDTH] = std::array::from_fn(|_| RefCell::default());
     let packet = UnsafeCell::new(Packet::new());
-    let mail: [Cell<Mail>; packet::WIDTH] = Default::default();
+    let desks: [LaneDesk; packet::WIDTH] = Default::default();
     let body = |lane: usize, yielder: &LaneYielder| {
         let mut state = InvocationState::new(job);
-        state.lane.set(Some(LaneSeat { yielder, packet: &packet, mail: &mail[lane], index: lane }));
+        state.lane.set(Some(LaneSeat { yielder, packet: &packet, desk: &desks[lane], index: lane }));
         let mut outcome = outcomes[lane].borrow_mut();
         // The lane's place in each block.
         let (dx, dy) = (lane as u32 % bw, lane as u32 / bw);
@@ -194,20 +202,41 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], [width, height]: [u
         }
     };
     let mut packet_rays = 0;
-    let traced = lanes::run_lanes(packet::WIDTH, &body, |lanes| {
-        // SAFETY: every lane is suspended or finished: none holds a reference
-        // into the packet (they do only while they run a trace's request, not
-        // while they run a candidate's programs).
-        let packet = unsafe { &mut *packet.get() };
+    let traced = lanes::run_lanes(packet::WIDTH, &body, || {
+        // The lane whose candidate the walk runs.
+        let asking = Cell::new(None);
         let mut ask = |lane: usize, candidate: Candidate| {
-            mail[lane].set(Mail::Candidate(candidate));
-            let suspended = lanes.resume(lane);
-            match mail[lane].replace(Mail::Empty) {
-                Mail::Ran(ran) if suspended => Some(ran),
-                _ => None,
+            let traversal = desks[lane].traversal.get();
+            if traversal.is_null() {
+                return None;
             }
+            asking.set(Some(lane));
+            // SAFETY: the lane is suspended in the trace that published its
+            // traversal, which lives until the lane is resumed after the walk.
+            let ran = unsafe { &*traversal }.run_candidate(candidate, &desks[lane].failure);
+            asking.set(None);
+            Some(ran)
         };
-        packet_rays += u64::from(packet.trace_waiting(&mut ask));
+        // SAFETY: every lane is suspended or finished: none holds a reference
+        // into the packet (they do only while they make a trace's request).
+        let walking = unsafe { &mut *packet.get() };
+        // The walk runs the candidates' programs on its own stack, whose
+        // overflow ends the invocation the candidate is for, not the block.
+        let walked = super::overflow::run_guarded(|| packet_rays += u64::from(walking.trace_waiting(&mut ask)));
+        if matches!(walked, Ok(None)) {
+            return;
+        }
+        // The walk's frames were discarded, not unwound: no program runs now.
+        super::overflow::leave(None);
+        if let (Ok(Some(overflow)), Some(lane)) = (walked, asking.get()) {
+            desks[lane].failure.set(Some(Box::new(Overflowed(overflow))));
+        }
+        // SAFETY: the walk is over (it returned, overflowed or never began):
+        // nothing else refers to the packet.
+        let packet = unsafe { &mut *packet.get() };
+        // The other rays are traced alone, in their own lanes: the programs of
+        // candidates the walk ran for them run again (the launch fails anyway).
+        packet.abandon();
     });
     job.ctx.packet_rays.fetch_add(packet_rays, Ordering::Relaxed);
     let overflows = match traced {
@@ -262,7 +291,10 @@ fn invoke(state: &InvocationState<'_>, exceptions: &mut Vec<UserException>) -> O
     let program = state.failed_in.get().unwrap_or(raygen.name);
     let failure = match payload.downcast::<Fault>() {
         Ok(fault) => Failure::Fault { program, problem: fault.0 },
-        Err(payload) => Failure::Panicked { program, message: panic_message(payload.as_ref()) },
+        Err(payload) => match payload.downcast::<Overflowed>() {
+            Ok(overflowed) => Failure::StackOverflow { program: overflowed.0.program },
+            Err(payload) => Failure::Panicked { program, message: panic_message(payload.as_ref()) },
+        },
     };
     Some((linear_index(job.dims, index.to_array()), index.to_array(), failure))
 }

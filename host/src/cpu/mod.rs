@@ -40,9 +40,11 @@
 //!   no program while rays traverse it, writes its ray into the block's packet
 //!   and suspends the invocation until the other lanes have suspended or
 //!   finished; then their rays walk the tree together, against interval
-//!   bounds that hold them all, and their triangles are tested eight rays at a
-//!   time. Each ray gets the same hit as alone, bit for bit; only which of two
-//!   hits at exactly the same distance is the closest may differ.
+//!   bounds that hold them all, and their triangles and boxes are tested eight
+//!   rays at a time; the programs of boxes a ray enters run on the walk's stack,
+//!   in the ray's own traversal. Each ray gets the same hit as alone, bit for
+//!   bit; only which of two hits at exactly the same distance is the closest
+//!   may differ.
 //!   [`ContextOptions::cpu_packets`](crate::ContextOptions::cpu_packets) (or
 //!   `RAYKIT_CPU_PACKETS=0`) turns packets off;
 //!   [`Context::packet_rays`](crate::Context::packet_rays) counts the rays they

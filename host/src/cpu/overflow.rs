@@ -20,8 +20,9 @@
 //! the macros generate: the recursion that overflows is usually in the user's
 //! own functions, which no macro sees, and a check at program entry alone
 //! would miss it; the guard page catches every overflow at no cost to
-//! programs that do not overflow (one coroutine switch per tile, and two
-//! thread-local writes per program call to know which program runs).
+//! programs that do not overflow (one coroutine switch per tile or packet
+//! walk, and two thread-local writes per program call to know which program
+//! runs).
 //!
 //! What it costs the abandoned invocation: its frames are discarded without
 //! being dropped, so whatever they owned (heap allocations of the program,

@@ -12,10 +12,10 @@
 //! groups are walked one ray at a time by the same code.
 //!
 //! Boxes (AABB geometries) are tested against each ray as a trace alone tests
-//! them; for each ray that enters one, the walk asks the ray's lane to run the
-//! candidate's programs (its intersection program, and any-hit for what it
-//! reports) through [`Mail`]: the lane runs them on its own stack, as its trace
-//! alone would, and answers with the ray's new closest distance.
+//! them; for each ray that enters one, the walk runs the candidate's programs
+//! (its intersection program, and any-hit for what it reports) in the ray's own
+//! traversal, as its trace alone would, on the walk's stack (see
+//! [`super::launch`]), and goes on with the ray's new closest distance.
 
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::cwbvh::node::CwBvhNode;
@@ -67,26 +67,16 @@ pub(crate) struct Candidate {
     pub(crate) t_max: f32,
 }
 
-/// What a lane did with a [`Candidate`]: its ray's closest distance after it,
-/// and whether its traversal ended (the ray terminated, or a program failed).
+/// What became of a [`Candidate`]: its ray's closest distance after it, and
+/// whether its traversal ended (the ray terminated, or a program failed).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub(crate) struct Ran {
     pub(crate) t_max: f32,
     pub(crate) ended: bool,
 }
 
-/// What passes between a packet walk and a lane it asks to run programs.
-#[derive(Copy, Clone, Debug, Default, PartialEq)]
-pub(crate) enum Mail {
-    /// Nothing asked: the lane's trace is over.
-    #[default]
-    Empty,
-    Candidate(Candidate),
-    Ran(Ran),
-}
-
-/// How a walk runs a candidate in its lane: `None` when the lane could not
-/// answer (its stack overflowed).
+/// How a walk runs a candidate for a lane's ray: `None` when it could not
+/// (the lane's ray ends its walk there).
 pub(crate) type AskLane<'a> = dyn FnMut(usize, Candidate) -> Option<Ran> + 'a;
 
 /// The closest accepted triangle of a ray.
@@ -222,6 +212,14 @@ impl Packet {
         self.first_hit = if first_hit { self.first_hit | bit } else { self.first_hit & !bit };
         self.box_lanes = if boxes { self.box_lanes | bit } else { self.box_lanes & !bit };
         self.waiting |= bit;
+    }
+
+    /// Gives up the walk of the waiting lanes: each traces its ray alone.
+    /// For a walk that could not go on (its stack overflowed in a candidate's
+    /// programs, or none could be made).
+    pub(crate) fn abandon(&mut self) {
+        self.alone |= self.waiting;
+        self.waiting = 0;
     }
 
     /// What became of lane `lane`'s last request, and its closest triangle

@@ -3,7 +3,7 @@
 //! intersection reports, textures), as the device's built-in functions.
 
 use std::cell::Cell;
-use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
+use std::panic::resume_unwind;
 use std::sync::atomic::AtomicU32;
 
 use glam::{UVec3, Vec3};
@@ -14,7 +14,7 @@ use raykit_device::{Ray, Traversable, HIT_KIND_BACK_FACING_TRIANGLE, HIT_KIND_FR
 
 use super::accel::SceneData;
 use super::job::{fault, AnyHitEnd, LaunchJob};
-use super::packet::{Mail, Ran, Traced};
+use super::packet::Traced;
 use super::program::Program;
 use super::traverse::{hit_builtins, ray_flags, Attributes, Committed, Frame, Traversal};
 use crate::error::UserException;
@@ -83,7 +83,7 @@ impl<'j> Frame<'_, 'j> {
     /// Whether a trace of `ray` into `scene` goes in a packet: the invocation
     /// runs in a lane (and not in a program a packet walk asked it to run), no
     /// program runs for a triangle (all opaque, or made so by the ray; boxes
-    /// run theirs in the lane), the ray has no flag a packet does not follow,
+    /// run theirs in the walk), the ray has no flag a packet does not follow,
     /// and it starts where the invocation's first such trace did (a camera's
     /// rays).
     fn packet_ready(&self, scene: &SceneData, ray: &Ray, call: TraceCall) -> bool {
@@ -104,10 +104,10 @@ impl<'j> Frame<'_, 'j> {
         }
     }
 
-    /// Suspends the invocation until its block has traced `ray` in a packet,
-    /// running the programs of the boxes the walk finds for it meanwhile;
-    /// the committed hit and its attributes, if any (`Some(None)`: a miss),
-    /// or `None` when the packet could not take the ray.
+    /// Suspends the invocation until its block has traced `ray` in a packet;
+    /// the walk runs the programs of the boxes the ray enters meanwhile, in
+    /// this trace's traversal. The committed hit and its attributes, if any
+    /// (`Some(None)`: a miss), or `None` when the packet could not take the ray.
     #[allow(clippy::option_option)]
     fn trace_in_packet(
         &self,
@@ -119,11 +119,11 @@ impl<'j> Frame<'_, 'j> {
     ) -> Option<Option<(Committed, Attributes)>> {
         let seat = self.state.lane.get()?;
         let first_hit = call.flags & ray_flags::TERMINATE_ON_FIRST_HIT != 0;
+        let boxes = scene.boxes && call.flags & ray_flags::SKIP_AABBS == 0;
         // SAFETY: the lanes of a block run one at a time on this thread, and
         // while one runs nothing else holds a reference into their packet (the
-        // block's driver does only while every lane is suspended or runs a
-        // candidate, and a lane only within this call, not across its
-        // suspension nor while it runs a candidate).
+        // block's walk does only while every lane is suspended, and a lane
+        // only within this call, not across its suspension).
         unsafe { &mut *(*seat.packet).get() }.request(
             seat.index,
             scene,
@@ -133,38 +133,21 @@ impl<'j> Frame<'_, 'j> {
             ray.t_max,
             call.cull_mask,
             first_hit,
-            call.flags & ray_flags::SKIP_AABBS == 0,
+            boxes,
         );
-        // SAFETY: the block's mail outlives its lanes.
-        let mail = unsafe { &*seat.mail };
-        // The traversal the candidates' programs run in, made for the first.
-        let mut boxes: Option<Traversal<'_>> = None;
-        let mut failure = None;
-        loop {
-            // SAFETY: the lane's coroutine made the yielder and is running this call.
-            unsafe { &*seat.yielder }.suspend(());
-            let Mail::Candidate(candidate) = mail.get() else { break };
-            let traversal = boxes.get_or_insert_with(|| Traversal::new(self, scene, *ray, call, depth, payload));
-            // Traces from the candidate's programs go alone: the packet is
-            // the walk's meanwhile.
-            self.state.lane.set(None);
-            let ran = catch_unwind(AssertUnwindSafe(|| traversal.candidate(candidate)));
-            self.state.lane.set(Some(seat));
-            let ended = match ran {
-                Ok(()) => traversal.terminated(),
-                Err(payload) => {
-                    // Carried out of the trace once the walk is over.
-                    super::overflow::leave(None);
-                    failure = Some(payload);
-                    true
-                }
-            };
-            mail.set(Mail::Ran(Ran { t_max: traversal.t_max(), ended }));
+        // SAFETY: the block's desks outlive its lanes.
+        let desk = unsafe { &*seat.desk };
+        // The traversal the candidates' programs run in.
+        let traversal = boxes.then(|| Traversal::new(self, scene, *ray, call, depth, payload));
+        let published = traversal.as_ref().map_or(std::ptr::null(), |t| std::ptr::from_ref(t).cast());
+        desk.traversal.set(published);
+        // SAFETY: the lane's coroutine made the yielder and is running this call.
+        unsafe { &*seat.yielder }.suspend(());
+        desk.traversal.set(std::ptr::null());
+        if let Some(failure) = desk.failure.take() {
+            resume_unwind(failure);
         }
-        if let Some(payload) = failure {
-            resume_unwind(payload);
-        }
-        let box_hit = boxes.and_then(|t| Some((t.committed.get()?, t.committed_attributes.get())));
+        let box_hit = traversal.and_then(|t| Some((t.committed.get()?, t.committed_attributes.get())));
         let (traced, hit) = {
             // SAFETY: as for the request above; the hit is copied out before
             // anything else runs.

@@ -14,6 +14,7 @@
 //! miss program. Hit records are found as on the device: `instance SBT offset +
 //! geometry index × stride + ray offset`.
 
+use std::any::Any;
 use std::cell::Cell;
 use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
 
@@ -27,6 +28,7 @@ use super::accel::{SceneData, SceneInstance};
 use super::geometry::{Geometry, Leaf};
 use super::intersect::{intersect_node, intersect_triangle, without_negative_zeros};
 use super::job::{fault, AnyHitEnd, InvocationState, LaunchJob};
+use super::packet::Ran;
 use crate::types::accel::InstanceFlags;
 use crate::validate::link::ATTRIBUTE_BYTES;
 
@@ -250,10 +252,36 @@ impl<'f> Traversal<'f> {
         });
     }
 
-    /// Tests `candidate`, a primitive whose box a packet walk found this ray
-    /// enters, as the walk alone would (the instance's object-space ray, the
-    /// same flags and programs), with the ray's closest distance so far.
-    pub(super) fn candidate(&self, candidate: super::packet::Candidate) {
+    /// Runs the programs of `candidate`, a primitive whose box a packet walk
+    /// found this ray enters, on the walk's stack: the traces they make go
+    /// alone meanwhile (the packet is the walk's). A failure is kept in
+    /// `failure`, for the lane waiting for this trace to carry out of it, and
+    /// ends the ray's traversal. Returns the ray's closest distance after it.
+    pub(super) fn run_candidate(
+        &self,
+        candidate: super::packet::Candidate,
+        failure: &Cell<Option<Box<dyn Any + Send>>>,
+    ) -> Ran {
+        let state = self.frame.state;
+        let seat = state.lane.replace(None);
+        let ran = catch_unwind(AssertUnwindSafe(|| self.candidate(candidate)));
+        state.lane.set(seat);
+        let ended = match ran {
+            Ok(()) => self.terminated(),
+            Err(payload) => {
+                // The unwinding skipped the programs' notes of what runs: the
+                // walk itself runs none.
+                super::overflow::leave(None);
+                failure.set(Some(payload));
+                true
+            }
+        };
+        Ran { t_max: self.t_max.get(), ended }
+    }
+
+    /// Tests `candidate` as the walk alone would (the instance's object-space
+    /// ray, the same flags and programs), with the ray's closest distance so far.
+    fn candidate(&self, candidate: super::packet::Candidate) {
         self.t_max.set(candidate.t_max);
         let index = candidate.instance;
         let instance: &SceneInstance = &self.scene.instances[index as usize];
@@ -271,14 +299,9 @@ impl<'f> Traversal<'f> {
         self.primitive(index, instance, leaf, o, d, Known::BoxEntered);
     }
 
-    /// The ray's closest distance so far (its `t_max` until a hit).
-    pub(super) fn t_max(&self) -> f32 {
-        self.t_max.get()
-    }
-
     /// Whether the traversal ended (an accepted hit of a ray ending at its
     /// first, or an any-hit program's `terminate_ray`).
-    pub(super) fn terminated(&self) -> bool {
+    fn terminated(&self) -> bool {
         self.terminated.get()
     }
 

@@ -438,6 +438,23 @@ fn ch_recursing(ctx: &mut ClosestHit, #[payload] color: &mut Vec3) {
     *color = Vec3::splat(depth as f32);
 }
 
+/// An intersection program that recurses without end (CPU backend only, as
+/// [`rg_recursing`]).
+#[cfg(not(target_arch = "spirv"))]
+#[intersection]
+fn is_recursing(ctx: &mut Intersection) {
+    let depth = recurse(ctx.primitive_index(), u32::MAX);
+    ctx.report_intersection(depth as f32, 0);
+}
+
+/// An intersection program that panics in every box a ray enters (CPU backend
+/// only: the message names the box).
+#[cfg(not(target_arch = "spirv"))]
+#[intersection]
+fn is_panicking(ctx: &mut Intersection) {
+    panic!("the ray entered box {}", ctx.primitive_index());
+}
+
 /// A ray type placed past the bits a trace reads: Vulkan takes the low 4 bits
 /// of the SBT offset and stride and the low 16 of the miss index, so offset 17,
 /// stride 18 and miss index `0x1_0001` select as offset 1, stride 2 and miss 1.
