@@ -2287,28 +2287,34 @@ fn cpu_context(packets: bool) -> anyhow::Result<Context> {
     Ok(Context::new(options)?)
 }
 
-/// The launch error of a CPU program that overflows its stack: the raygen
-/// itself, or a closest-hit it traces into.
-fn overflow_error(ctx: &Context, in_closest_hit: bool) -> anyhow::Result<Error> {
+/// A launch of the accel test's `raygen`, its miss program and the hit group
+/// `hit` makes of its module, with one ray per pixel of a `width × height`
+/// window onto [-1, 1]² (`accel_test_device::pixel_position`) into `gas`: its
+/// params and what the launch returned.
+fn accel_launch(
+    ctx: &Context,
+    raygen: impl raykit::EntryName,
+    hit: impl FnOnce(&Module) -> raykit::Result<ProgramGroup>,
+    gas: &Gas,
+    (width, height): (u32, u32),
+) -> anyhow::Result<(accel_test_device::Params, raykit::Result<()>)> {
     use accel_test_device::{ColorData, Params as AccelParams};
     let module = Module::from_device_crate(ctx, "accel-test-device")?;
-    let raygen = if in_closest_hit { accel_test_device::RG } else { accel_test_device::RG_RECURSING };
     let raygen = ProgramGroup::raygen(&module, raygen)?;
     let miss = ProgramGroup::miss(&module, accel_test_device::MS)?;
-    let hit = ProgramGroup::hit_group(&module).closest_hit(accel_test_device::CH_RECURSING).build()?;
+    let hit = hit(&module)?;
     let pipeline = Pipeline::<AccelParams>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
     let sbt = Sbt::builder(&pipeline)
         .raygen(&raygen, ())
         .miss(&miss, ColorData { color: Vec3::ZERO })
         .hit(&hit, ())
         .build()?;
-    let gas = Gas::triangles(ctx, &triangle::VERTICES, None)?;
-    let scene = Ias::single(ctx, &gas)?;
-    let image = ctx.buffer::<u32>(16)?;
+    let scene = Ias::single(ctx, gas)?;
+    let image = ctx.buffer::<u32>((width * height) as usize)?;
     let params = AccelParams {
         image: image.handle(),
-        width: 4,
-        height: 4,
+        width,
+        height,
         _pad: 0,
         x0: -1.0,
         y0: -1.0,
@@ -2316,7 +2322,18 @@ fn overflow_error(ctx: &Context, in_closest_hit: bool) -> anyhow::Result<Error> 
         y1: 1.0,
         scene: scene.handle(),
     };
-    refused(pipeline.launch(&sbt, &params, [4, 4, 1]), "a launch whose program recurses without end")
+    let launched = pipeline.launch(&sbt, &params, [width, height, 1]);
+    Ok((params, launched))
+}
+
+/// The launch error of a CPU program that overflows its stack: the raygen
+/// itself, or a closest-hit it traces into.
+fn overflow_error(ctx: &Context, in_closest_hit: bool) -> anyhow::Result<Error> {
+    let raygen = if in_closest_hit { accel_test_device::RG } else { accel_test_device::RG_RECURSING };
+    let hit = |module: &Module| ProgramGroup::hit_group(module).closest_hit(accel_test_device::CH_RECURSING).build();
+    let gas = Gas::triangles(ctx, &triangle::VERTICES, None)?;
+    let (_, launched) = accel_launch(ctx, raygen, hit, &gas, (4, 4))?;
+    refused(launched, "a launch whose program recurses without end")
 }
 
 #[test]
@@ -2357,44 +2374,21 @@ fn cpu_program_recursing_without_end() -> anyhow::Result<()> {
 /// intersection program recurses without end (`recursing`) or panics, and the
 /// first launch index, in launch order, whose ray enters the box.
 fn intersection_failure(ctx: &Context, recursing: bool) -> anyhow::Result<(Error, [u32; 3])> {
-    use accel_test_device::{pixel_position, ColorData, Params as AccelParams};
     use raykit::glam::{UVec2, Vec2};
-    let module = Module::from_device_crate(ctx, "accel-test-device")?;
-    let raygen = ProgramGroup::raygen(&module, accel_test_device::RG)?;
-    let miss = ProgramGroup::miss(&module, accel_test_device::MS)?;
     let intersection = if recursing { accel_test_device::IS_RECURSING } else { accel_test_device::IS_PANICKING };
-    let hit = ProgramGroup::hit_group(&module).intersection(intersection).build()?;
-    let pipeline = Pipeline::<AccelParams>::new(ctx, &[&raygen, &miss, &hit], LinkOptions { max_trace_depth: 1 })?;
-    let sbt = Sbt::builder(&pipeline)
-        .raygen(&raygen, ())
-        .miss(&miss, ColorData { color: Vec3::ZERO })
-        .hit(&hit, ())
-        .build()?;
+    let hit = |module: &Module| ProgramGroup::hit_group(module).intersection(intersection).build();
     // Four pixel centres lie inside the box, none on its sides.
     let (lo, hi) = (Vec2::new(-0.3, -0.3), Vec2::new(-0.05, -0.05));
     let gas = Gas::aabbs(ctx, &[raykit::Aabb::new(lo.extend(-1.0), hi.extend(1.0))])?;
-    let scene = Ias::single(ctx, &gas)?;
-    let (width, height) = (16, 16);
-    let image = ctx.buffer::<u32>((width * height) as usize)?;
-    let params = AccelParams {
-        image: image.handle(),
-        width,
-        height,
-        _pad: 0,
-        x0: -1.0,
-        y0: -1.0,
-        x1: 1.0,
-        y1: 1.0,
-        scene: scene.handle(),
-    };
-    let first = (0..height)
-        .flat_map(|y| (0..width).map(move |x| (x, y)))
+    let (params, launched) = accel_launch(ctx, accel_test_device::RG, hit, &gas, (16, 16))?;
+    let first = (0..params.height)
+        .flat_map(|y| (0..params.width).map(move |x| (x, y)))
         .find(|&(x, y)| {
-            let p = pixel_position(UVec2::new(x, y), &params);
+            let p = accel_test_device::pixel_position(UVec2::new(x, y), &params);
             p.cmpgt(lo).all() && p.cmplt(hi).all()
         })
         .ok_or_else(|| anyhow::anyhow!("no ray enters the box"))?;
-    let err = refused(pipeline.launch(&sbt, &params, [width, height, 1]), "a launch whose intersection program fails")?;
+    let err = refused(launched, "a launch whose intersection program fails")?;
     Ok((err, [first.0, first.1, 0]))
 }
 

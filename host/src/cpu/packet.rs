@@ -147,7 +147,7 @@ pub(crate) struct Packet {
     alone: LaneMask,
     /// Lanes that hit a triangle: their closest one is in `hits`.
     hit_lanes: LaneMask,
-    /// Lanes whose rays test boxes (not `SKIP_AABBS`).
+    /// Lanes whose rays test boxes (into a scene that has some, without `SKIP_AABBS`).
     box_lanes: LaneMask,
     hits: [PacketHit; WIDTH],
 }
