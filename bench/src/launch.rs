@@ -28,6 +28,7 @@ use raykit::glam::Vec3;
 use raykit::{Context, ContextOptions, PipelineCacheLocation};
 use triangle_device::MissData;
 
+use crate::ash_launcher::Submitter;
 use crate::stats::Summary;
 use crate::trace::{PrimaryPipeline, PrimaryScene};
 
@@ -52,89 +53,75 @@ fn summarise(what: String, pairs: &[(f64, f64)]) -> Row {
     Row { what, reps: pairs.len(), raykit: Summary::of(&raykit), ash: Summary::of(&ash), ratio: Summary::of(&ratio) }
 }
 
-/// A hand-written launcher: one command pool, buffer and fence, kept.
+/// A hand-written launcher: one command pool, and one command buffer and
+/// fence kept from launch to launch ([`Submitter`], without timestamps).
 struct AshLauncher<'c> {
     device: &'c raykit::ash::Device,
     rt: &'c raykit::ash::khr::ray_tracing_pipeline::Device,
-    queue: vk::Queue,
     pool: vk::CommandPool,
-    cmd: vk::CommandBuffer,
-    fence: vk::Fence,
+    submitter: Submitter<'c>,
 }
 
 impl<'c> AshLauncher<'c> {
     fn new(ctx: &'c Context) -> anyhow::Result<Self> {
         let device = ctx.raw_device().expect("a Vulkan context");
+        let family = ctx.queue_family().expect("a Vulkan context");
         // SAFETY: queue 0 of raykit's family exists; this benchmark is single-threaded,
         // so raykit never submits to it at the same time.
-        let queue = unsafe { device.get_device_queue(ctx.queue_family().expect("a Vulkan context"), 0) };
+        let queue = unsafe { device.get_device_queue(family, 0) };
         let info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(ctx.queue_family().expect("a Vulkan context"))
+            .queue_family_index(family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: valid create info.
         let pool = unsafe { device.create_command_pool(&info, None) }?;
-        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1);
-        // SAFETY: the pool was just created.
-        let cmd = unsafe { device.allocate_command_buffers(&alloc) }?[0];
-        // SAFETY: valid create info.
-        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }?;
-        Ok(AshLauncher { device, rt: ctx.raw_ray_tracing().expect("a Vulkan context"), queue, pool, cmd, fence })
+        let submitter = match Submitter::new(device, queue, pool, 0, 0.0) {
+            Ok(submitter) => submitter,
+            Err(e) => {
+                // SAFETY: the pool was just created and nothing was allocated from it.
+                unsafe { device.destroy_command_pool(pool, None) };
+                return Err(e);
+            }
+        };
+        Ok(AshLauncher { device, rt: ctx.raw_ray_tracing().expect("a Vulkan context"), pool, submitter })
     }
 
     fn launch(&self, ctx: &Context, p: &PrimaryPipeline, params: &[u8], dims: [u32; 3]) -> anyhow::Result<()> {
         let d = self.device;
         let [raygen, miss, hit, callable] = p.sbt.raw_regions().expect("a Vulkan context");
-        // SAFETY: the command buffer is not in use (the last launch was waited for);
-        // the pipeline, layout, set and SBT belong to live raykit objects.
-        unsafe {
-            d.begin_command_buffer(
-                self.cmd,
-                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-            )?;
-            d.cmd_bind_pipeline(
-                self.cmd,
-                vk::PipelineBindPoint::RAY_TRACING_KHR,
-                p.pipeline.raw_pipeline().expect("a Vulkan context"),
-            );
-            d.cmd_bind_descriptor_sets(
-                self.cmd,
-                vk::PipelineBindPoint::RAY_TRACING_KHR,
-                p.pipeline.raw_layout().expect("a Vulkan context"),
-                0,
-                &[ctx.raw_buffer_table_set().expect("a Vulkan context")],
-                &[],
-            );
-            d.cmd_push_constants(self.cmd, p.pipeline.raw_layout().expect("a Vulkan context"), rt_stages(), 0, params);
-            self.rt.cmd_trace_rays(self.cmd, &raygen, &miss, &hit, &callable, dims[0], dims[1], dims[2]);
-            let barrier = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ);
-            d.cmd_pipeline_barrier(
-                self.cmd,
-                vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &[barrier],
-                &[],
-                &[],
-            );
-            d.end_command_buffer(self.cmd)?;
-            let cmds = [self.cmd];
-            d.queue_submit(self.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], self.fence)?;
-            d.wait_for_fences(&[self.fence], true, u64::MAX)?;
-            d.reset_fences(&[self.fence])?;
-        }
-        Ok(())
+        let pipeline = p.pipeline.raw_pipeline().expect("a Vulkan context");
+        let layout = p.pipeline.raw_layout().expect("a Vulkan context");
+        let set = ctx.raw_buffer_table_set().expect("a Vulkan context");
+        self.submitter.submit(|cmd| {
+            // SAFETY: the command buffer is recording; the pipeline, layout, set
+            // and SBT belong to live raykit objects.
+            unsafe {
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, pipeline);
+                d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, layout, 0, &[set], &[]);
+                d.cmd_push_constants(cmd, layout, rt_stages(), 0, params);
+                self.rt.cmd_trace_rays(cmd, &raygen, &miss, &hit, &callable, dims[0], dims[1], dims[2]);
+                let barrier = vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::HOST_READ);
+                d.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+                    vk::PipelineStageFlags::HOST,
+                    vk::DependencyFlags::empty(),
+                    &[barrier],
+                    &[],
+                    &[],
+                );
+            }
+        })
     }
 }
 
 impl Drop for AshLauncher<'_> {
     fn drop(&mut self) {
-        // SAFETY: nothing is in flight (every launch waited for its fence).
-        unsafe {
-            self.device.destroy_fence(self.fence, None);
-            self.device.destroy_command_pool(self.pool, None);
-        }
+        self.submitter.destroy();
+        // SAFETY: nothing is in flight (every launch waited for its fence), and
+        // the submitter freed its command buffer.
+        unsafe { self.device.destroy_command_pool(self.pool, None) };
     }
 }
 
