@@ -174,6 +174,17 @@ impl Context {
         }
     }
 
+    /// Rays the CPU backend found outside the scene's bounds before a packet
+    /// took them (they missed without a walk) on this context so far: with
+    /// [`Context::packet_rays`], the rays that could go in packets; `0` on
+    /// Vulkan.
+    pub fn rays_outside_scene(&self) -> u64 {
+        match &self.repr {
+            ContextRepr::Vulkan(_) => 0,
+            ContextRepr::Cpu(cpu) => cpu.outside_rays.load(std::sync::atomic::Ordering::Relaxed),
+        }
+    }
+
     /// A Vulkan context on the first device with ray-tracing pipelines.
     fn new_vulkan(options: ContextOptions) -> Result<Context> {
         Ok(Context::from_vulkan(crate::vulkan::context::create(&options)?))

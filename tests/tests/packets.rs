@@ -136,7 +136,22 @@ fn several_instances(ctx: &Context) -> anyhow::Result<(Vec<Gas>, Ias)> {
 }
 
 /// Traces with packets and without, and compares the records.
+/// Returns the rays that hit, and those that went in packets or were found
+/// outside the scene before a packet took them.
 fn compare(build: &SceneBuilder, rays: u32, spread: f32, shift: f32, degenerate: bool) -> anyhow::Result<(usize, u64)> {
+    let (hits, packed, outside) = compare_counted(build, rays, spread, shift, degenerate)?;
+    Ok((hits, packed + outside))
+}
+
+/// [`compare`], with the rays that went in packets and those found outside the
+/// scene apart.
+fn compare_counted(
+    build: &SceneBuilder,
+    rays: u32,
+    spread: f32,
+    shift: f32,
+    degenerate: bool,
+) -> anyhow::Result<(usize, u64, u64)> {
     let packed = cpu(true)?;
     let alone = cpu(false)?;
     let a = trace(&packed, build, rays, spread, shift, degenerate)?;
@@ -167,7 +182,12 @@ fn compare(build: &SceneBuilder, rays: u32, spread: f32, shift: f32, degenerate:
     }
     anyhow::ensure!(ties <= a.len() / 1000, "{ties} of {} rays differ at equal distances", a.len());
     anyhow::ensure!(hits > a.len() / 8, "only {hits} of {} rays hit anything", a.len());
-    Ok((hits, packed.packet_rays()))
+    anyhow::ensure!(
+        alone.rays_outside_scene() == 0,
+        "a context without packets counted {} rays outside the scene instead of in packets",
+        alone.rays_outside_scene()
+    );
+    Ok((hits, packed.packet_rays(), packed.rays_outside_scene()))
 }
 
 #[test]
@@ -175,10 +195,17 @@ fn camera_rays_in_packets_hit_what_they_hit_alone() -> anyhow::Result<()> {
     let (hits, packed) = compare(&one_instance, 2, 0.0, 0.0, false)?;
     let rays = u64::from(W * H * 2);
     // Every ray starts at the camera: all go in packets.
-    anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets");
+    anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets or were found outside the scene");
     eprintln!("one instance, camera rays: {hits} of {rays} hit");
+    // Rays past the scene's edge miss without waiting for a packet; the others
+    // go in packets.
+    let (_, packed, outside) = compare_counted(&one_instance, 2, 0.0, 0.0, false)?;
+    anyhow::ensure!(
+        outside > rays / 20 && packed > rays / 2,
+        "{outside} of {rays} rays found outside the scene, {packed} in packets"
+    );
     let (hits, packed) = compare(&several_instances, 2, 0.0, 0.0, false)?;
-    anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets");
+    anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets or were found outside the scene");
     eprintln!("several instances, camera rays: {hits} of {rays} hit");
     Ok(())
 }
@@ -188,7 +215,7 @@ fn scattered_rays_in_packets_hit_what_they_hit_alone() -> anyhow::Result<()> {
     let rays = u64::from(W * H * 4);
     for build in [&one_instance as &SceneBuilder, &several_instances] {
         let (hits, packed) = compare(build, 4, 1.5, 0.0, false)?;
-        anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets");
+        anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets or were found outside the scene");
         eprintln!("scattered rays: {hits} of {rays} hit");
     }
     Ok(())
@@ -200,7 +227,7 @@ fn rays_from_elsewhere_than_the_first_are_traced_alone_with_the_same_hits() -> a
     for build in [&one_instance as &SceneBuilder, &several_instances] {
         let (hits, packed) = compare(build, 4, 0.02, 0.25, false)?;
         // Rays 0 and 2 of each pixel start at the camera; 1 and 3 elsewhere.
-        anyhow::ensure!(packed == rays / 2, "{packed} of {rays} rays went in packets, not half");
+        anyhow::ensure!(packed == rays / 2, "{packed} of {rays} rays went in packets or were found outside the scene, not half");
         eprintln!("two origins: {hits} of {rays} hit");
     }
     Ok(())
@@ -218,7 +245,7 @@ fn degenerate_rays_get_in_packets_what_they_get_alone() -> anyhow::Result<()> {
     let all = u64::from(W * H * rays);
     for build in [&one_instance as &SceneBuilder, &several_instances] {
         let (hits, packed) = compare(build, rays, 0.0, 0.0, true)?;
-        anyhow::ensure!(packed == taken && taken < all, "{packed} of {all} rays went in packets, not {taken}");
+        anyhow::ensure!(packed == taken && taken < all, "{packed} of {all} rays went in packets or were found outside the scene, not {taken}");
         eprintln!("degenerate rays: {hits} of {all} hit");
     }
     Ok(())

@@ -220,6 +220,9 @@ pub(crate) struct SceneData {
     pub(crate) triangles_opaque: bool,
     /// Some instance's GAS has boxes (an AABB geometry).
     pub(crate) boxes: bool,
+    /// The world bounds of every instance (`None`: nothing to hit), for
+    /// [`SceneData::surely_missed`].
+    bounds: Option<(Vec3A, Vec3A)>,
 }
 
 impl std::fmt::Debug for SceneData {
@@ -233,9 +236,30 @@ impl SceneData {
     pub(crate) fn build(instances: Vec<SceneInstance>) -> SceneData {
         let boxes: Vec<BvhAabb> = instances.iter().map(world_bounds).collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(boxes.len()), &mut Duration::default());
+        let all = boxes.iter().fold(BvhAabb::empty(), |all, b| all.union(b));
+        // A lone instance's rays are walked through its GAS without a test of
+        // its world bounds (see `Packet::trace_scene`), so the bounds stand in
+        // for no test when it has a transform, whose inverse's rounding they
+        // do not cover: such a scene reports no sure misses.
+        let lone_transformed = matches!(&instances[..], [only] if !only.identity);
+        let bounds = match all.min.cmple(all.max).all() {
+            true if lone_transformed => Some((Vec3A::NEG_INFINITY, Vec3A::INFINITY)),
+            true => Some((all.min, all.max)),
+            false => None,
+        };
         let triangles_opaque = triangles_opaque(&instances);
         let boxes = instances.iter().any(|instance| instance.gas.boxes);
-        SceneData { instances, bvh, triangles_opaque, boxes }
+        SceneData { instances, bvh, triangles_opaque, boxes, bounds }
+    }
+
+    /// Whether a ray surely misses everything in the scene (see
+    /// [`surely_outside`]).
+    #[inline(never)]
+    pub(crate) fn surely_missed(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> bool {
+        match self.bounds {
+            Some((lo, hi)) => surely_outside(lo, hi, origin, direction, t_min, t_max),
+            None => true,
+        }
     }
 
     /// Bytes the structure takes on the host.
@@ -244,6 +268,36 @@ impl SceneData {
             + std::mem::size_of_val(&self.bvh.primitive_indices[..])
             + std::mem::size_of_val(&self.instances[..])) as u64
     }
+}
+
+/// The relative margin of [`surely_outside`]: 2^-16, some 500 times
+/// the rounding of the box and triangle tests it stands in for.
+const SURE_MISS_MARGIN: f32 = 1.0 / 65536.0;
+
+/// Whether the ray from `origin` along `direction`, over `[t_min, t_max]`,
+/// surely passes outside the box from `lo` to `hi`: outside it even widened by
+/// a margin far larger than the rounding of any test inside (a relative
+/// [`SURE_MISS_MARGIN`] of the largest coordinate of the box and the ray's
+/// origin, and of the distances along the ray). `false` for any ray it cannot
+/// tell about (a NaN or infinite origin or direction, infinite bounds).
+pub(crate) fn surely_outside(lo: Vec3A, hi: Vec3A, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> bool {
+    let (o, d) = (Vec3A::from(origin), Vec3A::from(direction));
+    // Zero for finite coordinates, NaN for infinite or NaN ones.
+    let zeros = (o + d) * 0.0;
+    let reach = lo.abs().max(hi.abs()).max(o.abs()).max_element();
+    let margin = Vec3A::splat(reach * SURE_MISS_MARGIN);
+    let inverse = d.recip();
+    let (near, far) = ((lo - margin - o) * inverse, (hi + margin - o) * inverse);
+    // A zero direction component gives infinite distances, or NaN where the
+    // origin lies on the slab's plane: NaN excludes nothing.
+    let or = |t: Vec3A, nan: f32| Vec3A::select(t.cmpeq(t), t, Vec3A::splat(nan));
+    let entry = or(near, f32::NEG_INFINITY).min(or(far, f32::NEG_INFINITY)).max_element();
+    let exit = or(near, f32::INFINITY).max(or(far, f32::INFINITY)).min_element();
+    // (Capped, so that an infinite distance stays what it is.)
+    let slack = |t: f32| (t.abs() * SURE_MISS_MARGIN).min(f32::MAX);
+    let (entry, exit) = (entry - slack(entry), exit + slack(exit));
+    let outside = entry > exit || exit < t_min || entry > t_max;
+    outside && zeros.cmpeq(Vec3A::ZERO).all() && reach.is_finite()
 }
 
 /// An instance's bounds in world space (empty for an empty GAS).
@@ -326,4 +380,120 @@ pub(crate) fn triangles_opaque(instances: &[SceneInstance]) -> bool {
         }
     }
     opaque
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{DVec3, Vec3, Vec3A};
+
+    use super::surely_outside;
+
+    /// Whether the ray meets the box over `[t_min, t_max]`, in `f64` from the
+    /// same `f32` inputs (exact enough: no `f32` rounding).
+    fn meets(lo: Vec3A, hi: Vec3A, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
+        let (lo, hi, o, d) = (DVec3::from(Vec3::from(lo)), DVec3::from(Vec3::from(hi)), DVec3::from(o), DVec3::from(d));
+        let (mut entry, mut exit) = (f64::from(t_min), f64::from(t_max));
+        for axis in 0..3 {
+            if d[axis] == 0.0 {
+                if o[axis] < lo[axis] || o[axis] > hi[axis] {
+                    return false;
+                }
+                continue;
+            }
+            let (a, b) = ((lo[axis] - o[axis]) / d[axis], (hi[axis] - o[axis]) / d[axis]);
+            entry = entry.max(a.min(b));
+            exit = exit.min(a.max(b));
+        }
+        entry <= exit
+    }
+
+    /// A small deterministic generator: uniform in `[0, 1)`.
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f32 {
+            self.0 = self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+        fn vec(&mut self, scale: f32) -> Vec3 {
+            Vec3::new(self.next() - 0.5, self.next() - 0.5, self.next() - 0.5) * 2.0 * scale
+        }
+    }
+
+    #[test]
+    fn a_ray_that_meets_the_box_is_never_surely_outside_and_far_ones_are() {
+        let mut rng = Lcg(7);
+        let (mut met, mut far_outside) = (0, 0);
+        for case in 0..200_000 {
+            let scale = [1e-3, 1.0, 1e4][case % 3];
+            let (a, b) = (rng.vec(scale), rng.vec(scale));
+            let (mut lo, mut hi) = (a.min(b), a.max(b));
+            // Flat boxes, as a planar mesh has.
+            if case % 5 == 0 {
+                hi.z = lo.z;
+            }
+            let origin = rng.vec(scale * [1.0, 4.0, 1000.0][case % 7 % 3]);
+            // Aim at a point of the box: a corner, an edge, a face or inside.
+            let pick = |t: f32, l: f32, h: f32| if t < 0.3 { l } else if t < 0.6 { h } else { l + (h - l) * t };
+            let target = Vec3::new(pick(rng.next(), lo.x, hi.x), pick(rng.next(), lo.y, hi.y), pick(rng.next(), lo.z, hi.z));
+            let mut direction = match case % 4 {
+                // Past the box by a little, so some rays miss it.
+                0 => target - origin + rng.vec(scale * 0.05),
+                _ => target - origin,
+            };
+            // Axis-aligned rays, some from the plane of a face.
+            if case % 11 == 0 {
+                direction.x = 0.0;
+                if case % 2 == 0 {
+                    lo.x = origin.x;
+                    hi.x = hi.x.max(lo.x);
+                }
+            }
+            let (t_min, t_max) = match case % 6 {
+                0 => (0.0, 0.5),
+                1 => (0.5, 2.0),
+                _ => (0.0, f32::INFINITY),
+            };
+            let (lo, hi) = (Vec3A::from(lo), Vec3A::from(hi));
+            if meets(lo, hi, origin, direction, t_min, t_max) {
+                met += 1;
+                assert!(
+                    !surely_outside(lo, hi, origin, direction, t_min, t_max),
+                    "case {case}: box {lo}..{hi}, ray {origin} + t {direction}, t in [{t_min}, {t_max}], meets the box"
+                );
+            }
+            // Well away from the box (a tenth of its size and more): outside.
+            let away = origin + direction.normalize_or_zero().any_orthonormal_vector() * 1e6 * scale;
+            let size = (hi - lo).max_element().max(scale * 1e-3);
+            let shifted = Vec3A::from(away) - Vec3A::from(origin);
+            if !meets(lo - size * 0.1, hi + size * 0.1, origin + Vec3::from(shifted), direction, 0.0, f32::INFINITY)
+                && surely_outside(lo, hi, origin + Vec3::from(shifted), direction, 0.0, f32::INFINITY)
+            {
+                far_outside += 1;
+            }
+        }
+        assert!(met > 100_000, "only {met} rays met their box");
+        assert!(far_outside > 100_000, "only {far_outside} far rays were found outside");
+    }
+
+    #[test]
+    fn rays_it_cannot_tell_about_are_not_outside() {
+        let (lo, hi) = (Vec3A::splat(-1.0), Vec3A::splat(1.0));
+        let far = Vec3::new(0.0, 10.0, 0.0);
+        // Passes above the box, so outside, unless a coordinate is not finite.
+        assert!(surely_outside(lo, hi, far, Vec3::X, 0.0, f32::INFINITY));
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            assert!(!surely_outside(lo, hi, Vec3::new(bad, 10.0, 0.0), Vec3::X, 0.0, f32::INFINITY));
+            assert!(!surely_outside(lo, hi, far, Vec3::new(1.0, bad, 0.0), 0.0, f32::INFINITY));
+        }
+        let infinite = Vec3A::splat(f32::INFINITY);
+        assert!(!surely_outside(-infinite, infinite, far, Vec3::X, 0.0, f32::INFINITY));
+        // Behind the origin, or past `t_max`: outside; an empty interval is
+        // left to the walk.
+        assert!(surely_outside(lo, hi, Vec3::new(0.0, 0.0, 5.0), Vec3::Z, 0.0, f32::INFINITY));
+        assert!(surely_outside(lo, hi, Vec3::new(0.0, 0.0, -5.0), Vec3::Z, 0.0, 3.0));
+        assert!(!surely_outside(lo, hi, Vec3::new(0.0, 0.0, -5.0), Vec3::Z, 0.0, 4.0));
+        // A zero direction: inside (or on a face of) the box is not outside.
+        assert!(!surely_outside(lo, hi, Vec3::new(1.0, 0.0, 0.0), Vec3::ZERO, 0.0, 1.0));
+        assert!(surely_outside(lo, hi, Vec3::new(2.0, 0.0, 0.0), Vec3::ZERO, 0.0, 1.0));
+    }
 }

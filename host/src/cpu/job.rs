@@ -100,6 +100,13 @@ pub(super) struct InvocationState<'j> {
     /// Where the invocation's first trace a packet could take started: its
     /// traces from there (a camera's rays) go in packets.
     pub(super) camera: Cell<Option<Vec3>>,
+    /// Whether the last trace a packet could take (of this invocation or, in
+    /// a lane, of the lane's invocation before) missed: only then is the next
+    /// tested for a sure miss (misses come in runs, as a camera's rays past
+    /// the scene's edge do).
+    pub(super) missed_last: Cell<bool>,
+    /// Traces a packet could have taken, found outside the scene instead.
+    pub(super) outside_rays: Cell<u64>,
 }
 
 impl<'j> InvocationState<'j> {
@@ -113,6 +120,8 @@ impl<'j> InvocationState<'j> {
             same_types: Cell::new([(0, 0); 4]),
             lane: Cell::new(None),
             camera: Cell::new(None),
+            missed_last: Cell::new(true),
+            outside_rays: Cell::new(0),
         }
     }
 }

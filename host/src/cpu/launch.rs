@@ -173,6 +173,7 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], [width, height]: [u
     let first_failure = Cell::new(u64::MAX);
     let outcomes: [RefCell<Outcome>; packet::WIDTH] = std::array::from_fn(|_| RefCell::default());
     let packet = UnsafeCell::new(Packet::new());
+    let outside_rays = Cell::new(0);
     let desks: [LaneDesk; packet::WIDTH] = Default::default();
     let body = |lane: usize, yielder: &LaneYielder| {
         let mut state = InvocationState::new(job);
@@ -200,6 +201,7 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], [width, height]: [u
                 }
             }
         }
+        outside_rays.set(outside_rays.get() + state.outside_rays.get());
     };
     let mut packet_rays = 0;
     let traced = lanes::run_lanes(packet::WIDTH, &body, || {
@@ -239,6 +241,7 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], [width, height]: [u
         packet.abandon();
     });
     job.ctx.packet_rays.fetch_add(packet_rays, Ordering::Relaxed);
+    job.ctx.outside_rays.fetch_add(outside_rays.get(), Ordering::Relaxed);
     let overflows = match traced {
         Ok(overflows) => overflows,
         Err(e) => {

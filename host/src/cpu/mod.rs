@@ -48,7 +48,12 @@
 //!   [`ContextOptions::cpu_packets`](crate::ContextOptions::cpu_packets) (or
 //!   `RAYKIT_CPU_PACKETS=0`) turns packets off;
 //!   [`Context::packet_rays`](crate::Context::packet_rays) counts the rays they
-//!   took.
+//!   took. Such a trace whose ray passes outside the scene's bounds (widened
+//!   by a margin that covers any rounding) misses at once, without waiting for
+//!   the packet
+//!   ([`Context::rays_outside_scene`](crate::Context::rays_outside_scene)
+//!   counts them); one is tested so only after the lane's last such trace
+//!   missed, as the camera's rays past a scene's edge do in runs.
 //! * The trace depth is checked on every trace, for every ray type: a trace past
 //!   the pipeline's `max_trace_depth` is not made and the launch returns
 //!   [`LaunchError::RecursionTooDeep`](crate::LaunchError::RecursionTooDeep).
@@ -150,6 +155,8 @@ pub(crate) struct CpuContext {
     pub(crate) packets: bool,
     /// Rays traced in packets so far.
     pub(crate) packet_rays: AtomicU64,
+    /// Rays a packet could have taken, found outside the scene instead.
+    pub(crate) outside_rays: AtomicU64,
     /// The launches running, by the epoch each got when it started; reads and
     /// writes of buffers wait for them.
     running: Mutex<Running>,
@@ -233,6 +240,7 @@ impl CpuContext {
                 .cpu_packets
                 .unwrap_or_else(|| std::env::var("RAYKIT_CPU_PACKETS").map_or(true, |v| v.trim() != "0")),
             packet_rays: AtomicU64::new(0),
+            outside_rays: AtomicU64::new(0),
             running: Mutex::new(Running::default()),
             finished: Condvar::new(),
             gate: Gate::default(),

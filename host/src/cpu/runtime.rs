@@ -262,7 +262,16 @@ impl Runtime for Frame<'_, '_> {
         let Some((_, scene)) = job.scenes.iter().find(|(a, _)| *a == address) else {
             fault(format!("a trace into traversable {address:#x}, which is no live IAS of this Context"));
         };
-        let traced = match self.packet_ready(scene, &ray, call) {
+        // A ray a packet could take that passes outside the scene misses
+        // without waiting for the packet.
+        let in_packet = self.packet_ready(scene, &ray, call);
+        let traced = match in_packet {
+            true if self.state.missed_last.get()
+                && scene.surely_missed(ray.origin, ray.direction, ray.t_min, ray.t_max) =>
+            {
+                self.state.outside_rays.set(self.state.outside_rays.get() + 1);
+                Some(None)
+            }
             true => self.trace_in_packet(scene, &ray, call, depth, &payload),
             false => None,
         };
@@ -270,6 +279,9 @@ impl Runtime for Frame<'_, '_> {
             Some(committed) => committed,
             None => self.trace_alone(scene, ray, call, depth, &payload),
         };
+        if in_packet {
+            self.state.missed_last.set(committed.is_none());
+        }
         let frame = Frame { state: self.state, depth, traversal: None };
         match committed {
             Some((hit, mut attributes)) => {
