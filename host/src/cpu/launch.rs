@@ -229,7 +229,7 @@ fn run_tile_in_lanes(job: &LaunchJob, [x0, y0, z]: [u32; 3], [width, height]: [u
             return;
         }
         // The walk's frames were discarded, not unwound: no program runs now.
-        super::overflow::leave(None);
+        super::overflow::leave(super::overflow::Running::NONE);
         if let (Ok(Some(overflow)), Some(lane)) = (walked, asking.get()) {
             desks[lane].failure.set(Some(Box::new(Overflowed(overflow))));
         }
@@ -283,7 +283,7 @@ fn invoke(state: &InvocationState<'_>, exceptions: &mut Vec<UserException>) -> O
         frame.run(raygen, &mut inv);
     }));
     // A panic unwound past the programs' notes of what runs: none runs now.
-    super::overflow::leave(None);
+    super::overflow::leave(super::overflow::Running::NONE);
     {
         let mut thrown = state.exceptions.borrow_mut();
         if !thrown.is_empty() {

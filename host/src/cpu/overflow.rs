@@ -50,6 +50,8 @@ use std::cell::Cell;
 use corosensei::stack::DefaultStack;
 use corosensei::trap::CoroutineTrapHandler;
 use corosensei::{Coroutine, CoroutineResult};
+use glam::UVec3;
+use raykit_device::cpu::CpuProgram;
 
 use super::THREAD_STACK;
 use crate::error::DeviceError;
@@ -74,23 +76,51 @@ thread_local! {
     /// The coroutine running on this thread, while one runs.
     static GUARD: Cell<Option<Guard>> = const { Cell::new(None) };
     /// The program running on this thread and its launch index.
-    static RUNNING: Cell<Option<Overflow>> = const { Cell::new(None) };
+    static RUNNING: Cell<Running> = const { Cell::new(Running::NONE) };
     /// The overflow the signal handler caught, for the code that resumed the coroutine.
     static CAUGHT: Cell<Option<Overflow>> = const { Cell::new(None) };
     /// Stacks of finished tiles, for the next tile on this thread.
     static STACKS: std::cell::RefCell<Vec<DefaultStack>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
-/// Notes that `program` starts running for `launch_index`; returns what ran
-/// before, for [`leave`].
-#[inline]
-pub(crate) fn enter(program: &'static str, launch_index: [u32; 3]) -> Option<Overflow> {
-    RUNNING.replace(Some(Overflow { program, launch_index }))
+/// What [`enter`] notes: the program running and where the launch index of
+/// its invocation is (two words: notes are made on every program call).
+#[derive(Copy, Clone)]
+pub(crate) struct Running {
+    program: Option<&'static CpuProgram>,
+    launch_index: *const UVec3,
 }
 
-/// Notes that the program [`enter`] noted has returned.
+impl Running {
+    /// No program runs.
+    pub(crate) const NONE: Running = Running { program: None, launch_index: std::ptr::null() };
+
+    /// Where the overflow happened, read by the signal handler: the launch
+    /// index is that of an invocation still running (its frames are
+    /// abandoned, not unmapped, until the handler has returned).
+    #[cfg_attr(not(all(target_os = "linux", any(target_arch = "x86_64", target_arch = "aarch64"))), allow(dead_code))]
+    fn overflow(self) -> Overflow {
+        match self.program {
+            // SAFETY: `enter`'s caller keeps the launch index alive and in
+            // place while the program runs (it is its invocation's).
+            Some(program) => Overflow { program: program.name, launch_index: unsafe { *self.launch_index }.to_array() },
+            None => Overflow { program: "(unknown)", launch_index: [0; 3] },
+        }
+    }
+}
+
+/// Notes that `program` starts running for the invocation whose launch index
+/// is at `launch_index`, which stays there until the program returns; returns
+/// what ran before, for [`leave`].
 #[inline]
-pub(crate) fn leave(previous: Option<Overflow>) {
+pub(crate) fn enter(program: &'static CpuProgram, launch_index: &UVec3) -> Running {
+    RUNNING.replace(Running { program: Some(program), launch_index })
+}
+
+/// Notes that the program [`enter`] noted has returned (`previous`: what it
+/// returned), or that none runs ([`Running::NONE`]).
+#[inline]
+pub(crate) fn leave(previous: Running) {
     RUNNING.set(previous);
 }
 
@@ -153,7 +183,7 @@ mod handler {
 
     use corosensei::trap::TrapHandlerRegs;
 
-    use super::{Overflow, CAUGHT, GUARD, RUNNING};
+    use super::{CAUGHT, GUARD, RUNNING};
 
     /// The handlers raykit replaced (`SIGSEGV`, `SIGBUS`), for the faults that
     /// are not its own.
@@ -259,7 +289,7 @@ mod handler {
             let in_guard = address >= guard.guard_page && address < guard.guard_page + page_size();
             if in_guard && guard.handler.stack_ptr_in_bounds(stack_pointer(context)) {
                 GUARD.set(None);
-                CAUGHT.set(Some(RUNNING.get().unwrap_or(Overflow { program: "(unknown)", launch_index: [0; 3] })));
+                CAUGHT.set(Some(RUNNING.get().overflow()));
                 // SAFETY: the stack pointer is inside the coroutine, as
                 // `setup_trap_handler` requires, and the registers it names are
                 // written back at once. The coroutine wrote outside itself only to

@@ -72,7 +72,7 @@ impl<'j> Frame<'_, 'j> {
     {
         inv.specialization = self.job().pipeline.constant_sets.get(program.constants).map_or(&[], Vec::as_slice);
         let unwinding = NoteUnwinding { failed_in: &self.state.failed_in, program: program.name };
-        let running = super::overflow::enter(program.name, self.state.launch_index.to_array());
+        let running = super::overflow::enter(program.cpu, &self.state.launch_index);
         (program.cpu.run)(inv);
         super::overflow::leave(running);
         std::mem::forget(unwinding);

@@ -271,7 +271,7 @@ impl<'f> Traversal<'f> {
             Err(payload) => {
                 // The unwinding skipped the programs' notes of what runs: the
                 // walk itself runs none.
-                super::overflow::leave(None);
+                super::overflow::leave(super::overflow::Running::NONE);
                 failure.set(Some(payload));
                 true
             }
