@@ -222,7 +222,7 @@ pub(crate) struct SceneData {
     pub(crate) boxes: bool,
     /// The world bounds of every instance (`None`: nothing to hit), for
     /// [`SceneData::surely_missed`].
-    bounds: Option<(Vec3A, Vec3A)>,
+    bounds: Option<SceneBounds>,
 }
 
 impl std::fmt::Debug for SceneData {
@@ -243,8 +243,8 @@ impl SceneData {
         // do not cover: such a scene reports no sure misses.
         let lone_transformed = matches!(&instances[..], [only] if !only.identity);
         let bounds = match all.min.cmple(all.max).all() {
-            true if lone_transformed => Some((Vec3A::NEG_INFINITY, Vec3A::INFINITY)),
-            true => Some((all.min, all.max)),
+            true if lone_transformed => Some(SceneBounds::new(Vec3A::NEG_INFINITY, Vec3A::INFINITY)),
+            true => Some(SceneBounds::new(all.min, all.max)),
             false => None,
         };
         let triangles_opaque = triangles_opaque(&instances);
@@ -253,11 +253,11 @@ impl SceneData {
     }
 
     /// Whether a ray surely misses everything in the scene (see
-    /// [`surely_outside`]).
+    /// [`SceneBounds::surely_outside`]).
     #[inline(never)]
     pub(crate) fn surely_missed(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> bool {
-        match self.bounds {
-            Some((lo, hi)) => surely_outside(lo, hi, origin, direction, t_min, t_max),
+        match &self.bounds {
+            Some(bounds) => bounds.surely_outside(origin, direction, t_min, t_max),
             None => true,
         }
     }
@@ -270,34 +270,52 @@ impl SceneData {
     }
 }
 
-/// The relative margin of [`surely_outside`]: 2^-16, some 500 times
-/// the rounding of the box and triangle tests it stands in for.
+/// The relative margin of [`SceneBounds::surely_outside`]: 2^-16, some 500
+/// times the rounding of the box and triangle tests it stands in for.
 const SURE_MISS_MARGIN: f32 = 1.0 / 65536.0;
 
-/// Whether the ray from `origin` along `direction`, over `[t_min, t_max]`,
-/// surely passes outside the box from `lo` to `hi`: outside it even widened by
-/// a margin far larger than the rounding of any test inside (a relative
-/// [`SURE_MISS_MARGIN`] of the largest coordinate of the box and the ray's
-/// origin, and of the distances along the ray). `false` for any ray it cannot
-/// tell about (a NaN or infinite origin or direction, infinite bounds).
-pub(crate) fn surely_outside(lo: Vec3A, hi: Vec3A, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> bool {
-    let (o, d) = (Vec3A::from(origin), Vec3A::from(direction));
-    // Zero for finite coordinates, NaN for infinite or NaN ones.
-    let zeros = (o + d) * 0.0;
-    let reach = lo.abs().max(hi.abs()).max(o.abs()).max_element();
-    let margin = Vec3A::splat(reach * SURE_MISS_MARGIN);
-    let inverse = d.recip();
-    let (near, far) = ((lo - margin - o) * inverse, (hi + margin - o) * inverse);
-    // A zero direction component gives infinite distances, or NaN where the
-    // origin lies on the slab's plane: NaN excludes nothing.
-    let or = |t: Vec3A, nan: f32| Vec3A::select(t.cmpeq(t), t, Vec3A::splat(nan));
-    let entry = or(near, f32::NEG_INFINITY).min(or(far, f32::NEG_INFINITY)).max_element();
-    let exit = or(near, f32::INFINITY).max(or(far, f32::INFINITY)).min_element();
-    // (Capped, so that an infinite distance stays what it is.)
-    let slack = |t: f32| (t.abs() * SURE_MISS_MARGIN).min(f32::MAX);
-    let (entry, exit) = (entry - slack(entry), exit + slack(exit));
-    let outside = entry > exit || exit < t_min || entry > t_max;
-    outside && zeros.cmpeq(Vec3A::ZERO).all() && reach.is_finite()
+/// A box rays are tested against for sure misses.
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct SceneBounds {
+    lo: Vec3A,
+    hi: Vec3A,
+    /// The largest magnitude of their coordinates.
+    reach: f32,
+}
+
+impl SceneBounds {
+    /// The box from `lo` to `hi`.
+    pub(crate) fn new(lo: Vec3A, hi: Vec3A) -> SceneBounds {
+        SceneBounds { lo, hi, reach: lo.abs().max(hi.abs()).max_element() }
+    }
+
+    /// Whether the ray from `origin` along `direction`, over
+    /// `[t_min, t_max]`, surely passes outside the box: outside it even
+    /// widened by a margin far larger than the rounding of any test inside (a
+    /// relative [`SURE_MISS_MARGIN`] of the largest coordinate of the box and
+    /// the ray's origin, and of the distances along the ray). `false` for any
+    /// ray it cannot tell about (a NaN or infinite origin or direction,
+    /// infinite bounds).
+    pub(crate) fn surely_outside(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> bool {
+        let (o, d) = (Vec3A::from(origin), Vec3A::from(direction));
+        let reach = self.reach.max(o.abs().max_element());
+        let margin = Vec3A::splat(reach * SURE_MISS_MARGIN);
+        let inverse = d.recip();
+        let (near, far) = ((self.lo - margin - o) * inverse, (self.hi + margin - o) * inverse);
+        // A zero direction component gives infinite distances, or NaN where
+        // the origin lies on the slab's plane: NaN excludes nothing.
+        let or = |t: Vec3A, nan: f32| Vec3A::select(t.cmpeq(t), t, Vec3A::splat(nan));
+        let entry = or(near, f32::NEG_INFINITY).min(or(far, f32::NEG_INFINITY)).max_element();
+        let exit = or(near, f32::INFINITY).max(or(far, f32::INFINITY)).min_element();
+        // (Capped, so that an infinite distance stays what it is.)
+        let slack = |t: f32| (t.abs() * SURE_MISS_MARGIN).min(f32::MAX);
+        let (entry, exit) = (entry - slack(entry), exit + slack(exit));
+        let outside = entry > exit || exit < t_min || entry > t_max;
+        // Zero for a finite origin and direction, NaN for any infinite or NaN
+        // coordinate.
+        let finite = ((o + d) * 0.0).cmpeq(Vec3A::ZERO).all() && reach.is_finite();
+        outside && finite
+    }
 }
 
 /// An instance's bounds in world space (empty for an empty GAS).
@@ -386,7 +404,11 @@ pub(crate) fn triangles_opaque(instances: &[SceneInstance]) -> bool {
 mod tests {
     use glam::{DVec3, Vec3, Vec3A};
 
-    use super::surely_outside;
+    use super::SceneBounds;
+
+    fn surely_outside(lo: Vec3A, hi: Vec3A, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
+        SceneBounds::new(lo, hi).surely_outside(o, d, t_min, t_max)
+    }
 
     /// Whether the ray meets the box over `[t_min, t_max]`, in `f64` from the
     /// same `f32` inputs (exact enough: no `f32` rounding).
