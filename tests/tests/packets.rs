@@ -4,7 +4,7 @@
 //! together or one traces it alone. Only which of two hits at exactly the same
 //! distance is the closest may differ.
 //!
-//! The scenes are random triangles (one instance; and several instances with
+//! The scenes are random triangles (one instance, placed or not; and several instances with
 //! rotations, scales, a facing flip, a mask the ray's cull mask excludes and two
 //! geometries); the rays come from a pinhole camera (coherent), with directions
 //! scattered (incoherent: traced alone inside the packet code), and from two
@@ -97,6 +97,16 @@ fn one_instance(ctx: &Context) -> anyhow::Result<(Vec<Gas>, Ias)> {
     let vertices = random_triangles(&mut Random(7), 8000, 0.15, (-4.0, -2.0));
     let gas = Gas::builder().triangles(Triangles::new(&vertices).flags(GeometryFlags::OPAQUE)).build(ctx)?;
     let ias = Ias::single(ctx, &gas)?;
+    Ok((vec![gas], ias))
+}
+
+/// One instance of the same triangles, moved and rotated: its rays are walked
+/// through its GAS alone, so none is found outside the scene by its bounds.
+fn one_transformed_instance(ctx: &Context) -> anyhow::Result<(Vec<Gas>, Ias)> {
+    let vertices = random_triangles(&mut Random(7), 8000, 0.15, (-1.0, 1.0));
+    let gas = Gas::builder().triangles(Triangles::new(&vertices).flags(GeometryFlags::OPAQUE)).build(ctx)?;
+    let place = Affine3A::from_rotation_translation(Quat::from_rotation_y(0.2), Vec3::new(0.1, 0.0, -3.0));
+    let ias = Ias::new(ctx, &[Instance::new(&gas).transform(place)])?;
     Ok((vec![gas], ias))
 }
 
@@ -204,6 +214,12 @@ fn camera_rays_in_packets_hit_what_they_hit_alone() -> anyhow::Result<()> {
         outside > rays / 20 && packed > rays / 2,
         "{outside} of {rays} rays found outside the scene, {packed} in packets"
     );
+    let (hits, packed, outside) = compare_counted(&one_transformed_instance, 2, 0.0, 0.0, false)?;
+    anyhow::ensure!(
+        outside == 0 && packed == rays,
+        "one transformed instance: {outside} of {rays} rays found outside the scene, {packed} in packets"
+    );
+    eprintln!("one transformed instance, camera rays: {hits} of {rays} hit");
     let (hits, packed) = compare(&several_instances, 2, 0.0, 0.0, false)?;
     anyhow::ensure!(packed == rays, "{packed} of {rays} rays went in packets or were found outside the scene");
     eprintln!("several instances, camera rays: {hits} of {rays} hit");
