@@ -243,7 +243,10 @@ fn rays_from_elsewhere_than_the_first_are_traced_alone_with_the_same_hits() -> a
     for build in [&one_instance as &SceneBuilder, &several_instances] {
         let (hits, packed) = compare(build, 4, 0.02, 0.25, false)?;
         // Rays 0 and 2 of each pixel start at the camera; 1 and 3 elsewhere.
-        anyhow::ensure!(packed == rays / 2, "{packed} of {rays} rays went in packets or were found outside the scene, not half");
+        anyhow::ensure!(
+            packed == rays / 2,
+            "{packed} of {rays} rays went in packets or were found outside the scene, not half"
+        );
         eprintln!("two origins: {hits} of {rays} hit");
     }
     Ok(())
@@ -261,7 +264,10 @@ fn degenerate_rays_get_in_packets_what_they_get_alone() -> anyhow::Result<()> {
     let all = u64::from(W * H * rays);
     for build in [&one_instance as &SceneBuilder, &several_instances] {
         let (hits, packed) = compare(build, rays, 0.0, 0.0, true)?;
-        anyhow::ensure!(packed == taken && taken < all, "{packed} of {all} rays went in packets or were found outside the scene, not {taken}");
+        anyhow::ensure!(
+            packed == taken && taken < all,
+            "{packed} of {all} rays went in packets or were found outside the scene, not {taken}"
+        );
         eprintln!("degenerate rays: {hits} of {all} hit");
     }
     Ok(())

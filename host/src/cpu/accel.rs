@@ -455,8 +455,17 @@ mod tests {
             }
             let origin = rng.vec(scale * [1.0, 4.0, 1000.0][case % 7 % 3]);
             // Aim at a point of the box: a corner, an edge, a face or inside.
-            let pick = |t: f32, l: f32, h: f32| if t < 0.3 { l } else if t < 0.6 { h } else { l + (h - l) * t };
-            let target = Vec3::new(pick(rng.next(), lo.x, hi.x), pick(rng.next(), lo.y, hi.y), pick(rng.next(), lo.z, hi.z));
+            let pick = |t: f32, l: f32, h: f32| {
+                if t < 0.3 {
+                    l
+                } else if t < 0.6 {
+                    h
+                } else {
+                    l + (h - l) * t
+                }
+            };
+            let target =
+                Vec3::new(pick(rng.next(), lo.x, hi.x), pick(rng.next(), lo.y, hi.y), pick(rng.next(), lo.z, hi.z));
             let mut direction = match case % 4 {
                 // Past the box by a little, so some rays miss it.
                 0 => target - origin + rng.vec(scale * 0.05),
