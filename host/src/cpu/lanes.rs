@@ -14,7 +14,7 @@ use std::cell::RefCell;
 use corosensei::stack::{DefaultStack, Stack, StackPointer};
 use corosensei::{Coroutine, CoroutineResult, Yielder};
 
-use super::overflow::Overflow;
+use super::overflow::{Guard, Overflow};
 use super::packet::WIDTH;
 use super::THREAD_STACK;
 use crate::error::DeviceError;
@@ -69,28 +69,29 @@ where
 {
     debug_assert!(count <= WIDTH);
     let mut lanes: Vec<Lane> = Vec::with_capacity(count);
-    let mut guard_pages = Vec::with_capacity(count);
+    let mut guards = Vec::with_capacity(count);
     for lane in 0..count {
         let stack = match STACKS.with_borrow_mut(Vec::pop) {
             Some(stack) => stack,
             None => DefaultStack::new(THREAD_STACK)
                 .map_err(|e| Error::Device(DeviceError::CpuThreads { reason: e.to_string() }))?,
         };
-        guard_pages.push(super::overflow::guard_page_of(&stack));
+        let guard_page = super::overflow::guard_page_of(&stack);
         let stack = LaneStack { stack, offset: lane * STAGGER };
         // SAFETY: the coroutine borrows `body`, which outlives this function;
         // every lane is driven to completion below or dropped (unwound) before
         // it returns.
-        lanes.push(unsafe {
-            Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder))
-        });
+        let coroutine =
+            unsafe { Coroutine::with_stack_unchecked(stack, move |yielder: &LaneYielder, ()| body(lane, yielder)) };
+        guards.push(Guard::of(&coroutine, guard_page));
+        lanes.push(coroutine);
     }
     let mut overflows: Vec<Option<Overflow>> = vec![None; count];
     super::overflow::ready_thread();
     loop {
         let mut suspended = false;
         for (lane, coroutine) in lanes.iter_mut().enumerate().filter(|(_, lane)| !lane.done()) {
-            let (result, overflow) = super::overflow::resume_guarded(coroutine, guard_pages[lane]);
+            let (result, overflow) = super::overflow::resume_guarded(coroutine, &guards[lane]);
             suspended |= matches!(result, CoroutineResult::Yield(()));
             if overflow.is_some() {
                 overflows[lane] = overflow;

@@ -64,17 +64,26 @@ pub(crate) struct Overflow {
     pub(crate) launch_index: [u32; 3],
 }
 
-/// The guard of the coroutine running on this thread: its trap handler and the
-/// lowest address of its stack mapping (the guard page starts there).
+/// The guard of a coroutine: its trap handler and the lowest address of its
+/// stack mapping (the guard page starts there). Made once per coroutine; the
+/// thread notes where it is while the coroutine runs.
 #[derive(Copy, Clone)]
-struct Guard {
+pub(crate) struct Guard {
     handler: CoroutineTrapHandler<()>,
     guard_page: usize,
 }
 
+impl Guard {
+    /// The guard of `coroutine`, whose stack was `stack` (before the coroutine took it).
+    pub(crate) fn of<Y, S: corosensei::stack::Stack>(coroutine: &Coroutine<(), Y, (), S>, guard_page: usize) -> Guard {
+        Guard { handler: coroutine.trap_handler(), guard_page }
+    }
+}
+
 thread_local! {
-    /// The coroutine running on this thread, while one runs.
-    static GUARD: Cell<Option<Guard>> = const { Cell::new(None) };
+    /// The guard of the coroutine running on this thread, while one runs
+    /// (null otherwise): one word to swap on every resumption.
+    static GUARD: Cell<*const Guard> = const { Cell::new(std::ptr::null()) };
     /// The program running on this thread and its launch index.
     static RUNNING: Cell<Running> = const { Cell::new(Running::NONE) };
     /// The overflow the signal handler caught, for the code that resumed the coroutine.
@@ -132,18 +141,24 @@ pub(crate) fn ready_thread() {
     handler::install();
 }
 
-/// Resumes `coroutine` with its stack overflow guarded; an overflow makes it
-/// return (it is then done) and is returned. The thread must be ready
-/// ([`ready_thread`]). Inlined: lanes resume on every packet trace.
+/// Resumes `coroutine`, whose guard is `guard` ([`Guard::of`]), with its stack
+/// overflow guarded; an overflow makes it return (it is then done) and is
+/// returned. The thread must be ready ([`ready_thread`]). Inlined: lanes resume
+/// on every packet trace.
 #[inline]
 pub(crate) fn resume_guarded<Y, S: corosensei::stack::Stack>(
     coroutine: &mut Coroutine<(), Y, (), S>,
-    guard_page: usize,
+    guard: &Guard,
 ) -> (CoroutineResult<Y, ()>, Option<Overflow>) {
-    let previous = GUARD.replace(Some(Guard { handler: coroutine.trap_handler(), guard_page }));
+    let previous = GUARD.replace(guard);
     let result = coroutine.resume(());
     GUARD.set(previous);
-    (result, CAUGHT.take())
+    // An overflow makes the coroutine return: one that suspended did not.
+    let overflow = match result {
+        CoroutineResult::Return(()) => CAUGHT.take(),
+        CoroutineResult::Yield(_) => None,
+    };
+    (result, overflow)
 }
 
 /// The lowest address of `stack`'s mapping, where its guard page is.
@@ -166,8 +181,9 @@ pub(crate) fn run_guarded<F: FnOnce()>(f: F) -> Result<Option<Overflow>> {
     // trap handler, before this function returns.
     let mut coroutine: Coroutine<(), (), (), DefaultStack> =
         unsafe { Coroutine::with_stack_unchecked(stack, move |_: &corosensei::Yielder<(), ()>, ()| f()) };
+    let guard = Guard::of(&coroutine, guard_page);
     ready_thread();
-    let (_, overflow) = resume_guarded(&mut coroutine, guard_page);
+    let (_, overflow) = resume_guarded(&mut coroutine, &guard);
     // A stack that overflowed is given back (its pages are all touched).
     if coroutine.done() && overflow.is_none() {
         STACKS.with_borrow_mut(|stacks| stacks.push(coroutine.into_stack()));
@@ -285,10 +301,13 @@ mod handler {
     extern "C" fn on_fault(signal: libc::c_int, info: *mut libc::siginfo_t, context: *mut libc::c_void) {
         // SAFETY: the kernel passes a valid `siginfo_t` and `ucontext_t`.
         let (address, context) = unsafe { ((*info).si_addr() as usize, &mut *context.cast::<libc::ucontext_t>()) };
-        if let Some(guard) = GUARD.get() {
+        let guard = GUARD.get();
+        // SAFETY: a non-null guard is that of the coroutine running on this
+        // thread, which `resume_guarded`'s caller keeps alive while it runs.
+        if let Some(guard) = unsafe { guard.as_ref() } {
             let in_guard = address >= guard.guard_page && address < guard.guard_page + page_size();
             if in_guard && guard.handler.stack_ptr_in_bounds(stack_pointer(context)) {
-                GUARD.set(None);
+                GUARD.set(std::ptr::null());
                 CAUGHT.set(Some(RUNNING.get().overflow()));
                 // SAFETY: the stack pointer is inside the coroutine, as
                 // `setup_trap_handler` requires, and the registers it names are
