@@ -270,8 +270,9 @@ impl SceneData {
     }
 }
 
-/// The relative margin of [`SceneBounds::surely_outside`]: 2^-16, some 500
-/// times the rounding of the box and triangle tests it stands in for.
+/// The relative margin of [`SceneBounds::surely_outside`]: 2^-16, 256 times
+/// `f32`'s unit roundoff, where the box and triangle tests it stands in for
+/// round by a few units.
 const SURE_MISS_MARGIN: f32 = 1.0 / 65536.0;
 
 /// A box rays are tested against for sure misses.
@@ -492,12 +493,12 @@ mod tests {
                     "case {case}: box {lo}..{hi}, ray {origin} + t {direction}, t in [{t_min}, {t_max}], meets the box"
                 );
             }
-            // Well away from the box (a tenth of its size and more): outside.
+            // The same ray moved far to its side: one that passes the box at a
+            // tenth of its size or more is outside.
             let away = origin + direction.normalize_or_zero().any_orthonormal_vector() * 1e6 * scale;
             let size = (hi - lo).max_element().max(scale * 1e-3);
-            let shifted = Vec3A::from(away) - Vec3A::from(origin);
-            if !meets(lo - size * 0.1, hi + size * 0.1, origin + Vec3::from(shifted), direction, 0.0, f32::INFINITY)
-                && surely_outside(lo, hi, origin + Vec3::from(shifted), direction, 0.0, f32::INFINITY)
+            if !meets(lo - size * 0.1, hi + size * 0.1, away, direction, 0.0, f32::INFINITY)
+                && surely_outside(lo, hi, away, direction, 0.0, f32::INFINITY)
             {
                 far_outside += 1;
             }
