@@ -220,9 +220,22 @@ pub(crate) struct SceneData {
     pub(crate) triangles_opaque: bool,
     /// Some instance's GAS has boxes (an AABB geometry).
     pub(crate) boxes: bool,
-    /// The world bounds of every instance (`None`: nothing to hit), for
-    /// [`SceneData::surely_missed`].
-    bounds: Option<SceneBounds>,
+    /// Which rays [`SceneData::surely_missed`] finds missing everything.
+    sure_misses: SureMisses,
+}
+
+/// Which rays surely miss everything in a scene.
+#[derive(Copy, Clone, Debug)]
+enum SureMisses {
+    /// Every ray: the scene has nothing to hit.
+    All,
+    /// Those that pass outside the world bounds of every instance.
+    Outside(SceneBounds),
+    /// None is told apart: the scene's lone instance has a transform, and its
+    /// rays are walked through its GAS without a test of its world bounds
+    /// (see `Packet::trace_scene`), whose rounding of the transform's inverse
+    /// the bounds' margin does not cover.
+    Unknown,
 }
 
 impl std::fmt::Debug for SceneData {
@@ -237,28 +250,25 @@ impl SceneData {
         let boxes: Vec<BvhAabb> = instances.iter().map(world_bounds).collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, build_params(boxes.len()), &mut Duration::default());
         let all = boxes.iter().fold(BvhAabb::empty(), |all, b| all.union(b));
-        // A lone instance's rays are walked through its GAS without a test of
-        // its world bounds (see `Packet::trace_scene`), so the bounds stand in
-        // for no test when it has a transform, whose inverse's rounding they
-        // do not cover: such a scene reports no sure misses.
         let lone_transformed = matches!(&instances[..], [only] if !only.identity);
-        let bounds = match all.min.cmple(all.max).all() {
-            true if lone_transformed => Some(SceneBounds::new(Vec3A::NEG_INFINITY, Vec3A::INFINITY)),
-            true => Some(SceneBounds::new(all.min, all.max)),
-            false => None,
+        let sure_misses = match all.min.cmple(all.max).all() {
+            true if lone_transformed => SureMisses::Unknown,
+            true => SureMisses::Outside(SceneBounds::new(all.min, all.max)),
+            false => SureMisses::All,
         };
         let triangles_opaque = triangles_opaque(&instances);
         let boxes = instances.iter().any(|instance| instance.gas.boxes);
-        SceneData { instances, bvh, triangles_opaque, boxes, bounds }
+        SceneData { instances, bvh, triangles_opaque, boxes, sure_misses }
     }
 
     /// Whether a ray surely misses everything in the scene (see
     /// [`SceneBounds::surely_outside`]).
     #[inline(never)]
     pub(crate) fn surely_missed(&self, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> bool {
-        match &self.bounds {
-            Some(bounds) => bounds.surely_outside(origin, direction, t_min, t_max),
-            None => true,
+        match &self.sure_misses {
+            SureMisses::All => true,
+            SureMisses::Outside(bounds) => bounds.surely_outside(origin, direction, t_min, t_max),
+            SureMisses::Unknown => false,
         }
     }
 

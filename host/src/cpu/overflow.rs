@@ -74,7 +74,8 @@ pub(crate) struct Guard {
 }
 
 impl Guard {
-    /// The guard of `coroutine`, whose stack was `stack` (before the coroutine took it).
+    /// The guard of `coroutine`, whose stack's guard page starts at
+    /// `guard_page` ([`guard_page_of`] its stack before the coroutine took it).
     pub(crate) fn of<Y, S: corosensei::stack::Stack>(coroutine: &Coroutine<(), Y, (), S>, guard_page: usize) -> Guard {
         Guard { handler: coroutine.trap_handler(), guard_page }
     }
